@@ -1,0 +1,78 @@
+"""Attitudes: quaternion <-> RA/Dec/roll, random attitudes, and Wahba's problem.
+
+The attitude is the rotation R with ``v_icrs = R @ v_cam``; the quaternion is
+scalar-first ``[w, x, y, z]``. Roll is the angle from celestial north to the image's
+up direction (camera -y), measured towards east, in [0, 360).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+def _east_north(ra_deg: float, dec_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    ra, dec = np.radians(ra_deg), np.radians(dec_deg)
+    b = np.array([np.cos(dec) * np.cos(ra), np.cos(dec) * np.sin(ra), np.sin(dec)])
+    east = np.array([-np.sin(ra), np.cos(ra), 0.0])
+    north = np.array([-np.sin(dec) * np.cos(ra), -np.sin(dec) * np.sin(ra), np.cos(dec)])
+    return b, east, north
+
+
+def from_radec_roll(ra_deg: float, dec_deg: float, roll_deg: float) -> Rotation:
+    """The attitude whose boresight points at (RA, Dec) with the given roll."""
+    b, east, north = _east_north(ra_deg, dec_deg)
+    r = np.radians(roll_deg)
+    up = np.cos(r) * north + np.sin(r) * east
+    y_cam = -up
+    x_cam = np.cross(y_cam, b)
+    return Rotation.from_matrix(np.column_stack([x_cam, y_cam, b]))
+
+
+def to_radec_roll(rotation: Rotation) -> tuple[float, float, float]:
+    """(RA, Dec, roll) in degrees of an attitude."""
+    m = rotation.as_matrix()
+    b = m[:, 2]
+    ra = float(np.degrees(np.arctan2(b[1], b[0])) % 360.0)
+    dec = float(np.degrees(np.arcsin(np.clip(b[2], -1.0, 1.0))))
+    _, east, north = _east_north(ra, dec)
+    up = -m[:, 1]
+    roll = float(np.degrees(np.arctan2(up @ east, up @ north)) % 360.0)
+    return ra, dec, roll
+
+
+def to_quaternion(rotation: Rotation) -> np.ndarray:
+    """Scalar-first quaternion with w >= 0."""
+    q = rotation.as_quat(scalar_first=True)
+    return -q if q[0] < 0 else q
+
+
+def from_quaternion(q: np.ndarray) -> Rotation:
+    return Rotation.from_quat(np.asarray(q, dtype=np.float64), scalar_first=True)
+
+
+def random_attitudes(n: int, rng: np.random.Generator) -> Rotation:
+    """``n`` attitudes uniform over SO(3)."""
+    return Rotation.random(n, random_state=rng)
+
+
+def solve_wahba(cam_vectors: np.ndarray, icrs_vectors: np.ndarray,
+                weights: np.ndarray | None = None) -> Rotation:
+    """The rotation R minimising sum w |icrs - R cam|^2 (SVD, via scipy)."""
+    cam = np.asarray(cam_vectors, dtype=np.float64)
+    icrs = np.asarray(icrs_vectors, dtype=np.float64)
+    if len(cam) < 2:
+        raise ValueError("Wahba's problem needs at least two vector pairs")
+    rotation, _ = Rotation.align_vectors(icrs, cam, weights=weights)
+    return rotation
+
+
+def angle_between_deg(a: Rotation, b: Rotation) -> float:
+    """The angle of the rotation that takes attitude a to attitude b, in degrees."""
+    return float(np.degrees((a.inv() * b).magnitude()))
+
+
+def boresight_error_arcsec(a: Rotation, b: Rotation) -> float:
+    """Angle between the two attitudes' boresights, in arcseconds."""
+    za, zb = a.apply([0.0, 0.0, 1.0]), b.apply([0.0, 0.0, 1.0])
+    return float(np.degrees(np.arccos(np.clip(za @ zb, -1.0, 1.0))) * 3600.0)

@@ -1,0 +1,70 @@
+"""Star databases: the catalog's patterns, precomputed for one sky and field of view.
+
+A :class:`StarDatabase` holds the catalog and builds each pattern table (pairs,
+triangles, radial features) the first time a matcher asks for it, loading it from the
+on-disk cache when the same sky, field of view and parameters were built before.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cached_property
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from startrack.camera import Camera
+from startrack.database.cache import cached_arrays
+from startrack.database.kvector import KVector
+from startrack.database.pairs import PairTable, build_pair_arrays, pair_table_from_arrays
+from startrack.sky import Catalog
+
+
+class StarDatabase:
+    """Pattern tables for ``catalog`` as seen through ``camera``.
+
+    ``max_angle_rad`` is the largest angle two stars of one frame can make (the image
+    diagonal); pairs and triangles are kept only up to it.
+    """
+
+    def __init__(self, catalog: Catalog, camera: Camera) -> None:
+        self.catalog = catalog
+        self.camera = camera
+        self.max_angle_rad = math.radians(camera.diagonal_fov_deg) * 1.001
+        self.build_seconds: dict[str, float] = {}
+
+    @property
+    def vectors(self) -> np.ndarray:
+        return self.catalog.vectors
+
+    def _key(self, **extra) -> dict:
+        return {"catalog": self.catalog.fingerprint(), "max_angle": round(self.max_angle_rad, 9),
+                **extra}
+
+    def _cached(self, kind: str, params: dict, build) -> dict[str, np.ndarray]:
+        import time
+
+        t0 = time.perf_counter()
+        arrays = cached_arrays(kind, self._key(**params), build)
+        self.build_seconds[kind] = time.perf_counter() - t0
+        return arrays
+
+    @cached_property
+    def pairs(self) -> PairTable:
+        """Every catalog pair closer than the image diagonal, sorted by angle."""
+        arrays = self._cached("pairs", {},
+                              lambda: build_pair_arrays(self.vectors, self.max_angle_rad))
+        return pair_table_from_arrays(arrays)
+
+    @cached_property
+    def _tree(self) -> cKDTree:
+        return cKDTree(self.vectors)
+
+    def cone(self, direction: np.ndarray, radius_rad: float) -> np.ndarray:
+        """Catalog rows within ``radius_rad`` of a unit vector, brightest first."""
+        chord = 2.0 * math.sin(min(radius_rad, math.pi) / 2.0)
+        rows = np.asarray(self._tree.query_ball_point(direction, chord), dtype=np.int64)
+        return np.sort(rows)
+
+
+__all__ = ["StarDatabase", "PairTable", "KVector"]

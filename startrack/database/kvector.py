@@ -1,0 +1,74 @@
+"""The k-vector (Mortari 1997): O(1) range queries on a sorted array of feature values."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class KVector:
+    """Sorted values with Mortari's k-vector over them.
+
+    With sorted ``values`` s[0..n-1], the line z(i) = m*i + q runs through
+    (0, s[0] - eps) and (n-1, s[n-1] + eps), and k[i] counts the values <= z(i). A query
+    [lo, hi] reads two entries of k and trims the slice at its ends, so its cost does not
+    grow with n.
+    """
+
+    values: np.ndarray
+    k: np.ndarray
+    m: float
+    q: float
+
+    @classmethod
+    def build(cls, sorted_values: np.ndarray) -> KVector:
+        s = np.asarray(sorted_values, dtype=np.float64)
+        if s.ndim != 1:
+            raise ValueError("k-vector needs a 1-D array")
+        if len(s) > 1 and np.any(np.diff(s) < 0):
+            raise ValueError("k-vector needs sorted values")
+        n = len(s)
+        if n == 0:
+            return cls(s, np.zeros(1, np.int64), 1.0, 0.0)
+        eps = max(np.finfo(np.float64).eps * max(abs(s[0]), abs(s[-1]), 1.0) * 4, 1e-15)
+        lo, hi = s[0] - eps, s[-1] + eps
+        m = (hi - lo) / max(n - 1, 1)
+        q = lo
+        z = m * np.arange(n, dtype=np.float64) + q
+        k = np.searchsorted(s, z, side="right").astype(np.int64)
+        return cls(s, k, float(m), float(q))
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def range(self, lo: float, hi: float) -> tuple[int, int]:
+        """Positions [start, stop) of the sorted values within [lo, hi]."""
+        n = len(self.values)
+        if n == 0 or hi < lo:
+            return 0, 0
+        jb = int(np.floor((lo - self.q) / self.m))
+        jt = int(np.ceil((hi - self.q) / self.m))
+        jb = min(max(jb, 0), n - 1)
+        jt = min(max(jt, 0), n - 1)
+        # k[jb] values lie at or below z(jb) <= lo, so the answer starts at or after it;
+        # k[jt] values lie at or below z(jt) >= hi, so it ends at or before it.
+        start, stop = int(self.k[jb]), int(self.k[jt])
+        s = self.values
+        # Trim the two ends: at most about one bin's worth of values on each side.
+        while start > 0 and s[start - 1] >= lo:
+            start -= 1
+        while start < stop and s[start] < lo:
+            start += 1
+        while stop < n and s[stop] <= hi:
+            stop += 1
+        while stop > start and s[stop - 1] > hi:
+            stop -= 1
+        return start, stop
+
+
+def binary_search_range(sorted_values: np.ndarray, lo: float, hi: float) -> tuple[int, int]:
+    """The same answer as ``KVector.range`` by binary search: the baseline to test against."""
+    s = sorted_values
+    return int(np.searchsorted(s, lo, side="left")), int(np.searchsorted(s, hi, side="right"))

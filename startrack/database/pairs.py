@@ -1,0 +1,46 @@
+"""Catalog star pairs by inter-star angle, indexed with a k-vector."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from startrack.database.kvector import KVector
+
+
+@dataclass(frozen=True)
+class PairTable:
+    """Every catalog pair (i < j) closer than ``max_angle``, sorted by angle (radians)."""
+
+    i: np.ndarray  # int32 catalog rows
+    j: np.ndarray  # int32 catalog rows
+    angle: np.ndarray  # float64 radians, ascending
+    kvector: KVector
+
+    def __len__(self) -> int:
+        return len(self.angle)
+
+    def query(self, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(i, j, angle) of the pairs whose angle lies in [lo, hi]."""
+        start, stop = self.kvector.range(lo, hi)
+        return self.i[start:stop], self.j[start:stop], self.angle[start:stop]
+
+
+def build_pair_arrays(vectors: np.ndarray, max_angle_rad: float) -> dict[str, np.ndarray]:
+    """All pairs within ``max_angle_rad``, as arrays sorted by angle."""
+    chord = 2.0 * np.sin(max_angle_rad / 2.0)
+    pairs = cKDTree(vectors).query_pairs(chord, output_type="ndarray")
+    if len(pairs) == 0:
+        pairs = np.zeros((0, 2), np.int64)
+    pairs = np.sort(pairs, axis=1)
+    dots = np.einsum("ij,ij->i", vectors[pairs[:, 0]], vectors[pairs[:, 1]])
+    angle = np.arccos(np.clip(dots, -1.0, 1.0))
+    order = np.argsort(angle, kind="stable")
+    return {"i": pairs[order, 0].astype(np.int32), "j": pairs[order, 1].astype(np.int32),
+            "angle": angle[order]}
+
+
+def pair_table_from_arrays(arrays: dict[str, np.ndarray]) -> PairTable:
+    return PairTable(arrays["i"], arrays["j"], arrays["angle"], KVector.build(arrays["angle"]))

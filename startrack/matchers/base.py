@@ -1,0 +1,116 @@
+"""The matcher interface: observed stars in, correspondence hypotheses out.
+
+A matcher proposes hypotheses (which observed star is which catalog star), best first;
+it does not decide. The shared verification in :mod:`startrack.verify` accepts or
+refuses each one, so every method is held to the same standard of proof.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from startrack.camera import Camera
+from startrack.database import StarDatabase
+
+
+@dataclass(frozen=True)
+class Observation:
+    """Observed stars of one frame, brightest first.
+
+    ``vectors`` are camera-frame unit vectors (N x 3) of the pixel positions ``x``, ``y``;
+    ``sigma_rad`` is the 1-sigma angular error of one centroid along one axis, from which
+    matchers derive their tolerances.
+    """
+
+    vectors: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    camera: Camera
+    sigma_rad: float
+
+    @classmethod
+    def from_pixels(cls, x: np.ndarray, y: np.ndarray, camera: Camera,
+                    sigma_px: float) -> Observation:
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        return cls(camera.pixel_to_vector(x, y), x, y, camera, float(sigma_px) / camera.f_px)
+
+    def __len__(self) -> int:
+        return len(self.x)
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """Observed star ``obs_index[k]`` is catalog row ``cat_index[k]``."""
+
+    obs_index: np.ndarray
+    cat_index: np.ndarray
+
+
+@dataclass
+class MatchDiagnostics:
+    """What a matcher did for one frame; the bench reports these per method."""
+
+    candidates: int = 0  # catalog patterns returned by database lookups
+    pivots: int = 0  # further lookups made to narrow down an ambiguous match
+    hypotheses: int = 0  # hypotheses handed to verification
+    extra: dict = field(default_factory=dict)  # method-specific counters
+
+
+@dataclass(frozen=True)
+class MatcherConfig:
+    """Settings every matcher shares.
+
+    ``max_stars``: how many of the brightest observed stars the matcher may use (the
+    2011 paper uses five). ``tolerance_sigma``: the half-width of every feature window in
+    standard deviations of the propagated centroid noise. ``min_tolerance_rad``: a floor
+    on angular windows, for noise-free input and unmodelled error (catalog, optics).
+    """
+
+    max_stars: int = 8
+    tolerance_sigma: float = 4.0
+    min_tolerance_rad: float = 5e-6
+
+
+class Matcher(ABC):
+    """Base class: subclasses set ``name`` and implement :meth:`hypotheses`."""
+
+    name: ClassVar[str]
+    description: ClassVar[str] = ""
+
+    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None) -> None:
+        self.database = database
+        self.config = config or MatcherConfig()
+
+    def prepare(self) -> None:
+        """Build or load the database tables this method needs (before any timing)."""
+
+    @abstractmethod
+    def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+        """Yield hypotheses, most promising first; yield nothing when there is no match."""
+
+    def angle_tolerance(self, obs: Observation) -> float:
+        """Half-width of an inter-star angle window: the angle between two centroids has a
+        standard deviation of about sqrt(2) * sigma."""
+        return max(self.config.tolerance_sigma * np.sqrt(2.0) * obs.sigma_rad,
+                   self.config.min_tolerance_rad)
+
+
+_REGISTRY: dict[str, type[Matcher]] = {}
+
+
+def register(cls: type[Matcher]) -> type[Matcher]:
+    """Class decorator: make a matcher available by its ``name``."""
+    if cls.name in _REGISTRY and _REGISTRY[cls.name] is not cls:
+        raise ValueError(f"matcher {cls.name!r} registered twice")
+    _REGISTRY[cls.name] = cls
+    return cls
+
+
+def registry() -> dict[str, type[Matcher]]:
+    return dict(_REGISTRY)

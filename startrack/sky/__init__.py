@@ -1,0 +1,73 @@
+"""Skies: which stars exist, where, and how bright (the first stage of the pipeline)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from startrack.sky.catalog import (
+    Catalog,
+    cut_magnitude,
+    merge_close_stars,
+    radec_to_vectors,
+    vectors_to_radec,
+)
+from startrack.sky.random_sky import random_sky
+
+SKY_KINDS = ("random", "hipparcos")
+
+
+@dataclass(frozen=True)
+class SkySpec:
+    """Everything needed to rebuild a catalog exactly; written into frame sidecars."""
+
+    kind: str = "random"
+    n_stars: int = 2000
+    seed: int = 0
+    mag_limit: float | None = None
+    epoch: float | None = None  # Julian year for proper motion (Hipparcos only)
+    min_separation_deg: float = 0.0  # closer stars are merged into the brighter one
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> SkySpec:
+        from startrack.errors import InputError
+
+        unknown = set(data) - set(cls.__dataclass_fields__)
+        if unknown:
+            raise InputError(f"sky: unknown key(s) {sorted(unknown)}")
+        spec = cls(**data)
+        if spec.kind not in SKY_KINDS:
+            raise InputError(f"sky: kind must be one of {SKY_KINDS}, got {spec.kind!r}")
+        return spec
+
+
+def load_sky(spec: SkySpec) -> Catalog:
+    """The catalog that ``spec`` describes, magnitude-cut and with close stars merged."""
+    if spec.kind == "random":
+        mag_max = 6.5 if spec.mag_limit is None else spec.mag_limit
+        catalog = random_sky(n_stars=spec.n_stars, seed=spec.seed, mag_max=mag_max)
+    elif spec.kind == "hipparcos":
+        from startrack.sky.hipparcos import load_hipparcos
+
+        catalog = cut_magnitude(load_hipparcos(epoch=spec.epoch), spec.mag_limit)
+    else:
+        from startrack.errors import InputError
+
+        raise InputError(f"sky: kind must be one of {SKY_KINDS}, got {spec.kind!r}")
+    catalog = merge_close_stars(catalog, spec.min_separation_deg)
+    object.__setattr__(catalog, "source", spec.to_dict())
+    return catalog
+
+
+__all__ = [
+    "Catalog",
+    "SkySpec",
+    "load_sky",
+    "random_sky",
+    "cut_magnitude",
+    "merge_close_stars",
+    "radec_to_vectors",
+    "vectors_to_radec",
+]
