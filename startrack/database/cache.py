@@ -40,16 +40,22 @@ def cached_arrays(kind: str, params: dict,
     if path.exists():
         try:
             with np.load(path, allow_pickle=False) as data:
-                return {name: data[name] for name in data.files}
-        except (OSError, ValueError, EOFError):
+                arrays = {name: data[name] for name in data.files}
+            if arrays:
+                return arrays
+        except Exception:  # any damage (truncation, bad zip, bad CRC) means a rebuild
             pass
     arrays = build()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp.npz")
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                np.savez(fh, **arrays)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
     except OSError:
         pass  # a read-only cache only costs the rebuild next time
     return arrays

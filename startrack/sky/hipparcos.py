@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from startrack.database.cache import cache_dir, cached_arrays
 from startrack.errors import InputError
 from startrack.sky.catalog import Catalog, vectors_to_radec
 
@@ -80,54 +78,19 @@ def parse_hip2(path: Path) -> dict[str, np.ndarray]:
     }
 
 
-def _cache_path(source: Path) -> Path:
-    from startrack.database.cache import cache_dir
-
-    stat = source.stat()
-    key = f"{source.resolve()}|{stat.st_size}|{stat.st_mtime_ns}|v{FORMAT_VERSION}"
-    return cache_dir() / f"hipparcos-{hashlib.sha256(key.encode()).hexdigest()[:20]}.npz"
-
-
-def _read_cache(path: Path) -> dict[str, np.ndarray] | None:
-    """The cached arrays, or None when the entry is missing, unreadable or inconsistent."""
-    if not path.exists():
-        return None
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {name: data[name] for name in _FIELDS}
-    except Exception:  # any damage (truncation, bad zip, bad CRC) means a rebuild
-        return None
-    n = len(arrays["ids"])
-    if n == 0 or any(a.ndim != 1 or len(a) != n for a in arrays.values()):
-        return None
-    return arrays
-
-
-def _write_cache(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp.npz")
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-    except OSError:
-        pass  # a read-only cache only costs a re-parse next time
-
-
 def hipparcos_arrays(path: Path | None = None) -> dict[str, np.ndarray]:
     """The parsed catalog at its own epoch, from the cache when it is up to date."""
     source = catalog_file() if path is None else Path(path)
     if not source.is_file():
         raise InputError(f"{source}: Hipparcos catalog file not found")
-    cache = _cache_path(source)
-    arrays = _read_cache(cache)
-    if arrays is None:
-        arrays = parse_hip2(source)
-        _write_cache(cache, arrays)
+    stat = source.stat()
+    key = {"path": str(source.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns,
+           "format": FORMAT_VERSION}
+    arrays = cached_arrays("hipparcos", key, lambda: parse_hip2(source))
+    n = len(arrays.get("ids", ()))
+    if n == 0 or any(name not in arrays or arrays[name].shape != (n,) for name in _FIELDS):
+        raise InputError(f"{source}: cached Hipparcos arrays are inconsistent; "
+                         f"delete {cache_dir()} and retry")
     return arrays
 
 
