@@ -57,6 +57,26 @@ class StarDatabase:
         return pair_table_from_arrays(arrays)
 
     @cached_property
+    def triangles(self):
+        """Triangles of the pattern stars (default thinning), by area and polar moment."""
+        return self.triangle_table()
+
+    def triangle_table(self, max_per_region: int | str | None = "auto",
+                       region_radius_deg: float | None = None):
+        """Triangles of the stars with fewer than ``max_per_region`` brighter stars within
+        ``region_radius_deg`` (default half the FOV); "auto" fits a budget, None: all
+        stars. See :mod:`startrack.database.triangles`."""
+        from startrack.database import triangles as tri
+
+        radius = math.radians(region_radius_deg or self.camera.fov_deg / 2.0)
+        arrays = self._cached(
+            "triangles", {"max_per_region": max_per_region, "radius": round(radius, 9),
+                          "budget": tri.TRIANGLE_BUDGET},
+            lambda: tri.build_triangle_arrays(self.vectors, self.pairs.i, self.pairs.j,
+                                              radius, max_per_region))
+        return tri.triangle_table_from_arrays(arrays)
+
+    @cached_property
     def _tree(self) -> cKDTree:
         return cKDTree(self.vectors)
 
@@ -65,6 +85,21 @@ class StarDatabase:
         chord = 2.0 * math.sin(min(radius_rad, math.pi) / 2.0)
         rows = np.asarray(self._tree.query_ball_point(direction, chord), dtype=np.int64)
         return np.sort(rows)
+
+    def radial(self, radius_rad: float, ring_width_rad: float):
+        """Radial features of every catalog star (rings of ``ring_width_rad`` out to
+        ``radius_rad``, at most the image diagonal); see :mod:`startrack.database.radial`."""
+        from startrack.database.radial import build_radial_arrays, radial_table_from_arrays
+
+        radius_rad = min(float(radius_rad), self.max_angle_rad)
+        key = (round(radius_rad, 12), round(float(ring_width_rad), 12))
+        tables = self.__dict__.setdefault("_radial_tables", {})
+        if key not in tables:
+            arrays = self._cached("radial", {"radius": key[0], "ring_width": key[1]},
+                                  lambda: build_radial_arrays(self.pairs, len(self.vectors),
+                                                              *key))
+            tables[key] = radial_table_from_arrays(arrays, *key)
+        return tables[key]
 
 
 __all__ = ["StarDatabase", "PairTable", "KVector"]

@@ -59,7 +59,7 @@ class KVector:
         # Trim the two ends: at most about one bin's worth of values on each side.
         while start > 0 and s[start - 1] >= lo:
             start -= 1
-        while start < stop and s[start] < lo:
+        while start < n and s[start] < lo:  # not bounded by stop: it may still be short
             start += 1
         while stop < n and s[stop] <= hi:
             stop += 1

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
+from startrack.camera import Camera
 from startrack.sky.catalog import (
     Catalog,
     cut_magnitude,
@@ -25,7 +27,9 @@ class SkySpec:
     seed: int = 0
     mag_limit: float | None = None
     epoch: float | None = None  # Julian year for proper motion (Hipparcos only)
-    min_separation_deg: float = 0.0  # closer stars are merged into the brighter one
+    # Closer stars are merged into the brighter one. None: two pixels of the camera the
+    # sky is loaded for (the optics cannot split them), or no merging without a camera.
+    min_separation_deg: float | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -43,8 +47,26 @@ class SkySpec:
         return spec
 
 
-def load_sky(spec: SkySpec) -> Catalog:
-    """The catalog that ``spec`` describes, magnitude-cut and with close stars merged."""
+#: Stars closer than this many pixels are one spot to the sensor and are merged.
+UNRESOLVED_PIXELS = 2.0
+
+
+def merge_separation_deg(spec: SkySpec, camera: Camera | None) -> float:
+    """The separation below which ``spec``'s stars are merged for ``camera``."""
+    if spec.min_separation_deg is not None:
+        return float(spec.min_separation_deg)
+    if camera is None:
+        return 0.0
+    return math.degrees(UNRESOLVED_PIXELS / camera.f_px)
+
+
+def load_sky(spec: SkySpec, camera: Camera | None = None) -> Catalog:
+    """The catalog that ``spec`` describes, magnitude-cut and with close stars merged.
+
+    Pass the camera the sky is seen through so that stars it cannot split are merged
+    (see :func:`merge_separation_deg`); simulate, identify and compare all do, so the
+    same spec and camera always give the same catalog rows.
+    """
     if spec.kind == "random":
         mag_max = 6.5 if spec.mag_limit is None else spec.mag_limit
         catalog = random_sky(n_stars=spec.n_stars, seed=spec.seed, mag_max=mag_max)
@@ -56,7 +78,7 @@ def load_sky(spec: SkySpec) -> Catalog:
         from startrack.errors import InputError
 
         raise InputError(f"sky: kind must be one of {SKY_KINDS}, got {spec.kind!r}")
-    catalog = merge_close_stars(catalog, spec.min_separation_deg)
+    catalog = merge_close_stars(catalog, merge_separation_deg(spec, camera))
     object.__setattr__(catalog, "source", spec.to_dict())
     return catalog
 
