@@ -50,8 +50,16 @@ def _read_raster(path: Path, suffix: str) -> np.ndarray:
     data = np.fromfile(path, dtype=np.uint8)
     if data.size == 0:
         raise InputError(f"{path}: empty file (0 bytes)")
-    # imdecode, not imread: no console warnings and no trouble with non-ASCII paths.
-    image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    if suffix in TIFF_SUFFIXES:
+        _reject_tiff_stack(path)
+    # imdecode, not imread: no trouble with non-ASCII paths. OpenCV logs decoder errors
+    # to stderr; the InputError below says it once, so silence them meanwhile.
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+    try:
+        image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    finally:
+        cv2.utils.logging.setLogLevel(level)
     if image is None and suffix in TIFF_SUFFIXES:
         image = _read_tiff_fallback(path)
     if image is None:
@@ -59,6 +67,21 @@ def _read_raster(path: Path, suffix: str) -> np.ndarray:
     if image.ndim == 3 and image.shape[2] in (3, 4):
         image = image[..., 2::-1]  # OpenCV gives BGR(A); make it RGB like the other readers
     return image
+
+
+def _reject_tiff_stack(path: Path) -> None:
+    """OpenCV would silently read only the first page of a multi-frame TIFF."""
+    import tifffile
+
+    try:
+        with tifffile.TiffFile(path) as tif:
+            series = tif.series[0]
+            axes, shape = series.axes, series.shape
+    except Exception:  # not parseable by tifffile: OpenCV gets its own chance
+        return
+    if any(a not in "YXS" and n > 1 for a, n in zip(axes, shape, strict=True)):
+        raise InputError(f"{path}: TIFF holds a {len(shape)}-D stack {tuple(shape)}, "
+                         f"expected a single 2-D frame")
 
 
 def _read_tiff_fallback(path: Path) -> np.ndarray | None:
