@@ -23,6 +23,8 @@ from startrack.attitude import solve_wahba
 from startrack.database import StarDatabase
 from startrack.matchers.base import Hypothesis, Observation
 
+MAX_REFINEMENTS = 5
+
 
 @dataclass(frozen=True)
 class VerifyConfig:
@@ -123,8 +125,12 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
     accepted = confirmed >= config.min_confirmed and prob <= config.max_false_probability
     if not accepted:
         return Verification(False, rotation, obs_m, cat_m, prob, confirmed)
-    # Refine on every matched star, then match once more with the better attitude.
-    rotation = solve_wahba(obs.vectors[obs_m], database.vectors[cat_m])
-    obs_m, cat_m, _ = match_catalog(rotation, obs, database, radius_px)
-    rotation = solve_wahba(obs.vectors[obs_m], database.vectors[cat_m])
+    # Refine on every matched star and match again until the matched set stops growing:
+    # a compact hypothesis leaves stars far from it unmatched at first.
+    for _ in range(MAX_REFINEMENTS):
+        rotation = solve_wahba(obs.vectors[obs_m], database.vectors[cat_m])
+        obs_new, cat_new, _ = match_catalog(rotation, obs, database, radius_px)
+        if len(obs_new) <= len(obs_m):
+            break
+        obs_m, cat_m = obs_new, cat_new
     return Verification(True, rotation, obs_m, cat_m, prob, confirmed)

@@ -42,7 +42,11 @@ def main() -> None:
 
 def _add_commands() -> None:
     # Each command lives in its own module; importing it registers it on the group.
-    from startrack.cli import simulate  # noqa: F401
+    from startrack.cli import (
+        compare,  # noqa: F401
+        identify,  # noqa: F401
+        simulate,  # noqa: F401
+    )
 
 
 _add_commands()

@@ -1,0 +1,150 @@
+"""Deterministic bench frames: frame i of a run is the same sky patch in every condition.
+
+Every random draw comes from a stream seeded by (seed, frame, purpose) only, and draws
+are made so that a condition's value scales or thresholds them rather than changing
+them: standard normals scaled by the noise level, uniforms compared with the dropout
+fraction, a fixed sequence of false stars of which the first K are used. Conditions are
+then paired comparisons: the only difference between two conditions' frame i is the
+perturbation itself, and every method sees exactly the same frames.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
+
+from startrack.attitude import random_attitudes
+from startrack.bench.conditions import Condition
+from startrack.camera import Camera
+from startrack.matchers.base import Observation
+from startrack.scene import Scene, observe, stars_in_view
+from startrack.sensor import SensorModel
+from startrack.sky import Catalog
+
+SOURCES = ("centroids", "images")
+# Stream purposes: changing one never changes another's draws.
+_ATTITUDE, _SCENE, _FALSE, _NOISE, _PIXELS = range(5)
+# The sigma the matcher is told for exact centroids (a zero tolerance would be unusable).
+SIGMA_FLOOR_PX = 0.05
+# The centroid error assumed for rendered frames. On the default sensor the extracted
+# centroids are ~0.1 px rms per axis (paper2011 sky, 20 frames); 0.3 px leaves a margin
+# for faint stars and other sensor settings.
+IMAGE_SIGMA_PX = 0.3
+# An extracted centroid this close to a scene star is that star (for scoring only).
+TRUTH_RADIUS_PX = 2.0
+
+
+@dataclass(frozen=True)
+class BenchFrame:
+    """One frame as a matcher sees it, with the truth needed to score the answer.
+
+    ``truth_rows[k]`` is the catalog row of observed star k, or -1 for a false star (or a
+    spot not matched to any scene star). ``n_in_view``: catalog stars in the image before
+    dropout. ``centroid_ms``: time to extract the centroids (images only, else 0).
+    """
+
+    obs: Observation
+    truth_rows: np.ndarray
+    rotation: Rotation
+    n_in_view: int
+    centroid_ms: float = 0.0
+
+
+def _rng(seed: int, index: int, purpose: int) -> np.random.Generator:
+    return np.random.default_rng([seed, index, purpose])
+
+
+def frame_attitude(seed: int, index: int) -> Rotation:
+    """Frame ``index``'s attitude: uniform over SO(3), from (seed, index) alone."""
+    return random_attitudes(1, _rng(seed, index, _ATTITUDE))[0]
+
+
+def frame_scene(catalog: Catalog, camera: Camera, condition: Condition, seed: int,
+                index: int, hot_pixel_fraction: float = 0.5) -> tuple[Scene, np.ndarray]:
+    """The scene of frame ``index`` under ``condition`` (no position noise yet), and the
+    catalog rows in view before dropout (ascending, i.e. brightest first)."""
+    rotation = frame_attitude(seed, index)
+    rows_in_view, _, _ = stars_in_view(catalog, camera, rotation)
+    # observe() thresholds one uniform per star in view and scales one normal per star,
+    # so dropouts and magnitude noise are nested across conditions.
+    real = observe(catalog, camera, rotation, _rng(seed, index, _SCENE),
+                   missing=condition.missing, false_stars=0, mag_noise=condition.mag_noise)
+    # False stars: a fixed per-frame sequence (x, y, mag, hot) of which the first K are
+    # used, so K=3 contains K=1's star (observe() draws each attribute as a block of K).
+    k = int(condition.false_stars)
+    u = _rng(seed, index, _FALSE).random((k, 4))
+    mags = catalog.mag[rows_in_view] if len(rows_in_view) >= 2 else catalog.mag
+    lo, hi = float(mags.min()), float(mags.max())
+    fx = -0.5 + u[:, 0] * camera.width
+    fy = -0.5 + u[:, 1] * camera.height
+    fmag = lo + u[:, 2] * (hi - lo)
+    fhot = u[:, 3] < hot_pixel_fraction
+    minus_one = np.full(k, -1, dtype=np.int64)
+    scene = Scene(
+        x=np.concatenate([real.x, fx]), y=np.concatenate([real.y, fy]),
+        mag=np.concatenate([real.mag, fmag]),
+        catalog_id=np.concatenate([real.catalog_id, minus_one]),
+        catalog_row=np.concatenate([real.catalog_row, minus_one]),
+        is_false=np.concatenate([real.is_false, np.ones(k, dtype=bool)]),
+        hot_pixel=np.concatenate([real.hot_pixel, fhot]),
+        rotation=rotation,
+    )
+    return scene, rows_in_view
+
+
+def make_frame(catalog: Catalog, camera: Camera, condition: Condition, seed: int,
+               index: int, *, source: str = "centroids", sensor: SensorModel | None = None,
+               hot_pixel_fraction: float = 0.5) -> BenchFrame:
+    """Frame ``index`` of a run under ``condition``, as observed stars brightest first.
+
+    ``source="centroids"``: the true positions plus Gaussian noise of ``noise_px``.
+    ``source="images"``: the frame is rendered with ``sensor`` and the centroids are
+    extracted from the pixels (the noise then comes from the sensor; ``noise_px`` is
+    ignored).
+    """
+    scene, rows_in_view = frame_scene(catalog, camera, condition, seed, index,
+                                      hot_pixel_fraction)
+    if source == "centroids":
+        return _from_centroids(scene, rows_in_view, camera, condition, seed, index)
+    if source == "images":
+        return _from_image(scene, rows_in_view, camera, sensor or SensorModel(), seed, index)
+    raise ValueError(f"source must be one of {SOURCES}, got {source!r}")
+
+
+def _from_centroids(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
+                    condition: Condition, seed: int, index: int) -> BenchFrame:
+    # One pair of normals per star in view, drawn before dropout and indexed by star, so
+    # a star's error is the same in every condition up to the noise scale.
+    normals = _rng(seed, index, _NOISE).standard_normal((len(rows_in_view), 2))
+    real = ~scene.is_false
+    where = np.searchsorted(rows_in_view, scene.catalog_row[real])
+    x, y = scene.x.copy(), scene.y.copy()
+    x[real] += condition.noise_px * normals[where, 0]
+    y[real] += condition.noise_px * normals[where, 1]
+    order = np.argsort(scene.mag, kind="stable")
+    sigma = max(condition.noise_px, SIGMA_FLOOR_PX)
+    obs = Observation.from_pixels(x[order], y[order], camera, sigma)
+    return BenchFrame(obs, scene.catalog_row[order], scene.rotation, len(rows_in_view))
+
+
+def _from_image(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
+                sensor: SensorModel, seed: int, index: int) -> BenchFrame:
+    from startrack.centroid import extract_centroids
+    from startrack.render import render_frame
+
+    image = render_frame(scene, camera, sensor, _rng(seed, index, _PIXELS))
+    t0 = time.perf_counter()
+    found = extract_centroids(image)
+    centroid_ms = (time.perf_counter() - t0) * 1000.0
+    truth = np.full(len(found.x), -1, dtype=np.int64)
+    if len(found.x) and len(scene):
+        dist, nearest = cKDTree(np.column_stack([scene.x, scene.y])).query(
+            np.column_stack([found.x, found.y]), distance_upper_bound=TRUTH_RADIUS_PX)
+        hit = np.isfinite(dist)
+        truth[hit] = scene.catalog_row[nearest[hit]]
+    obs = Observation.from_pixels(found.x, found.y, camera, IMAGE_SIGMA_PX)
+    return BenchFrame(obs, truth, scene.rotation, len(rows_in_view), centroid_ms)

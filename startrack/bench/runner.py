@@ -1,0 +1,195 @@
+"""Running a comparison: work units on local processes or a Dask cluster, with resume.
+
+A work unit is one frame in one condition, run through every method. Units are
+deterministic (frames.py), so where a unit runs changes only its timings. Each finished
+unit's rows are appended to frames.csv and flushed; a rerun with the same options skips
+the units already there, and the final files are rewritten in canonical order, so an
+interrupted-and-resumed run ends with the same files as an uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from startrack.bench.conditions import VARIABLES, Condition
+from startrack.bench.frames import make_frame
+from startrack.bench.metrics import FrameScore, score_frame
+from startrack.camera import Camera
+from startrack.errors import InputError
+from startrack.sensor import SensorModel
+from startrack.sky import SkySpec
+
+KEY_COLUMNS = ["condition", *VARIABLES, "frame", "method"]
+SCORE_COLUMNS = list(FrameScore.__dataclass_fields__)
+COLUMNS = KEY_COLUMNS + SCORE_COLUMNS
+TIMING_COLUMNS = ("identify_ms", "centroid_ms")
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """Everything that determines a comparison's numbers (not where or how fast it runs)."""
+
+    methods: tuple[str, ...]
+    conditions: tuple[Condition, ...]
+    frames: int
+    seed: int
+    camera: Camera
+    sky: SkySpec
+    sensor: SensorModel = field(default_factory=SensorModel)
+    source: str = "centroids"
+    grid: str = "oat"
+    max_stars: int = 5
+    hot_pixel_fraction: float = 0.5
+    threshold_arcsec: float = 60.0
+
+    def to_json(self) -> dict:
+        """The run's identity, as stored in run.json and compared on resume."""
+        return {
+            "methods": list(self.methods),
+            "conditions": [c.to_dict() for c in self.conditions],
+            "frames": self.frames, "seed": self.seed, "source": self.source,
+            "grid": self.grid, "max_stars": self.max_stars,
+            "hot_pixel_fraction": self.hot_pixel_fraction,
+            "threshold_arcsec": self.threshold_arcsec,
+            "camera": {"width": self.camera.width, "height": self.camera.height,
+                       "f_px": self.camera.f_px, "cx": self.camera.cx, "cy": self.camera.cy},
+            "sky": self.sky.to_dict(),
+            "sensor": self.sensor.to_dict() if self.source == "images" else None,
+        }
+
+    def units(self) -> list[tuple[int, int]]:
+        """Every (condition index, frame) in canonical order."""
+        return [(c, f) for c in range(len(self.conditions)) for f in range(self.frames)]
+
+
+@dataclass
+class LoadedBench:
+    """A worker's loaded sky, database and prepared matchers (one per method)."""
+
+    spec: RunSpec
+    identifiers: dict
+    load_seconds: dict[str, float]
+
+
+_LOADED: dict[str, LoadedBench] = {}
+_LOCK = threading.Lock()
+
+
+def load_bench(spec: RunSpec) -> LoadedBench:
+    """Load (once per process) the catalog and every method's database and matcher."""
+    import json
+
+    from startrack.pipeline import Identifier
+    from startrack.sky import load_sky
+
+    key = json.dumps(spec.to_json(), sort_keys=True)
+    with _LOCK:  # Dask workers run tasks in threads: load once per process
+        if key not in _LOADED:
+            t0 = time.perf_counter()
+            catalog = load_sky(spec.sky)
+            seconds = {"sky": time.perf_counter() - t0}
+            identifiers = {}
+            for name in spec.methods:
+                ident = Identifier(spec.camera, catalog, name, max_stars=spec.max_stars)
+                identifiers[name] = ident
+                seconds[name] = ident.load_seconds
+            _LOADED[key] = LoadedBench(spec, identifiers, seconds)
+        return _LOADED[key]
+
+
+def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
+    """One frame in one condition through every method: a row dict per method."""
+    from startrack.identify import identify
+
+    bench = load_bench(spec)
+    condition = spec.conditions[condition_index]
+    some = next(iter(bench.identifiers.values()))
+    bf = make_frame(some.catalog, spec.camera, condition, spec.seed, frame,
+                    source=spec.source, sensor=spec.sensor,
+                    hot_pixel_fraction=spec.hot_pixel_fraction)
+    rows = []
+    for name in spec.methods:
+        ident = bench.identifiers[name]
+        solution = identify(bf.obs, ident.matcher, ident.verify_config)
+        score = score_frame(solution, bf.truth_rows, bf.rotation, bf.n_in_view,
+                            centroid_ms=bf.centroid_ms, threshold_arcsec=spec.threshold_arcsec,
+                            sigma_arcsec=float(np.degrees(bf.obs.sigma_rad)) * 3600.0)
+        rows.append({"condition": condition_index, **condition.to_dict(), "frame": frame,
+                     "method": name, **score.to_dict()})
+    return rows
+
+
+def run_chunk(spec: RunSpec, units: list[tuple[int, int]]) -> list[tuple[tuple, list[dict]]]:
+    """Several units in a row (one task for a pool or a cluster: fewer round trips)."""
+    return [((c, f), run_unit(spec, c, f)) for c, f in units]
+
+
+def _init_worker(spec: RunSpec) -> None:
+    load_bench(spec)
+
+
+def _chunks(units: list, workers: int) -> list[list]:
+    size = max(1, min(8, len(units) // max(1, 4 * workers)))
+    return [units[i:i + size] for i in range(0, len(units), size)]
+
+
+def execute(spec: RunSpec, units: list[tuple[int, int]], *, jobs: int = 1,
+            client=None) -> Iterator[tuple[tuple, list[dict]]]:
+    """Yield (unit, rows) as units finish, in whatever order they finish: on the Dask
+    ``client`` if given, else on ``jobs`` local processes."""
+    if client is not None:
+        yield from _execute_dask(spec, units, client)
+    elif jobs <= 1:
+        for c, f in units:
+            yield (c, f), run_unit(spec, c, f)
+    else:
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
+                                 initargs=(spec,)) as pool:
+            futures = [pool.submit(run_chunk, spec, chunk) for chunk in _chunks(units, jobs)]
+            try:
+                for fut in as_completed(futures):
+                    yield from fut.result()
+            finally:
+                for fut in futures:
+                    fut.cancel()
+
+
+def connect(address: str):
+    """A Dask client for the scheduler at ``address`` (InputError if it cannot be had)."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("--scheduler needs dask.distributed: pip install "
+                         "'startrack[dask]'") from None
+    try:
+        return Client(address, timeout="20s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError(f"--scheduler: cannot connect to {address} ({exc})") from None
+
+
+def _execute_dask(spec: RunSpec, units: list, client) -> Iterator:
+    from distributed import as_completed
+
+    n_workers = max(1, len(client.scheduler_info().get("workers", {})))
+    futures = [client.submit(run_chunk, spec, chunk, pure=False)
+               for chunk in _chunks(units, n_workers)]
+    try:
+        for fut in as_completed(futures):
+            yield from fut.result()
+    finally:
+        client.cancel(futures)
+
+
+def progress_bar(total: int, initial: int, enabled: bool):
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, file=sys.stderr, unit="frame", desc="compare",
+                disable=not enabled, dynamic_ncols=True)

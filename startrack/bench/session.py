@@ -1,0 +1,154 @@
+"""One comparison run end to end: check the out folder, run the pending units, then write
+the canonical frames.csv, summary.csv, db.csv and the plots."""
+
+from __future__ import annotations
+
+import csv
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from startrack.atomic import atomic_text
+from startrack.bench.conditions import VARIABLES
+from startrack.bench.metrics import summarise
+from startrack.bench.plots import plot_sweeps
+from startrack.bench.runner import COLUMNS, RunSpec, connect, execute, load_bench, progress_bar
+from startrack.bench.store import (
+    FRAMES_FILE,
+    RUN_FILE,
+    FramesWriter,
+    differences,
+    read_done,
+    read_run,
+    run_identity,
+    same_run,
+    write_canonical,
+    write_run,
+)
+from startrack.errors import InputError
+
+SUMMARY_FILE = "summary.csv"
+DB_FILE = "db.csv"
+GROUP_COLUMNS = ["condition", *VARIABLES, "method"]
+
+
+@dataclass(frozen=True)
+class RunOutputs:
+    """Where a run's files are, and what it did."""
+
+    out: Path
+    frames_csv: Path
+    summary_csv: Path
+    db_csv: Path
+    plots: list[Path]
+    summary: pd.DataFrame
+    units_run: int
+    units_resumed: int
+    load_seconds: dict[str, float]
+    wall_seconds: float
+
+
+def _resumable(spec: RunSpec, out: Path, resume: bool | None) -> dict:
+    """The complete units to keep from an earlier run in ``out`` (none: start over)."""
+    if resume is False or not (out / RUN_FILE).exists():
+        return {}
+    stored = read_run(out)
+    identity = run_identity(spec.to_json())
+    if stored is None or not same_run(stored, identity):
+        what = ", ".join(differences(stored, identity)) if stored else "unreadable run.json"
+        raise InputError(f"{out}: holds a different comparison run (differs in: {what}); "
+                         "use --no-resume to start over or choose another --out")
+    return read_done(out / FRAMES_FILE, COLUMNS, list(spec.methods))
+
+
+def _clear_outputs(out: Path) -> None:
+    for path in [out / SUMMARY_FILE, out / DB_FILE, *out.glob("plot_*.png")]:
+        path.unlink(missing_ok=True)
+
+
+def _run_pending(spec: RunSpec, out: Path, done: dict, jobs: int, client,
+                 progress: bool) -> tuple[int, int]:
+    """Run the units not yet in frames.csv, appending each as it finishes."""
+    out.mkdir(parents=True, exist_ok=True)
+    if not done:
+        _clear_outputs(out)
+    write_run(out, run_identity(spec.to_json()))
+    writer = FramesWriter(out / FRAMES_FILE, COLUMNS, done)
+    pending = [u for u in spec.units() if u not in done]
+    bar = progress_bar(len(spec.units()), len(done), progress)
+    try:
+        for _unit, rows in execute(spec, pending, jobs=jobs, client=client):
+            writer.add(rows)
+            bar.update(1)
+    finally:
+        writer.close()
+        bar.close()
+    return len(pending), len(done)
+
+
+def run_comparison(spec: RunSpec, out: str | Path, *, jobs: int = 1,
+                   scheduler: str | None = None, resume: bool | None = None,
+                   progress: bool = False) -> RunOutputs:
+    """Run (or finish) the comparison ``spec`` into the folder ``out``.
+
+    ``resume``: None resumes when ``out`` holds the same run and refuses a different one;
+    True the same; False starts over.
+    """
+    t0 = time.perf_counter()
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out: {out} exists and is not a folder")
+    done = _resumable(spec, out, resume)
+    # Load in this process first: a bad method or sky fails before anything is written,
+    # and the database load times are measured once, here.
+    bench = load_bench(spec)
+    client = connect(scheduler) if scheduler is not None else None
+    try:
+        units_run, units_done = _run_pending(spec, out, done, jobs, client, progress)
+    finally:
+        if client is not None:
+            client.close()
+    frames_csv = out / FRAMES_FILE
+    write_canonical(frames_csv, COLUMNS, list(spec.methods))
+
+    frames = pd.read_csv(frames_csv)
+    summary = summarise(frames, GROUP_COLUMNS)
+    summary_csv = out / SUMMARY_FILE
+    with atomic_text(summary_csv) as fh:
+        summary.to_csv(fh, index=False, float_format="%.6g", lineterminator="\n")
+    db_csv = out / DB_FILE
+    with atomic_text(db_csv) as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(["stage", "seconds"])
+        for stage, seconds in bench.load_seconds.items():
+            w.writerow([stage if stage == "sky" else f"{stage} database+prepare",
+                        f"{seconds:.4f}"])
+    plots = plot_sweeps(summary, list(spec.conditions), list(spec.methods), out)
+    return RunOutputs(out, frames_csv, summary_csv, db_csv, plots, summary,
+                      units_run, units_done, dict(bench.load_seconds),
+                      time.perf_counter() - t0)
+
+
+def format_table(summary: pd.DataFrame) -> str:
+    """The summary as a readable fixed-width table."""
+    table = pd.DataFrame({
+        "cond": summary["condition"],
+        "noise": summary["noise_px"].map("{:g}".format),
+        "false": summary["false_stars"],
+        "miss": summary["missing"].map("{:g}".format),
+        "magn": summary["mag_noise"].map("{:g}".format),
+        "method": summary["method"],
+        "n": summary["frames"],
+        "solved": summary["solved_rate"].map("{:.1%}".format),
+        "correct": summary["correct_rate"].map("{:.1%}".format),
+        "wrong": summary["wrong"],
+        "prec": summary["star_precision"].map("{:.3f}".format),
+        "recall": summary["star_recall"].map("{:.3f}".format),
+        "err_med\"": summary["error_median_arcsec"].map("{:.1f}".format),
+        "bore_med\"": summary["boresight_median_arcsec"].map("{:.1f}".format),
+        "t_med_ms": summary["time_median_ms"].map("{:.2f}".format),
+        "t_p95_ms": summary["time_p95_ms"].map("{:.2f}".format),
+    })
+    return table.to_string(index=False)
