@@ -11,7 +11,7 @@ from click.testing import CliRunner
 
 from startrack.attitude import from_radec_roll, to_radec_roll
 from startrack.cli import main
-from startrack.cli.simulate import DEFAULT_CONFIG, config_from_dict, load_config
+from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
 from startrack.errors import InputError
 from startrack.imageio import read_image
 from startrack.sidecar import read_sidecar, sidecar_path_for

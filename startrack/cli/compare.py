@@ -106,7 +106,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     from startrack.bench.conditions import build_conditions
     from startrack.bench.runner import RunSpec
     from startrack.bench.session import format_table, run_comparison
-    from startrack.cli.simulate import DEFAULT_CONFIG, config_from_dict, load_config
+    from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
 
     names = parse_methods(methods)
     if frames < 1:

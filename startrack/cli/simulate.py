@@ -7,126 +7,21 @@ import dataclasses
 import json
 import math
 import sys
-import tomllib
-from dataclasses import dataclass
 from pathlib import Path
 
 import click
 import numpy as np
 
 from startrack.atomic import atomic_text
-from startrack.camera import Camera, camera_from_dict, load_camera
+from startrack.camera import Camera, load_camera
 from startrack.cli import main
+from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
-from startrack.sensor import SensorModel, sensor_from_dict
+from startrack.sensor import SensorModel
 from startrack.sidecar import sidecar_path_for
 from startrack.sky import SKY_KINDS, SkySpec
 
 DEFAULT_OUT = Path("out/simulate")
-TABLES = ("camera", "sky", "sensor", "frames")
-
-
-@dataclass(frozen=True)
-class FrameOptions:
-    """Per-run defaults a config's [frames] table may set; command options override them."""
-
-    count: int = 3
-    seed: int = 0
-    missing: float = 0.0
-    false_stars: int = 0
-    mag_noise: float = 0.0
-    hot_pixel_fraction: float = 0.5
-    rate_dps: tuple[float, float, float] | None = None
-
-
-@dataclass(frozen=True)
-class SimConfig:
-    camera: Camera
-    sky: SkySpec
-    sensor: SensorModel
-    frames: FrameOptions
-
-
-# The 2011 paper's experiment (configs/paper2011.toml and configs/default.toml say the same).
-DEFAULT_CONFIG = {
-    "camera": {"width": 1024, "height": 1024, "fov_deg": 17.5},
-    "sky": {"kind": "random", "n_stars": 2000, "seed": 0, "mag_limit": 6.5},
-}
-
-
-def _number(value, where: str, *, integer: bool = False, low: float | None = None,
-            high: float | None = None) -> float | int:
-    ok = isinstance(value, int) if integer else isinstance(value, int | float)
-    if isinstance(value, bool) or not ok or not math.isfinite(value):
-        raise InputError(f"{where} must be {'an integer' if integer else 'a number'}, "
-                         f"got {value!r}")
-    if low is not None and value < low:
-        raise InputError(f"{where} must be >= {low}, got {value!r}")
-    if high is not None and value > high:
-        raise InputError(f"{where} must be <= {high}, got {value!r}")
-    return value
-
-
-def _sky_from_dict(data: dict, where: str) -> SkySpec:
-    unknown = set(data) - {f.name for f in dataclasses.fields(SkySpec)}
-    if unknown:
-        raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
-    if data.get("kind", "random") not in SKY_KINDS:
-        raise InputError(f"{where}: kind must be one of {', '.join(SKY_KINDS)}")
-    checks = {"n_stars": dict(integer=True, low=1), "seed": dict(integer=True, low=0),
-              "mag_limit": {}, "epoch": {}, "min_separation_deg": dict(low=0)}
-    for key, rule in checks.items():
-        if key in data:
-            _number(data[key], f"{where}: {key}", **rule)
-    return SkySpec(**data)
-
-
-def _frames_from_dict(data: dict, where: str) -> FrameOptions:
-    unknown = set(data) - {f.name for f in dataclasses.fields(FrameOptions)}
-    if unknown:
-        raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
-    checks = {"count": dict(integer=True, low=1), "seed": dict(integer=True, low=0),
-              "missing": dict(low=0, high=1), "false_stars": dict(integer=True, low=0),
-              "mag_noise": dict(low=0), "hot_pixel_fraction": dict(low=0, high=1)}
-    for key, rule in checks.items():
-        if key in data:
-            _number(data[key], f"{where}: {key}", **rule)
-    if "rate_dps" in data:
-        rate = data["rate_dps"]
-        if not isinstance(rate, list) or len(rate) != 3:
-            raise InputError(f"{where}: rate_dps must be a list of 3 numbers (deg/s)")
-        data = {**data, "rate_dps": tuple(float(_number(r, f"{where}: rate_dps")) for r in rate)}
-    return FrameOptions(**data)
-
-
-def config_from_dict(data: dict, where: str = "config") -> SimConfig:
-    """A simulation config from TOML-like tables; missing tables take the defaults."""
-    unknown = set(data) - set(TABLES)
-    if unknown:
-        raise InputError(f"{where}: unknown table(s) {', '.join(sorted(unknown))} "
-                         f"(expected {', '.join(TABLES)})")
-    for name in TABLES:
-        if name in data and not isinstance(data[name], dict):
-            raise InputError(f"{where}: [{name}] must be a table")
-    return SimConfig(
-        camera=camera_from_dict(data.get("camera", DEFAULT_CONFIG["camera"]),
-                                where=f"{where} [camera]"),
-        sky=_sky_from_dict(data.get("sky", DEFAULT_CONFIG["sky"]), f"{where} [sky]"),
-        sensor=sensor_from_dict(data.get("sensor", {}), where=f"{where} [sensor]"),
-        frames=_frames_from_dict(data.get("frames", {}), f"{where} [frames]"),
-    )
-
-
-def load_config(path: str | Path) -> SimConfig:
-    """Read a TOML simulation config (see configs/); every error names the file."""
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read config ({exc.strerror or exc})") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not valid TOML ({exc})") from None
-    return config_from_dict(data, where=str(path))
 
 
 def _triple(names: str):

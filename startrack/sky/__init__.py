@@ -6,6 +6,7 @@ import math
 from dataclasses import asdict, dataclass
 
 from startrack.camera import Camera
+from startrack.errors import InputError, check_number
 from startrack.sky.catalog import (
     Catalog,
     cut_magnitude,
@@ -35,16 +36,19 @@ class SkySpec:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, data: dict) -> SkySpec:
-        from startrack.errors import InputError
-
+    def from_dict(cls, data: dict, where: str = "sky") -> SkySpec:
+        """A spec from a config table or sidecar; unknown keys and bad values are errors."""
         unknown = set(data) - set(cls.__dataclass_fields__)
         if unknown:
-            raise InputError(f"sky: unknown key(s) {sorted(unknown)}")
-        spec = cls(**data)
-        if spec.kind not in SKY_KINDS:
-            raise InputError(f"sky: kind must be one of {SKY_KINDS}, got {spec.kind!r}")
-        return spec
+            raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+        if data.get("kind", "random") not in SKY_KINDS:
+            raise InputError(f"{where}: kind must be one of {', '.join(SKY_KINDS)}")
+        rules = {"n_stars": dict(integer=True, low=1), "seed": dict(integer=True, low=0),
+                 "mag_limit": {}, "epoch": {}, "min_separation_deg": dict(low=0)}
+        for key, rule in rules.items():
+            if data.get(key) is not None:
+                check_number(data[key], f"{where}: {key}", **rule)
+        return cls(**data)
 
 
 #: Stars closer than this many pixels are one spot to the sensor and are merged.
@@ -75,8 +79,6 @@ def load_sky(spec: SkySpec, camera: Camera | None = None) -> Catalog:
 
         catalog = cut_magnitude(load_hipparcos(epoch=spec.epoch), spec.mag_limit)
     else:
-        from startrack.errors import InputError
-
         raise InputError(f"sky: kind must be one of {SKY_KINDS}, got {spec.kind!r}")
     catalog = merge_close_stars(catalog, merge_separation_deg(spec, camera))
     object.__setattr__(catalog, "source", spec.to_dict())

