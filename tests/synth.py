@@ -9,6 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from startrack.camera import Camera
 from startrack.matchers.base import Observation
+from startrack.scene import stars_in_view
 from startrack.sky import Catalog
 
 
@@ -24,11 +25,9 @@ def synthetic_frame(catalog: Catalog, camera: Camera, rotation: Rotation,
                     missing: float = 0.0, sigma_px: float | None = None) -> SyntheticFrame:
     """Centroids of the catalog stars in view (brightest first), perturbed by Gaussian
     noise, with stars dropped and false stars inserted at random brightness ranks."""
-    cam_vec = rotation.inv().apply(catalog.vectors)
-    x, y, front = camera.vector_to_pixel(cam_vec)
-    rows = np.flatnonzero(front & camera.in_image(x, y))
-    rows = rows[rng.random(len(rows)) >= missing]
-    x, y = x[rows], y[rows]
+    rows, x, y = stars_in_view(catalog, camera, rotation)
+    keep = rng.random(len(rows)) >= missing
+    rows, x, y = rows[keep], x[keep], y[keep]
     x = x + rng.normal(0.0, noise_px, len(x)) if noise_px > 0 else x
     y = y + rng.normal(0.0, noise_px, len(y)) if noise_px > 0 else y
     truth = rows.astype(np.int64)
