@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/startrack simulate --frames 3 --out out/demo
+	$(BIN)/startrack compare
 
 test: $(STAMP)
 	$(BIN)/ruff check .

@@ -151,9 +151,6 @@ class AngleMatcher(Matcher):
         self.max_ambiguous = int(max_ambiguous)
         self.max_rows = int(max_rows)  # a chain whose candidates outgrow this is dropped
 
-    def prepare(self) -> None:
-        _ = self.database.pairs
-
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         n = min(self.config.max_stars, len(obs))
         if n < 3:

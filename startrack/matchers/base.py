@@ -82,6 +82,8 @@ class Matcher(ABC):
 
     name: ClassVar[str]
     description: ClassVar[str] = ""
+    #: StarDatabase tables the method reads; :meth:`prepare` loads them before timing.
+    tables: ClassVar[tuple[str, ...]] = ("pairs",)
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None) -> None:
         self.database = database
@@ -89,6 +91,8 @@ class Matcher(ABC):
 
     def prepare(self) -> None:
         """Build or load the database tables this method needs (before any timing)."""
+        for table in self.tables:
+            getattr(self.database, table)
 
     @abstractmethod
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:

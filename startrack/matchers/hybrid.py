@@ -117,9 +117,6 @@ class HybridMatcher(Matcher):
         self.max_false = max_false  # votes the last pass may miss (false partners)
         self.max_per_triangle = max_per_triangle
 
-    def prepare(self) -> None:
-        _ = self.database.pairs
-
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         n = min(self.config.max_stars, len(obs))
         if n < 3:

@@ -107,6 +107,7 @@ class PlanarTriangleMatcher(Matcher):
     """Cole and Crassidis (2006): triangle area and polar moment, pivoting on shared sides."""
 
     name = "triangle"
+    tables = ("triangles",)
     description = "planar triangles (area + polar moment, k-vector), pivoting"
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
@@ -117,9 +118,6 @@ class PlanarTriangleMatcher(Matcher):
         # one lookup, removes most chance matches, and a hypothesis spread over more of the
         # frame gives verification a better first attitude.
         self.min_stars = min_stars
-
-    def prepare(self) -> None:
-        _ = self.database.triangles
 
     def _lookup(self, obs_tri: np.ndarray, features: tuple[float, ...], sigma: float,
                 diag: MatchDiagnostics) -> np.ndarray:

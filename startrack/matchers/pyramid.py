@@ -54,9 +54,6 @@ class PyramidMatcher(Matcher):
         # handed to verification, for double stars closer than the noise match either way.
         self.max_pyramids = int(max_pyramids)
 
-    def prepare(self) -> None:
-        _ = self.database.pairs
-
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         n = min(self.config.max_stars, len(obs))
         if n < 3:
