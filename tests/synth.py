@@ -1,13 +1,18 @@
-"""Synthetic observations for matcher tests: exact or noisy centroids of a known attitude."""
+"""Synthetic observations for matcher tests (exact or noisy centroids of a known attitude,
+false stars) and the small helpers the matcher tests share."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from startrack.attitude import random_attitudes
 from startrack.camera import Camera
+from startrack.database import StarDatabase
+from startrack.matchers import Matcher, MatcherConfig, get_matcher
 from startrack.matchers.base import Observation
 from startrack.scene import stars_in_view
 from startrack.sky import Catalog
@@ -39,3 +44,47 @@ def synthetic_frame(catalog: Catalog, camera: Camera, rotation: Rotation,
     sigma = noise_px if sigma_px is None else sigma_px
     obs = Observation.from_pixels(x, y, camera, max(sigma, 0.05))
     return SyntheticFrame(obs, truth, rotation)
+
+
+def frames(catalog: Catalog, camera: Camera, n: int, seed: int, *, min_stars: int = 8,
+           **kw) -> Iterator[SyntheticFrame]:
+    """Synthetic frames at ``n`` seeded random attitudes, skipping those with fewer than
+    ``min_stars`` real stars in view; ``kw`` goes to :func:`synthetic_frame`."""
+    rng = np.random.default_rng(seed)
+    for rot in random_attitudes(n, rng):
+        frame = synthetic_frame(catalog, camera, rot, rng, **kw)
+        if np.count_nonzero(frame.truth_rows >= 0) >= min_stars:
+            yield frame
+
+
+def with_false_star(frame: SyntheticFrame, position: int,
+                    rng: np.random.Generator) -> tuple[Observation, np.ndarray]:
+    """The frame's observation with one false star inserted at brightness rank
+    ``position``, and the matching truth rows (-1 for the false star)."""
+    obs = frame.obs
+    x = np.insert(obs.x, position, rng.uniform(0, obs.camera.width - 1))
+    y = np.insert(obs.y, position, rng.uniform(0, obs.camera.height - 1))
+    return (Observation.from_pixels(x, y, obs.camera, obs.sigma_rad * obs.camera.f_px),
+            np.insert(frame.truth_rows, position, -1))
+
+
+def assert_correct(solution, truth_rows: np.ndarray) -> None:
+    """The solution is solved and every star it identified is the true catalog row."""
+    assert solution.solved
+    assert np.all(truth_rows[solution.obs_index] == solution.cat_index)
+
+
+def prepared_matcher(method: str, db: StarDatabase, config: MatcherConfig | None = None,
+                     **params) -> Matcher:
+    """The named matcher on ``db`` with its tables built (cached on ``db`` after the
+    first call, so tests may call this freely)."""
+    matcher = get_matcher(method)(db, config, **params)
+    matcher.prepare()
+    return matcher
+
+
+def false_star_first(db: StarDatabase, seed: int = 32) -> tuple[Observation, np.ndarray]:
+    """A noisy (0.3 px) frame of ``db``'s sky with a false star as its brightest star,
+    and the truth rows: the matcher's first patterns all hold the false star."""
+    frame = next(frames(db.catalog, db.camera, 3, seed=seed, noise_px=0.3))
+    return with_false_star(frame, 0, np.random.default_rng(seed + 1000))
