@@ -7,7 +7,8 @@ in its stored array order (row 0 = first row in the file), so a frame written wi
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import contextlib
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,23 @@ TIFF_SUFFIXES = (".tif", ".tiff")
 FITS_SUFFIXES = (".fits", ".fit", ".fts")
 _STRUCTURAL = {"SIMPLE", "BITPIX", "NAXIS", "NAXIS1", "NAXIS2", "EXTEND", "BZERO", "BSCALE"}
 _CV2_SUFFIXES = PNG_SUFFIXES + TIFF_SUFFIXES + (".jpg", ".jpeg", ".bmp", ".pgm", ".pnm")
+
+
+@contextlib.contextmanager
+def _opencv_quiet() -> Iterator[None]:
+    """Silence OpenCV's own logging where this build exposes it (not every 4.x does)."""
+    import cv2
+
+    logging = getattr(getattr(cv2, "utils", None), "logging", None)
+    if logging is None:
+        yield
+        return
+    level = logging.getLogLevel()
+    logging.setLogLevel(logging.LOG_LEVEL_SILENT)
+    try:
+        yield
+    finally:
+        logging.setLogLevel(level)
 
 
 def read_image(path: str | Path) -> np.ndarray:
@@ -54,12 +72,8 @@ def _read_raster(path: Path, suffix: str) -> np.ndarray:
         _reject_tiff_stack(path)
     # imdecode, not imread: no trouble with non-ASCII paths. OpenCV logs decoder errors
     # to stderr; the InputError below says it once, so silence them meanwhile.
-    level = cv2.utils.logging.getLogLevel()
-    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
-    try:
+    with _opencv_quiet():
         image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
-    finally:
-        cv2.utils.logging.setLogLevel(level)
     if image is None and suffix in TIFF_SUFFIXES:
         image = _read_tiff_fallback(path)
     if image is None:

@@ -28,8 +28,9 @@ from startrack.sky import Catalog, SkySpec, load_sky
 from startrack.solution import Timing
 from startrack.verify import VerifyConfig
 
-# Chosen from scripts/bench_identify.py (see the identify command's help text).
-DEFAULT_METHOD = "pyramid"
+# The most reliable method measured (scripts/bench_identify.py, real-sky frames,
+# scripts/false_positives.py): see the identify command's help text for the figures.
+DEFAULT_METHOD = "triangle"
 # 1-sigma centroid error assumed when none is given: rendered and real frames centroid to
 # a few tenths of a pixel; 0.5 px also leaves room for small lens distortion.
 DEFAULT_SIGMA_PX = 0.5
@@ -38,7 +39,6 @@ DEFAULT_SIGMA_PX = 0.5
 TARGET_STARS_PER_FRAME = 80.0
 # Catalog stars closer than this are one spot to the optics (and one centroid); merged,
 # so that an identity is never a coin toss between two stars of a blend.
-MIN_SEPARATION_PX = 3.0
 MIN_CENTROIDS = 3
 CSV_SUFFIXES = (".csv",)
 
@@ -104,7 +104,7 @@ class Identifier:
     @classmethod
     def from_options(cls, camera: Camera, sky: SkySpec, method: str = DEFAULT_METHOD,
                      **kwargs) -> Identifier:
-        return cls(camera, load_sky(sky), method, **kwargs)
+        return cls(camera, load_sky(sky, camera), method, **kwargs)
 
     def observation(self, centroids: Centroids) -> Observation:
         return Observation.from_pixels(centroids.x, centroids.y, self.camera, self.sigma_px)
@@ -192,16 +192,13 @@ class Pipeline:
 
             sky = dataclasses.replace(
                 sky, mag_limit=default_mag_limit(camera, hipparcos_arrays()["mag"]))
-        if not from_sidecar and sky.kind == "hipparcos":
-            sky = dataclasses.replace(
-                sky, min_separation_deg=MIN_SEPARATION_PX * math.degrees(1.0 / camera.f_px))
         return camera, sky
 
     def identifier(self, camera: Camera, sky: SkySpec) -> Identifier:
         key = (camera, sky)
         if key not in self._identifiers:
             if sky not in self._catalogs:
-                self._catalogs[sky] = load_sky(sky)
+                self._catalogs[sky] = load_sky(sky, camera)
             opt = self.options
             self._identifiers[key] = Identifier(camera, self._catalogs[sky], opt.method,
                                                 max_stars=opt.max_stars, sigma_px=opt.sigma_px)

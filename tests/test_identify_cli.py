@@ -182,3 +182,28 @@ def test_simulated_frame_solves_with_no_options(tmp_path):
                                   truth) < 30.0
     assert len(record["stars"]) >= 5
     assert record["timing_ms"]["centroid"] > 0
+
+
+REAL_SKY = Path("/work/shared/real-sky")
+# Pointings solved by tetra3 (real-sky/README.md).
+REAL_POINTINGS = {"Azi-135": (230.6674, 11.0354), "Azi-45": (172.3687, 57.6492),
+                  "Azi135": (296.7571, 11.3137), "Azi45": (355.2046, 58.1518)}
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not REAL_SKY.is_dir(), reason="real-sky frames not available")
+def test_real_sky_frames_match_reference_pointings():
+    from startrack.sky import radec_to_vectors
+
+    frames = sorted(REAL_SKY.glob("*.tiff"))
+    proc = run(*frames, "--fov", "11.42", "--sky", "hipparcos", "--epoch", "2019.6",
+               "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    for line in proc.stdout.splitlines():
+        record = json.loads(line)
+        ref = REAL_POINTINGS[Path(record["input"]).name.split("_")[2]]
+        att = record["attitude"]
+        got, want = radec_to_vectors(np.array([att["ra_deg"], ref[0]]),
+                                     np.array([att["dec_deg"], ref[1]]))
+        assert np.degrees(np.arccos(min(1.0, got @ want))) * 3600 < 30.0
+        assert len(record["stars"]) >= 15

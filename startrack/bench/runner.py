@@ -92,7 +92,7 @@ def load_bench(spec: RunSpec) -> LoadedBench:
     with _LOCK:  # Dask workers run tasks in threads: load once per process
         if key not in _LOADED:
             t0 = time.perf_counter()
-            catalog = load_sky(spec.sky)
+            catalog = load_sky(spec.sky, spec.camera)
             seconds = {"sky": time.perf_counter() - t0}
             identifiers = {}
             for name in spec.methods:

@@ -89,6 +89,8 @@ __all__ = [
     "Catalog",
     "SkySpec",
     "load_sky",
+    "merge_separation_deg",
+    "UNRESOLVED_PIXELS",
     "random_sky",
     "cut_magnitude",
     "merge_close_stars",

@@ -1,0 +1,91 @@
+"""No-false-positive check: random centroids (no real stars) must never be "solved".
+
+Each set has 10 to 40 centroids uniform over a 1024 x 1024 frame of 20 degrees, run
+against the Hipparcos database (Hp <= 6.5) that ``startrack identify`` would use. Any
+solution is a false positive; the count must be 0.
+
+    .venv/bin/python scripts/false_positives.py --sets 1000 --seed 0
+    .venv/bin/python scripts/false_positives.py --sets 1000 --methods all
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+from startrack.camera import Camera
+from startrack.database import StarDatabase
+from startrack.identify import identify
+from startrack.matchers import MatcherConfig, Observation, available_methods, get_matcher
+from startrack.pipeline import DEFAULT_METHOD, DEFAULT_SIGMA_PX
+from startrack.sky import SkySpec, load_sky
+from startrack.verify import VerifyConfig
+
+
+def random_sets(camera: Camera, n_sets: int, seed: int, lo: int, hi: int,
+                sigma_px: float) -> list[Observation]:
+    rng = np.random.default_rng(seed)
+    sets = []
+    for _ in range(n_sets):
+        n = int(rng.integers(lo, hi + 1))
+        sets.append(Observation.from_pixels(rng.uniform(-0.5, camera.width - 0.5, n),
+                                            rng.uniform(-0.5, camera.height - 0.5, n),
+                                            camera, sigma_px))
+    return sets
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sets", type=int, default=1000)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--methods", default=DEFAULT_METHOD,
+                    help=f"comma-separated, or 'all' (default: {DEFAULT_METHOD})")
+    ap.add_argument("--min-stars", type=int, default=10)
+    ap.add_argument("--max-stars-per-set", type=int, default=40)
+    ap.add_argument("--sigma-px", type=float, default=DEFAULT_SIGMA_PX,
+                    help="assumed centroid sigma (larger = wider windows = harder test)")
+    ap.add_argument("--fov", type=float, default=20.0)
+    ap.add_argument("--mag-limit", type=float, default=6.5)
+    args = ap.parse_args(argv)
+
+    methods = available_methods() if args.methods == "all" else [
+        m.strip() for m in args.methods.split(",") if m.strip()]
+    unknown = [m for m in methods if m not in available_methods()]
+    if unknown:
+        print(f"unknown method(s) {unknown}; available: {available_methods()}", file=sys.stderr)
+        return 2
+    camera = Camera.from_fov(1024, 1024, args.fov)
+    catalog = load_sky(SkySpec(kind="hipparcos", mag_limit=args.mag_limit), camera)
+    sets = random_sets(camera, args.sets, args.seed, args.min_stars, args.max_stars_per_set,
+                       args.sigma_px)
+    verify = VerifyConfig()
+    print(f"{args.sets} random centroid sets ({args.min_stars}-{args.max_stars_per_set} stars, "
+          f"seed {args.seed}), Hipparcos Hp <= {args.mag_limit} ({len(catalog)} stars), "
+          f"{args.fov} deg FOV, sigma {args.sigma_px} px, match radius "
+          f"{verify.radius_px(sets[0]):.2f} px")
+    print(f"{'method':<10} {'solved':>8} {'hyps/set':>9} {'max hyps':>8} "
+          f"{'median ms':>9} {'seconds':>8}")
+    failures = 0
+    for name in methods:
+        matcher = get_matcher(name)(StarDatabase(catalog, camera), MatcherConfig())
+        matcher.prepare()
+        t0 = time.perf_counter()
+        solved, hyps, times = 0, [], []
+        for obs in sets:
+            sol = identify(obs, matcher, verify)
+            solved += sol.solved
+            hyps.append(sol.diagnostics.hypotheses)
+            times.append(sol.identify_ms)
+        failures += solved
+        print(f"{name:<10} {solved:>8} {np.mean(hyps):>9.1f} {max(hyps):>8} "
+              f"{np.median(times):>9.2f} {time.perf_counter() - t0:>8.1f}")
+    print("PASS: no random set was solved" if failures == 0
+          else f"FAIL: {failures} false solution(s)")
+    return 0 if failures == 0 else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
