@@ -207,3 +207,20 @@ def test_real_sky_frames_match_reference_pointings():
                                      np.array([att["dec_deg"], ref[1]]))
         assert np.degrees(np.arccos(min(1.0, got @ want))) * 3600 < 30.0
         assert len(record["stars"]) >= 15
+
+
+def test_real_sky_test_frame_solves_within_30_arcsec():
+    """tests/data holds one real frame (tetra3's Azi45); it must solve from the image."""
+    from startrack.sky import radec_to_vectors
+
+    frame = Path(__file__).parent / "data" / "realsky_azi45.png"
+    proc = run(frame, "--fov", "11.42", "--sky", "hipparcos", "--epoch", "2019.6",
+               "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    record = json.loads(proc.stdout)
+    att = record["attitude"]
+    got, want = radec_to_vectors(np.array([att["ra_deg"], REAL_POINTINGS["Azi45"][0]]),
+                                 np.array([att["dec_deg"], REAL_POINTINGS["Azi45"][1]]))
+    assert np.degrees(np.arccos(min(1.0, got @ want))) * 3600 < 30.0
+    assert len(record["stars"]) >= 30
+    assert max(s["residual_arcsec"] for s in record["stars"]) < 40.0
