@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -184,7 +185,9 @@ def test_simulated_frame_solves_with_no_options(tmp_path):
     assert record["timing_ms"]["centroid"] > 0
 
 
-REAL_SKY = Path("/work/shared/real-sky")
+# The project checkout sits beside shared/ (as in CI); STARTRACK_REAL_SKY overrides.
+REAL_SKY = Path(os.environ.get("STARTRACK_REAL_SKY",
+                               Path(__file__).resolve().parents[2] / "shared" / "real-sky"))
 # Pointings solved by tetra3 (real-sky/README.md).
 REAL_POINTINGS = {"Azi-135": (230.6674, 11.0354), "Azi-45": (172.3687, 57.6492),
                   "Azi135": (296.7571, 11.3137), "Azi45": (355.2046, 58.1518)}
