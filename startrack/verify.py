@@ -13,17 +13,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
-from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
-from scipy.stats import binom
+from scipy.special import bdtrc
 
-from startrack.attitude import solve_wahba
+from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.matchers.base import Hypothesis, Observation
 
 MAX_REFINEMENTS = 5
+CAPTURE = 3.0  # the wider capture of a refinement, in match radii (see _refine)
 
 
 @dataclass(frozen=True)
@@ -59,35 +60,81 @@ class Verification:
     confirmed: int  # matched stars outside the hypothesis
 
 
-def _project_catalog(rotation: Rotation, obs: Observation, database: StarDatabase,
-                     radius_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rows and pixel positions of the catalog stars that fall in the image."""
-    cam = obs.camera
-    boresight = rotation.apply([0.0, 0.0, 1.0])
-    rows = database.cone(boresight, math.radians(cam.half_diagonal_deg) * 1.02)
-    if len(rows) == 0:
-        return rows, np.zeros(0), np.zeros(0)
-    x, y, front = cam.vector_to_pixel(rotation.inv().apply(database.vectors[rows]))
-    keep = front & cam.in_image(x, y, margin=-radius_px)
-    return rows[keep], x[keep], y[keep]
+def wahba_matrices(cam_vectors: np.ndarray, icrs_vectors: np.ndarray) -> np.ndarray:
+    """Rotation matrices R (..., 3, 3) minimising sum |icrs - R cam|^2 over the vector
+    pairs (..., m, 3), for a whole batch at once (SVD, as Markley). Without scipy's
+    per-call overhead, which is most of the cost for a handful of stars."""
+    b = np.einsum("...ka,...kb->...ab", icrs_vectors, cam_vectors)
+    u, _, vt = np.linalg.svd(b)
+    d = np.sign(np.linalg.det(u) * np.linalg.det(vt))
+    u = u.copy()
+    u[..., :, 2] *= d[..., None]
+    return u @ vt
+
+
+@lru_cache(maxsize=64)
+def _cone_radius(camera: Camera) -> float:
+    return math.radians(camera.half_diagonal_deg) * 1.02
+
+
+class _Projector:
+    """The catalog stars around one attitude, projected into the image.
+
+    The cone of candidate stars is looked up once and reused while the boresight stays
+    well inside its margin: refining an accepted attitude moves it by arcseconds, and the
+    image test after the projection decides which stars are in, so the answer is the same
+    as with a fresh cone.
+    """
+
+    def __init__(self, obs: Observation, database: StarDatabase, radius_px: float) -> None:
+        self.obs, self.database, self.radius_px = obs, database, radius_px
+        self.cone_rad = _cone_radius(obs.camera)
+        self.margin_cos = math.cos(0.01 * self.cone_rad)
+        self.boresight = np.zeros(3)
+        self.rows = np.zeros(0, np.int64)
+        self.vectors = np.zeros((0, 3))
+
+    def __call__(self, matrix: np.ndarray,
+                 radius_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rows and pixel positions of the catalog stars that fall in the image."""
+        cam = self.obs.camera
+        boresight = matrix[:, 2]
+        if float(boresight @ self.boresight) < self.margin_cos:
+            # 1% wider than needed, so that a small move keeps every star in the image.
+            self.rows = self.database.cone(boresight, self.cone_rad * 1.01)
+            self.vectors = self.database.vectors[self.rows]
+            self.boresight = boresight
+        if len(self.rows) == 0:
+            return self.rows, np.zeros(0), np.zeros(0)
+        x, y, front = cam.vector_to_pixel(self.vectors @ matrix)  # R^T v for each row
+        keep = front & cam.in_image(x, y, margin=-radius_px)
+        return self.rows[keep], x[keep], y[keep]
+
+    def match(self, matrix: np.ndarray,
+              radius_px: float | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+        """As :func:`match_catalog`, at the attitude ``matrix`` (camera to sky)."""
+        radius_px = self.radius_px if radius_px is None else radius_px
+        rows, cx, cy = self(matrix, radius_px)
+        obs = self.obs
+        if len(rows) == 0 or len(obs) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), len(rows)
+        # Tens of stars on each side: a direct distance table beats building a k-d tree.
+        d2 = (obs.x[:, None] - cx[None, :]) ** 2 + (obs.y[:, None] - cy[None, :]) ** 2
+        nearest = np.argmin(d2, axis=1)
+        dist2 = d2[np.arange(len(obs)), nearest]
+        obs_idx = np.flatnonzero(dist2 <= radius_px**2)
+        cat_pos = nearest[obs_idx]
+        order = np.argsort(dist2[obs_idx], kind="stable")
+        _, first = np.unique(cat_pos[order], return_index=True)
+        chosen = np.sort(order[first])
+        return obs_idx[chosen], rows[cat_pos[chosen]], len(rows)
 
 
 def match_catalog(rotation: Rotation, obs: Observation, database: StarDatabase,
                   radius_px: float) -> tuple[np.ndarray, np.ndarray, int]:
     """Pair observed stars with projected catalog stars within ``radius_px``, each catalog
     star at most once (nearest wins). Returns (obs_index, cat_index, n_catalog_in_image)."""
-    rows, cx, cy = _project_catalog(rotation, obs, database, radius_px)
-    if len(rows) == 0 or len(obs) == 0:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64), len(rows)
-    dist, nearest = cKDTree(np.column_stack([cx, cy])).query(
-        np.column_stack([obs.x, obs.y]), distance_upper_bound=radius_px)
-    hit = np.isfinite(dist)
-    obs_idx = np.flatnonzero(hit)
-    cat_pos = nearest[hit]
-    order = np.argsort(dist[hit], kind="stable")
-    _, first = np.unique(cat_pos[order], return_index=True)
-    chosen = np.sort(order[first])
-    return obs_idx[chosen], rows[cat_pos[chosen]], len(rows)
+    return _Projector(obs, database, radius_px).match(rotation.as_matrix())
 
 
 def false_match_probability(n_other: int, n_confirmed: int, n_catalog_in_image: int,
@@ -97,7 +144,7 @@ def false_match_probability(n_other: int, n_confirmed: int, n_catalog_in_image: 
     if n_confirmed <= 0:
         return 1.0
     p = min(1.0, n_catalog_in_image * math.pi * radius_px**2 / (width * height))
-    return float(binom.sf(n_confirmed - 1, n_other, p))
+    return float(bdtrc(n_confirmed - 1, n_other, p))  # binom.sf without its overhead
 
 
 def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
@@ -110,27 +157,53 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
         return rejected
     radius_px = config.radius_px(obs)
     radius_rad = radius_px / obs.camera.f_px
-    rotation = solve_wahba(obs.vectors[obs_h], database.vectors[cat_h])
-    predicted = rotation.apply(obs.vectors[obs_h])
-    cos_err = np.einsum("ij,ij->i", predicted, database.vectors[cat_h])
+    cam_h, cat_v = obs.vectors[obs_h], database.vectors[cat_h]
+    matrix = wahba_matrices(cam_h, cat_v)
+    cos_err = np.einsum("ij,ij->i", cam_h @ matrix.T, cat_v)
     if np.any(cos_err < math.cos(radius_rad)):
         return rejected
-    obs_m, cat_m, n_cat = match_catalog(rotation, obs, database, radius_px)
+    project = _Projector(obs, database, radius_px)
+    obs_m, cat_m, n_cat = project.match(matrix)
     # Evidence comes only from stars the matcher did not choose.
-    outside = ~np.isin(obs_m, obs_h)
-    confirmed = int(outside.sum())
+    chosen = np.zeros(len(obs), bool)
+    chosen[obs_h] = True
+    confirmed = int(np.count_nonzero(~chosen[obs_m]))
     n_other = len(obs) - len(obs_h)
     prob = false_match_probability(n_other, confirmed, n_cat, radius_px,
                                    obs.camera.width, obs.camera.height)
     accepted = confirmed >= config.min_confirmed and prob <= config.max_false_probability
     if not accepted:
-        return Verification(False, rotation, obs_m, cat_m, prob, confirmed)
-    # Refine on every matched star and match again until the matched set stops growing:
-    # a compact hypothesis leaves stars far from it unmatched at first.
+        return Verification(False, Rotation.from_matrix(matrix), obs_m, cat_m, prob, confirmed)
+    obs_m, cat_m, matrix = _refine(project, obs_m, cat_m)
+    return Verification(True, Rotation.from_matrix(matrix), obs_m, cat_m, prob, confirmed)
+
+
+def _refine(project: _Projector, obs_m: np.ndarray,
+            cat_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Refit on every matched star and match again until the matched set stops changing
+    (it may grow, or keep its size with other pairs; it never shrinks): a compact
+    hypothesis leaves stars far from it unmatched at first, and a pair matched under the
+    first attitude can belong to a neighbour under the refined one.
+
+    When a plain refit changes nothing, the matches within ``CAPTURE`` match radii are
+    refitted once, kept only if they then match more stars at the match radius: a
+    hypothesis with one star a few pixels off, far from the others, can still pass (the
+    stars near the others confirm it) with the attitude turned so that the rest of the
+    frame lies beyond the match radius, where a plain refit never sees it.
+
+    Returns the matches and the attitude fitted to them."""
+    vectors, cat = project.obs.vectors, project.database.vectors
+    matrix = wahba_matrices(vectors[obs_m], cat[cat_m])
     for _ in range(MAX_REFINEMENTS):
-        rotation = solve_wahba(obs.vectors[obs_m], database.vectors[cat_m])
-        obs_new, cat_new, _ = match_catalog(rotation, obs, database, radius_px)
-        if len(obs_new) <= len(obs_m):
-            break
+        obs_new, cat_new, _ = project.match(matrix)
+        changed = len(obs_new) > len(obs_m) or (
+            len(obs_new) == len(obs_m)
+            and not (np.array_equal(obs_new, obs_m) and np.array_equal(cat_new, cat_m)))
+        if not changed:
+            obs_w, cat_w, _ = project.match(matrix, CAPTURE * project.radius_px)
+            obs_new, cat_new, _ = project.match(wahba_matrices(vectors[obs_w], cat[cat_w]))
+            if len(obs_new) <= len(obs_m):
+                break
         obs_m, cat_m = obs_new, cat_new
-    return Verification(True, rotation, obs_m, cat_m, prob, confirmed)
+        matrix = wahba_matrices(vectors[obs_m], cat[cat_m])
+    return obs_m, cat_m, matrix

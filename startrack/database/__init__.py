@@ -56,6 +56,30 @@ class StarDatabase:
                               lambda: build_pair_arrays(self.vectors, self.max_angle_rad))
         return pair_table_from_arrays(arrays)
 
+    def pattern_pairs(self, max_per_region: int | None,
+                      region_radius_deg: float | None = None) -> PairTable:
+        """The pairs among pattern stars only: stars with fewer than ``max_per_region``
+        brighter stars within ``region_radius_deg`` (default half the FOV), the thinning
+        of :func:`startrack.database.triangles.brighter_neighbours`. None: every pair."""
+        if max_per_region is None:
+            return self.pairs
+        from startrack.database.pairs import select_pair_arrays
+        from startrack.database.triangles import brighter_neighbours
+
+        radius = math.radians(region_radius_deg or self.camera.fov_deg / 2.0)
+        key = (int(max_per_region), round(radius, 9))
+        tables = self.__dict__.setdefault("_pattern_pairs", {})
+        if key not in tables:
+            def build() -> dict[str, np.ndarray]:
+                keep = brighter_neighbours(self.vectors, radius) < key[0]
+                p = self.pairs
+                return select_pair_arrays({"i": p.i, "j": p.j, "angle": p.angle}, keep)
+
+            arrays = self._cached("pattern_pairs", {"max_per_region": key[0],
+                                                    "radius": key[1]}, build)
+            tables[key] = pair_table_from_arrays(arrays)
+        return tables[key]
+
     @cached_property
     def triangles(self):
         """Triangles of the pattern stars (default thinning), by area and polar moment."""
@@ -85,6 +109,16 @@ class StarDatabase:
         chord = 2.0 * math.sin(min(radius_rad, math.pi) / 2.0)
         rows = np.asarray(self._tree.query_ball_point(direction, chord), dtype=np.int64)
         return np.sort(rows)
+
+    def nearest(self, directions: np.ndarray, radius_rad: float, k: int = 1) -> np.ndarray:
+        """The ``k`` catalog rows nearest each unit vector of ``directions`` (..., 3) within
+        ``radius_rad``, nearest first, as an (..., k) array; -1 where there are fewer."""
+        directions = np.asarray(directions, dtype=np.float64)
+        chord = 2.0 * math.sin(min(radius_rad, math.pi) / 2.0)
+        _, rows = self._tree.query(directions.reshape(-1, 3), k=[*range(1, k + 1)],
+                                   distance_upper_bound=chord)
+        rows = np.where(rows < len(self.vectors), rows, -1)
+        return rows.reshape(*directions.shape[:-1], k)
 
     def radial(self, radius_rad: float, ring_width_rad: float):
         """Radial features of every catalog star (rings of ``ring_width_rad`` out to

@@ -44,3 +44,10 @@ def build_pair_arrays(vectors: np.ndarray, max_angle_rad: float) -> dict[str, np
 
 def pair_table_from_arrays(arrays: dict[str, np.ndarray]) -> PairTable:
     return PairTable(arrays["i"], arrays["j"], arrays["angle"], KVector.build(arrays["angle"]))
+
+
+def select_pair_arrays(arrays: dict[str, np.ndarray], keep: np.ndarray) -> dict[str, np.ndarray]:
+    """The pairs whose two stars both have ``keep`` set (a boolean mask over catalog rows),
+    still sorted by angle: a pair table over a subset of the catalog, e.g. pattern stars."""
+    sel = keep[arrays["i"]] & keep[arrays["j"]]
+    return {"i": arrays["i"][sel], "j": arrays["j"][sel], "angle": arrays["angle"][sel]}

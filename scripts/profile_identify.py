@@ -1,0 +1,96 @@
+"""Profile one method's identify on one benchmark condition: cProfile's top functions.
+
+The frames are scripts/bench_identify.py's (and so bench_peers.py's, for the same seed,
+count and condition). Prints the solved/wrong count and median time, then the profile.
+
+    .venv/bin/python scripts/profile_identify.py --method pyramid --noise-px 1 \
+        --false-stars 5 --missing 0.2 --frames 50 --sort tottime
+    .venv/bin/python scripts/profile_identify.py --method pyramid --param pattern_per_region=10
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import cProfile
+import io
+import pstats
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_identify import make_frames  # noqa: E402
+from bench_peers import misidentified  # noqa: E402
+
+from startrack.camera import Camera  # noqa: E402
+from startrack.database import StarDatabase  # noqa: E402
+from startrack.identify import identify  # noqa: E402
+from startrack.matchers import MatcherConfig, get_matcher  # noqa: E402
+from startrack.sky import SkySpec, load_sky  # noqa: E402
+from startrack.verify import VerifyConfig  # noqa: E402
+
+
+def _param(text: str) -> tuple[str, object]:
+    key, _, value = text.partition("=")
+    try:
+        return key, ast.literal_eval(value)
+    except (ValueError, SyntaxError):
+        return key, value
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--method", default="pyramid")
+    ap.add_argument("--param", action="append", default=[], type=_param,
+                    help="method parameter key=value (repeatable)")
+    ap.add_argument("--frames", type=int, default=50)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--noise-px", type=float, default=1.0)
+    ap.add_argument("--false-stars", type=int, default=5)
+    ap.add_argument("--missing", type=float, default=0.2)
+    ap.add_argument("--max-stars", type=int, default=MatcherConfig().max_stars)
+    ap.add_argument("--min-sep-px", type=float, default=3.0)
+    ap.add_argument("--sort", default="tottime", help="pstats sort key (tottime, cumulative)")
+    ap.add_argument("--top", type=int, default=25)
+    ap.add_argument("--no-profile", action="store_true", help="time only")
+    args = ap.parse_args(argv)
+
+    camera = Camera.from_fov(1024, 1024, 20.0)
+    catalog = load_sky(SkySpec(kind="hipparcos", mag_limit=6.5,
+                               min_separation_deg=args.min_sep_px * np.degrees(1 / camera.f_px)))
+    frames = make_frames(catalog, camera, args.frames, args.seed, args.noise_px,
+                         args.false_stars, args.missing, args.noise_px)
+    matcher = get_matcher(args.method)(StarDatabase(catalog, camera),
+                                       MatcherConfig(max_stars=args.max_stars),
+                                       **dict(args.param))
+    matcher.prepare()
+    verify = VerifyConfig()
+    prof = cProfile.Profile()
+    times, solved, wrong, hyps = [], 0, 0, []
+    for frame in frames:
+        if not args.no_profile:
+            prof.enable()
+        sol = identify(frame.obs, matcher, verify)
+        prof.disable()
+        times.append(sol.identify_ms)
+        hyps.append(sol.diagnostics.hypotheses)
+        solved += int(sol.solved)
+        wrong += int(sol.solved and misidentified(sol, frame))
+    t = np.array(times)
+    print(f"{args.method} {dict(args.param)}: {args.noise_px} px, {args.false_stars} false, "
+          f"{args.missing:.0%} missing, {args.frames} frames: solved {solved}, wrong "
+          f"{wrong}, median {np.median(t):.2f} ms, p95 {np.percentile(t, 95):.2f} ms, "
+          f"max {t.max():.1f} ms, hypotheses/frame {np.mean(hyps):.1f}")
+    if not args.no_profile:
+        out = io.StringIO()
+        pstats.Stats(prof, stream=out).sort_stats(args.sort).print_stats(args.top)
+        lines = out.getvalue().splitlines()
+        start = next((i for i, line in enumerate(lines) if "ncalls" in line), 0)
+        print("\n".join(lines[start:]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
