@@ -19,6 +19,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 from scipy.special import bdtrc
 
+from startrack.attitude import wahba_matrices
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.matchers.base import Hypothesis, Observation
@@ -58,18 +59,6 @@ class Verification:
     cat_index: np.ndarray
     false_probability: float
     confirmed: int  # matched stars outside the hypothesis
-
-
-def wahba_matrices(cam_vectors: np.ndarray, icrs_vectors: np.ndarray) -> np.ndarray:
-    """Rotation matrices R (..., 3, 3) minimising sum |icrs - R cam|^2 over the vector
-    pairs (..., m, 3), for a whole batch at once (SVD, as Markley). Without scipy's
-    per-call overhead, which is most of the cost for a handful of stars."""
-    b = np.einsum("...ka,...kb->...ab", icrs_vectors, cam_vectors)
-    u, _, vt = np.linalg.svd(b)
-    d = np.sign(np.linalg.det(u) * np.linalg.det(vt))
-    u = u.copy()
-    u[..., :, 2] *= d[..., None]
-    return u @ vt
 
 
 @lru_cache(maxsize=64)

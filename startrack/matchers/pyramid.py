@@ -27,6 +27,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from startrack.attitude import wahba_matrices
 from startrack.database import StarDatabase
 from startrack.matchers.angle import PairLookup, join_close, join_extend, smart_triples
 from startrack.matchers.base import (
@@ -37,7 +38,6 @@ from startrack.matchers.base import (
     Observation,
     register,
 )
-from startrack.verify import wahba_matrices
 
 # The fourth star's catalog candidates are searched within this many angle tolerances of
 # where a triangle's attitude puts it: its three angles then pin it much closer.

@@ -1,0 +1,184 @@
+"""Raw matcher scoring: a matcher's own hypotheses judged against the truth, unverified.
+
+The bench scores verified solutions, and the shared verification refuses most wrong
+hypotheses whatever the method. The seed papers had no such stage: a matcher's first
+answer *was* its identification. This module measures that: the first hypothesis a
+matcher yields (is every star in it right? how many identities are wrong?), and how many
+wrong hypotheses come before the first right one (the work verification has to refuse).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import pandas as pd
+
+from startrack.bench.frames import make_frame
+from startrack.bench.runner import RunSpec, load_bench
+from startrack.identify import identify
+from startrack.matchers.base import MatchDiagnostics, Matcher, Observation
+
+DEFAULT_LIMIT = 20
+
+
+@dataclass(frozen=True)
+class RawScore:
+    """One matcher on one frame, without verification.
+
+    ``first_*`` describe the first hypothesis (all zero / False when there is none);
+    ``first_wrong_ids`` counts its observed stars given the wrong catalog star, false
+    stars included; ``first_false_used`` those that are false stars; ``first_duplicate``:
+    two observed stars given the same catalog star (the triangle error seed 002 reports).
+    ``rank_right``: 1-based position of the first all-right hypothesis among the first
+    ``limit`` distinct ones (0: none); ``wrong_before``: wrong hypotheses ahead of it (all
+    looked at when none is right).
+    """
+
+    yielded: bool
+    first_right: bool
+    first_stars: int
+    first_wrong_ids: int
+    first_false_used: int
+    first_duplicate: bool
+    first_ms: float
+    rank_right: int
+    wrong_before: int
+    looked_at: int
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def score_hypotheses(matcher: Matcher, obs: Observation, truth_rows: np.ndarray,
+                     limit: int = DEFAULT_LIMIT) -> RawScore:
+    """Pull up to ``limit`` distinct hypotheses from ``matcher`` for ``obs`` and score them
+    against ``truth_rows`` (catalog row of each observed star, -1 for a false star)."""
+    truth_rows = np.asarray(truth_rows, dtype=np.int64)
+    diag = MatchDiagnostics()
+    seen: set[tuple] = set()
+    first = None
+    first_ms = 0.0
+    rank = wrong = looked = 0
+    t0 = time.perf_counter()
+    iterator = matcher.hypotheses(obs, diag) if len(obs) >= 3 else iter(())
+    for hyp in iterator:
+        obs_i = np.asarray(hyp.obs_index, dtype=np.int64)
+        cat_i = np.asarray(hyp.cat_index, dtype=np.int64)
+        if first is None:
+            first_ms = (time.perf_counter() - t0) * 1000.0
+            first = (obs_i, cat_i)
+        key = tuple(sorted(zip(obs_i.tolist(), cat_i.tolist(), strict=True)))
+        if key in seen:
+            continue
+        seen.add(key)
+        looked += 1
+        if np.all(truth_rows[obs_i] == cat_i):
+            rank = looked
+            break
+        wrong += 1
+        if looked >= limit:
+            break
+    if first is None:
+        return RawScore(False, False, 0, 0, 0, False, 0.0, 0, 0, 0)
+    obs_i, cat_i = first
+    right = truth_rows[obs_i] == cat_i
+    return RawScore(
+        yielded=True,
+        first_right=bool(right.all()),
+        first_stars=len(obs_i),
+        first_wrong_ids=int((~right).sum()),
+        first_false_used=int((truth_rows[obs_i] < 0).sum()),
+        first_duplicate=len(np.unique(cat_i)) < len(cat_i),
+        first_ms=first_ms,
+        rank_right=rank,
+        wrong_before=wrong,
+        looked_at=looked,
+    )
+
+
+def raw_unit(spec: RunSpec, condition_index: int, frame: int, *, limit: int = DEFAULT_LIMIT,
+             repeats: int = 0) -> list[dict]:
+    """Frame ``frame`` of condition ``condition_index`` (the bench's own frame, see
+    frames.py) through every method of ``spec``: a row per method with its RawScore and,
+    when ``repeats`` > 0, the fastest of ``repeats`` verified identify() runs in this
+    process (``seq_ms``, a timing less exposed to a loaded machine than one run) with that
+    run's diagnostics, the matcher's extra counters as ``x_<name>`` (numbers only)."""
+    bench = load_bench(spec)
+    condition = spec.conditions[condition_index]
+    some = next(iter(bench.identifiers.values()))
+    bf = make_frame(some.catalog, spec.camera, condition, spec.seed, frame,
+                    source=spec.source, sensor=spec.sensor,
+                    hot_pixel_fraction=spec.hot_pixel_fraction)
+    n_top = min(spec.max_stars, len(bf.truth_rows))
+    rows = []
+    for name in spec.methods:
+        ident = bench.identifiers[name]
+        row = {"condition": condition_index, **condition.to_dict(), "frame": frame,
+               "method": name, "real_in_top": int(np.count_nonzero(bf.truth_rows[:n_top] >= 0)),
+               **score_hypotheses(ident.matcher, bf.obs, bf.truth_rows, limit).to_dict()}
+        if repeats > 0:
+            runs = [identify(bf.obs, ident.matcher, ident.verify_config) for _ in range(repeats)]
+            diag = runs[0].diagnostics
+            row.update(seq_ms=min(r.identify_ms for r in runs), solved=runs[0].solved,
+                       candidates=diag.candidates, pivots=diag.pivots,
+                       hypotheses=diag.hypotheses)
+            for k, v in diag.extra.items():
+                if isinstance(v, (int, float)):
+                    row[f"x_{k}"] = v
+                elif isinstance(v, list) and v:
+                    row[f"x_{k}_mean"] = float(np.mean(v))
+        rows.append(row)
+    return rows
+
+
+def _raw_chunk(spec: RunSpec, units: list[tuple[int, int]], limit: int,
+               repeats: int) -> list[dict]:
+    return [row for c, f in units for row in raw_unit(spec, c, f, limit=limit,
+                                                      repeats=repeats)]
+
+
+def raw_pass(spec: RunSpec, frames: int, *, limit: int = DEFAULT_LIMIT, repeats: int = 0,
+             jobs: int = 1) -> pd.DataFrame:
+    """:func:`raw_unit` over the first ``frames`` frames of every condition, in canonical
+    order, on ``jobs`` local processes (keep 1 when ``seq_ms`` timings matter)."""
+    units = [(c, f) for c in range(len(spec.conditions))
+             for f in range(min(frames, spec.frames))]
+    if jobs <= 1:
+        return pd.DataFrame(_raw_chunk(spec, units, limit, repeats))
+    from concurrent.futures import ProcessPoolExecutor
+
+    size = max(1, len(units) // (8 * jobs))
+    chunks = [units[i:i + size] for i in range(0, len(units), size)]
+    with ProcessPoolExecutor(max_workers=jobs, initializer=load_bench,
+                             initargs=(spec,)) as pool:
+        parts = pool.map(_raw_chunk, [spec] * len(chunks), chunks, [limit] * len(chunks),
+                         [repeats] * len(chunks))
+        return pd.DataFrame([row for part in parts for row in part])
+
+
+def summarise_raw(rows: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
+    """Per group of ``keys``: rates of the first hypothesis being absent, right or wrong,
+    wrong identities per frame, and the wrong hypotheses verification had to refuse."""
+    out = []
+    for key, g in rows.groupby(keys, sort=False):
+        yielded = g["yielded"].astype(bool)
+        right = g["first_right"].astype(bool)
+        out.append({
+            **dict(zip(keys, key if isinstance(key, tuple) else (key,), strict=True)),
+            "frames": len(g),
+            "none_rate": float((~yielded).mean()),
+            "first_right_rate": float(right.mean()),
+            "first_wrong_rate": float((yielded & ~right).mean()),
+            "first_wrong_frames": int((yielded & ~right).sum()),
+            "wrong_ids": int(g["first_wrong_ids"].sum()),
+            "wrong_ids_per_frame": float(g["first_wrong_ids"].mean()),
+            "false_star_ids": int(g["first_false_used"].sum()),
+            "duplicates": int(g["first_duplicate"].astype(bool).sum()),
+            "right_within_limit": float((g["rank_right"] > 0).mean()),
+            "wrong_before_mean": float(g["wrong_before"].mean()),
+            "first_ms_median": float(np.median(g.loc[yielded, "first_ms"]))
+            if yielded.any() else float("nan"),
+        })
+    return pd.DataFrame(out)
