@@ -30,7 +30,7 @@ from startrack.verify import VerifyConfig
 
 # The most reliable method measured (scripts/bench_identify.py, real-sky frames,
 # scripts/false_positives.py): see the identify command's help text for the figures.
-DEFAULT_METHOD = "triangle"
+DEFAULT_METHOD = "pyramid"
 # 1-sigma centroid error assumed when none is given: rendered and real frames centroid to
 # a few tenths of a pixel; 0.5 px also leaves room for small lens distortion.
 DEFAULT_SIGMA_PX = 0.5
