@@ -13,6 +13,7 @@ from startrack.bench.metrics import score_frame, summarise
 from startrack.camera import Camera
 from startrack.errors import InputError
 from startrack.identify import Solution
+from startrack.matchers import MatchDiagnostics
 from startrack.sky import SkySpec, load_sky
 
 TRUTH = Rotation.from_euler("zyx", [30.0, -20.0, 10.0], degrees=True)
@@ -78,6 +79,16 @@ def test_not_solved_is_neither_correct_nor_wrong():
     assert s.n_identified == 0 and math.isnan(s.error_arcsec)
 
 
+def test_a_peer_is_timed_by_its_solve_call_alone():
+    ours = Solution(True, "test", TRUTH, np.array([0, 1, 3]), np.array([4, 9, 12]),
+                    identify_ms=5.0)
+    assert score_frame(ours, TRUTH_ROWS, TRUTH, 6).method_ms == 5.0
+    peer = Solution(True, "peer", TRUTH, np.array([0, 1, 3]), np.array([4, 9, 12]),
+                    diagnostics=MatchDiagnostics(extra={"solve_ms": 1.5}), identify_ms=5.0)
+    score = score_frame(peer, TRUTH_ROWS, TRUTH, 6)
+    assert (score.method_ms, score.identify_ms) == (1.5, 5.0)
+
+
 def test_summary_rates_precision_and_recall():
     frames = pd.DataFrame({
         "condition": [0, 0, 0, 0], "method": ["a", "a", "a", "a"],
@@ -86,7 +97,9 @@ def test_summary_rates_precision_and_recall():
         "n_real_observed": [5, 5, 5, 5], "error_arcsec": [1.0, 3.0, 5000.0, np.nan],
         "boresight_error_arcsec": [0.5, 1.0, 900.0, np.nan],
         "roll_error_arcsec": [1.0, 3.0, 5000.0, np.nan],
-        "identify_ms": [1.0, 2.0, 3.0, 10.0], "centroid_ms": [0.0] * 4,
+        # The summary times the method's own call (a peer's solve), not the identify call.
+        "identify_ms": [11.0, 12.0, 13.0, 20.0], "method_ms": [1.0, 2.0, 3.0, 10.0],
+        "centroid_ms": [0.0] * 4,
     })
     row = summarise(frames, ["condition", "method"]).iloc[0]
     assert row["frames"] == 4 and row["wrong"] == 1

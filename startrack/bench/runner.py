@@ -28,7 +28,7 @@ from startrack.sky import SkySpec
 KEY_COLUMNS = ["condition", *VARIABLES, "frame", "method"]
 SCORE_COLUMNS = list(FrameScore.__dataclass_fields__)
 COLUMNS = KEY_COLUMNS + SCORE_COLUMNS
-TIMING_COLUMNS = ("identify_ms", "centroid_ms")
+TIMING_COLUMNS = ("identify_ms", "method_ms", "centroid_ms")
 
 
 @dataclass(frozen=True)
