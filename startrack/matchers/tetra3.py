@@ -24,15 +24,14 @@ from startrack.database import StarDatabase
 from startrack.matchers.base import (
     Hypothesis,
     MatchDiagnostics,
-    Matcher,
     MatcherConfig,
     Observation,
     register,
 )
 from startrack.peers import (
+    PeerMatcher,
     cached_file,
     import_peer,
-    peer_hypothesis_groups,
     peer_version,
     positions_to_indices,
     write_hip_main,
@@ -52,7 +51,7 @@ def attitude_from_tetra3(ra_deg: float, dec_deg: float, roll_deg: float):
 
 
 @register
-class Tetra3Matcher(Matcher):
+class Tetra3Matcher(PeerMatcher):
     """tetra3's 4-star edge-ratio hash, on a database built from our catalog."""
 
     name = "tetra3"
@@ -62,18 +61,12 @@ class Tetra3Matcher(Matcher):
                  fov_max_error_deg: float = 0.5, match_radius: float = 0.01,
                  match_threshold: float = 1e-4, solve_timeout_ms: float = 5000.0,
                  hypothesis_stars: int = 4, max_hypotheses: int = 3, **db_params) -> None:
-        super().__init__(database, config)
+        super().__init__(database, config, hypothesis_stars=hypothesis_stars,
+                         max_hypotheses=max_hypotheses, **db_params)
         self.solve_kwargs = {"fov_max_error": float(fov_max_error_deg),
                              "match_radius": float(match_radius),
                              "match_threshold": float(match_threshold),
                              "solve_timeout": float(solve_timeout_ms)}
-        self.hypothesis_stars = int(hypothesis_stars)
-        self.max_hypotheses = int(max_hypotheses)
-        # tetra3's generate_database defaults, unless overridden.
-        self.db_params = {"pattern_max_error": 0.001, "lattice_field_oversampling": 100,
-                          "patterns_per_lattice_field": 50, "verification_stars_per_fov": 150,
-                          **db_params}
-        self._solver = None
 
     def prepare(self) -> None:
         if self._solver is not None:
@@ -118,8 +111,4 @@ class Tetra3Matcher(Matcher):
         diag.extra["peer_quaternion"] = to_quaternion(rotation)
         diag.extra["peer_matches"] = int(result["Matches"])
         obs_index = positions_to_indices(centroids, np.asarray(result["matched_centroids"]))
-        cat_index = self.database.catalog.index_of(
-            np.asarray(result["matched_catID"], dtype=np.int64))
-        for obs_h, cat_h in peer_hypothesis_groups(obs_index, cat_index, self.hypothesis_stars,
-                                                    self.max_hypotheses):
-            yield Hypothesis(obs_h, cat_h)
+        yield from self.peer_hypotheses(obs_index, result["matched_catID"])

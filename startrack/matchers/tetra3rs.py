@@ -23,15 +23,14 @@ from startrack.database import StarDatabase
 from startrack.matchers.base import (
     Hypothesis,
     MatchDiagnostics,
-    Matcher,
     MatcherConfig,
     Observation,
     register,
 )
 from startrack.peers import (
+    PeerMatcher,
     cached_file,
     import_peer,
-    peer_hypothesis_groups,
     peer_version,
     write_gaia_binary,
 )
@@ -48,7 +47,7 @@ def attitude_from_tetra3rs(icrs_to_camera: np.ndarray) -> Rotation:
 
 
 @register
-class Tetra3rsMatcher(Matcher):
+class Tetra3rsMatcher(PeerMatcher):
     """tetra3rs's 4-star edge-ratio hash, on a database built from our catalog."""
 
     name = "tetra3rs"
@@ -58,18 +57,12 @@ class Tetra3rsMatcher(Matcher):
                  fov_max_error_deg: float = 0.5, match_radius: float = 0.01,
                  match_threshold: float = 1e-5, solve_timeout_ms: int = 5000,
                  hypothesis_stars: int = 4, max_hypotheses: int = 3, **db_params) -> None:
-        super().__init__(database, config)
+        super().__init__(database, config, hypothesis_stars=hypothesis_stars,
+                         max_hypotheses=max_hypotheses, **db_params)
         self.solve_kwargs = {"fov_max_error_deg": float(fov_max_error_deg),
                              "match_radius": float(match_radius),
                              "match_threshold": float(match_threshold),
                              "solve_timeout_ms": int(solve_timeout_ms)}
-        self.hypothesis_stars = int(hypothesis_stars)
-        self.max_hypotheses = int(max_hypotheses)
-        # generate_from_gaia's defaults (the same as tetra3's), unless overridden.
-        self.db_params = {"pattern_max_error": 0.001, "lattice_field_oversampling": 100,
-                          "patterns_per_lattice_field": 50, "verification_stars_per_fov": 150,
-                          **db_params}
-        self._solver = None
         self._camera_model = None
 
     def prepare(self) -> None:
@@ -122,8 +115,4 @@ class Tetra3rsMatcher(Matcher):
             rotation = attitude_from_tetra3rs(result.rotation_matrix_icrs_to_camera)
             diag.extra["peer_quaternion"] = to_quaternion(rotation)
         obs_index = np.asarray(result.matched_centroids, dtype=np.int64)
-        cat_index = self.database.catalog.index_of(
-            np.asarray(result.matched_catalog_ids, dtype=np.int64))
-        for obs_h, cat_h in peer_hypothesis_groups(obs_index, cat_index, self.hypothesis_stars,
-                                                    self.max_hypotheses):
-            yield Hypothesis(obs_h, cat_h)
+        yield from self.peer_hypotheses(obs_index, result.matched_catalog_ids)

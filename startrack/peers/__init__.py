@@ -10,15 +10,17 @@ import importlib
 import math
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 from scipy.spatial import cKDTree
 
+from startrack.database import StarDatabase
 from startrack.database.cache import cache_dir, cache_key
 from startrack.errors import InputError
+from startrack.matchers.base import Hypothesis, Matcher, MatcherConfig
 from startrack.sky import Catalog
 
 
@@ -138,3 +140,35 @@ def peer_hypothesis_groups(obs_index: np.ndarray, cat_index: np.ndarray,
 
 __all__ = ["cached_file", "import_peer", "peer_hypothesis_groups", "peer_version",
            "positions_to_indices", "write_gaia_binary", "write_hip_main"]
+
+
+#: tetra3's generate_database defaults; tetra3rs's generate_from_gaia uses the same.
+PEER_DB_DEFAULTS = {"pattern_max_error": 0.001, "lattice_field_oversampling": 100,
+                    "patterns_per_lattice_field": 50, "verification_stars_per_fov": 150}
+
+
+class PeerMatcher(Matcher):
+    """What the peer adapters share: their database parameters, and how a peer's matched
+    stars become hypotheses that our verification accepts or refuses like any other.
+
+    The peer's full match list cannot be one hypothesis, since verification counts only
+    stars outside it as evidence; its matches go in groups of ``hypothesis_stars``.
+    """
+
+    tables = ()
+
+    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
+                 hypothesis_stars: int = 4, max_hypotheses: int = 3, **db_params) -> None:
+        super().__init__(database, config)
+        self.hypothesis_stars = int(hypothesis_stars)
+        self.max_hypotheses = int(max_hypotheses)
+        self.db_params = {**PEER_DB_DEFAULTS, **db_params}
+        self._solver = None
+
+    def peer_hypotheses(self, obs_index: np.ndarray, catalog_ids: np.ndarray
+                        ) -> Iterator[Hypothesis]:
+        """Hypotheses from the peer's matched centroids and catalog ids (HIP numbers)."""
+        cat_index = self.database.catalog.index_of(np.asarray(catalog_ids, dtype=np.int64))
+        for obs_h, cat_h in peer_hypothesis_groups(obs_index, cat_index, self.hypothesis_stars,
+                                                    self.max_hypotheses):
+            yield Hypothesis(obs_h, cat_h)
