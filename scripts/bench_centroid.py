@@ -24,7 +24,7 @@ from scipy.spatial import cKDTree
 
 from startrack.attitude import random_attitudes
 from startrack.camera import Camera
-from startrack.centroid import extract_centroids
+from startrack.extract import extract_centroids
 from startrack.imageio import read_image
 from startrack.render import deposit_gaussians, digitise, render_frame
 from startrack.scene import observe

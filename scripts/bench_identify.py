@@ -28,9 +28,10 @@ from startrack.attitude import angle_between_deg, boresight_error_arcsec, random
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.identify import identify
-from startrack.matchers import MatcherConfig, Observation, available_methods, get_matcher
+from startrack.matchers import MatcherConfig, available_methods, get_matcher
 from startrack.scene import observe
 from startrack.sky import UNRESOLVED_PIXELS, SkySpec, load_sky
+from startrack.types import Observation
 from startrack.verify import VerifyConfig
 
 

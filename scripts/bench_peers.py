@@ -2,8 +2,9 @@
 
 Same frames for every method (scripts/bench_identify.py's make_frames: Hipparcos, random
 attitudes, brightest first, false stars at random ranks), two conditions. For the peers the
-time is their solve call alone (``solve_ms``); "ident" adds our verification of their
-answer. A solution is wrong when it misidentifies the field: boresight more than 1 arcmin
+time is their solve call alone (``MatchDiagnostics.method_ms``); "ident" adds our
+verification of their answer. A solution is wrong when it misidentifies the field: boresight
+more than 1 arcmin
 off, or a real star given another star's id. Two further counts: "false id" (a false star
 given the id of a catalog star within the verification radius: the shared verification's
 doing, the same for every method) and "strict" (bench_identify's criterion: whole attitude
@@ -53,7 +54,8 @@ def run(matcher, frames, verify) -> dict:
     for frame in frames:
         sol = identify(frame.obs, matcher, verify)
         ident.append(sol.identify_ms)
-        solve.append(sol.diagnostics.extra.get("solve_ms", sol.identify_ms))
+        solve.append(sol.identify_ms if sol.diagnostics.method_ms is None
+                      else sol.diagnostics.method_ms)
         if sol.solved:
             solved += 1
             wrong += int(misidentified(sol, frame))

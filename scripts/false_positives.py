@@ -19,9 +19,10 @@ import numpy as np
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.identify import identify
-from startrack.matchers import MatcherConfig, Observation, available_methods, get_matcher
+from startrack.matchers import MatcherConfig, available_methods, get_matcher
 from startrack.pipeline import DEFAULT_METHOD, DEFAULT_SIGMA_PX
 from startrack.sky import SkySpec, load_sky
+from startrack.types import Observation
 from startrack.verify import VerifyConfig
 
 

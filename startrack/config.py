@@ -7,7 +7,8 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-from startrack.camera import Camera, camera_from_dict
+from startrack.camera import Camera
+from startrack.camera_file import camera_from_dict
 from startrack.errors import InputError, check_number
 from startrack.sensor import SensorModel, sensor_from_dict
 from startrack.sky import SkySpec

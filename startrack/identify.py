@@ -3,29 +3,13 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from startrack.matchers.base import MatchDiagnostics, Matcher, Observation
+from startrack.matchers.base import Matcher
+from startrack.types import MatchDiagnostics, Observation, Solution
 from startrack.verify import VerifyConfig, verify
-
-
-@dataclass(frozen=True)
-class Solution:
-    """The answer for one frame: which observed star is which catalog row, and the
-    attitude (camera to ICRS). ``solved`` is False when no hypothesis passed verification."""
-
-    solved: bool
-    method: str
-    rotation: Rotation | None = None
-    obs_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    cat_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    residual_arcsec: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    false_probability: float = 1.0
-    diagnostics: MatchDiagnostics = field(default_factory=MatchDiagnostics)
-    identify_ms: float = 0.0
 
 
 def residuals_arcsec(rotation: Rotation, obs: Observation, obs_index: np.ndarray,

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.atomic import atomic_path
+from startrack.cache import atomic_path
 from startrack.errors import InputError
 
 PNG_SUFFIXES = (".png",)

@@ -21,11 +21,12 @@ from startrack.camera import Camera
 from startrack.centroids import Centroids, read_centroid_csv
 from startrack.database import StarDatabase
 from startrack.errors import InputError
-from startrack.identify import Solution, identify
-from startrack.matchers import MatcherConfig, Observation, get_matcher
+from startrack.identify import identify
+from startrack.matchers import MatcherConfig, get_matcher
+from startrack.output import Timing
 from startrack.sidecar import read_sidecar, sidecar_path_for
 from startrack.sky import Catalog, SkySpec, load_sky
-from startrack.solution import Timing
+from startrack.types import Observation, Solution
 from startrack.verify import VerifyConfig
 
 # The most reliable method measured (scripts/bench_identify.py, real-sky frames,
@@ -72,7 +73,7 @@ def load_centroids(path: Path, centroid_config=None) -> tuple[Centroids, float,
     ms, and the image size (width, height) when the input is an image."""
     if path.suffix.lower() in CSV_SUFFIXES:
         return read_centroid_csv(path), 0.0, None
-    from startrack.centroid import extract_centroids
+    from startrack.extract import extract_centroids
     from startrack.imageio import read_image
 
     image = read_image(path)

@@ -9,7 +9,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from startrack.attitude import from_quaternion
-from startrack.camera import Camera, camera_from_dict
+from startrack.camera import Camera
+from startrack.camera_file import camera_from_dict
 from startrack.errors import InputError
 from startrack.sky import SkySpec
 

@@ -22,7 +22,7 @@ from scipy.special import bdtrc
 from startrack.attitude import wahba_matrices
 from startrack.camera import Camera
 from startrack.database import StarDatabase
-from startrack.matchers.base import Hypothesis, Observation
+from startrack.types import Hypothesis, Observation
 
 MAX_REFINEMENTS = 5
 CAPTURE = 3.0  # the wider capture of a refinement, in match radii (see _refine)

@@ -13,9 +13,9 @@ from startrack.attitude import random_attitudes
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.matchers import Matcher, MatcherConfig, get_matcher
-from startrack.matchers.base import Observation
 from startrack.scene import stars_in_view
 from startrack.sky import Catalog
+from startrack.types import Observation
 
 
 @dataclass(frozen=True)

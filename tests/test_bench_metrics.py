@@ -12,9 +12,8 @@ from startrack.bench.frames import make_frame
 from startrack.bench.metrics import score_frame, summarise
 from startrack.camera import Camera
 from startrack.errors import InputError
-from startrack.identify import Solution
-from startrack.matchers import MatchDiagnostics
 from startrack.sky import SkySpec, load_sky
+from startrack.types import MatchDiagnostics, Solution
 
 TRUTH = Rotation.from_euler("zyx", [30.0, -20.0, 10.0], degrees=True)
 TRUTH_ROWS = np.array([4, 9, -1, 12, 20])  # observed star 2 is a false star
@@ -84,7 +83,7 @@ def test_a_peer_is_timed_by_its_solve_call_alone():
                     identify_ms=5.0)
     assert score_frame(ours, TRUTH_ROWS, TRUTH, 6).method_ms == 5.0
     peer = Solution(True, "peer", TRUTH, np.array([0, 1, 3]), np.array([4, 9, 12]),
-                    diagnostics=MatchDiagnostics(extra={"solve_ms": 1.5}), identify_ms=5.0)
+                    diagnostics=MatchDiagnostics(method_ms=1.5), identify_ms=5.0)
     score = score_frame(peer, TRUTH_ROWS, TRUTH, 6)
     assert (score.method_ms, score.identify_ms) == (1.5, 5.0)
 

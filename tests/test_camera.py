@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from startrack.attitude import from_radec_roll, to_radec_roll
-from startrack.camera import Camera, camera_from_dict, load_camera
+from startrack.camera import Camera
+from startrack.camera_file import camera_from_dict, load_camera
 from startrack.errors import InputError
 from startrack.sky.catalog import radec_to_vectors
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.special import erf
 
-from startrack.centroid import CentroidConfig, estimate_background, extract_centroids
+from startrack.extract import CentroidConfig, estimate_background, extract_centroids
 from startrack.imageio import read_image
 
 REAL_SKY = Path(__file__).parent / "data" / "realsky_azi45.png"

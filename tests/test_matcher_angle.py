@@ -9,8 +9,8 @@ import numpy as np
 from synth import assert_correct, false_star_first, frames, prepared_matcher
 
 from startrack.identify import identify
-from startrack.matchers import MatchDiagnostics
 from startrack.matchers.angle import PairCandidates, join_close, join_extend, smart_triples
+from startrack.types import MatchDiagnostics
 
 METHOD = "angle"
 

@@ -17,7 +17,7 @@ from synth import (
 
 from startrack.attitude import angle_between_deg, random_attitudes
 from startrack.identify import identify
-from startrack.matchers import MatchDiagnostics, Observation
+from startrack.types import MatchDiagnostics, Observation
 
 METHODS = ["angle", "pyramid", "triangle", "hybrid", "radial"]
 

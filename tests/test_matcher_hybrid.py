@@ -10,8 +10,9 @@ from synth import assert_correct, frames, prepared_matcher, with_false_star
 
 from startrack.attitude import angle_between_deg
 from startrack.identify import identify
-from startrack.matchers import MatchDiagnostics, Observation, get_matcher
+from startrack.matchers import get_matcher
 from startrack.matchers.hybrid import angle_votes, confirm, join_sides
+from startrack.types import MatchDiagnostics, Observation
 
 METHOD = "hybrid"
 

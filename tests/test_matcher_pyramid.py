@@ -8,8 +8,8 @@ import numpy as np
 from synth import assert_correct, false_star_first, frames, prepared_matcher, with_false_star
 
 from startrack.identify import identify
-from startrack.matchers import MatchDiagnostics, Observation
 from startrack.matchers.pyramid import triple_products
+from startrack.types import MatchDiagnostics, Observation
 
 METHOD = "pyramid"
 
@@ -119,7 +119,7 @@ def test_verification_recovers_from_a_biased_hypothesis(hip_db):
     ~15 arcmin; the refinement's wider capture must bring back the true attitude and every
     other star's identity."""
     from startrack.attitude import angle_between_deg
-    from startrack.matchers import Hypothesis
+    from startrack.types import Hypothesis
     from startrack.verify import VerifyConfig, verify
 
     frame = list(frames(hip_db.catalog, hip_db.camera, 10, seed=5))[8]

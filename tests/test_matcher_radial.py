@@ -13,8 +13,8 @@ from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.identify import identify
 from startrack.matchers import get_matcher
-from startrack.matchers.base import MatchDiagnostics, Observation
 from startrack.sky import SkySpec, load_sky
+from startrack.types import MatchDiagnostics, Observation
 
 METHOD = "radial"
 

@@ -11,8 +11,9 @@ import pytest
 from synth import frames, prepared_matcher
 
 from startrack.identify import identify
-from startrack.matchers import MatchDiagnostics, MatcherConfig, Observation, get_matcher
+from startrack.matchers import MatcherConfig, get_matcher
 from startrack.matchers.planar_triangle import brightness_triples, join_on, map_vertices
+from startrack.types import MatchDiagnostics, Observation
 
 METHOD = "triangle"
 

@@ -20,10 +20,10 @@ from scipy.spatial.transform import Rotation
 from startrack.attitude import random_attitudes
 from startrack.bench.conditions import Condition
 from startrack.camera import Camera
-from startrack.matchers.base import Observation
 from startrack.scene import Scene, observe, stars_in_view
 from startrack.sensor import SensorModel
 from startrack.sky import Catalog
+from startrack.types import Observation
 
 SOURCES = ("centroids", "images")
 # Stream purposes: changing one never changes another's draws.
@@ -133,7 +133,7 @@ def _from_centroids(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
 
 def _from_image(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
                 sensor: SensorModel, seed: int, index: int) -> BenchFrame:
-    from startrack.centroid import extract_centroids
+    from startrack.extract import extract_centroids
     from startrack.render import render_frame
 
     image = render_frame(scene, camera, sensor, _rng(seed, index, _PIXELS))

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
-from startrack.identify import Solution
+from startrack.types import Solution
 
 DEFAULT_THRESHOLD_ARCSEC = 60.0
 NOISE_SIGMAS = 5.0
@@ -104,7 +104,7 @@ def score_frame(solution: Solution, truth_rows: np.ndarray, truth_rotation: Rota
         boresight_error_arcsec=boresight,
         roll_error_arcsec=roll,
         identify_ms=float(solution.identify_ms),
-        method_ms=float(diag.extra.get("solve_ms", solution.identify_ms)),
+        method_ms=float(solution.identify_ms if diag.method_ms is None else diag.method_ms),
         centroid_ms=float(centroid_ms),
         candidates=int(diag.candidates),
         pivots=int(diag.pivots),

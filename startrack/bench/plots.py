@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from startrack.atomic import atomic_path
 from startrack.bench.conditions import VARIABLES, Condition, sweep
+from startrack.cache import atomic_path
 
 LABELS = {
     "noise_px": "centroid noise (px, 1 sigma)",

@@ -18,7 +18,8 @@ import pandas as pd
 from startrack.bench.frames import make_frame
 from startrack.bench.runner import RunSpec, load_bench
 from startrack.identify import identify
-from startrack.matchers.base import MatchDiagnostics, Matcher, Observation
+from startrack.matchers.base import Matcher
+from startrack.types import MatchDiagnostics, Observation
 
 DEFAULT_LIMIT = 20
 

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import pandas as pd
 
-from startrack.atomic import atomic_text
 from startrack.bench.conditions import VARIABLES
 from startrack.bench.metrics import summarise
 from startrack.bench.plots import plot_sweeps
@@ -27,6 +26,7 @@ from startrack.bench.store import (
     write_canonical,
     write_run,
 )
+from startrack.cache import atomic_text
 from startrack.errors import InputError
 
 SUMMARY_FILE = "summary.csv"

@@ -14,7 +14,7 @@ import json
 import math
 from pathlib import Path
 
-from startrack.atomic import atomic_text
+from startrack.cache import atomic_text
 from startrack.errors import InputError
 
 RUN_FILE = "run.json"

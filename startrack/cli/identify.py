@@ -11,13 +11,13 @@ from pathlib import Path
 
 import click
 
-from startrack.atomic import atomic_text
-from startrack.camera import load_camera
+from startrack.cache import atomic_text
+from startrack.camera_file import load_camera
 from startrack.cli import main
 from startrack.matchers import available_methods
+from startrack.output import CSV_HEADER, csv_rows, format_table, solution_record
 from startrack.pipeline import DEFAULT_METHOD, DEFAULT_SIGMA_PX, Options, Pipeline
 from startrack.sky import SKY_KINDS
-from startrack.solution import CSV_HEADER, csv_rows, format_table, solution_record
 
 
 def _size(ctx, param, value):

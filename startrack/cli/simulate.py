@@ -12,8 +12,9 @@ from pathlib import Path
 import click
 import numpy as np
 
-from startrack.atomic import atomic_text
-from startrack.camera import Camera, load_camera
+from startrack.cache import atomic_text
+from startrack.camera import Camera
+from startrack.camera_file import load_camera
 from startrack.cli import main
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError

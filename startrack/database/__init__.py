@@ -13,8 +13,8 @@ from functools import cached_property
 import numpy as np
 from scipy.spatial import cKDTree
 
+from startrack.cache import cached_arrays
 from startrack.camera import Camera
-from startrack.database.cache import cached_arrays
 from startrack.database.kvector import KVector
 from startrack.database.pairs import PairTable, build_pair_arrays, pair_table_from_arrays
 from startrack.sky import Catalog

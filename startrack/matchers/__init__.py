@@ -6,15 +6,7 @@ import importlib
 import pkgutil
 
 from startrack.errors import InputError
-from startrack.matchers.base import (
-    Hypothesis,
-    MatchDiagnostics,
-    Matcher,
-    MatcherConfig,
-    Observation,
-    register,
-    registry,
-)
+from startrack.matchers.base import Matcher, MatcherConfig, register, registry
 
 _loaded = False
 
@@ -43,5 +35,4 @@ def get_matcher(name: str) -> type[Matcher]:
                          f"{', '.join(available_methods())})") from None
 
 
-__all__ = ["Hypothesis", "Matcher", "MatchDiagnostics", "MatcherConfig", "Observation",
-           "available_methods", "get_matcher", "register"]
+__all__ = ["Matcher", "MatcherConfig", "available_methods", "get_matcher", "register"]

@@ -21,14 +21,8 @@ import numpy as np
 
 from startrack.database import StarDatabase
 from startrack.database.pairs import PairTable
-from startrack.matchers.base import (
-    Hypothesis,
-    MatchDiagnostics,
-    Matcher,
-    MatcherConfig,
-    Observation,
-    register,
-)
+from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
 class PairCandidates:

@@ -9,57 +9,13 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 
-from startrack.camera import Camera
 from startrack.database import StarDatabase
-
-
-@dataclass(frozen=True)
-class Observation:
-    """Observed stars of one frame, brightest first.
-
-    ``vectors`` are camera-frame unit vectors (N x 3) of the pixel positions ``x``, ``y``;
-    ``sigma_rad`` is the 1-sigma angular error of one centroid along one axis, from which
-    matchers derive their tolerances.
-    """
-
-    vectors: np.ndarray
-    x: np.ndarray
-    y: np.ndarray
-    camera: Camera
-    sigma_rad: float
-
-    @classmethod
-    def from_pixels(cls, x: np.ndarray, y: np.ndarray, camera: Camera,
-                    sigma_px: float) -> Observation:
-        x = np.asarray(x, dtype=np.float64)
-        y = np.asarray(y, dtype=np.float64)
-        return cls(camera.pixel_to_vector(x, y), x, y, camera, float(sigma_px) / camera.f_px)
-
-    def __len__(self) -> int:
-        return len(self.x)
-
-
-@dataclass(frozen=True)
-class Hypothesis:
-    """Observed star ``obs_index[k]`` is catalog row ``cat_index[k]``."""
-
-    obs_index: np.ndarray
-    cat_index: np.ndarray
-
-
-@dataclass
-class MatchDiagnostics:
-    """What a matcher did for one frame; the bench reports these per method."""
-
-    candidates: int = 0  # catalog patterns returned by database lookups
-    pivots: int = 0  # further lookups made to narrow down an ambiguous match
-    hypotheses: int = 0  # hypotheses handed to verification
-    extra: dict = field(default_factory=dict)  # method-specific counters
+from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
 @dataclass(frozen=True)

@@ -27,19 +27,13 @@ import numpy as np
 
 from startrack.database import StarDatabase
 from startrack.database.triangles import triangle_features
-from startrack.matchers.base import (
-    Hypothesis,
-    MatchDiagnostics,
-    Matcher,
-    MatcherConfig,
-    Observation,
-    register,
-)
+from startrack.matchers.base import Matcher, MatcherConfig, register
 from startrack.matchers.planar_triangle import (
     brightness_triples,
     feature_sigma,
     observed_features,
 )
+from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
 def angle_votes(vectors: np.ndarray, database: StarDatabase, tolerance: float,

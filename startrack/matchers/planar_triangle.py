@@ -18,14 +18,8 @@ import numpy as np
 
 from startrack.database import StarDatabase
 from startrack.database.triangles import feature_sigmas, triangle_features
-from startrack.matchers.base import (
-    Hypothesis,
-    MatchDiagnostics,
-    Matcher,
-    MatcherConfig,
-    Observation,
-    register,
-)
+from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 # The six vertex orders; the odd ones reverse the handedness (the triple product's sign).
 _PERMS = np.array(list(itertools.permutations(range(3))))

@@ -30,14 +30,8 @@ import numpy as np
 from startrack.attitude import wahba_matrices
 from startrack.database import StarDatabase
 from startrack.matchers.angle import PairLookup, join_close, join_extend, smart_triples
-from startrack.matchers.base import (
-    Hypothesis,
-    MatchDiagnostics,
-    Matcher,
-    MatcherConfig,
-    Observation,
-    register,
-)
+from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 # The fourth star's catalog candidates are searched within this many angle tolerances of
 # where a triangle's attitude puts it: its three angles then pin it much closer.

@@ -19,14 +19,8 @@ import numpy as np
 
 from startrack.database import StarDatabase
 from startrack.database.radial import RadialTable, observed_masks
-from startrack.matchers.base import (
-    Hypothesis,
-    MatchDiagnostics,
-    Matcher,
-    MatcherConfig,
-    Observation,
-    register,
-)
+from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
 def _angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -20,22 +20,17 @@ from pathlib import Path
 import numpy as np
 
 from startrack.attitude import from_radec_roll, to_quaternion
+from startrack.cache import cached_file
 from startrack.database import StarDatabase
-from startrack.matchers.base import (
-    Hypothesis,
-    MatchDiagnostics,
-    MatcherConfig,
-    Observation,
-    register,
-)
-from startrack.peers import (
+from startrack.matchers._peer import (
     PeerMatcher,
-    cached_file,
     import_peer,
     peer_version,
     positions_to_indices,
     write_hip_main,
 )
+from startrack.matchers.base import MatcherConfig, register
+from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
 def tetra3_centroids(obs: Observation) -> np.ndarray:
@@ -102,7 +97,7 @@ class Tetra3Matcher(PeerMatcher):
         result = self._solver.solve_from_centroids(
             centroids, (cam.height, cam.width), fov_estimate=cam.fov_deg, distortion=None,
             return_matches=True, **self.solve_kwargs)
-        diag.extra["solve_ms"] = (time.perf_counter() - t0) * 1000.0
+        diag.method_ms = (time.perf_counter() - t0) * 1000.0
         diag.extra["peer_status"] = int(result.get("status", 0))
         if result.get("RA") is None:
             return

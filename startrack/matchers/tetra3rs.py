@@ -19,21 +19,16 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from startrack.attitude import to_quaternion
+from startrack.cache import cached_file
 from startrack.database import StarDatabase
-from startrack.matchers.base import (
-    Hypothesis,
-    MatchDiagnostics,
-    MatcherConfig,
-    Observation,
-    register,
-)
-from startrack.peers import (
+from startrack.matchers._peer import (
     PeerMatcher,
-    cached_file,
     import_peer,
     peer_version,
     write_gaia_binary,
 )
+from startrack.matchers.base import MatcherConfig, register
+from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
 def tetra3rs_centroids(obs: Observation) -> np.ndarray:
@@ -104,7 +99,7 @@ class Tetra3rsMatcher(PeerMatcher):
         t0 = time.perf_counter()
         result = self._solver.solve_from_centroids(centroids, camera_model=model,
                                                    **self.solve_kwargs)
-        diag.extra["solve_ms"] = (time.perf_counter() - t0) * 1000.0
+        diag.method_ms = (time.perf_counter() - t0) * 1000.0
         diag.extra["peer_status"] = str(result.status)
         if not result:
             return

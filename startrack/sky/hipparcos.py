@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.database.cache import cache_dir, cached_arrays
+from startrack.cache import cache_dir, cached_arrays
 from startrack.errors import InputError
 from startrack.sky.catalog import Catalog, vectors_to_radec
 

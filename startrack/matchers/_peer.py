@@ -1,5 +1,5 @@
-"""Shared adapter code for peer solvers (tetra3, tetra3rs): lazy import, catalog export in
-their formats, and their databases cached on disk like ours.
+"""The peer solvers' base (tetra3, tetra3rs): lazy import, catalog export in their
+formats, and their matched stars turned into hypotheses for our verification.
 
 The peers are optional (the ``peers`` extra); nothing here imports them at module load.
 """
@@ -8,9 +8,7 @@ from __future__ import annotations
 
 import importlib
 import math
-import os
-import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -18,10 +16,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from startrack.database import StarDatabase
-from startrack.database.cache import cache_dir, cache_key
 from startrack.errors import InputError
-from startrack.matchers.base import Hypothesis, Matcher, MatcherConfig
+from startrack.matchers.base import Matcher, MatcherConfig
 from startrack.sky import Catalog
+from startrack.types import Hypothesis
 
 
 def import_peer(module: str, method: str) -> ModuleType:
@@ -44,26 +42,6 @@ def peer_version(distribution: str) -> str:
         return version(distribution)
     except PackageNotFoundError:
         return "unknown"
-
-
-def cached_file(kind: str, params: dict, suffix: str, build: Callable[[Path], None]) -> Path:
-    """The cache path for (kind, params); ``build(tmp_path)`` writes it when missing.
-
-    The build writes to a temporary name that is renamed into place, so an interrupted
-    build never leaves a half-written database behind.
-    """
-    path = cache_dir() / f"{cache_key(kind, params)}{suffix}"
-    if path.exists():
-        return path
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=f".tmp{suffix}")
-    os.close(fd)
-    try:
-        build(Path(tmp))
-        os.replace(tmp, path)
-    finally:
-        Path(tmp).unlink(missing_ok=True)
-    return path
 
 
 def write_hip_main(catalog: Catalog, path: Path) -> None:
@@ -138,7 +116,7 @@ def peer_hypothesis_groups(obs_index: np.ndarray, cat_index: np.ndarray,
     return groups
 
 
-__all__ = ["cached_file", "import_peer", "peer_hypothesis_groups", "peer_version",
+__all__ = ["PeerMatcher", "import_peer", "peer_hypothesis_groups", "peer_version",
            "positions_to_indices", "write_gaia_binary", "write_hip_main"]
 
 

@@ -12,9 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from startrack.attitude import to_quaternion, to_radec_roll
-from startrack.identify import Solution
-from startrack.matchers.base import Observation
 from startrack.sky import Catalog
+from startrack.types import Observation, Solution
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,77 @@
+"""The data that passes between the identification stages: observed stars, hypotheses,
+what a matcher did, and the solution of one frame.
+
+These live apart from the matchers so that verification, identify, output and the bench
+depend on the stage types, not on the plugin package.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from startrack.camera import Camera
+
+
+@dataclass(frozen=True)
+class Observation:
+    """Observed stars of one frame, brightest first.
+
+    ``vectors`` are camera-frame unit vectors (N x 3) of the pixel positions ``x``, ``y``;
+    ``sigma_rad`` is the 1-sigma angular error of one centroid along one axis, from which
+    matchers derive their tolerances.
+    """
+
+    vectors: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    camera: Camera
+    sigma_rad: float
+
+    @classmethod
+    def from_pixels(cls, x: np.ndarray, y: np.ndarray, camera: Camera,
+                    sigma_px: float) -> Observation:
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        return cls(camera.pixel_to_vector(x, y), x, y, camera, float(sigma_px) / camera.f_px)
+
+    def __len__(self) -> int:
+        return len(self.x)
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """Observed star ``obs_index[k]`` is catalog row ``cat_index[k]``."""
+
+    obs_index: np.ndarray
+    cat_index: np.ndarray
+
+
+@dataclass
+class MatchDiagnostics:
+    """What a matcher did for one frame; the bench reports these per method."""
+
+    candidates: int = 0  # catalog patterns returned by database lookups
+    pivots: int = 0  # further lookups made to narrow down an ambiguous match
+    hypotheses: int = 0  # hypotheses handed to verification
+    #: a peer solver's own solve-call time; None for our matchers, timed by identify
+    method_ms: float | None = None
+    extra: dict = field(default_factory=dict)  # method-specific counters
+
+
+@dataclass(frozen=True)
+class Solution:
+    """The answer for one frame: which observed star is which catalog row, and the
+    attitude (camera to ICRS). ``solved`` is False when no hypothesis passed verification."""
+
+    solved: bool
+    method: str
+    rotation: Rotation | None = None
+    obs_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    cat_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    residual_arcsec: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    false_probability: float = 1.0
+    diagnostics: MatchDiagnostics = field(default_factory=MatchDiagnostics)
+    identify_ms: float = 0.0
