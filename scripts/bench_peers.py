@@ -4,13 +4,12 @@ Same frames for every method (scripts/bench_identify.py's make_frames: Hipparcos
 attitudes, brightest first, false stars at random ranks), two conditions. For the peers the
 time is their solve call alone (``MatchDiagnostics.method_ms``); "ident" adds our
 verification of their answer. A solution is wrong when it misidentifies the field: boresight
-more than 1 arcmin
-off, or a real star given another star's id. Two further counts: "false id" (a false star
-given the id of a catalog star within the verification radius: the shared verification's
-doing, the same for every method) and "strict" (bench_identify's criterion: whole attitude
-within 1 arcmin and every id right; at 1 px noise the roll alone is often off by more than
-1 arcmin, so "strict" then counts correct answers too). Then our hybrid/pyramid identify is
-profiled on the same frames.
+more than 1 arcmin off, or a real star given another star's id. Two further counts: "false
+id" (a false star given the id of a catalog star within the verification radius: the shared
+verification's doing, the same for every method) and "strict" (bench_identify's criterion:
+whole attitude within 1 arcmin and every id right; at 1 px noise the roll alone is often off
+by more than 1 arcmin, so "strict" then counts correct answers too). Then our hybrid/pyramid
+identify is profiled on the same frames.
 
     .venv/bin/python scripts/bench_peers.py --frames 100
 """
