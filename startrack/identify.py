@@ -47,7 +47,9 @@ def identify(obs: Observation, matcher: Matcher,
                 break
     elapsed = (time.perf_counter() - t0) * 1000.0
     if result is None:
-        return Solution(False, matcher.name, diagnostics=diag, identify_ms=elapsed)
+        reason = "no_match" if len(obs) >= 3 else "too_few_stars"
+        return Solution(False, matcher.name, diagnostics=diag, identify_ms=elapsed,
+                        reason=reason)
     vectors = matcher.database.vectors[result.cat_index]
     order = np.argsort(result.obs_index)
     obs_index, cat_index = result.obs_index[order], result.cat_index[order]

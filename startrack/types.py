@@ -75,3 +75,6 @@ class Solution:
     false_probability: float = 1.0
     diagnostics: MatchDiagnostics = field(default_factory=MatchDiagnostics)
     identify_ms: float = 0.0
+    #: why an unsolved frame has no answer, in a word (interfaces.md): "too_few_stars",
+    #: "no_match", "timeout"; None when solved
+    reason: str | None = None
