@@ -105,8 +105,6 @@ def load_bench(spec: RunSpec) -> LoadedBench:
 
 def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
     """One frame in one condition through every method: a row dict per method."""
-    from startrack.identify import identify
-
     bench = load_bench(spec)
     condition = spec.conditions[condition_index]
     some = next(iter(bench.identifiers.values()))
@@ -116,7 +114,7 @@ def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
     rows = []
     for name in spec.methods:
         ident = bench.identifiers[name]
-        solution = identify(bf.obs, ident.matcher, ident.verify_config)
+        solution = ident.identify(bf.obs)
         score = score_frame(solution, bf.truth_rows, bf.rotation, bf.n_in_view,
                             centroid_ms=bf.centroid_ms, threshold_arcsec=spec.threshold_arcsec,
                             sigma_arcsec=float(np.degrees(bf.obs.sigma_rad)) * 3600.0)
