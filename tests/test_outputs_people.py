@@ -142,6 +142,6 @@ def test_stretch_shows_a_faint_star_over_a_sloped_background():
     img = 1000 + 2.0 * xx + rng.normal(0, 10, (200, 300))
     img[100, 150] += 80  # eight noise levels
     out = stretch(img.astype(np.uint16))
-    assert 0 <= out.min() and out.max() <= 1
+    assert out.min() >= 0 and out.max() <= 1
     assert out[100, 150] > 0.3 and np.median(out) < 0.1
     assert _nice_magnification(0.5, 40) == 50 and _nice_magnification(0, 40) == 1
