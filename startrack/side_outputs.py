@@ -13,6 +13,9 @@ SUFFIXES = {"annotate": ".png", "wcs": ".wcs"}
 
 
 def _check_target(path: Path, option: str, several: bool) -> None:
+    if path.is_symlink() and not path.is_dir():
+        # docs/conventions.md: an output that is not a regular file is never replaced
+        raise InputError(f"--{option} {path}: is a symlink; give the file it points to")
     if several:
         if path.exists() and not path.is_dir():
             raise InputError(f"--{option} {path}: with several inputs it names a folder, "
@@ -45,6 +48,7 @@ class SideOutputs:
             self.corr = Path(self.corr)
             if self.corr.is_dir():
                 raise InputError(f"--corr {self.corr}: is a folder, expected a CSV file")
+            _check_target(self.corr, "corr", several=False)
 
     @property
     def any(self) -> bool:

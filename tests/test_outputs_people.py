@@ -145,3 +145,44 @@ def test_stretch_shows_a_faint_star_over_a_sloped_background():
     assert out.min() >= 0 and out.max() <= 1
     assert out[100, 150] > 0.3 and np.median(out) < 0.1
     assert _nice_magnification(0.5, 40) == 50 and _nice_magnification(0, 40) == 1
+
+
+def test_unsolved_centroid_list_is_annotated_but_has_no_wcs(tmp_path):
+    rng = np.random.default_rng(5)
+    path = tmp_path / "random.csv"
+    with open(path, "w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(["x", "y", "flux"])
+        for x, y, f in zip(rng.uniform(0, 1023, 12), rng.uniform(0, 767, 12),
+                           rng.uniform(1, 100, 12), strict=True):
+            writer.writerow([x, y, f])
+    result = CliRunner().invoke(main, ["identify", str(path), *REAL, "--size", "1024x768",
+                                       "--annotate", str(tmp_path / "r.png"), "--wcs",
+                                       str(tmp_path / "r.wcs"), "--corr",
+                                       str(tmp_path / "r.corr.csv")])
+    assert result.exit_code == 1, result.output
+    assert (tmp_path / "r.png").is_file() and not (tmp_path / "r.wcs").exists()
+    lines = (tmp_path / "r.corr.csv").read_text().splitlines()
+    assert lines == [",".join(CORR_COLUMNS)]  # header only: nothing matched
+
+
+def test_progress_bar_only_on_a_terminal_and_not_with_quiet(monkeypatch):
+    import contextlib
+    import io
+    import sys
+
+    from startrack.cli import identify as cli_identify
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    inputs = ("a", "b", "c")
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    with contextlib.ExitStack() as stack:
+        assert cli_identify._progress(inputs, False, stack) is inputs
+    monkeypatch.setattr(sys, "stderr", Terminal())
+    with contextlib.ExitStack() as stack:
+        assert cli_identify._progress(inputs, True, stack) is inputs
+        assert list(cli_identify._progress(inputs, False, stack)) == list(inputs)
+    assert "identify" in sys.stderr.getvalue()

@@ -24,6 +24,8 @@ def report(tmp_path_factory):
                                        "angle,pyramid", "--out", str(out), "--jobs", "1",
                                        "--noise-px", "0,1", "--false-stars", "0,5"])
     assert result.exit_code == 0, result.output
+    header = result.stdout.splitlines()[0]
+    assert "err_med_as" in header and '"' not in header  # no quote characters in names
     return out, (out / "report.md").read_text()
 
 

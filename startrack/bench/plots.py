@@ -84,7 +84,7 @@ def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str]):
                          capsize=3, **style)
     titles = ("correct rate (95% Wilson interval)", "wrong rate (95% Wilson interval)",
               "identify time, ms (median, bar to p95)",
-              "error of correct solutions, arcsec (median-p95)")
+              "rotation error of correct solutions, arcsec (median-p95)")
     for ax, title in zip(axes, titles, strict=True):
         ax.set_xlabel(LABELS[var])
         ax.set_title(title, fontsize=9)
@@ -93,6 +93,9 @@ def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str]):
     _, wrong_high = wilson(part["wrong"], part["frames"])
     axes[1].set_ylim(-0.005, min(1.02, max(0.05, 1.1 * float(np.nanmax(wrong_high)))))
     axes[2].set_yscale("log")
+    from matplotlib.ticker import FormatStrFormatter
+
+    axes[2].yaxis.set_major_formatter(FormatStrFormatter("%g"))
     axes[3].set_ylim(bottom=0.0)
     axes[0].legend(fontsize=8)
     frames = int(part["frames"].iloc[0]) if len(part) else 0
