@@ -58,7 +58,7 @@ def test_annotated_png_shows_the_stars_and_the_caption(real):
     assert image.shape[1] == 1024 and image.shape[0] > 768  # frame plus caption band
     frame = image[:768]
     green = (frame[..., 1] > 200) & (frame[..., 2] < 120) & (frame[..., 0] < 120)
-    assert green.sum() > 50 * len(record["stars"])  # a circle per identified star
+    assert green.sum() > 25 * len(record["stars"])  # a circle per identified star
     assert frame.mean() > 2  # the stretch shows something, not a black frame
     assert image[768:].max() > 200  # caption text
 
