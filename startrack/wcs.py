@@ -34,15 +34,41 @@ class SipTerms:
     bp: np.ndarray | None = None
 
 
-def sip_from_camera(camera: Camera) -> SipTerms | None:
-    """The SIP terms of the camera's lens distortion model; None for a pinhole camera.
+def _radial_k(camera: Camera) -> list[float] | None:
+    """k1, k2, k3 of the camera's radial distortion (docs/conventions.md), None if none."""
+    d = getattr(camera, "distortion", None)
+    if d is None:
+        return None
+    get = d.get if isinstance(d, dict) else (lambda key, default=0.0: getattr(d, key, default))
+    k = [float(get(f"k{i}", 0.0) or 0.0) for i in (1, 2, 3)]
+    return k if any(k) else None
 
-    The camera model has no distortion yet, so this is None for every camera today; a
-    distortion model provides ``camera.sip_terms()`` and :func:`wcs_header` writes them
-    (CTYPE ``RA---TAN-SIP``).
+
+def sip_from_camera(camera: Camera) -> SipTerms | None:
+    """SIP terms of the camera's radial lens distortion; None for a pinhole camera.
+
+    The Brown-Conrady model maps the ideal pinhole offset (U, V) to the observed one,
+    ``U (1 + k1 r2 + k2 r2^2 + k3 r2^3)`` with ``r2 = (U^2 + V^2) / f^2``: exactly the
+    SIP inverse polynomials AP, BP (order 3, 5 or 7). Their inverse, A and B (observed
+    to ideal), is a series, fitted on a grid over the image to order 7 (9 with k2 or
+    k3), which leaves well under a tenth of a pixel even for strong distortion.
     """
-    fn = getattr(camera, "sip_terms", None)
-    return fn() if callable(fn) else None
+    k = _radial_k(camera)
+    if k is None:
+        return None
+    order = 9 if (k[1] or k[2]) else 7
+    f2 = camera.f_px ** 2
+    gu, gv = np.meshgrid(np.linspace(-camera.cx, camera.width - 1 - camera.cx, 32),
+                         np.linspace(-camera.cy, camera.height - 1 - camera.cy, 32))
+    gu, gv = gu.ravel(), gv.ravel()
+    r2 = (gu ** 2 + gv ** 2) / f2
+    radial = k[0] * r2 + k[1] * r2 ** 2 + k[2] * r2 ** 3
+    terms = _terms(order, 2)  # SIP polynomials start at the quadratic terms
+    ap = _polyfit(gu, gv, np.column_stack([gu * radial, gv * radial]), terms, camera.f_px)
+    uo, vo = gu * (1 + radial), gv * (1 + radial)
+    a = _polyfit(uo, vo, np.column_stack([gu - uo, gv - vo]), terms, camera.f_px)
+    return SipTerms(order, _as_matrix(a[:, 0], terms, order), _as_matrix(a[:, 1], terms, order),
+                    _as_matrix(ap[:, 0], terms, order), _as_matrix(ap[:, 1], terms, order))
 
 
 def _terms(order: int, lowest: int) -> list[tuple[int, int]]:
@@ -108,9 +134,10 @@ def fit_sip(camera: Camera, rotation: Rotation, x: np.ndarray, y: np.ndarray,
     gu, gv = gu.ravel(), gv.ravel()
     up = gu + _design(gu, gv, terms[2:]) @ high[:, 0]
     vp = gv + _design(gu, gv, terms[2:]) @ high[:, 1]
-    inv = _polyfit(up, vp, np.column_stack([gu - up, gv - vp]), terms, camera.f_px)
-    return cd, SipTerms(order, a, bm, _as_matrix(inv[:, 0], terms, order),
-                        _as_matrix(inv[:, 1], terms, order))
+    inv_terms = terms[2:]  # SIP polynomials start at the quadratic terms
+    inv = _polyfit(up, vp, np.column_stack([gu - up, gv - vp]), inv_terms, camera.f_px)
+    return cd, SipTerms(order, a, bm, _as_matrix(inv[:, 0], inv_terms, order),
+                        _as_matrix(inv[:, 1], inv_terms, order))
 
 
 def _tangent_basis(ra: float, dec: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -186,3 +186,31 @@ def test_progress_bar_only_on_a_terminal_and_not_with_quiet(monkeypatch):
         assert cli_identify._progress(inputs, True, stack) is inputs
         assert list(cli_identify._progress(inputs, False, stack)) == list(inputs)
     assert "identify" in sys.stderr.getvalue()
+
+
+def test_a_radial_distortion_model_becomes_exact_sip_terms():
+    from types import SimpleNamespace
+
+    from startrack.attitude import from_radec_roll
+    from startrack.sky.catalog import vectors_to_radec
+
+    pinhole = Camera.from_fov(1024, 768, 20.0)
+    k1 = -0.3  # strong barrel distortion: ~15 px at the corners
+    cam = SimpleNamespace(width=1024, height=768, f_px=pinhole.f_px, cx=pinhole.cx,
+                          cy=pinhole.cy, fov_deg=pinhole.fov_deg,
+                          distortion={"model": "radial", "k1": k1})
+    rot = from_radec_roll(120.0, 35.0, 75.0)
+    header = wcs_header(cam, rot)
+    assert header["CTYPE1"] == "RA---TAN-SIP" and header["AP_ORDER"] == 7
+    w = WCS(header)
+    rng = np.random.default_rng(1)
+    xi, yi = rng.uniform(0, 1023, 200), rng.uniform(0, 767, 200)  # ideal pinhole pixels
+    u, v = (xi - cam.cx) / cam.f_px, (yi - cam.cy) / cam.f_px
+    scale = 1 + k1 * (u ** 2 + v ** 2)
+    xo, yo = cam.cx + cam.f_px * u * scale, cam.cy + cam.f_px * v * scale  # observed
+    ra, dec = vectors_to_radec(rot.apply(pinhole.pixel_to_vector(xi, yi)))
+    got_ra, got_dec = w.all_pix2world(xo, yo, 0)
+    sep = SkyCoord(got_ra, got_dec, unit="deg").separation(SkyCoord(ra, dec, unit="deg"))
+    assert sep.arcsec.max() < 1.0  # the fitted A/B invert the model to well under 1"
+    back_x, back_y = w.all_world2pix(ra, dec, 0)
+    assert np.hypot(back_x - xo, back_y - yo).max() < 0.05
