@@ -105,9 +105,9 @@ def test_fixed_attitude_and_fits_with_wcs(tmp_path):
 
 def test_presets_load_and_default_is_paper2011():
     configs = {p.stem: load_config(p) for p in CONFIGS.glob("*.toml")}
-    assert {"paper2011", "radial2008", "realsky"} <= set(configs)
+    assert {"paper2011", "radial_triangles", "realsky"} <= set(configs)
     assert config_from_dict(DEFAULT_CONFIG) == configs["paper2011"]
-    radial = configs["radial2008"].camera
+    radial = configs["radial_triangles"].camera
     assert (radial.width, radial.fov_deg) == (4096, pytest.approx(4.0, abs=1e-5))
     real = configs["realsky"]
     assert (real.camera.width, real.camera.height) == (1024, 768)

@@ -42,7 +42,7 @@ def _triple(names: str):
 @main.command()
 @click.option("--config", "config_path", type=click.Path(dir_okay=False),
               help="TOML preset: a file, or a shipped preset by name (hipparcos20, "
-                   "paper2011, radial2008, realsky); default: the 2011 paper's experiment.")
+                   "paper2011, radial_triangles, realsky); default: the 2011 paper's experiment.")
 @click.option("--sky", type=click.Choice(SKY_KINDS), help="Sky kind (overrides the config).")
 @click.option("--mag-limit", type=float, help="Faintest catalog magnitude to use.")
 @click.option("--frames", "count", type=click.IntRange(min=1), help="Number of frames.")

@@ -10,10 +10,10 @@ Two measurements on the same deterministic frames (startrack.bench.frames):
    stars, the paper's typical triangle error?), and how many wrong hypotheses come before
    the first right one among the first ``--limit``. This is what the paper compares.
 
-    .venv/bin/python scripts/radial2008.py                # ~4 min on 2 cores
-    .venv/bin/python scripts/radial2008.py --frames 100 --raw-frames 50   # quick look
+    .venv/bin/python scripts/seed002_radial.py                # ~4 min on 2 cores
+    .venv/bin/python scripts/seed002_radial.py --frames 100 --raw-frames 50   # quick look
 
-Writes out/radial2008/ (bench/, raw.csv, table.csv) and docs/figures/radial2008_*.png,
+Writes out/seed002_radial/ (bench/, raw.csv, table.csv) and docs/figures/seed002_radial_*.png,
 and prints the tables.
 """
 
@@ -33,7 +33,7 @@ from startrack.bench.session import format_table, run_comparison
 from startrack.config import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
-CONFIG = ROOT / "configs" / "radial2008.toml"
+CONFIG = ROOT / "configs" / "radial_triangles.toml"
 METHODS = ("triangle", "radial")
 LEVELS = {"noise_px": (0.3, 0.1, 1.0, 2.0), "false_stars": (0, 1, 2, 4),
           "missing": (0.0, 0.1), "mag_noise": (0.0,)}
@@ -124,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--resume", action="store_true",
                     help="finish an interrupted bench run in --out instead of starting over")
-    ap.add_argument("--out", type=Path, default=ROOT / "out" / "radial2008")
+    ap.add_argument("--out", type=Path, default=ROOT / "out" / "seed002_radial")
     ap.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
     args = ap.parse_args(argv)
 
@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     print_table(table)
 
     args.figures.mkdir(parents=True, exist_ok=True)
-    plot(table, spec, args.figures / "radial2008_misid.png")
+    plot(table, spec, args.figures / "seed002_radial_misid.png")
     print(f"\nwrote {args.out}/table.csv, raw.csv, bench/; figures in {args.figures}/")
     return 0
 
