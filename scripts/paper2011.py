@@ -2,32 +2,39 @@
 triangle and hybrid on a random 2000-star sky, patterns from the five brightest stars,
 compared on time, accuracy and noise, and on false stars.
 
-Three passes over the same deterministic frames (startrack.bench.frames):
+Four measurements on the same deterministic frames (startrack.bench.frames):
 
 1. the bench (``run_comparison``, ``--jobs`` processes): verified solutions, scored;
 2. a sequential pass over the first ``--timing-frames`` frames of each condition: the
    fastest of ``--repeats`` identify() runs in this one process (timings on a shared
    machine are otherwise dominated by preemption), with each method's diagnostics;
 3. in the same pass, each matcher's *unverified* first hypothesis scored against the
-   truth (startrack.bench.raw): the accuracy a matcher has on its own, as in the paper.
+   truth (startrack.bench.raw): the accuracy a matcher has on its own, as in the paper;
+   the time spent inside the matcher; the verified answer on the five brightest spots;
+4. the same bench at other field widths (``--fov``), and the paper's "0.025 x 0.025" read
+   as 0.025 rad over a 2000-star patch (the patch size that reading implies).
 
-    .venv/bin/python scripts/paper2011.py                 # ~3 min on 2 cores
-    .venv/bin/python scripts/paper2011.py --frames 200 --timing-frames 50   # quick look
+    .venv/bin/python scripts/paper2011.py                 # the full run
+    .venv/bin/python scripts/paper2011.py --frames 200 --timing-frames 60 --fov-frames 100
 
-Writes out/paper2011/ (bench/ with frames.csv, summary.csv and plots; seq.csv;
-table.csv) and docs/figures/paper2011_sweeps.png, and prints the table.
+Writes out/paper2011/ (bench/ with frames.csv, summary.csv and plots; seq.csv; table.csv;
+fov.csv and fov_*/; run.json), docs/figures/paper2011_sweeps.png and docs/results.md
+(scripts/_results_doc.py), and prints the tables.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
+from _results_doc import fmt_table, plot_sweeps, render, run_record, save_run
 
-from startrack.bench.conditions import build_conditions, sweep
+from startrack.bench.conditions import build_conditions
 from startrack.bench.raw import raw_unit, summarise_raw
 from startrack.bench.runner import RunSpec
 from startrack.bench.session import format_table, run_comparison
@@ -61,9 +68,11 @@ def sequential_pass(spec: RunSpec, frames: int, repeats: int) -> pd.DataFrame:
 def combine(summary: pd.DataFrame, seq: pd.DataFrame) -> pd.DataFrame:
     """One row per (condition, method): bench rates, sequential timing and diagnostics,
     raw first-hypothesis accuracy; time ratios against the triangle method."""
-    raw = summarise_raw(seq, KEYS)
+    raw = summarise_raw(seq, KEYS).rename(columns={"frames": "raw_frames"})
     agg = seq.groupby(KEYS, sort=False).agg(
         seq_ms_median=("seq_ms", "median"), seq_ms_mean=("seq_ms", "mean"),
+        matcher_ms_median=("matcher_ms", "median"), verify_ms_median=("verify_ms", "median"),
+        top5_rate=("top5_correct", "mean"), top5_ids_rate=("top5_ids_right", "mean"),
         cand_median=("candidates", "median"), pivots_mean=("pivots", "mean"),
         hyps_mean=("hypotheses", "mean"),
         top3_rate=("real_in_top", lambda s: float((s >= 3).mean())),
@@ -75,103 +84,119 @@ def combine(summary: pd.DataFrame, seq: pd.DataFrame) -> pd.DataFrame:
     bench = summary[["condition", "method", "frames", "solved_rate", "correct_rate", "wrong",
                      "star_precision", "boresight_median_arcsec", "time_median_ms"]]
     table = bench.merge(agg, on=["condition", "method"]).merge(
-        raw[KEYS + ["first_right_rate", "first_wrong_rate", "none_rate", "wrong_ids",
-                    "wrong_before_mean"]], on=KEYS)
+        raw[KEYS + ["raw_frames", "first_right_rate", "first_wrong_rate", "none_rate",
+                    "wrong_ids", "wrong_before_mean", "first_wrong_frames",
+                    "pairs_off_frames"]], on=KEYS)
     tri = table[table["method"] == "triangle"].set_index("condition")["seq_ms_median"]
     table["seq_vs_triangle"] = table["seq_ms_median"] / table["condition"].map(tri)
     return table
 
 
-def print_table(table: pd.DataFrame) -> None:
-    show = pd.DataFrame({
-        "noise": table["noise_px"].map("{:g}".format), "false": table["false_stars"],
-        "method": table["method"], "n": table["frames"],
-        "correct": table["correct_rate"].map("{:.1%}".format), "wrong": table["wrong"],
-        "raw1_right": table["first_right_rate"].map("{:.1%}".format),
-        "raw1_wrong": table["first_wrong_rate"].map("{:.1%}".format),
-        "bore\"": table["boresight_median_arcsec"].map("{:.1f}".format),
-        "t_bench": table["time_median_ms"].map("{:.2f}".format),
-        "t_seq": table["seq_ms_median"].map("{:.2f}".format),
-        "t/tri": table["seq_vs_triangle"].map("{:.2f}".format),
-        "cand": table["cand_median"].map("{:.0f}".format),
-        "pivots": table["pivots_mean"].map("{:.2f}".format),
-        "hyps": table["hyps_mean"].map("{:.2f}".format),
-        ">=3real": table["top3_rate"].map("{:.1%}".format),
-    })
-    print(show.to_string(index=False))
+COLUMNS = [("noise", "noise_px", "{:g}"), ("false", "false_stars", None),
+           ("method", "method", None), ("n", "frames", None),
+           ("correct", "correct_rate", "{:.1%}"), ("wrong", "wrong", None),
+           ("top5", "top5_rate", "{:.1%}"), ("ids5", "top5_ids_rate", "{:.1%}"), ("raw_n", "raw_frames", None),
+           ("raw1_right", "first_right_rate", "{:.1%}"),
+           ("raw1_wrong", "first_wrong_rate", "{:.1%}"),
+           ("bore\"", "boresight_median_arcsec", "{:.1f}"),
+           ("t_bench", "time_median_ms", "{:.2f}"), ("t_seq", "seq_ms_median", "{:.2f}"),
+           ("t_match", "matcher_ms_median", "{:.2f}"), ("t/tri", "seq_vs_triangle", "{:.2f}"),
+           ("cand", "cand_median", "{:.0f}"), ("pivots", "pivots_mean", "{:.2f}"),
+           ("hyps", "hyps_mean", "{:.2f}"), (">=3real", "top3_rate", "{:.1%}")]
 
 
-def plot(table: pd.DataFrame, spec: RunSpec, path: Path, seq_frames: int) -> None:
-    import matplotlib
+def fov_sensitivity(fovs, frames: int, jobs: int, out: Path) -> pd.DataFrame:
+    """The bench at other field widths (same sky, same 1024 px, five brightest stars):
+    exact centroids, 1 px noise and 3 false stars, with the stars in view per frame."""
+    from startrack.camera import Camera
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    conds = list(spec.conditions)
-    fig, axes = plt.subplots(2, 2, figsize=(9, 6.2))
-    for col, var, label in ((0, "noise_px", "centroid noise (px, 1 sigma)"),
-                            (1, "false_stars", "false stars per frame")):
-        part = table[table["condition"].isin(sweep(conds, var))]
-        for m in spec.methods:
-            r = part[part["method"] == m].sort_values(var)
-            axes[0, col].plot(r[var], r["correct_rate"], "o-", label=f"{m} verified")
-            axes[0, col].plot(r[var], r["first_right_rate"], "x--",
-                              color=axes[0, col].lines[-1].get_color(),
-                              label=f"{m} raw 1st hyp.")
-            axes[1, col].plot(r[var], r["seq_ms_median"], "o-", label=m)
-        axes[0, col].set_ylim(-0.02, 1.02)
-        axes[0, col].set_ylabel("correct rate")
-        axes[1, col].set_ylabel("median identify time (ms)")
-        axes[1, col].set_ylim(bottom=0)
-        for ax in axes[:, col]:
-            ax.set_xlabel(label)
-            ax.grid(True, alpha=0.3)
-    axes[0, 0].legend(fontsize=7)
-    axes[1, 0].legend(fontsize=8)
-    fig.suptitle(f"Seed 000 setup: random 2000-star sky, 17.5 deg, 5 brightest stars. "
-                 f"Verified: {spec.frames} frames per point; raw 1st hypothesis and times "
-                 f"(best of repeats, 1 process): first {seq_frames}", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+    rows = []
+    for fov in fovs:
+        spec = make_spec(frames, noise=(0.0, 1.0), false=(0, 3))
+        spec = dataclasses.replace(spec, camera=Camera.from_fov(1024, 1024, fov))
+        res = run_comparison(spec, out / f"fov_{fov:g}", jobs=jobs, resume=False)
+        view = pd.read_csv(res.frames_csv).groupby("condition")["n_true_in_view"]
+        s = res.summary.assign(fov_deg=fov, view_mean=res.summary["condition"].map(
+            view.mean()), view_min=res.summary["condition"].map(view.min()),
+            view_max=res.summary["condition"].map(view.max()))
+        rows.append(s)
+    return pd.concat(rows, ignore_index=True)
 
 
-def main(argv: list[str] | None = None) -> int:
+def patch_reading(n_stars: int, fov_rad: float, view_mean: float) -> dict:
+    """The "0.025 x 0.025" read as radians: stars in view on the whole sphere, and the
+    patch that 2000 stars must fill for the field to hold ``view_mean`` stars."""
+    whole_sky = n_stars * fov_rad**2 / (4 * np.pi)
+    patch_sr = n_stars * fov_rad**2 / view_mean
+    return {"fov_rad": fov_rad, "fov_deg": float(np.degrees(fov_rad)),
+            "whole_sky_in_view": whole_sky, "view_mean": view_mean,
+            "patch_side_deg": float(np.degrees(np.sqrt(patch_sr))),
+            "patch_fraction_of_sky": patch_sr / (4 * np.pi)}
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=1000, help="bench frames per condition")
     ap.add_argument("--timing-frames", type=int, default=300,
                     help="frames per condition of the sequential timing/raw pass")
     ap.add_argument("--repeats", type=int, default=3, help="identify runs per timing")
+    ap.add_argument("--methods", default=",".join(METHODS),
+                    help="comma-separated matcher names (variants included)")
+    ap.add_argument("--fov", default="10,17.5,25",
+                    help="field widths (deg) of the FOV sensitivity run ('' to skip)")
+    ap.add_argument("--fov-frames", type=int, default=200,
+                    help="bench frames per condition of the FOV sensitivity run")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--resume", action="store_true",
                     help="finish an interrupted bench run in --out instead of starting over")
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "paper2011")
     ap.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
-    args = ap.parse_args(argv)
+    return ap.parse_args(argv)
 
-    spec = make_spec(args.frames)
-    t0 = time.perf_counter()
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    record = run_record(argv, "scripts/paper2011.py")
+    t_start = time.perf_counter()
+    spec = make_spec(args.frames, methods=tuple(args.methods.split(",")))
     result = run_comparison(spec, args.out / "bench", jobs=args.jobs,
                             resume=args.resume or False)
-    t_bench = time.perf_counter() - t0
     print(format_table(result.summary))
-    print(f"\nbench: {t_bench:.0f} s wall ({args.jobs} jobs); "
-          f"load: {', '.join(f'{k} {v:.2f} s' for k, v in result.load_seconds.items())}")
-
     t0 = time.perf_counter()
     seq = sequential_pass(spec, args.timing_frames, args.repeats)
     seq.to_csv(args.out / "seq.csv", index=False, float_format="%.6g")
-    t_seq = time.perf_counter() - t0
     table = combine(result.summary, seq)
     table.to_csv(args.out / "table.csv", index=False, float_format="%.6g")
     print(f"\nsequential pass: {min(args.timing_frames, args.frames)} frames per condition, "
-          f"best of {args.repeats} runs, {t_seq:.0f} s\n")
-    print_table(table)
-
-    args.figures.mkdir(parents=True, exist_ok=True)
-    plot(table, spec, args.figures / "paper2011_sweeps.png",
-         min(args.timing_frames, args.frames))
-    print(f"\nwrote {args.out}/table.csv, seq.csv, bench/; figures in {args.figures}/")
+          f"best of {args.repeats} runs, {time.perf_counter() - t0:.0f} s\n")
+    print(fmt_table(table, COLUMNS))
+    view = pd.read_csv(result.frames_csv).query("condition == 0")["n_true_in_view"]
+    fovs = [float(x) for x in args.fov.split(",") if x.strip()]
+    if fovs:
+        fov = fov_sensitivity(fovs, args.fov_frames, args.jobs, args.out)
+        fov.to_csv(args.out / "fov.csv", index=False, float_format="%.6g")
+        print(fmt_table(fov, [("fov", "fov_deg", "{:g}"), ("noise", "noise_px", "{:g}"),
+                              ("false", "false_stars", None), ("method", "method", None),
+                              ("n", "frames", None), ("in_view", "view_mean", "{:.1f}"),
+                              ("correct", "correct_rate", "{:.1%}"), ("wrong", "wrong", None),
+                              ("t_bench", "time_median_ms", "{:.2f}")]))
+    reading = patch_reading(spec.sky.n_stars, 0.025, float(view.mean()))
+    print(f"\n0.025 rad read as the field: {reading}")
+    plot_sweeps(table, spec.conditions, spec.methods,
+                [("correct rate", [("correct_rate", "o-", "verified"),
+                                   ("first_right_rate", "x--", "raw 1st hyp."),
+                                   ("top5_rate", "s:", "verified, 5 stars")]),
+                 ("median ms (1 process)", [("seq_ms_median", "o-", "identify"),
+                                            ("matcher_ms_median", "x--", "matcher")])],
+                args.figures / "paper2011_sweeps.png",
+                f"Seed 000 setup: random 2000-star sky, 17.5 deg, 5 brightest stars. "
+                f"Verified: {spec.frames} frames per point; raw, 5-star and times: first "
+                f"{min(args.timing_frames, args.frames)}")
+    save_run(args.out, record, wall_s=time.perf_counter() - t_start, frames=args.frames,
+             timing_frames=min(args.timing_frames, args.frames), repeats=args.repeats,
+             fov_frames=args.fov_frames, jobs=args.jobs, view_mean=float(view.mean()),
+             view_min=int(view.min()), view_max=int(view.max()), reading=reading)
+    print(f"\nwrote {args.out}/ and {render()}")
     return 0
 
 

@@ -58,7 +58,7 @@ def _rate_panel(ax, rows: pd.DataFrame, x: np.ndarray, column: str, count: str, 
     n = rows["frames"].to_numpy(dtype=float)
     low, high = wilson(k, n)
     y = rows[column].to_numpy(dtype=float)
-    ax.errorbar(x, y, yerr=[y - low, high - y], capsize=3, **style)
+    ax.errorbar(x, y, yerr=np.clip([y - low, high - y], 0, None), capsize=3, **style)
 
 
 def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str]):

@@ -1,0 +1,110 @@
+"""The fixed prose of docs/results.md: what the seed papers say (their numbers, not ours)."""
+
+HEADER = """\
+# Results: the two seed papers' comparisons, re-run on the startrack bench
+
+This page is written by `scripts/_results_doc.py` from the tables that
+`scripts/paper2011.py` and `scripts/seed002_radial.py` save under `out/`; each section
+says the commit, command, date and machine it was made with. Nothing here is typed by
+hand except prose that states no number. To regenerate it:
+
+```
+.venv/bin/python scripts/paper2011.py --frames 200 --timing-frames 60 --fov-frames 100
+.venv/bin/python scripts/seed002_radial.py --frames 200 --raw-frames 100
+.venv/bin/python scripts/_results_doc.py      # re-render from the saved tables alone
+```
+
+(The section headers give the exact commands and frame counts of the runs shown.)
+
+The frames are the bench's deterministic frames (`startrack.bench.frames`): frame *i* is
+the same sky patch in every condition and every method sees the same frames. Each
+script makes these measurements on them:
+
+* **verified** (`run_comparison`): the answer `identify()` returns after the shared
+  verification. *correct* = every reported identity right and the boresight within
+  max(60", 5 sigma); *wrong* = accepted but not correct.
+* **verified, five stars** (`top5`): the same, when `identify()` sees only the five
+  brightest spots: the papers' budget, with no other star to confirm with.
+* **raw** (`startrack/bench/raw.py`): the first hypothesis each matcher yields,
+  unverified, scored against the truth, and how many wrong hypotheses come before the
+  first right one. The papers had no separate verification stage, so their "accuracy"
+  is this one.
+* **time**: the bench's median `identify_ms` (worker processes on a shared machine),
+  and a pass in one process that keeps the fastest of a few runs per frame (`t_seq`),
+  split into the time inside the matcher's hypothesis generator (`t_match`) and the
+  rest (verification and attitude). Methods are compared by ratios within one pass.
+"""
+
+CLAIMS = """\
+## What the papers claim
+
+### Seed 000: Sedaghat, Toloei, Ghanbarpoor (2011)
+
+"Automatic star identification using triangle base and increase search speed" (Persian,
+English abstract).
+
+
+The stored copy (`/work/shared/seeds/000_*.txt`) ends at Figure 9 (the flowchart of the
+triangle method). **It contains no results section: no table or figure of time,
+accuracy, noise levels or false-star results, and no number to quote.** What it does say:
+
+* Setup (introduction, translated): "We take a sky with a random distribution of 2000
+  stars, assume the camera's field of view (0.025 x 0.025), select the five larger
+  [brighter] stars and evaluate them. These stars are identified by the angle method,
+  the triangle method and the new hybrid method, and compared with one another in time
+  required, accuracy and the effect of noise." The unit of 0.025 is not given. If it is
+  radians (1.43 deg) over the whole sky, a 2000-star random sky would put almost no star
+  in the field; section 1 reads it two ways (a wider field, and 0.025 rad over a
+  2000-star patch) and says what each implies.
+* Abstract (English, verbatim in substance): the planar triangle (area + polar moment)
+  "very quickly narrow[s]" the candidates, needs "fewer pivots" and "is more likely to
+  yield the correct solution than the angle method"; the new method "first, by angle
+  method candidate[s] some stars", then the triangle method completes the identification
+  "in fewer time"; "this new method is faster than triangle and more accurate than angle
+  method and we do not [need] pivoting"; "simulation results show ... its robustness
+  with respect to including false stars". The Persian abstract adds: "[the hybrid] is
+  more robust against false stars in the field of view than either of the methods".
+* Triangle section (translated): the triangle method "does not work with fewer than 3
+  stars in the field of view, while the angle method needs 2"; testing each candidate
+  without pivoting is slow because "there are hundreds of answers for every triangle in
+  the field of view".
+
+### Seed 002: radial features + triangles (2017 or after)
+
+"An improved triangle star identification algorithm with radial features" (Chinese, Rocket
+Force University of Engineering, Xi'an; it builds on the radial features of Zhang, Wei and
+Jiang 2008).
+
+
+* Camera (section 2, translated): "a star sensor with a 4 deg x 4 deg field of view,
+  CCD resolution 4096 x 4096, pixel size 9 um", several star images "shot on the ground".
+  The catalog is "the navigation stars of the field-of-view region": the identification
+  is within a known sky patch (RA 107-111 deg, Dec 33-36 deg in the tables), not lost in
+  space. No magnitude limit, noise level, false stars or timing are given.
+* Initial match threshold: l >= 3/4 Nq (equation 4).
+* Table 2 (partial initial identification, 10 observed stars): 7 stars get one
+  catalog candidate, 3 get two (e.g. star 3 at (983.55, 1646.07) px: (109.7039, 34.8039)
+  or (110.1570, 35.1245) deg).
+* Table 3: the improved method identifies 13 observed stars, one catalog star each.
+* Table 4 (plain triangle method, "partial misidentified data"): two cases where two
+  observed stars are given the same catalog star: (1389.63, 3262.98) and (2178.05,
+  3464.10) px both as (108.4258, 33.2400) deg; (1575.91, 1644.82) and (3284.58, 2239.62)
+  px both as (109.7102, 34.1462) deg.
+* Figure 6 ("number of misidentified stars", plain triangle vs improved, over several
+  images) is an image; its values are not in the text. The claim (translated): "compared
+  with the triangle algorithm, the improved triangle algorithm based on radial features
+  reduces the misidentification of star points and improves the correctness", and
+  (section 1.2) it needs m1 m2 m3 candidate triangles instead of C(m, 3), which "reduces
+  the amount of computation". No time is measured.
+"""
+
+LIMITS = """\
+## Limits of these comparisons
+
+* Seed 000's numbers could not be compared because its results are not in the stored
+  text; we test its stated claims only, at field widths of our choosing (section 1).
+* Seed 002 worked on real ground images of one sky patch with the navigation stars of
+  that patch; we use simulated centroids (Gaussian noise, uniform false stars) over the
+  whole sky, which makes the search harder than the paper's for every method.
+* Timings come from a shared machine; read them as ratios within one pass.
+"""

@@ -1,0 +1,153 @@
+"""docs/results.md from the seed scripts' saved tables, and the helpers those scripts share.
+
+scripts/paper2011.py and scripts/seed002_radial.py save their tables under out/ with a
+run record (commit, command, date, machine); :func:`render` turns whatever is saved into
+docs/results.md, every number taken from the tables. Each script calls it when it ends;
+``python scripts/_results_doc.py`` re-renders from the saved tables alone.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import shlex
+import subprocess
+import sys
+from datetime import UTC, datetime
+from pathlib import Path
+
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "out"
+DOC = ROOT / "docs" / "results.md"
+RUN_FILE = "run.json"
+
+
+def _git(*args: str) -> str:
+    try:
+        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True,
+                              check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return ""
+
+
+def run_record(argv: list[str] | None, script: str) -> dict:
+    """Where and how a run was made: commit (+dirty), command, date, machine, Python."""
+    commit = _git("rev-parse", "--short=10", "HEAD") or "unknown"
+    if _git("status", "--porcelain", "--untracked-files=no"):
+        commit += "+dirty"
+    args = sys.argv[1:] if argv is None else argv
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next((ln.split(":", 1)[1].strip() for ln in f
+                        if ln.startswith("model name")), cpu)
+    except OSError:
+        pass
+    return {"commit": commit, "command": shlex.join([".venv/bin/python", script, *args]),
+            "started": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
+            "cores": os.cpu_count(), "cpu": cpu,
+            "load_start": [round(x, 2) for x in os.getloadavg()],
+            "python": platform.python_version()}
+
+
+def save_run(out: Path, record: dict, **extra) -> None:
+    """Write the run record (finished now, with the load average at the end)."""
+    record = {**record, **extra, "load_end": [round(x, 2) for x in os.getloadavg()],
+              "finished": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / RUN_FILE).write_text(json.dumps(record, indent=1) + "\n")
+
+
+def load_run(out: Path) -> dict | None:
+    path = out / RUN_FILE
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def fmt_table(table: pd.DataFrame, columns: list[tuple[str, str, str | None]]) -> str:
+    """A fixed-width text table of (header, column, format) triples; a missing column
+    prints as '-', format None prints the value as it is."""
+    show = {}
+    for head, col, form in columns:
+        if col not in table:
+            show[head] = ["-"] * len(table)
+        elif form is None:
+            show[head] = table[col].astype(str)
+        else:
+            show[head] = table[col].map(lambda v, f=form: "-" if pd.isna(v) else f.format(v))
+    return pd.DataFrame(show).to_string(index=False)
+
+
+def plot_sweeps(table: pd.DataFrame, conditions, methods, panels, path: Path,
+                title: str) -> None:
+    """One column per swept variable, one row per quantity: ``panels`` is a list of rows,
+    each a list of (column, style, label suffix) lines, with the row's y label first."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from startrack.bench.conditions import sweep
+
+    variables = (("noise_px", "centroid noise (px, 1 sigma)"),
+                 ("false_stars", "false stars per frame"))
+    fig, axes = plt.subplots(len(panels), 2, figsize=(9, 3.1 * len(panels)), squeeze=False)
+    for col, (var, label) in enumerate(variables):
+        part = table[table["condition"].isin(sweep(list(conditions), var))]
+        for row, (ylabel, lines) in enumerate(panels):
+            ax = axes[row, col]
+            for m in methods:
+                r = part[part["method"] == m].sort_values(var)
+                color = None
+                for column, style, suffix in lines:
+                    if column not in r:
+                        continue
+                    ax.plot(r[var], r[column], style, color=color, label=f"{m} {suffix}")
+                    color = ax.lines[-1].get_color()
+            ax.set_xlabel(label)
+            ax.set_ylabel(ylabel)
+            ax.set_ylim(bottom=-0.02)
+            ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=6)
+    fig.suptitle(title, fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def run_block(run: dict | None, name: str) -> str:
+    """The lines that say how a section's tables were made."""
+    if run is None:
+        return f"*{name}: not run yet in this checkout (no {RUN_FILE}).*\n"
+    load = ", ".join(f"{x:g}" for x in run["load_start"])
+    load_end = ", ".join(f"{x:g}" for x in run.get("load_end", []))
+    return (f"Made by `{run['command']}` at commit `{run['commit']}`, "
+            f"{run['started']} to {run.get('finished', '?')}, "
+            f"{run.get('wall_s', float('nan')):.0f} s wall, on {run['cores']} cores "
+            f"({run['cpu']}; load average {load} at the start, {load_end} at the end), "
+            f"Python {run['python']}.\n")
+
+
+def render(doc: Path = DOC) -> Path:
+    """Write docs/results.md from the saved tables of both seed scripts."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    import _doc_papers
+    import _doc_seed000
+    import _doc_seed002
+
+    parts = [_doc_papers.HEADER, _doc_papers.CLAIMS,
+             _doc_seed000.section(OUT / "paper2011", load_run(OUT / "paper2011")),
+             _doc_seed002.section(OUT / "seed002_radial", load_run(OUT / "seed002_radial")),
+             _doc_papers.LIMITS]
+    text = "\n".join(p.rstrip("\n") + "\n" for p in parts)
+    tmp = doc.with_suffix(".md.tmp")
+    tmp.write_text(text)
+    tmp.replace(doc)
+    return doc
+
+
+if __name__ == "__main__":
+    print(f"wrote {render()}")
