@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from _doc_seed000 import COLUMNS, FOV_COLUMNS
 from _results_doc import fmt_table, plot_sweeps, render, run_record, save_run
 
 from startrack.bench.conditions import build_conditions
@@ -91,19 +92,6 @@ def combine(summary: pd.DataFrame, seq: pd.DataFrame) -> pd.DataFrame:
     table["seq_vs_triangle"] = table["seq_ms_median"] / table["condition"].map(tri)
     return table
 
-
-COLUMNS = [("noise", "noise_px", "{:g}"), ("false", "false_stars", None),
-           ("method", "method", None), ("n", "frames", None),
-           ("correct", "correct_rate", "{:.1%}"), ("wrong", "wrong", None),
-           ("top5", "top5_rate", "{:.1%}"), ("ids5", "top5_ids_rate", "{:.1%}"),
-           ("raw_n", "raw_frames", None),
-           ("raw1_right", "first_right_rate", "{:.1%}"),
-           ("raw1_wrong", "first_wrong_rate", "{:.1%}"),
-           ("bore\"", "boresight_median_arcsec", "{:.1f}"),
-           ("t_bench", "time_median_ms", "{:.2f}"), ("t_seq", "seq_ms_median", "{:.2f}"),
-           ("t_match", "matcher_ms_median", "{:.2f}"), ("t/tri", "seq_vs_triangle", "{:.2f}"),
-           ("cand", "cand_median", "{:.0f}"), ("pivots", "pivots_mean", "{:.2f}"),
-           ("hyps", "hyps_mean", "{:.2f}"), (">=3real", "top3_rate", "{:.1%}")]
 
 
 def fov_sensitivity(fovs, frames: int, jobs: int, out: Path) -> pd.DataFrame:
@@ -176,11 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     if fovs:
         fov = fov_sensitivity(fovs, args.fov_frames, args.jobs, args.out)
         fov.to_csv(args.out / "fov.csv", index=False, float_format="%.6g")
-        print(fmt_table(fov, [("fov", "fov_deg", "{:g}"), ("noise", "noise_px", "{:g}"),
-                              ("false", "false_stars", None), ("method", "method", None),
-                              ("n", "frames", None), ("in_view", "view_mean", "{:.1f}"),
-                              ("correct", "correct_rate", "{:.1%}"), ("wrong", "wrong", None),
-                              ("t_bench", "time_median_ms", "{:.2f}")]))
+        print(fmt_table(fov, FOV_COLUMNS))
     reading = patch_reading(spec.sky.n_stars, 0.025, float(view.mean()))
     print(f"\n0.025 rad read as the field: {reading}")
     plot_sweeps(table, spec.conditions, spec.methods,

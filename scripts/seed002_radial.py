@@ -10,11 +10,12 @@ Two measurements on the same deterministic frames (startrack.bench.frames):
    stars, the paper's typical triangle error?), and how many wrong hypotheses come before
    the first right one among the first ``--limit``. This is what the paper compares.
 
-    .venv/bin/python scripts/seed002_radial.py                # ~4 min on 2 cores
+    .venv/bin/python scripts/seed002_radial.py                # the full run
     .venv/bin/python scripts/seed002_radial.py --frames 100 --raw-frames 50   # quick look
 
-Writes out/seed002_radial/ (bench/, raw.csv, table.csv) and docs/figures/seed002_radial_*.png,
-and prints the tables.
+Writes out/seed002_radial/ (bench/, raw.csv, table.csv, run.json),
+docs/figures/seed002_radial_misid.png and docs/results.md (scripts/_results_doc.py), and
+prints the tables.
 """
 
 from __future__ import annotations
@@ -25,8 +26,10 @@ import time
 from pathlib import Path
 
 import pandas as pd
+from _doc_seed002 import COLUMNS
+from _results_doc import fmt_table, plot_sweeps, render, run_record, save_run
 
-from startrack.bench.conditions import build_conditions, sweep
+from startrack.bench.conditions import build_conditions
 from startrack.bench.raw import raw_pass, summarise_raw
 from startrack.bench.runner import RunSpec
 from startrack.bench.session import format_table, run_comparison
@@ -40,9 +43,9 @@ LEVELS = {"noise_px": (0.3, 0.1, 1.0, 2.0), "false_stars": (0, 1, 2, 4),
 KEYS = ["condition", "noise_px", "false_stars", "missing", "method"]
 
 
-def make_spec(frames: int, max_stars: int) -> RunSpec:
+def make_spec(frames: int, max_stars: int, methods=METHODS) -> RunSpec:
     cfg = load_config(CONFIG)
-    return RunSpec(methods=METHODS, conditions=tuple(build_conditions(LEVELS)),
+    return RunSpec(methods=tuple(methods), conditions=tuple(build_conditions(LEVELS)),
                    frames=frames, seed=cfg.frames.seed, camera=cfg.camera, sky=cfg.sky,
                    max_stars=max_stars, hot_pixel_fraction=cfg.frames.hot_pixel_fraction)
 
@@ -53,8 +56,11 @@ def combine(summary: pd.DataFrame, raw: pd.DataFrame) -> pd.DataFrame:
                         "wrong", "star_precision", "time_median_ms"]].copy()
     rs = summarise_raw(raw, KEYS).rename(columns={"frames": "raw_frames"})
     extra = raw.groupby(["condition", "method"], sort=False).agg(
-        seq_ms_median=("seq_ms", "median"), cand_mean=("candidates", "mean"),
-        hyps_mean=("hypotheses", "mean")).reset_index()
+        seq_ms_median=("seq_ms", "median"), matcher_ms_median=("matcher_ms", "median"),
+        cand_mean=("candidates", "mean"), cand_median=("candidates", "median"),
+        hyps_mean=("hypotheses", "mean"), ids5_rate=("top5_ids_right", "mean"),
+        top5_rate=("top5_correct", "mean")).reset_index()
+    verified["wrong_rate"] = verified["wrong"] / verified["frames"]
     return verified.merge(rs, on=["condition", "method"]).merge(
         extra, on=["condition", "method"])
 
@@ -65,54 +71,6 @@ def verified_star_errors(frames_csv: Path) -> pd.DataFrame:
         "verified_wrong_ids").reset_index()
 
 
-def print_table(table: pd.DataFrame) -> None:
-    show = pd.DataFrame({
-        "noise": table["noise_px"].map("{:g}".format), "false": table["false_stars"],
-        "miss": table["missing"].map("{:g}".format), "method": table["method"],
-        "n": table["frames"], "correct": table["correct_rate"].map("{:.1%}".format),
-        "wrong": table["wrong"], "wrong_ids": table["verified_wrong_ids"],
-        "raw_n": table["raw_frames"],
-        "raw_none": table["none_rate"].map("{:.1%}".format),
-        "raw1_right": table["first_right_rate"].map("{:.1%}".format),
-        "raw1_wrong": table["first_wrong_frames"],
-        "raw1_wrong_ids": table["wrong_ids"],
-        "of_which_false": table["false_star_ids"],
-        "dup": table["duplicates"],
-        "wrong_before": table["wrong_before_mean"].map("{:.2f}".format),
-        "t_seq_ms": table["seq_ms_median"].map("{:.1f}".format),
-        "hyps": table["hyps_mean"].map("{:.2f}".format),
-    })
-    print(show.to_string(index=False))
-
-
-def plot(table: pd.DataFrame, spec: RunSpec, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    conds = list(spec.conditions)
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
-    for ax, var, label in ((axes[0], "noise_px", "centroid noise (px, 1 sigma)"),
-                           (axes[1], "false_stars", "false stars per frame")):
-        part = table[table["condition"].isin(sweep(conds, var))]
-        for m in spec.methods:
-            r = part[part["method"] == m].sort_values(var)
-            ax.plot(r[var], r["first_wrong_rate"], "x--", label=f"{m}: raw 1st hyp. wrong")
-            ax.plot(r[var], r["wrong"] / r["frames"], "o-", color=ax.lines[-1].get_color(),
-                    label=f"{m}: verified wrong")
-        ax.set_xlabel(label)
-        ax.set_ylabel("fraction of frames")
-        ax.set_ylim(bottom=-0.01)
-        ax.grid(True, alpha=0.3)
-    axes[0].legend(fontsize=7)
-    fig.suptitle("Seed 002 setup: 4 x 4 deg, 4096 px, Hipparcos Hp <= 8: misidentifications",
-                 fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=1000, help="bench frames per condition")
@@ -121,6 +79,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-stars", type=int, default=8,
                     help="brightest stars a matcher may use for patterns")
     ap.add_argument("--limit", type=int, default=20, help="hypotheses looked at per frame")
+    ap.add_argument("--methods", default=",".join(METHODS),
+                    help="comma-separated matcher names (variants included)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--resume", action="store_true",
                     help="finish an interrupted bench run in --out instead of starting over")
@@ -128,14 +88,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
     args = ap.parse_args(argv)
 
-    spec = make_spec(args.frames, args.max_stars)
-    t0 = time.perf_counter()
+    record = run_record(argv, "scripts/seed002_radial.py")
+    t_start = time.perf_counter()
+    spec = make_spec(args.frames, args.max_stars, tuple(args.methods.split(",")))
     result = run_comparison(spec, args.out / "bench", jobs=args.jobs,
                             resume=args.resume or False)
     print(format_table(result.summary))
-    print(f"\nbench: {time.perf_counter() - t0:.0f} s wall ({args.jobs} jobs); load: "
-          f"{', '.join(f'{k} {v:.2f} s' for k, v in result.load_seconds.items())}")
-
     t0 = time.perf_counter()
     raw = raw_pass(spec, args.raw_frames, limit=args.limit, repeats=1, jobs=args.jobs)
     raw.to_csv(args.out / "raw.csv", index=False, float_format="%.6g")
@@ -144,11 +102,18 @@ def main(argv: list[str] | None = None) -> int:
     table.to_csv(args.out / "table.csv", index=False, float_format="%.6g")
     print(f"\nraw pass: {min(args.raw_frames, args.frames)} frames per condition, first "
           f"{args.limit} hypotheses, {time.perf_counter() - t0:.0f} s\n")
-    print_table(table)
-
-    args.figures.mkdir(parents=True, exist_ok=True)
-    plot(table, spec, args.figures / "seed002_radial_misid.png")
-    print(f"\nwrote {args.out}/table.csv, raw.csv, bench/; figures in {args.figures}/")
+    print(fmt_table(table, COLUMNS))
+    plot_sweeps(table, spec.conditions, spec.methods,
+                [("fraction of frames", [("first_wrong_rate", "x--", "raw 1st hyp. wrong"),
+                                         ("wrong_rate", "o-", "verified wrong")])],
+                args.figures / "seed002_radial_misid.png",
+                "Seed 002 setup: 4 x 4 deg, 4096 px, Hipparcos: misidentifications")
+    view = pd.read_csv(result.frames_csv).query("condition == 0")["n_true_in_view"]
+    save_run(args.out, record, wall_s=time.perf_counter() - t_start, frames=args.frames,
+             raw_frames=min(args.raw_frames, args.frames), limit=args.limit,
+             max_stars=args.max_stars, jobs=args.jobs, view_mean=float(view.mean()),
+             view_min=int(view.min()), view_max=int(view.max()))
+    print(f"\nwrote {args.out}/ and {render()}")
     return 0
 
 
