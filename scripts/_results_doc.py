@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import json
 import os
-import platform
 import shlex
-import subprocess
 import sys
 from datetime import UTC, datetime
 from pathlib import Path
@@ -25,38 +23,20 @@ DOC = ROOT / "docs" / "results.md"
 RUN_FILE = "run.json"
 
 
-def _git(*args: str) -> str:
-    try:
-        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True,
-                              check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return ""
-
-
 def run_record(argv: list[str] | None, script: str) -> dict:
-    """Where and how a run was made: commit (+dirty), command, date, machine, Python."""
-    commit = _git("rev-parse", "--short=10", "HEAD") or "unknown"
-    if _git("status", "--porcelain", "--untracked-files=no"):
-        commit += "+dirty"
+    """Where and how a run was made: the bench's provenance (commit with "+dirty", date,
+    host, CPU, Python, libraries, command) and the load average at the start."""
+    from startrack.bench.report import provenance
+
     args = sys.argv[1:] if argv is None else argv
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = next((ln.split(":", 1)[1].strip() for ln in f
-                        if ln.startswith("model name")), cpu)
-    except OSError:
-        pass
-    return {"commit": commit, "command": shlex.join([".venv/bin/python", script, *args]),
-            "started": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
-            "cores": os.cpu_count(), "cpu": cpu,
-            "load_start": [round(x, 2) for x in os.getloadavg()],
-            "python": platform.python_version()}
+    record = provenance(shlex.join([".venv/bin/python", script, *args]))
+    return {**record, "load_start": [round(x, 2) for x in os.getloadavg()]}
 
 
 def save_run(out: Path, record: dict, **extra) -> None:
     """Write the run record (finished now, with the load average at the end)."""
     record = {**record, **extra, "load_end": [round(x, 2) for x in os.getloadavg()],
-              "finished": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")}
+              "finished": datetime.now(UTC).strftime("%Y-%m-%d %H:%M:%S")}
     out.mkdir(parents=True, exist_ok=True)
     (out / RUN_FILE).write_text(json.dumps(record, indent=1) + "\n")
 
@@ -124,11 +104,14 @@ def run_block(run: dict | None, name: str) -> str:
         return f"*{name}: not run yet in this checkout (no {RUN_FILE}).*\n"
     load = ", ".join(f"{x:g}" for x in run["load_start"])
     load_end = ", ".join(f"{x:g}" for x in run.get("load_end", []))
-    return (f"Made by `{run['command']}` at commit `{run['commit']}`, "
-            f"{run['started']} to {run.get('finished', '?')}, "
-            f"{run.get('wall_s', float('nan')):.0f} s wall, on {run['cores']} cores "
-            f"({run['cpu']}; load average {load} at the start, {load_end} at the end), "
-            f"Python {run['python']}.\n")
+    commit = str(run.get("git commit", run.get("commit", "?")))
+    short = commit[:12] + ("+dirty" if commit.endswith("+dirty") else "")
+    python = str(run.get("Python", run.get("python", "?"))).split()[0]
+    return (f"Made by `{run['command']}` at commit `{short}`, "
+            f"{run.get('date (UTC)', run.get('started'))} to {run.get('finished', '?')} UTC, "
+            f"{run.get('wall_s', float('nan')):.0f} s wall, on {run.get('CPU', run.get('cpu'))}"
+            f", load average {load} at the start and {load_end} at the end; Python {python}"
+            f"{', ' + run['libraries'] if 'libraries' in run else ''}.\n")
 
 
 def render(doc: Path = DOC) -> Path:
