@@ -50,7 +50,7 @@ class CentroidConfig:
     max_stars: keep at most this many, brightest first (None = all).
     fast: one sky model from every fourth pixel of each tile, without the second,
         source-masked estimate: about twice as fast, at the cost of the faintest stars
-        near bright ones and in steep glow (``FAST`` is this preset).
+        (bright stars' wings leak into the sky model); ``FAST`` is this preset.
     """
 
     k_sigma: float = 5.0
@@ -118,7 +118,7 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
     geometries, weights = _tile_geometry(image.shape, config.background_size)
     step = max(1, round(math.sqrt(image.size / 100_000)))  # ~1e5 pixels: plenty for a MAD
 
-    model = _sky_model(image, fill, geometries, weights, None, None if config.fast else False)
+    model = _sky_model(image, fill, geometries, weights, None, False)
     if not config.fast:
         # Twice: the second sky model ignores what the first showed to be sources, so
         # bright stars and glows do not leak into it (nor, extrapolated, to the border).
@@ -171,8 +171,7 @@ def _sky_model(image, fill, geometries, weights, ignore, fine: bool) -> tuple:
 
     The first pass (tile medians, smoothed) samples every fourth pixel of a tile: the
     second pass measures what it left in each tile, its errors included. The second
-    pass samples every other pixel when ``fine``, every fourth otherwise, and is skipped
-    when ``fine`` is None (the fast mode).
+    pass samples every other pixel when ``fine``, every fourth otherwise.
     """
     coarse, dense = geometries
     skip = np.zeros((0, 0), np.uint8) if ignore is None else ignore
@@ -180,8 +179,6 @@ def _sky_model(image, fill, geometries, weights, ignore, fine: bool) -> tuple:
     grid = sky.block_medians(image, fill, zero, False, skip, coarse)
     grid = sky.clean_grid(grid, True, _sample_median(image, fill))
     model = (grid,) + weights
-    if fine is None:
-        return model
     extra = sky.block_medians(image, fill, model, True, skip, dense if fine else coarse)
     return (grid + sky.clean_grid(extra, False, 0.0),) + weights
 
