@@ -37,7 +37,7 @@ class SimConfig:
     frames: FrameOptions
 
 
-# The 2011 paper's experiment (configs/paper2011.toml and configs/default.toml say the same).
+# The 2011 paper's experiment (configs/paper2011.toml says the same).
 DEFAULT_CONFIG = {
     "camera": {"width": 1024, "height": 1024, "fov_deg": 17.5},
     "sky": {"kind": "random", "n_stars": 2000, "seed": 0, "mag_limit": 6.5},

@@ -15,9 +15,10 @@ from pathlib import Path
 
 import click
 
+from startrack.bench.frames import SOURCES
 from startrack.cli import main
 from startrack.errors import InputError
-from startrack.sky import SKY_KINDS
+from startrack.sky import SKY_KINDS, resolve_sky
 
 DEFAULT_OUT = Path("out/compare")
 DEFAULT_METHODS = "angle,triangle,hybrid"
@@ -27,7 +28,6 @@ DEFAULT_METHODS = "angle,triangle,hybrid"
 DEFAULT_FRAMES = 1000
 DEFAULT_LEVELS = {"noise_px": "0,0.5,1,2", "false_stars": "0,1,3,5", "missing": "0",
                   "mag_noise": "0"}
-SOURCES = ("centroids", "images")
 
 
 def parse_methods(text: str) -> tuple[str, ...]:
@@ -126,12 +126,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
         if not math.isfinite(mag_limit):
             raise InputError(f"--mag-limit must be finite, got {mag_limit}")
         spec_sky = dataclasses.replace(spec_sky, mag_limit=mag_limit)
-    elif spec_sky.kind == "hipparcos" and spec_sky.mag_limit is None:
-        from startrack.pipeline import default_mag_limit
-        from startrack.sky.hipparcos import hipparcos_arrays
-
-        spec_sky = dataclasses.replace(spec_sky, mag_limit=default_mag_limit(
-            cfg.camera, hipparcos_arrays()["mag"]))
+    spec_sky = resolve_sky(spec_sky, cfg.camera)
     levels = _levels(noise_px, false_stars, missing, mag_noise, source)
     spec = RunSpec(
         methods=names, conditions=tuple(build_conditions(levels, grid)), frames=frames,

@@ -13,10 +13,12 @@ import click
 
 from startrack.cache import atomic_text
 from startrack.camera_file import load_camera
+from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
+from startrack.errors import InputError
 from startrack.matchers import available_methods
-from startrack.output import CSV_HEADER, csv_rows, format_table, solution_record
-from startrack.pipeline import DEFAULT_METHOD, DEFAULT_SIGMA_PX, Options, Pipeline
+from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
+from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
 from startrack.sky import SKY_KINDS
 
 
@@ -57,11 +59,8 @@ def _finite(ctx, param, value):
               help="Julian year to carry Hipparcos positions to by proper motion "
                    "(default: the catalog epoch, J1991.25).")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True,
-              help=f"Matcher, one of: {', '.join(available_methods())}. The default, "
-                   "pyramid, was the most reliable and the fastest measured (docs/results.md): "
-                   "every method solved 100% of the standard Hipparcos benchmark with no wrong "
-                   "attitude, but with 1 px noise, 10 false stars and 30% missing pyramid "
-                   "solved 99% (triangle 83%, radial 46%, angle 22%), at a median of 11 ms.")
+              help=f"Matcher, one of: {', '.join(available_methods())} (docs/results.md "
+                   "compares them).")
 @click.option("--max-stars", type=click.IntRange(min=3),
               help="Brightest stars the matcher may use to form patterns.")
 @click.option("--sigma-px", type=click.FloatRange(0, min_open=True), callback=_finite,
@@ -76,30 +75,56 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
-    usage or input."""
+    usage or an unreadable input (the other inputs are still answered).
+    Conventions (pixels, attitude, JSON record, exit codes): docs/conventions.md."""
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px)
     pipeline = Pipeline(options)
-    all_solved = True
-    with contextlib.ExitStack() as stack:
-        fh = stack.enter_context(atomic_text(output)) if output else sys.stdout
-        writer = csv.writer(fh) if fmt == "csv" else None
-        if writer is not None:
-            writer.writerow(CSV_HEADER)
-        for name in inputs:
-            result, ident = pipeline.run(Path(name))
-            extra = {"sigma_px": ident.sigma_px,
-                     "match_radius_px": ident.verify_config.radius_px(result.obs),
-                     "sky": ident.catalog.source, "camera": ident.camera.to_dict()}
-            record = solution_record(result.solution, result.obs, ident.catalog,
-                                     result.timing, input_name=name, extra=extra)
-            all_solved &= result.solution.solved
-            if fmt == "json":
-                fh.write(json.dumps(record) + "\n")
-            elif writer is not None:
-                writer.writerows(csv_rows(record))
-            else:
-                fh.write(format_table(record) + ("\n" if len(inputs) > 1 else ""))
-            fh.flush()
-    sys.exit(0 if all_solved else 1)
+    worst = 0
+    pending: list[dict] = []  # error records held back until an input is answered
+    try:
+        with contextlib.ExitStack() as stack:
+            fh = stack.enter_context(atomic_text(output)) if output else sys.stdout
+            emit = _writer(fh, fmt, several=len(inputs) > 1)
+            for name in inputs:
+                try:
+                    record = pipeline.run(Path(name)).record()
+                except InputError as exc:  # a batch answers every input it can
+                    click.echo(f"error: {exc}", err=True)
+                    pending.append(error_record(name, str(exc)))
+                    worst = 2
+                    continue
+                worst = max(worst, EXIT_CODES[record["status"]])
+                for rec in [*pending, record]:
+                    emit(rec)
+                pending.clear()
+            if len(pending) == len(inputs):
+                raise _NothingAnswered  # no input could be read: leave no output at all
+            for rec in pending:
+                emit(rec)
+    except _NothingAnswered:
+        pass
+    sys.exit(worst)
+
+
+class _NothingAnswered(Exception):
+    """Every input was bad: the atomic output is discarded rather than written."""
+
+
+def _writer(fh, fmt: str, several: bool):
+    """A function writing one record to ``fh`` in ``fmt`` (the CSV header first)."""
+    writer = csv.writer(fh) if fmt == "csv" else None
+    if writer is not None:
+        writer.writerow(CSV_HEADER)
+
+    def emit(record: dict) -> None:
+        if fmt == "json":
+            fh.write(json.dumps(record) + "\n")
+        elif writer is not None:
+            writer.writerows(csv_rows(record))
+        else:
+            fh.write(format_table(record) + ("\n" if several else ""))
+        fh.flush()
+
+    return emit

@@ -20,7 +20,7 @@ from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, loa
 from startrack.errors import InputError
 from startrack.sensor import SensorModel
 from startrack.sidecar import sidecar_path_for
-from startrack.sky import SKY_KINDS, SkySpec
+from startrack.sky import SKY_KINDS, SkySpec, resolve_sky
 
 DEFAULT_OUT = Path("out/simulate")
 
@@ -71,6 +71,7 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
         if not math.isfinite(mag_limit):
             raise click.BadParameter("must be finite", param_hint="--mag-limit")
         spec = dataclasses.replace(spec, mag_limit=mag_limit)
+    spec = resolve_sky(spec, camera)
     given = dict(count=count, seed=seed, false_stars=false_stars, missing=missing,
                  mag_noise=mag_noise, rate_dps=rate)
     opts = dataclasses.replace(cfg.frames, **{k: v for k, v in given.items() if v is not None})
