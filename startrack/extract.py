@@ -122,7 +122,8 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
     if not config.fast:
         # Twice: the second sky model ignores what the first showed to be sources, so
         # bright stars and glows do not leak into it (nor, extrapolated, to the border).
-        _, det = kern.samples(image, model, step, config.smooth)
+        # a 3-sigma source mask needs a rougher noise estimate: a quarter of the samples
+        _, det = kern.samples(image, model, 2 * step, config.smooth)
         sources = kern.detection_mask(image, model, _MASK_SIGMA * _mad_sigma(det, image.dtype),
                                       config.smooth)
         sources = cv2.dilate(sources, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))

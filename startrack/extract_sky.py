@@ -12,8 +12,6 @@ import math
 import numpy as np
 from numba import njit
 
-from startrack.extract_kernels import background_row
-
 _MAD_TO_SIGMA = 1.4826
 
 
@@ -59,9 +57,9 @@ def median(a, counts, sub):
             hi = x
     if lo == hi:
         return lo
-    nb = len(counts)
+    nb = min(len(counts), max(16, n // 2))  # ~2 values a bin: cheap to clear and scan
     scale = nb / (hi - lo)
-    counts[:] = 0
+    counts[:nb] = 0
     for x in a:
         counts[min(int((x - lo) * scale), nb - 1)] += 1
     k1, k2 = (n - 1) // 2, n // 2
@@ -104,6 +102,7 @@ def block_medians(image, fill, model, subtract, ignore, geometry):
     non-finite pixels count as ``fill``.
     """
     n_r, n_c, t_r, t_c, o_r, o_c, step, s_r, s_c = geometry
+    grid_in, r0, r1, fr, c0, c1, fc = model
     n_rows, n_cols = (t_r - s_r + step - 1) // step, (t_c - s_c + step - 1) // step
     buf = np.empty(n_rows * n_cols)
     counts, sub = np.empty(256, np.int64), np.empty(len(buf))
@@ -112,9 +111,16 @@ def block_medians(image, fill, model, subtract, ignore, geometry):
     bg = np.zeros((n_rows, image.shape[1]))
     use_ignore = ignore.shape[0] > 0
     for i in range(n_r):
-        if subtract:
+        if subtract:  # the sky model at the sampled pixels of this row of tiles
             for k in range(n_rows):
-                background_row(model, o_r + i * t_r + s_r + k * step, tmp, bg[k])
+                rr = o_r + i * t_r + s_r + k * step
+                a, b, t = r0[rr], r1[rr], fr[rr]
+                for j in range(n_c):
+                    tmp[j] = grid_in[a, j] * (1.0 - t) + grid_in[b, j] * t
+                for j in range(n_c):
+                    for m in range(n_cols):
+                        cc = o_c + j * t_c + s_c + m * step
+                        bg[k, cc] = tmp[c0[cc]] * (1.0 - fc[cc]) + tmp[c1[cc]] * fc[cc]
         for j in range(n_c):
             n = 0
             for k in range(n_rows):
