@@ -11,7 +11,7 @@ from synth import assert_correct, frames, prepared_matcher, with_false_star
 from startrack.attitude import angle_between_deg
 from startrack.identify import identify
 from startrack.matchers import get_matcher
-from startrack.matchers.hybrid import angle_votes, confirm, join_sides
+from startrack.matchers.hybrid import angle_votes, confirm
 from startrack.types import MatchDiagnostics, Observation
 
 METHOD = "hybrid"
@@ -38,15 +38,6 @@ def test_mirrored_frame_yields_no_hypothesis(random_db, matcher):
     obs = frame.obs
     mirrored = Observation.from_pixels(obs.camera.width - 1 - obs.x, obs.y, obs.camera, 0.05)
     assert not identify(mirrored, matcher).solved
-
-
-def test_join_sides_equals_brute_force():
-    rng = np.random.default_rng(5)
-    ab, bc = rng.integers(0, 12, size=(70, 2)), rng.integers(0, 12, size=(50, 2))
-    got = join_sides(ab, bc)
-    want = [(x, y, z) for x, y in ab.tolist() for y2, z in bc.tolist() if y2 == y and z != x]
-    assert sorted(map(tuple, got.tolist())) == sorted(want)
-    assert join_sides(ab, bc[:0]).shape == (0, 3)
 
 
 def test_shortlists_hold_the_true_star_and_are_small(random_db):

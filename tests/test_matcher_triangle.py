@@ -12,7 +12,8 @@ from synth import frames, prepared_matcher
 
 from startrack.identify import identify
 from startrack.matchers import MatcherConfig, get_matcher
-from startrack.matchers.planar_triangle import brightness_triples, join_on, map_vertices
+from startrack.matchers.planar_triangle import map_vertices
+from startrack.matching.triples import brightness_triples
 from startrack.types import MatchDiagnostics, Observation
 
 METHOD = "triangle"
@@ -41,17 +42,6 @@ def test_map_vertices_finds_the_order_and_refuses_the_mirror():
     mirror = tri * np.array([1, -1, 1])  # a reflection keeps every side
     assert len(map_vertices(mirror, cat, 1e-9, check_mirror=True)[0]) == 0
     assert len(map_vertices(mirror, cat, 1e-9, check_mirror=False)[0]) >= 1
-
-
-def test_join_on_equals_brute_force():
-    rng = np.random.default_rng(5)
-    hyps = rng.integers(0, 10, size=(60, 3))
-    new = rng.integers(0, 10, size=(80, 3))
-    got = join_on(hyps, 1, 2, new)
-    want = [(*h, t[2]) for h in hyps.tolist() for t in new.tolist()
-            if t[0] == h[1] and t[1] == h[2] and t[2] not in h]
-    assert sorted(map(tuple, got.tolist())) == sorted(want)
-    assert join_on(hyps, 0, 1, new[:0]).shape == (0, 4)
 
 
 @pytest.mark.slow

@@ -28,11 +28,10 @@ import numpy as np
 from startrack.database import StarDatabase
 from startrack.database.triangles import triangle_features
 from startrack.matchers.base import Matcher, MatcherConfig, register
-from startrack.matchers.planar_triangle import (
-    brightness_triples,
-    feature_sigma,
-    observed_features,
-)
+from startrack.matching.features import feature_sigma, observed_features
+from startrack.matching.geometry import handedness
+from startrack.matching.pairs import join_sorted, member_pairs
+from startrack.matching.triples import brightness_triples
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
@@ -63,20 +62,6 @@ def oriented(found: dict[tuple[int, int], np.ndarray], a: int, b: int) -> np.nda
     return found[a, b] if a < b else found[b, a][:, ::-1]
 
 
-def join_sides(ab: np.ndarray, bc: np.ndarray, distinct: bool = True) -> np.ndarray:
-    """Triplets (x, y, z) with (x, y) in ``ab`` and (y, z) in ``bc`` (and x != z)."""
-    if len(ab) == 0 or len(bc) == 0:
-        return np.zeros((0, 3), np.int64)
-    order = np.argsort(bc[:, 0], kind="stable")
-    keys = bc[order, 0]
-    lo = np.searchsorted(keys, ab[:, 1], side="left")
-    count = np.searchsorted(keys, ab[:, 1], side="right") - lo
-    rows = np.repeat(np.arange(len(ab)), count)
-    pos = np.repeat(lo - np.cumsum(count) + count, count) + np.arange(int(count.sum()))
-    out = np.column_stack([ab[rows], bc[order[pos], 1]]).astype(np.int64)
-    return out[out[:, 0] != out[:, 2]] if distinct else out
-
-
 def confirm(trip: np.ndarray, sides: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Candidates (K x 3 catalog rows for observed a, b, c) that a fourth observed star d
     confirms: some catalog star w with (x, w), (y, w), (z, w) in ``sides`` (the catalog
@@ -84,15 +69,9 @@ def confirm(trip: np.ndarray, sides: list[np.ndarray]) -> tuple[np.ndarray, np.n
     ad, bd, cd = sides
     if len(trip) == 0 or min(len(ad), len(bd), len(cd)) == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    base = int(max(trip.max(), ad.max(), bd.max(), cd.max())) + 1
-    first = join_sides(np.column_stack([np.arange(len(trip)), trip[:, 0]]), ad, False)
+    first = join_sorted(np.column_stack([np.arange(len(trip)), trip[:, 0]]), (1,), ad, False)
     k, w = first[:, 0], first[:, 2]
-    ok = np.ones(len(k), bool)
-    for col, side in ((1, bd), (2, cd)):
-        keys = np.sort(side[:, 0].astype(np.int64) * base + side[:, 1])
-        want = trip[k, col] * base + w
-        pos = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
-        ok &= keys[pos] == want
+    ok = member_pairs(trip[k, 1], w, bd) & member_pairs(trip[k, 2], w, cd)
     return k[ok], w[ok]
 
 
@@ -118,7 +97,8 @@ class HybridMatcher(Matcher):
         votes, found = angle_votes(obs.vectors[:n], self.database, self.angle_tolerance(obs),
                                    diag)
         triples = brightness_triples(n)
-        feats = observed_features(obs.vectors[:n], triples, feature_sigma(obs, self.config))
+        sigma = feature_sigma(obs, self.config.tolerance_sigma, self.config.min_tolerance_rad)
+        feats = observed_features(obs.vectors[:n], triples, sigma)
         diag.extra.update(triangles_tested=0, passes=0)
         for missed in range(min(self.max_false, n - 3) + 1):
             diag.extra["passes"] += 1
@@ -146,7 +126,7 @@ class HybridMatcher(Matcher):
         for a, b, c in triples:
             if not (shortlist[a].any() and shortlist[b].any() and shortlist[c].any()):
                 continue  # no catalog candidate for one of the stars
-            trip = join_sides(side(a, b), side(b, c))
+            trip = join_sorted(side(a, b), (1,), side(b, c))
             diag.extra["triangles_tested"] += len(trip)
             if len(trip) == 0:
                 continue
@@ -156,8 +136,8 @@ class HybridMatcher(Matcher):
             err = np.hypot((ca - area) / s_area, (cp - polar) / s_polar)
             ok = (np.abs(ca - area) <= k * s_area) & (np.abs(cp - polar) <= k * s_polar)
             if area > k * s_area:  # the mirror image has the same area and moment
-                hand = np.sign(np.linalg.det(cat[trip]))
-                ok &= hand == np.sign(np.linalg.det(obs_tri))
+                hand = handedness(cat[trip[:, 0]], cat[trip[:, 1]], cat[trip[:, 2]])
+                ok &= hand == handedness(obs_tri[0], obs_tri[1], obs_tri[2])
             keep = np.flatnonzero(ok)
             keep = keep[np.argsort(err[keep], kind="stable")][: self.max_per_triangle]
             if len(keep) == 0:
