@@ -78,37 +78,57 @@ def partners(star, lo, hi, hi_first, start_lo, nbr_lo, ang_lo, start_hi, nbr_hi,
 
 
 @njit(cache=True)
-def is_pair(a, b, lo, hi, start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi):
-    """Whether (a, b) is a table pair with angle in [lo, hi]."""
-    s, t = (a, b) if a < b else (b, a)
-    e1 = start_lo[s + 1]
-    p = _first_at_least(ang_lo, start_lo[s], e1, lo)
-    while p < e1 and ang_lo[p] <= hi:
-        if nbr_lo[p] == t:
+def group_window(pi, pj, s0, s1, hi_first, head, nxt, val):
+    """Link the pairs of table entries [s0, s1), both ways round, into per-star lists:
+    star x's partners are val[p] for p = head[x], nxt[p], ... until -1, in the order of a
+    stable sort of the pairs by x (x as first star first, unless ``hi_first``). ``head``
+    must be all -1; the caller resets it with :func:`ungroup_window`. Reads the window in
+    sequence and writes only into the small per-frame arrays, which stay in cache."""
+    w = s1 - s0
+    for step in range(2):  # insert backwards: lists come out forwards
+        half = step if hi_first else 1 - step
+        for e in range(s1 - 1, s0 - 1, -1):
+            x, y = (pi[e], pj[e]) if half == 0 else (pj[e], pi[e])
+            p = (e - s0) + half * w
+            nxt[p] = head[x]
+            val[p] = y
+            head[x] = p
+
+
+@njit(cache=True)
+def ungroup_window(pi, pj, s0, s1, head):
+    for e in range(s0, s1):
+        head[pi[e]] = -1
+        head[pj[e]] = -1
+
+
+@njit(cache=True)
+def linked(head, nxt, val, x, y):
+    p = head[x]
+    while p >= 0:
+        if val[p] == y:
             return True
-        p += 1
+        p = nxt[p]
     return False
 
 
 @njit(cache=True)
-def join_extend(hyps, col, lo, hi, hi_first, start_lo, nbr_lo, ang_lo, start_hi,
-                nbr_hi, ang_hi, max_rows):
-    """Each row of ``hyps`` once per partner of its column ``col`` within [lo, hi], the
-    partner appended; partners already in the row are refused. Returns (rows, total):
-    total counts every joined row, rows holds at most ``max_rows`` of them."""
+def join_extend(hyps, col, pi, pj, s0, s1, hi_first, n_catalog, max_rows):
+    """Each row of ``hyps`` once per partner of its column ``col`` among the pairs of
+    table entries [s0, s1) (both ways round, in stable-sort order), the partner appended;
+    partners already in the row are refused. Returns (rows, total): total counts every
+    joined row, rows holds at most ``max_rows`` of them."""
     m, w = hyps.shape
-    buf = np.empty(4096, np.int64)
+    head = np.full(n_catalog, -1, np.int64)
+    nxt, val = np.empty(2 * (s1 - s0), np.int64), np.empty(2 * (s1 - s0), np.int64)
+    group_window(pi, pj, s0, s1, hi_first, head, nxt, val)
     out = np.empty((min(max_rows, 1024), w + 1), np.int64)
     count = 0
     for r in range(m):
-        k = partners(hyps[r, col], lo, hi, hi_first, start_lo, nbr_lo, ang_lo,
-                     start_hi, nbr_hi, ang_hi, buf)
-        if k > len(buf):
-            buf = np.empty(2 * k, np.int64)
-            k = partners(hyps[r, col], lo, hi, hi_first, start_lo, nbr_lo, ang_lo,
-                         start_hi, nbr_hi, ang_hi, buf)
-        for q in range(k):
-            new = buf[q]
+        p = head[hyps[r, col]]
+        while p >= 0:
+            new = val[p]
+            p = nxt[p]
             clash = False
             for c in range(w):
                 if hyps[r, c] == new:
@@ -127,12 +147,13 @@ def join_extend(hyps, col, lo, hi, hi_first, start_lo, nbr_lo, ang_lo, start_hi,
 
 
 @njit(cache=True)
-def join_close(hyps, col_p, col_q, lo, hi, start_lo, nbr_lo, ang_lo, start_hi, nbr_hi,
-               ang_hi):
-    """The rows of ``hyps`` whose catalog stars in columns (col_p, col_q) are a table pair
-    with angle in [lo, hi]."""
+def join_close(hyps, col_p, col_q, pi, pj, s0, s1, n_catalog):
+    """The rows of ``hyps`` whose catalog stars in columns (col_p, col_q) are a pair of
+    table entries [s0, s1)."""
+    head = np.full(n_catalog, -1, np.int64)
+    nxt, val = np.empty(2 * (s1 - s0), np.int64), np.empty(2 * (s1 - s0), np.int64)
+    group_window(pi, pj, s0, s1, False, head, nxt, val)
     keep = np.zeros(len(hyps), np.bool_)
     for r in range(len(hyps)):
-        keep[r] = is_pair(hyps[r, col_p], hyps[r, col_q], lo, hi, start_lo, nbr_lo, ang_lo,
-                          start_hi, nbr_hi, ang_hi)
+        keep[r] = linked(head, nxt, val, hyps[r, col_p], hyps[r, col_q])
     return hyps[keep]

@@ -93,12 +93,13 @@ def join_extend(hyps: np.ndarray, col: int, lookup: PairLookup, p: int, q: int,
     partner in the lookup of (p, q) becomes one row per partner, the partner appended;
     rows that would use a catalog star twice go. Returns (rows, total joined rows); at
     most ``max_rows`` rows are kept."""
-    lo, hi = lookup.window(p, q)
+    start, stop = lookup.index.window(*lookup.window(p, q))
     hyps = np.ascontiguousarray(hyps, dtype=np.int64)
-    if len(hyps) == 0:
+    if len(hyps) == 0 or stop <= start:
         return np.zeros((0, hyps.shape[1] + 1), np.int64), 0
-    rows, total = kernels.join_extend(hyps, col, lo, hi, p > q, *lookup.index.lists,
-                                      max_rows)
+    index = lookup.index
+    rows, total = kernels.join_extend(hyps, col, index.pi, index.pj, start, stop, p > q,
+                                      index.n_catalog, max_rows)
     return rows, int(total)
 
 
@@ -106,11 +107,13 @@ def join_close(hyps: np.ndarray, col_p: int, col_q: int, lookup: PairLookup, p: 
                q: int) -> np.ndarray:
     """Keep the rows whose catalog stars in columns (col_p, col_q) are a candidate pair of
     the observed pair (p, q)."""
-    lo, hi = lookup.window(p, q)
+    start, stop = lookup.index.window(*lookup.window(p, q))
     hyps = np.ascontiguousarray(hyps, dtype=np.int64)
-    if len(hyps) == 0:
-        return hyps
-    return kernels.join_close(hyps, col_p, col_q, lo, hi, *lookup.index.lists)
+    if len(hyps) == 0 or stop <= start:
+        return hyps[:0]
+    index = lookup.index
+    return kernels.join_close(hyps, col_p, col_q, index.pi, index.pj, start, stop,
+                              index.n_catalog)
 
 
 def join_sorted(left: np.ndarray, left_cols: tuple[int, ...], right: np.ndarray,

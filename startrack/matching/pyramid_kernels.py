@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from startrack.matching.kernels import partners
+from startrack.matching.kernels import group_window, linked, partners, ungroup_window
 
 
 @njit(cache=True)
@@ -49,40 +49,6 @@ def triad(cam_a, cam_b, sky_a, sky_b):
 
 
 @njit(cache=True)
-def group_window(pi, pj, s0, s1, head, nxt, val):
-    """Link the pairs of table entries [s0, s1), both ways round, into per-star lists:
-    star x's partners are val[p] for p = head[x], nxt[p], ... until -1, in the order of a
-    stable sort of the pairs by x (x as first star first). ``head`` must be all -1; the
-    caller resets it with :func:`ungroup_window`. Reads the window in sequence and
-    writes only into the small per-frame arrays, which stay in cache."""
-    w = s1 - s0
-    for half in range(1, -1, -1):  # insert backwards: lists come out forwards
-        for e in range(s1 - 1, s0 - 1, -1):
-            x, y = (pi[e], pj[e]) if half == 0 else (pj[e], pi[e])
-            p = (e - s0) + half * w
-            nxt[p] = head[x]
-            val[p] = y
-            head[x] = p
-
-
-@njit(cache=True)
-def ungroup_window(pi, pj, s0, s1, head):
-    for e in range(s0, s1):
-        head[pi[e]] = -1
-        head[pj[e]] = -1
-
-
-@njit(cache=True)
-def _linked(head, nxt, val, x, y):
-    p = head[x]
-    while p >= 0:
-        if val[p] == y:
-            return True
-        p = nxt[p]
-    return False
-
-
-@njit(cache=True)
 def triangles(i, j, k, ang, vec, tol, cat, max_triangles, pi, pj, angle, heads):
     """Catalog triangles (I, J, K) whose three sides match the observed triple i < j < k,
     mirror images removed, in the order of the joins (I, J) by table entry, then K.
@@ -105,8 +71,8 @@ def triangles(i, j, k, ang, vec, tol, cat, max_triangles, pi, pj, angle, heads):
     check = abs(observed) > tol * sides  # a nearly flat triangle keeps both handednesses
     nxt_jk, val_jk = np.empty(2 * (t1 - t0), np.int64), np.empty(2 * (t1 - t0), np.int64)
     nxt_ik, val_ik = np.empty(2 * (u1 - u0), np.int64), np.empty(2 * (u1 - u0), np.int64)
-    group_window(pi, pj, t0, t1, heads[0], nxt_jk, val_jk)
-    group_window(pi, pj, u0, u1, heads[1], nxt_ik, val_ik)
+    group_window(pi, pj, t0, t1, False, heads[0], nxt_jk, val_jk)
+    group_window(pi, pj, u0, u1, False, heads[1], nxt_ik, val_ik)
     count = 0
     for half in range(2):
         for e in range(s0, s1):
@@ -115,7 +81,7 @@ def triangles(i, j, k, ang, vec, tol, cat, max_triangles, pi, pj, angle, heads):
             while p >= 0 and count <= max_triangles:
                 kk = val_jk[p]
                 p = nxt_jk[p]
-                if kk == big or not _linked(heads[1], nxt_ik, val_ik, big, kk):
+                if kk == big or not linked(heads[1], nxt_ik, val_ik, big, kk):
                     continue
                 if check and (_triple(cat[big], cat[small], cat[kk]) > 0) != (observed > 0):
                     continue
