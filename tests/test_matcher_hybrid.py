@@ -11,7 +11,7 @@ from synth import assert_correct, frames, prepared_matcher, with_false_star
 from startrack.attitude import angle_between_deg
 from startrack.identify import identify
 from startrack.matchers import get_matcher
-from startrack.matchers.hybrid import angle_votes, confirm
+from startrack.matchers.hybrid import angle_votes
 from startrack.types import MatchDiagnostics, Observation
 
 METHOD = "hybrid"
@@ -57,17 +57,6 @@ def test_shortlists_hold_the_true_star_and_are_small(random_db):
         if 0 in (a, b):
             want[np.unique(rows)] += 1
     assert np.array_equal(votes[0], want)
-
-
-def test_confirm_equals_brute_force():
-    rng = np.random.default_rng(8)
-    trip = rng.integers(0, 9, size=(15, 3))
-    sides = [np.unique(rng.integers(0, 9, size=(40, 2)), axis=0) for _ in range(3)]
-    hit, w = confirm(trip, sides)
-    sets = [set(map(tuple, s.tolist())) for s in sides]
-    want = sorted((k, x) for k, t in enumerate(trip.tolist()) for x in range(9)
-                  if all((t[m], x) in sets[m] for m in range(3)))
-    assert sorted(zip(hit.tolist(), w.tolist(), strict=True)) == want
 
 
 def test_no_pivoting_and_a_false_star_costs_a_pass(random_db, matcher):

@@ -34,7 +34,7 @@ def _dist(v, a, b):
 
 
 @njit(cache=True)
-def _features(v, a, b, c):
+def triangle_features_one(v, a, b, c):
     """(area, polar moment) of the planar triangle through the tips of v[a], v[b], v[c]."""
     ux, uy, uz = v[b, 0] - v[a, 0], v[b, 1] - v[a, 1], v[b, 2] - v[a, 2]
     wx, wy, wz = v[c, 0] - v[a, 0], v[c, 1] - v[a, 1], v[c, 2] - v[a, 2]
@@ -83,7 +83,8 @@ def triangles_of_pairs(n, lo, hi, vectors):
                     last = (first + 2) % 3
                 rows[t, 0], rows[t, 1] = verts[first], verts[3 - first - last]
                 rows[t, 2] = verts[last]
-                area[t], polar[t] = _features(vectors, rows[t, 0], rows[t, 1], rows[t, 2])
+                area[t], polar[t] = triangle_features_one(vectors, rows[t, 0], rows[t, 1],
+                                                          rows[t, 2])
                 t += 1
         for p in range(start[i], start[i + 1]):
             mark[nbr[p]] = False
