@@ -119,6 +119,16 @@ def test_three_stars_propose_the_truth_unconfirmed(random_db, method):
 
 
 @pytest.mark.parametrize("method", METHODS)
+def test_mirrored_frame_never_solves(random_db, method):
+    """A reflected image keeps every angle and area: only handedness tells it apart."""
+    matcher = prepared_matcher(method, random_db)
+    frame = next(frames(random_db.catalog, random_db.camera, 5, seed=27))
+    obs = frame.obs
+    mirrored = Observation.from_pixels(obs.camera.width - 1 - obs.x, obs.y, obs.camera, 0.05)
+    assert not identify(mirrored, matcher).solved
+
+
+@pytest.mark.parametrize("method", METHODS)
 def test_random_centroids_never_solve(random_db, method):
     matcher = prepared_matcher(method, random_db)
     rng = np.random.default_rng(51)

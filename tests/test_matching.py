@@ -132,3 +132,18 @@ def test_triple_product_sign_flips_in_a_mirror():
     np.testing.assert_allclose(triple_products(*mirror), -triple_products(*v))
     np.testing.assert_allclose(triple_products(*v), np.linalg.det(np.stack(v, axis=1)))
     np.testing.assert_array_equal(handedness(*mirror), -handedness(*v))
+
+
+def test_timeout_gives_a_not_solved_with_its_reason(random_db):
+    from synth import frames, prepared_matcher
+
+    from startrack.identify import identify
+
+    matcher = prepared_matcher("pyramid", random_db)
+    frame = next(frames(random_db.catalog, random_db.camera, 5, seed=71, noise_px=0.3))
+    assert identify(frame.obs, matcher, timeout_ms=None).solved
+    late = identify(frame.obs, matcher, timeout_ms=0.0)
+    assert not late.solved and late.reason == "timeout" and late.rotation is None
+    few = identify(type(frame.obs).from_pixels(frame.obs.x[:2], frame.obs.y[:2],
+                                                frame.obs.camera, 0.3), matcher)
+    assert few.reason == "too_few_stars"
