@@ -147,3 +147,21 @@ def test_timeout_gives_a_not_solved_with_its_reason(random_db):
     few = identify(type(frame.obs).from_pixels(frame.obs.x[:2], frame.obs.y[:2],
                                                 frame.obs.camera, 0.3), matcher)
     assert few.reason == "too_few_stars"
+
+
+def test_nearest_matches_keep_the_nearest_claim():
+    from startrack.matching.verify_kernels import nearest_matches
+
+    rng = np.random.default_rng(9)
+    ox, oy = rng.uniform(0, 50, 40), rng.uniform(0, 50, 40)
+    cx, cy = rng.uniform(0, 50, 30), rng.uniform(0, 50, 30)
+    rows, pos = nearest_matches(ox, oy, cx, cy, 4.0)
+    d2 = (ox[:, None] - cx[None, :]) ** 2 + (oy[:, None] - cy[None, :]) ** 2
+    want = []
+    for i in range(len(ox)):
+        j = int(np.argmin(d2[i]))
+        rivals = [k for k in range(len(ox)) if int(np.argmin(d2[k])) == j]
+        if d2[i, j] <= 16.0 and all(d2[i, j] <= d2[k, j] for k in rivals):
+            want.append((i, j))
+    assert list(zip(rows.tolist(), pos.tolist(), strict=True)) == want and want
+    assert len(set(pos.tolist())) == len(pos)
