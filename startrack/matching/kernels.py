@@ -113,15 +113,21 @@ def linked(head, nxt, val, x, y):
 
 
 @njit(cache=True)
-def join_extend(hyps, col, pi, pj, s0, s1, hi_first, n_catalog, max_rows):
-    """Each row of ``hyps`` once per partner of its column ``col`` among the pairs of
-    table entries [s0, s1) (both ways round, in stable-sort order), the partner appended;
-    partners already in the row are refused. Returns (rows, total): total counts every
-    joined row, rows holds at most ``max_rows`` of them."""
-    m, w = hyps.shape
+def group_pairs(pi, pj, s0, s1, hi_first, n_catalog):
+    """:func:`group_window` into fresh arrays: (head, nxt, val)."""
     head = np.full(n_catalog, -1, np.int64)
     nxt, val = np.empty(2 * (s1 - s0), np.int64), np.empty(2 * (s1 - s0), np.int64)
     group_window(pi, pj, s0, s1, hi_first, head, nxt, val)
+    return head, nxt, val
+
+
+@njit(cache=True)
+def join_extend(hyps, col, head, nxt, val, max_rows):
+    """Each row of ``hyps`` once per partner of its column ``col`` in the grouped pairs
+    (head, nxt, val; see :func:`group_window`), the partner appended; partners already in
+    the row are refused. Returns (rows, total): total counts every joined row, rows holds
+    at most ``max_rows`` of them."""
+    m, w = hyps.shape
     out = np.empty((min(max_rows, 1024), w + 1), np.int64)
     count = 0
     for r in range(m):
@@ -147,12 +153,9 @@ def join_extend(hyps, col, pi, pj, s0, s1, hi_first, n_catalog, max_rows):
 
 
 @njit(cache=True)
-def join_close(hyps, col_p, col_q, pi, pj, s0, s1, n_catalog):
-    """The rows of ``hyps`` whose catalog stars in columns (col_p, col_q) are a pair of
-    table entries [s0, s1)."""
-    head = np.full(n_catalog, -1, np.int64)
-    nxt, val = np.empty(2 * (s1 - s0), np.int64), np.empty(2 * (s1 - s0), np.int64)
-    group_window(pi, pj, s0, s1, False, head, nxt, val)
+def join_close(hyps, col_p, col_q, head, nxt, val):
+    """The rows of ``hyps`` whose catalog stars in columns (col_p, col_q) are one of the
+    grouped pairs."""
     keep = np.zeros(len(hyps), np.bool_)
     for r in range(len(hyps)):
         keep[r] = linked(head, nxt, val, hyps[r, col_p], hyps[r, col_q])

@@ -63,6 +63,7 @@ class PairLookup:
         self.tol = float(tol)
         self.diag = diag
         self._seen: set[tuple[int, int]] = set()
+        self._grouped: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}
 
     def window(self, p: int, q: int) -> tuple[float, float]:
         """The angle window [lo, hi] of the observed pair (p, q)."""
@@ -74,6 +75,21 @@ class PairLookup:
             self.diag.candidates += stop - start
             self.diag.extra["lookups"] = self.diag.extra.get("lookups", 0) + 1
         return theta - self.tol, theta + self.tol
+
+    def grouped(self, p: int, q: int) -> tuple[np.ndarray, ...] | None:
+        """The pairs of (p, q) linked per catalog star of p (see
+        :func:`startrack.matching.kernels.group_window`), built once per frame; None when
+        there are none."""
+        if (p, q) not in self._grouped:
+            start, stop = self.index.window(*self.window(p, q))
+            self._grouped[p, q] = None if stop <= start else kernels.group_pairs(
+                self.index.pi, self.index.pj, start, stop, p > q, self.index.n_catalog)
+        return self._grouped[p, q]
+
+    def grouped_either(self, p: int, q: int) -> tuple[np.ndarray, ...] | None:
+        """A grouping of (p, q) for a membership test: the pair set is the same both ways
+        round, so whichever one exists serves."""
+        return self.grouped(q, p) if (q, p) in self._grouped else self.grouped(p, q)
 
     def pairs(self, p: int, q: int) -> np.ndarray:
         """The catalog pairs of (p, q) as (K x 2) rows (star of p, star of q): the table
@@ -93,13 +109,11 @@ def join_extend(hyps: np.ndarray, col: int, lookup: PairLookup, p: int, q: int,
     partner in the lookup of (p, q) becomes one row per partner, the partner appended;
     rows that would use a catalog star twice go. Returns (rows, total joined rows); at
     most ``max_rows`` rows are kept."""
-    start, stop = lookup.index.window(*lookup.window(p, q))
+    grouped = lookup.grouped(p, q)
     hyps = np.ascontiguousarray(hyps, dtype=np.int64)
-    if len(hyps) == 0 or stop <= start:
+    if len(hyps) == 0 or grouped is None:
         return np.zeros((0, hyps.shape[1] + 1), np.int64), 0
-    index = lookup.index
-    rows, total = kernels.join_extend(hyps, col, index.pi, index.pj, start, stop, p > q,
-                                      index.n_catalog, max_rows)
+    rows, total = kernels.join_extend(hyps, col, *grouped, max_rows)
     return rows, int(total)
 
 
@@ -107,13 +121,11 @@ def join_close(hyps: np.ndarray, col_p: int, col_q: int, lookup: PairLookup, p: 
                q: int) -> np.ndarray:
     """Keep the rows whose catalog stars in columns (col_p, col_q) are a candidate pair of
     the observed pair (p, q)."""
-    start, stop = lookup.index.window(*lookup.window(p, q))
+    grouped = lookup.grouped_either(p, q)
     hyps = np.ascontiguousarray(hyps, dtype=np.int64)
-    if len(hyps) == 0 or stop <= start:
+    if len(hyps) == 0 or grouped is None:
         return hyps[:0]
-    index = lookup.index
-    return kernels.join_close(hyps, col_p, col_q, index.pi, index.pj, start, stop,
-                              index.n_catalog)
+    return kernels.join_close(hyps, col_p, col_q, *grouped)
 
 
 def join_sorted(left: np.ndarray, left_cols: tuple[int, ...], right: np.ndarray,
