@@ -179,3 +179,16 @@ def test_compiled_enumeration_equals_brute_force():
         assert opposite[0] <= opposite[1] <= opposite[2]
     np.testing.assert_allclose(area, triangle_features(v[rows[:, 0]], v[rows[:, 1]],
                                                        v[rows[:, 2]])[0])
+
+
+def test_bucket_argsort_is_the_stable_argsort():
+    from startrack.database.build_kernels import stable_argsort
+
+    rng = np.random.default_rng(12)
+    values = np.concatenate([rng.uniform(0, 1, 3000), rng.uniform(0, 1, 20).repeat(5),
+                             [0.0, 1.0, 1.0]])
+    np.testing.assert_array_equal(stable_argsort(values, 0.0, 1.0),
+                                  np.argsort(values, kind="stable"))
+    skewed = rng.exponential(1e-3, 5000)
+    np.testing.assert_array_equal(stable_argsort(skewed, 0.0, float(skewed.max())),
+                                  np.argsort(skewed, kind="stable"))

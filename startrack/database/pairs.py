@@ -32,7 +32,7 @@ def build_pair_arrays(vectors: np.ndarray, max_angle_rad: float) -> dict[str, np
     """All pairs within ``max_angle_rad``, as arrays sorted by angle."""
     vectors = np.ascontiguousarray(vectors, dtype=np.float64).reshape(-1, 3)
     i, j, angle = build_kernels.close_pairs(vectors, float(max_angle_rad))
-    order = np.argsort(angle, kind="stable")
+    order = build_kernels.stable_argsort(angle, 0.0, float(max_angle_rad))
     return {"i": i[order].astype(np.int32), "j": j[order].astype(np.int32),
             "angle": angle[order]}
 

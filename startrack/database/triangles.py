@@ -171,7 +171,7 @@ def build_triangle_arrays(vectors: np.ndarray, pair_i: np.ndarray, pair_j: np.nd
     hi = np.maximum(pair_i[sel], pair_j[sel])
     tri, area, polar = build_kernels.triangles_of_pairs(n, lo.astype(np.int64),
                                                         hi.astype(np.int64), vectors)
-    order = np.argsort(area, kind="stable")
+    order = build_kernels.stable_argsort(area, 0.0, float(area.max()) if len(area) else 1.0)
     return {"area": area[order], "polar": polar[order], "rows": tri[order].astype(np.int32),
             "pattern": pattern.astype(np.int32),
             "max_per_region": np.array(-1 if max_per_region is None else cap)}
