@@ -44,6 +44,8 @@ from startrack.config import load_config
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "paper2011.toml"
 METHODS = ("angle", "triangle", "hybrid")
+# The paper-literal variants run beside ours (startrack/matchers: registered names).
+VARIANTS = ("angle_closed", "angle_open", "triangle_nopivot", "hybrid_nofourth")
 NOISE_PX = (0.0, 0.5, 1.0, 2.0, 3.0)
 FALSE_STARS = (0, 1, 2, 3, 5)
 KEYS = ["condition", "noise_px", "false_stars", "method"]
@@ -129,7 +131,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--timing-frames", type=int, default=300,
                     help="frames per condition of the sequential timing/raw pass")
     ap.add_argument("--repeats", type=int, default=3, help="identify runs per timing")
-    ap.add_argument("--methods", default=",".join(METHODS),
+    ap.add_argument("--methods", default=",".join(METHODS + VARIANTS),
                     help="comma-separated matcher names (variants included)")
     ap.add_argument("--fov", default="10,17.5,25",
                     help="field widths (deg) of the FOV sensitivity run ('' to skip)")

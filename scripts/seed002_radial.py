@@ -38,6 +38,8 @@ from startrack.config import load_config
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "radial_triangles.toml"
 METHODS = ("triangle", "radial")
+# The paper-literal variants run beside ours (startrack/matchers/radial.py).
+VARIANTS = ("radial_noise", "radial_paper", "radial_patch", "sss")
 LEVELS = {"noise_px": (0.3, 0.1, 1.0, 2.0), "false_stars": (0, 1, 2, 4),
           "missing": (0.0, 0.1), "mag_noise": (0.0,)}
 KEYS = ["condition", "noise_px", "false_stars", "missing", "method"]
@@ -79,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-stars", type=int, default=8,
                     help="brightest stars a matcher may use for patterns")
     ap.add_argument("--limit", type=int, default=20, help="hypotheses looked at per frame")
-    ap.add_argument("--methods", default=",".join(METHODS),
+    ap.add_argument("--methods", default=",".join(METHODS + VARIANTS),
                     help="comma-separated matcher names (variants included)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--resume", action="store_true",

@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import pandas as pd
 
-from startrack.bench.runner import RunSpec, bench_frame, load_bench
+from startrack.bench.runner import RunSpec, bench_frame, load_bench, point_patch
 from startrack.matchers.base import Matcher
 from startrack.types import MatchDiagnostics, Observation
 
@@ -198,6 +198,7 @@ def raw_unit(spec: RunSpec, condition_index: int, frame: int, *, limit: int = DE
     rows = []
     for name in spec.methods:
         ident = bench.identifiers[name]
+        point_patch(ident.matcher, bf)
         row = {"condition": condition_index, **condition.to_dict(), "frame": frame,
                "method": name, "real_in_top": int(np.count_nonzero(bf.truth_rows[:n_top] >= 0)),
                **score_hypotheses(ident.matcher, bf.obs, bf.truth_rows, limit).to_dict()}

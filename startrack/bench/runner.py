@@ -117,6 +117,13 @@ def bench_frame(spec: RunSpec, condition_index: int, frame: int):
     return bench, condition, bf
 
 
+def point_patch(matcher, bf) -> None:
+    """Tell a matcher in known-sky-patch mode (``patch_rad`` set) where the frame points:
+    the true boresight. Others are left alone (lost in space)."""
+    if getattr(matcher, "patch_rad", None) is not None:
+        matcher.patch_center = bf.rotation.apply([0.0, 0.0, 1.0])
+
+
 def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
     """One frame in one condition through every method: a row dict per method."""
     from startrack.attitude import to_quaternion
@@ -127,6 +134,7 @@ def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
     rows = []
     for name in spec.methods:
         ident = bench.identifiers[name]
+        point_patch(ident.matcher, bf)
         solution = ident.identify(bf.obs)
         score = score_frame(solution, bf.truth_rows, bf.rotation, bf.n_in_view,
                             centroid_ms=bf.centroid_ms, threshold_arcsec=spec.threshold_arcsec,

@@ -8,6 +8,12 @@ new star joins the candidates on the shared star and appends one column; a pair 
 two chain stars keeps only the rows whose two catalog stars form a candidate pair. The
 pivots go on until one hypothesis remains or the stars run out.
 
+``closing`` says how many of the closing pairs (new star to earlier chain stars) are
+looked up: "until_one" (ours: until one hypothesis is left, so the last star's other
+angles may go unchecked), "all" (every one), "none" (the paper's literal chain: each
+pivot shares one star with the last pair, no closing angle). The variants ``angle_closed``
+and ``angle_open`` are the last two.
+
 The lookups and joins are the shared ones of :mod:`startrack.matching.pairs` (compiled).
 """
 
@@ -23,6 +29,8 @@ from startrack.matching.pairs import PairLookup, join_close, join_extend, pair_i
 from startrack.matching.triples import smart_triples
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
+CLOSING = ("until_one", "all", "none")
+
 
 @register
 class AngleMatcher(Matcher):
@@ -33,8 +41,12 @@ class AngleMatcher(Matcher):
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_chains: int = 56, max_lookups: int = 400, max_skips: int = 2,
-                 max_ambiguous: int = 4, max_rows: int = 2_000_000) -> None:
+                 max_ambiguous: int = 4, max_rows: int = 2_000_000,
+                 closing: str = "until_one") -> None:
         super().__init__(database, config)
+        if closing not in CLOSING:
+            raise ValueError(f"closing must be one of {', '.join(CLOSING)}, got {closing!r}")
+        self.closing = closing
         self.max_chains = int(max_chains)  # star orderings tried per frame
         self.max_lookups = int(max_lookups)  # pair steps (memoised or not) per frame
         self.max_skips = int(max_skips)  # stars one chain may leave out
@@ -90,8 +102,9 @@ class AngleMatcher(Matcher):
             diag.pivots += 1
             hyps, total = join_extend(hyps, len(cols) - 1, lookup, cols[-1], q,
                                       self.max_rows + 1)
-            for col_t in range(len(cols) - 1):
-                if len(hyps) <= 1 or budget[0] <= 0 or total > self.max_rows:
+            for col_t in range(len(cols) - 1 if self.closing != "none" else 0):
+                if budget[0] <= 0 or total > self.max_rows or len(hyps) == 0 or (
+                        len(hyps) == 1 and self.closing == "until_one"):
                     break
                 budget[0] -= 1
                 diag.pivots += 1
@@ -106,3 +119,27 @@ class AngleMatcher(Matcher):
                 diag.extra["ambiguous"] = diag.extra.get("ambiguous", 0) + 1
             return cols, hyps
         return None
+
+
+@register
+class AngleClosedMatcher(AngleMatcher):
+    """The angle method with every closing angle looked up before a chain stops."""
+
+    name = "angle_closed"
+    description = "angle method, every closing angle checked (variant)"
+
+    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
+                 **kwargs) -> None:
+        super().__init__(database, config, **{"closing": "all", **kwargs})
+
+
+@register
+class AngleOpenMatcher(AngleMatcher):
+    """The paper's literal angle chain: pivots share one star, no closing angle."""
+
+    name = "angle_open"
+    description = "angle method, no closing angle (seed 000 literal, variant)"
+
+    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
+                 **kwargs) -> None:
+        super().__init__(database, config, **{"closing": "none", **kwargs})

@@ -9,10 +9,14 @@ accepted, later passes ask for one vote fewer, down to n - 1 - ``max_false``.
 Then the triangle test (area and polar moment, with the propagated sigmas) runs only over
 triplets of shortlisted catalog stars: the catalog stars of two observed sides are joined
 on their shared star, and the planar triangle they close is compared with the observed
-one. No pivoting: a passing triangle goes to verification with one more observed star
-whose three angles to it close on a shortlisted catalog star (a cheap check: on a dense
-sky the shortlists hold hundreds of stars and chance triangles are common). Triangles no
-other star confirms (the rest may be false stars) are tried last in each pass.
+one. The paper says the hybrid needs no pivoting; here a passing triangle goes to
+verification with one more observed star whose three angles to it close on a shortlisted
+catalog star (a cheap check: on a dense sky the shortlists hold hundreds of stars and
+chance triangles are common). That fourth-star check is what the Pyramid matcher counts
+as a pivot, and it is counted so here. Triangles no other star confirms (the rest may be
+false stars) are tried last in each pass. ``fourth_star=False`` (the variant
+``hybrid_nofourth``) leaves the check out, as the paper does: each passing triangle goes
+to verification as it is.
 
 Unlike the triangle matcher it needs no triangle table (triangles are formed on the fly
 from catalog vectors), so it covers every catalog star, not only the pattern stars.
@@ -66,8 +70,9 @@ class HybridMatcher(Matcher):
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_false: int = 3, max_per_triangle: int = 5,
-                 max_unconfirmed: int = 10) -> None:
+                 max_unconfirmed: int = 10, fourth_star: bool = True) -> None:
         super().__init__(database, config)
+        self.fourth_star = bool(fourth_star)
         self.max_unconfirmed = max_unconfirmed  # per pass, best first
         self.max_false = max_false  # votes the last pass may miss (false partners)
         self.max_per_triangle = max_per_triangle
@@ -120,10 +125,15 @@ class HybridMatcher(Matcher):
             keep = np.argsort(err, kind="stable")[: self.max_per_triangle]
             if len(keep) == 0:
                 continue
+            if not self.fourth_star:
+                for t in keep:
+                    yield Hypothesis(np.array([a, b, c]), trip[t])
+                continue
             # A chance triangle among hundreds of shortlisted stars is common on a dense
             # sky; one more star's three angles removes it before the costlier verification.
             confirmed = False
             for d in (d for d in range(n) if d not in (a, b, c)):
+                diag.pivots += 1
                 hit, w = hybrid_kernels.confirm(trip[keep], np.array([a, b, c]), d, ang,
                                                 tol, shortlist[d], index.lists)
                 for t, star in zip(keep[hit], w, strict=True):
@@ -137,3 +147,15 @@ class HybridMatcher(Matcher):
         unconfirmed.sort(key=lambda item: item[0])
         for _, hyp in unconfirmed[: self.max_unconfirmed]:
             yield hyp
+
+
+@register
+class HybridNoFourthMatcher(HybridMatcher):
+    """The hybrid as the paper states it: a passing triangle is the answer, no fourth star."""
+
+    name = "hybrid_nofourth"
+    description = "hybrid without the fourth-star check (seed 000 literal, variant)"
+
+    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
+                 **kwargs) -> None:
+        super().__init__(database, config, **{"fourth_star": False, **kwargs})

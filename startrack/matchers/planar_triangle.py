@@ -125,3 +125,15 @@ class PlanarTriangleMatcher(Matcher):
                     break  # stars ran out: the survivors go to verification
             for row in hyps[: self.max_ambiguous]:
                 yield Hypothesis(np.array(stars), row)
+
+
+@register
+class PlanarTriangleNoPivotMatcher(PlanarTriangleMatcher):
+    """The triangle method without the forced pivot: a unique triangle is the answer."""
+
+    name = "triangle_nopivot"
+    description = "planar triangles, no forced pivot on a unique triangle (variant)"
+
+    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
+                 **kwargs) -> None:
+        super().__init__(database, config, **{"min_stars": 3, **kwargs})

@@ -7,6 +7,15 @@ then runs only over the shortlists: m1 * m2 * m3 candidate triangles instead of 
 catalog triangle. A catalog star near a frame edge sees neighbours outside the frame and
 an observed star near the edge misses some; the score counts only the rings the observed
 star occupies, so extra catalog rings cost nothing.
+
+Variants (constructor keywords; registered names in brackets): ``rings="noise"`` sets the
+ring width from each frame's stated noise instead of ``noise_px`` [radial_noise];
+``rings="paper"`` takes R and dr per frame as the paper does, the largest and smallest
+separation among the field's stars [radial_paper]; ``patch_deg`` restricts the catalog to
+a known sky patch around ``patch_center`` (set per frame by the caller) [radial_patch,
+with the paper's rings]; ``prefilter=False`` drops the radial shortlist, so the
+side-side-side test runs over every catalog star through the pair table: the paper's
+baseline [sss].
 """
 
 from __future__ import annotations
@@ -18,10 +27,47 @@ from itertools import combinations
 import numpy as np
 
 from startrack.database import StarDatabase
-from startrack.database.radial import RadialTable, observed_masks
+from startrack.database.radial import (
+    RadialTable,
+    build_radial_arrays,
+    observed_masks,
+    radial_table_from_arrays,
+)
 from startrack.matchers.base import Matcher, MatcherConfig, register
 from startrack.matching.geometry import angle_table, handedness, triple_products
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
+
+RINGS = ("fixed", "noise", "paper")
+
+
+def field_rings(vectors: np.ndarray) -> tuple[float, float]:
+    """The paper's rings for one frame: R the largest, dr the smallest separation among
+    the field's stars (radians)."""
+    d = angle_table(vectors, vectors)[np.triu_indices(len(vectors), 1)]
+    return float(d.max()), float(max(d.min(), 1e-9))
+
+
+def pair_triangles(pairs, obs_d: np.ndarray, a: int, b: int, c: int,
+                   eps: float) -> np.ndarray:
+    """Catalog triangles (K x 3 rows, in a, b, c order) whose three sides match the
+    observed ones within ``eps``: side-side-side over every catalog star (pair table)."""
+    def both(p: int, q: int) -> tuple[np.ndarray, np.ndarray]:
+        i, j, _ = pairs.query(obs_d[p, q] - eps, obs_d[p, q] + eps)
+        i, j = i.astype(np.int64), j.astype(np.int64)
+        return np.concatenate([i, j]), np.concatenate([j, i])
+
+    ab_i, ab_j = both(a, b)
+    bc_i, bc_j = both(b, c)
+    order = np.argsort(bc_i, kind="stable")
+    lo = np.searchsorted(bc_i[order], ab_j, side="left")
+    count = np.searchsorted(bc_i[order], ab_j, side="right") - lo
+    rows = np.repeat(np.arange(len(ab_i)), count)
+    pos = np.repeat(lo - np.cumsum(count) + count, count) + np.arange(int(count.sum()))
+    tri = np.column_stack([ab_i[rows], ab_j[rows], bc_j[order[pos]]])
+    tri = tri[tri[:, 0] != tri[:, 2]]
+    ac_i, ac_j = both(a, c)
+    base = int(max(tri.max(initial=0), ac_j.max(initial=0))) + 1
+    return tri[np.isin(tri[:, 0] * base + tri[:, 2], ac_i * base + ac_j)]
 
 
 @register
@@ -41,8 +87,14 @@ class RadialMatcher(Matcher):
                  radius_deg: float | None = None, ring_width_deg: float | None = None,
                  target_neighbours: float = 20.0, noise_px: float = 0.3,
                  ring_sigma: float | None = None, frac: float = 0.75, cap: int = 10,
-                 min_rings: int = 4, max_matches: int = 8) -> None:
+                 min_rings: int = 4, max_matches: int = 8, rings: str = "fixed",
+                 prefilter: bool = True, patch_deg: float | None = None) -> None:
         super().__init__(database, config)
+        if rings not in RINGS:
+            raise ValueError(f"rings must be one of {', '.join(RINGS)}, got {rings!r}")
+        self.rings, self.prefilter = rings, bool(prefilter)
+        self.patch_rad = None if patch_deg is None else math.radians(patch_deg)
+        self.patch_center: np.ndarray | None = None  # ICRS unit vector, set per frame
         if not 0.0 < frac <= 1.0:
             raise ValueError("frac must be in (0, 1]")
         if cap < 1 or max_matches < 1:
@@ -61,8 +113,11 @@ class RadialMatcher(Matcher):
         else:
             width = math.radians(ring_width_deg)
         self.ring_width_rad = width
+        self._ring_sigmas = 2.0 * self.config.tolerance_sigma if ring_sigma is None \
+            else ring_sigma
         self.frac, self.cap, self.min_rings, self.max_matches = frac, cap, min_rings, max_matches
         self._table: RadialTable | None = None
+        self._last: tuple = (None, None)  # (R, dr) and table of the last paper-ring frame
 
     def prepare(self) -> None:
         self._table = self.database.radial(self.radius_rad, self.ring_width_rad)
@@ -73,17 +128,47 @@ class RadialMatcher(Matcher):
             self.prepare()
         return self._table
 
+    def frame_table(self, obs: Observation) -> RadialTable:
+        """The catalog's radial features for this frame's ring choice."""
+        if self.rings == "fixed":
+            return self.table
+        if self.rings == "noise":
+            width = max(self._ring_sigmas * math.sqrt(2.0) * obs.sigma_rad,
+                        2.0 * self.config.min_tolerance_rad)
+            return self.database.radial(self.radius_rad, width)
+        radius, width = field_rings(obs.vectors)
+        key = (min(radius, self.database.max_angle_rad), width)
+        if self._last[0] != key:  # the bench asks again for the same frame: keep one
+            arrays = build_radial_arrays(self.database.pairs, len(self.database.vectors),
+                                         *key)
+            self._last = (key, radial_table_from_arrays(arrays, *key))
+        return self._last[1]
+
+    def in_patch(self) -> np.ndarray | None:
+        """Catalog rows inside the known sky patch (None: lost in space)."""
+        if self.patch_rad is None or self.patch_center is None:
+            return None
+        cos = self.database.vectors @ np.asarray(self.patch_center, dtype=np.float64)
+        return np.flatnonzero(cos >= math.cos(self.patch_rad))
+
     def shortlists(self, obs: Observation, n: int) -> list[np.ndarray]:
         """Catalog candidates of each of the first ``n`` observed stars, best first."""
-        table = self.table
+        if not self.prefilter:
+            rows = self.in_patch()
+            every = np.arange(len(self.database.vectors)) if rows is None else rows
+            return [every] * n
+        table, patch = self.frame_table(obs), self.in_patch()
         single, double, need = observed_masks(obs.vectors, np.arange(n), table.radius_rad,
                                               table.ring_width_rad, self.angle_tolerance(obs))
+        cap = self.cap if patch is None else len(self.database.vectors)
         lists = []
         for k in range(n):
             if need[k] < self.min_rings:
                 lists.append(np.zeros(0, np.int64))
                 continue
-            rows, _ = table.shortlist(single[k], double[k], int(need[k]), self.frac, self.cap)
+            rows, _ = table.shortlist(single[k], double[k], int(need[k]), self.frac, cap)
+            if patch is not None:
+                rows = rows[np.isin(rows, patch)][: self.cap]
             lists.append(rows.astype(np.int64))
         return lists
 
@@ -102,15 +187,10 @@ class RadialMatcher(Matcher):
         cat = [self.database.vectors[s] for s in lists]
         for a, b, c in combinations(usable, 3):
             diag.pivots += 1
-            ab = np.abs(angle_table(cat[a], cat[b]) - obs_d[a, b]) <= eps
-            if not ab.any():
+            found = self._sss(lists, cat, obs_d, (a, b, c), eps)
+            if found is None:
                 continue
-            bc = np.abs(angle_table(cat[b], cat[c]) - obs_d[b, c]) <= eps
-            ac = np.abs(angle_table(cat[a], cat[c]) - obs_d[a, c]) <= eps
-            ia, ib, ic = np.nonzero(ab[:, :, None] & bc[None, :, :] & ac[:, None, :])
-            if len(ia) == 0:
-                continue
-            ra, rb, rc = lists[a][ia], lists[b][ib], lists[c][ic]
+            (ia, ib, ic), (ra, rb, rc) = found
             # Side-side-side cannot tell a triangle from its mirror image; a rotation can.
             keep = (ra != rb) & (rb != rc) & (ra != rc)
             triple = float(triple_products(ov[a], ov[b], ov[c]))
@@ -129,6 +209,30 @@ class RadialMatcher(Matcher):
             yield from with_fourth
             yield from plain
 
+    def _sss(self, lists, cat, obs_d, stars, eps):
+        """Side-side-side over the shortlists (or every catalog star): positions in the
+        lists and catalog rows of the matching triangles, None when there is none."""
+        a, b, c = stars
+        if not self.prefilter:
+            tri = pair_triangles(self.database.pairs, obs_d, a, b, c, eps)
+            patch = self.in_patch()
+            if patch is not None:
+                tri = tri[np.isin(tri, patch).all(axis=1)]
+            if len(tri) == 0:
+                return None
+            pos = (np.searchsorted(lists[a], tri[:, 0]), np.searchsorted(lists[b], tri[:, 1]),
+                   np.searchsorted(lists[c], tri[:, 2]))
+            return pos, (tri[:, 0], tri[:, 1], tri[:, 2])
+        ab = np.abs(angle_table(cat[a], cat[b]) - obs_d[a, b]) <= eps
+        if not ab.any():
+            return None
+        bc = np.abs(angle_table(cat[b], cat[c]) - obs_d[b, c]) <= eps
+        ac = np.abs(angle_table(cat[a], cat[c]) - obs_d[a, c]) <= eps
+        ia, ib, ic = np.nonzero(ab[:, :, None] & bc[None, :, :] & ac[:, None, :])
+        if len(ia) == 0:
+            return None
+        return (ia, ib, ic), (lists[a][ia], lists[b][ib], lists[c][ic])
+
     def _fourth(self, tri, stars, others, lists, cat, obs_d, eps) -> tuple[int, int] | None:
         """The first other observed star with exactly one shortlisted catalog star at the
         right angle from all three triangle stars."""
@@ -140,3 +244,24 @@ class RadialMatcher(Matcher):
             if ok.sum() == 1:
                 return e, int(lists[e][np.flatnonzero(ok)[0]])
         return None
+
+
+def _variant(name: str, description: str, **preset):
+    """A registered RadialMatcher with other defaults (any keyword still overrides)."""
+    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
+                 **kwargs) -> None:
+        RadialMatcher.__init__(self, database, config, **{**preset, **kwargs})
+
+    cls = type(f"Radial_{name}", (RadialMatcher,), {
+        "name": name, "description": description, "__init__": __init__,
+        "__doc__": f"{description}: RadialMatcher with {preset}."})
+    return register(cls)
+
+
+_variant("radial_noise", "radial, ring width from the frame's stated noise (variant)",
+         rings="noise")
+_variant("radial_paper", "radial, the paper's R and dr per frame (variant)", rings="paper")
+_variant("radial_patch", "radial, paper rings within a known sky patch (variant)",
+         rings="paper", patch_deg=4.0)
+_variant("sss", "side-side-side over every catalog star, no radial prefilter (seed 002's "
+         "baseline, variant)", prefilter=False)
