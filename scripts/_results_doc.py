@@ -15,6 +15,7 @@ import sys
 from datetime import UTC, datetime
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -96,6 +97,29 @@ def plot_sweeps(table: pd.DataFrame, conditions, methods, panels, path: Path,
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=80)
     plt.close(fig)
+
+
+def variant_lines(table: pd.DataFrame, pairs: list[tuple[str, str, str]]) -> str:
+    """One bullet per (ours, variant, what the variant changes) present in ``table``:
+    raw wrong first hypotheses, verified correct and wrong, and the time ratio, summed or
+    averaged over all conditions."""
+    lines = []
+    for ours, variant, what in pairs:
+        a, b = (table[table["method"] == m] for m in (ours, variant))
+        if a.empty or b.empty:
+            continue
+
+        def stats(r: pd.DataFrame) -> str:
+            return (f"raw first hypothesis wrong in {int(r['first_wrong_frames'].sum())} of "
+                    f"{int(r['raw_frames'].sum())} frames, none in "
+                    f"{r['none_rate'].mean():.1%}; verified correct {r['correct_rate'].mean():.1%}"
+                    f", {int(r['wrong'].sum())} wrong")
+
+        ratio = (b["seq_ms_median"].to_numpy() / a["seq_ms_median"].to_numpy())
+        lines.append(f"* `{variant}` ({what}) against `{ours}`, over all conditions: "
+                     f"{stats(b)}, against {stats(a)}; median identify time "
+                     f"{np.median(ratio):.2f} times ours (median over conditions).\n")
+    return "".join(lines)
 
 
 def run_block(run: dict | None, name: str) -> str:
