@@ -9,12 +9,12 @@ says the commit, command, date and machine it was made with. Nothing here is typ
 hand except prose that states no number. To regenerate it:
 
 ```
-.venv/bin/python scripts/paper2011.py --frames 200 --timing-frames 60 --fov-frames 100
-.venv/bin/python scripts/seed002_radial.py --frames 200 --raw-frames 100
+.venv/bin/python scripts/paper2011.py         # --frames, --timing-frames, --fov-frames: run size
+.venv/bin/python scripts/seed002_radial.py    # --frames, --raw-frames: run size
 .venv/bin/python scripts/_results_doc.py      # re-render from the saved tables alone
 ```
 
-(The section headers give the exact commands and frame counts of the runs shown.)
+Each section below gives the exact command, and so the frame counts, of the run shown.
 
 The frames are the bench's deterministic frames (`startrack.bench.frames`): frame *i* is
 the same sky patch in every condition and every method sees the same frames. Each
