@@ -24,6 +24,15 @@ DOC = ROOT / "docs" / "results.md"
 RUN_FILE = "run.json"
 
 
+def add_run_args(ap, name: str) -> None:
+    """The options both seed scripts share: processes, resuming, where outputs go."""
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--resume", action="store_true",
+                    help="finish an interrupted bench run in --out instead of starting over")
+    ap.add_argument("--out", type=Path, default=OUT / name)
+    ap.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
+
+
 def run_record(argv: list[str] | None, script: str) -> dict:
     """Where and how a run was made: the bench's provenance (commit with "+dirty", date,
     host, CPU, Python, libraries, command) and the load average at the start."""

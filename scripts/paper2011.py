@@ -33,7 +33,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from _doc_seed000 import COLUMNS, FOV_COLUMNS
-from _results_doc import fmt_table, plot_sweeps, render, run_record, save_run
+from _results_doc import (
+    add_run_args,
+    fmt_table,
+    plot_sweeps,
+    render,
+    run_record,
+    save_run,
+)
 
 from startrack.bench.conditions import build_conditions
 from startrack.bench.raw import raw_unit, summarise_raw
@@ -137,11 +144,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                     help="field widths (deg) of the FOV sensitivity run ('' to skip)")
     ap.add_argument("--fov-frames", type=int, default=200,
                     help="bench frames per condition of the FOV sensitivity run")
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--resume", action="store_true",
-                    help="finish an interrupted bench run in --out instead of starting over")
-    ap.add_argument("--out", type=Path, default=ROOT / "out" / "paper2011")
-    ap.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
+    add_run_args(ap, "paper2011")
     return ap.parse_args(argv)
 
 

@@ -27,7 +27,14 @@ from pathlib import Path
 
 import pandas as pd
 from _doc_seed002 import COLUMNS
-from _results_doc import fmt_table, plot_sweeps, render, run_record, save_run
+from _results_doc import (
+    add_run_args,
+    fmt_table,
+    plot_sweeps,
+    render,
+    run_record,
+    save_run,
+)
 
 from startrack.bench.conditions import build_conditions
 from startrack.bench.raw import raw_pass, summarise_raw
@@ -83,11 +90,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--limit", type=int, default=20, help="hypotheses looked at per frame")
     ap.add_argument("--methods", default=",".join(METHODS + VARIANTS),
                     help="comma-separated matcher names (variants included)")
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--resume", action="store_true",
-                    help="finish an interrupted bench run in --out instead of starting over")
-    ap.add_argument("--out", type=Path, default=ROOT / "out" / "seed002_radial")
-    ap.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
+    add_run_args(ap, "seed002_radial")
     args = ap.parse_args(argv)
 
     record = run_record(argv, "scripts/seed002_radial.py")
