@@ -26,9 +26,12 @@ from startrack.types import MatchDiagnostics, Observation
 
 def _registered() -> list:
     """Every registered method; a peer only when its package is installed, and slow (its
-    own database build takes seconds)."""
+    own database build takes seconds). The paper-literal variants (``variant_of``) are
+    tested in tests/test_matcher_variants.py: weaker by design, they are not held to it."""
     methods = []
     for name in available_methods():
+        if getattr(get_matcher(name), "variant_of", None):
+            continue
         if not issubclass(get_matcher(name), PeerMatcher):
             methods.append(name)
         elif importlib.util.find_spec(name) is not None:

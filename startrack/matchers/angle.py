@@ -126,6 +126,7 @@ class AngleClosedMatcher(AngleMatcher):
     """The angle method with every closing angle looked up before a chain stops."""
 
     name = "angle_closed"
+    variant_of = "angle"  # a paper-literal variant: not held to the contract
     description = "angle method, every closing angle checked (variant)"
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
@@ -138,6 +139,7 @@ class AngleOpenMatcher(AngleMatcher):
     """The paper's literal angle chain: pivots share one star, no closing angle."""
 
     name = "angle_open"
+    variant_of = "angle"  # a paper-literal variant: not held to the contract
     description = "angle method, no closing angle (seed 000 literal, variant)"
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,

@@ -154,6 +154,7 @@ class HybridNoFourthMatcher(HybridMatcher):
     """The hybrid as the paper states it: a passing triangle is the answer, no fourth star."""
 
     name = "hybrid_nofourth"
+    variant_of = "hybrid"  # a paper-literal variant: not held to the contract
     description = "hybrid without the fourth-star check (seed 000 literal, variant)"
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,

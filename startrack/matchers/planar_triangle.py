@@ -132,6 +132,7 @@ class PlanarTriangleNoPivotMatcher(PlanarTriangleMatcher):
     """The triangle method without the forced pivot: a unique triangle is the answer."""
 
     name = "triangle_nopivot"
+    variant_of = "triangle"  # a paper-literal variant: not held to the contract
     description = "planar triangles, no forced pivot on a unique triangle (variant)"
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,

@@ -254,6 +254,7 @@ def _variant(name: str, description: str, **preset):
 
     cls = type(f"Radial_{name}", (RadialMatcher,), {
         "name": name, "description": description, "__init__": __init__,
+        "variant_of": "radial",
         "__doc__": f"{description}: RadialMatcher with {preset}."})
     return register(cls)
 
