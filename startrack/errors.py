@@ -11,7 +11,11 @@ def check_number(value, where: str, *, integer: bool = False, low: float | None 
                  high: float | None = None) -> float | int:
     """``value`` if it is a finite number (an integer if asked) within [low, high]."""
     ok = isinstance(value, int) if integer else isinstance(value, int | float)
-    if isinstance(value, bool) or not ok or not math.isfinite(value):
+    try:  # a 400-digit JSON integer overflows a float
+        ok = ok and not isinstance(value, bool) and math.isfinite(value)
+    except OverflowError:
+        ok = False
+    if not ok:
         raise InputError(f"{where} must be {'an integer' if integer else 'a number'}, "
                          f"got {value!r}")
     if low is not None and value < low:

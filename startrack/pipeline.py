@@ -26,8 +26,8 @@ from startrack.errors import InputError
 from startrack.identify import identify
 from startrack.matchers import MatcherConfig, get_matcher
 from startrack.output import solution_record
-from startrack.sidecar import read_sidecar
-from startrack.sky import Catalog, SkySpec, load_sky, resolve_sky
+from startrack.sidecar import find_sidecar, read_sidecar
+from startrack.sky import Catalog, SkySpec, check_pair_budget, load_sky, resolve_sky
 from startrack.types import Observation, Solution, Timing
 from startrack.verify import VerifyConfig
 
@@ -120,6 +120,7 @@ class Identifier:
         self.verify_config = verify_config or VerifyConfig()
         config = MatcherConfig() if max_stars is None else dataclasses.replace(
             MatcherConfig(), max_stars=int(max_stars))
+        check_pair_budget(catalog, camera)  # before a database that would not fit memory
         self.database = StarDatabase(catalog, camera)
         self.matcher = get_matcher(method)(self.database, config)
         t0 = time.perf_counter()
@@ -175,15 +176,13 @@ class Pipeline:
         """The camera and sky for one input: options, else sidecar, else defaults."""
         opt = self.options
         side_camera, side_sky = None, None
-        if frame.path is not None:
-            from startrack.sidecar import sidecar_path_for
-
-            sidecar = sidecar_path_for(frame.path)
-            if sidecar.is_file() and sidecar != frame.path:
-                side_camera, side_sky, _ = read_sidecar(sidecar)
-        camera = opt.camera or side_camera
-        if camera is None and opt.fov_deg is not None:
-            size = opt.size or frame.size
+        sidecar = find_sidecar(frame.path) if frame.path is not None else None
+        if sidecar is not None:
+            side_camera, side_sky, _ = read_sidecar(sidecar)
+        camera = opt.camera or (side_camera if opt.fov_deg is None else None)
+        if camera is None and opt.fov_deg is not None:  # --fov overrides the sidecar's
+            side_size = (side_camera.width, side_camera.height) if side_camera else None
+            size = opt.size or frame.size or side_size
             if size is None:
                 raise InputError(f"{frame.name}: a centroid list with --fov needs the image "
                                  "size (--size WxH) or use --camera FILE")

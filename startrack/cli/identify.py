@@ -11,13 +11,13 @@ from pathlib import Path
 
 import click
 
-from startrack.cache import atomic_text
 from startrack.camera_file import load_camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
 from startrack.errors import InputError
 from startrack.matchers import available_methods
 from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
+from startrack.outputs import check_output, guarded_stdout, open_output
 from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
 from startrack.sky import SKY_KINDS
 
@@ -77,6 +77,11 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
     usage or an unreadable input (the other inputs are still answered).
     Conventions (pixels, attitude, JSON record, exit codes): docs/conventions.md."""
+    if camera_path and fov_deg is not None:
+        raise click.UsageError("give --camera FILE or --fov DEG, not both (the camera file "
+                               "sets the field of view)")
+    if output:
+        check_output(output, inputs)  # before any work: never overwrite an input
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px)
@@ -85,7 +90,8 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
     pending: list[dict] = []  # error records held back until an input is answered
     try:
         with contextlib.ExitStack() as stack:
-            fh = stack.enter_context(atomic_text(output)) if output else sys.stdout
+            fh = (stack.enter_context(open_output(output, inputs)) if output
+                  else guarded_stdout())
             emit = _writer(fh, fmt, several=len(inputs) > 1)
             for name in inputs:
                 try:
@@ -114,7 +120,7 @@ class _NothingAnswered(Exception):
 
 def _writer(fh, fmt: str, several: bool):
     """A function writing one record to ``fh`` in ``fmt`` (the CSV header first)."""
-    writer = csv.writer(fh) if fmt == "csv" else None
+    writer = csv.writer(fh, lineterminator="\n") if fmt == "csv" else None
     if writer is not None:
         writer.writerow(CSV_HEADER)
 

@@ -18,11 +18,14 @@ from startrack.camera_file import load_camera
 from startrack.cli import main
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
+from startrack.image_header import check_pixels
+from startrack.outputs import check_out_folder, remove_own
 from startrack.sensor import SensorModel
 from startrack.sidecar import sidecar_path_for
 from startrack.sky import SKY_KINDS, SkySpec, resolve_sky
 
 DEFAULT_OUT = Path("out/simulate")
+OWN_FILES = ("frame_*.png", "frame_*.json", "frame_*.fits", "truth.csv", "stars.csv")
 
 
 def _triple(names: str):
@@ -58,12 +61,19 @@ def _triple(names: str):
 @click.option("--fits", "write_fits_too", is_flag=True, help="Also write FITS with a WCS.")
 @click.option("--camera", "camera_path", type=click.Path(dir_okay=False),
               help="Camera file (JSON or TOML), overrides the config's [camera].")
+@click.option("--overwrite", is_flag=True,
+              help="Write into a non-empty --out, first removing the frames, sidecars and "
+                   "CSVs an earlier simulate left there.")
 def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_stars,
-             missing, mag_noise, rate, write_fits_too, camera_path) -> None:
-    """Render frames of a sky, with truth.csv, stars.csv and a JSON sidecar per frame."""
+             missing, mag_noise, rate, write_fits_too, camera_path, overwrite) -> None:
+    """Render frames of a sky, with truth.csv, stars.csv and a JSON sidecar per frame.
+    --out must be empty or new (or give --overwrite); frames are at most
+    STARTRACK_MAX_IMAGE_PIXELS (default 8192 x 8192)."""
     cfg = load_config(config_path) if config_path else config_from_dict(DEFAULT_CONFIG,
                                                                         "default config")
     camera = load_camera(camera_path) if camera_path else cfg.camera
+    check_pixels(camera.width, camera.height,
+                 camera_path or (f"{config_path} [camera]" if config_path else "camera"))
     spec = cfg.sky
     if sky is not None:
         spec = dataclasses.replace(spec, kind=sky)
@@ -79,8 +89,7 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
         raise click.BadParameter(f"Dec must be in [-90, 90], got {attitude[1]}",
                                  param_hint="--attitude")
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise click.BadParameter(f"{out} exists and is not a folder", param_hint="--out")
+    check_out_folder(out, overwrite)
     try:
         _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too)
     except OSError as exc:  # every file is atomic, so nothing half-written is left behind
@@ -99,6 +108,7 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
     from startrack.wcs import wcs_header
 
     catalog = load_sky(spec, camera)  # before any output: a bad sky leaves no files
+    remove_own(out, OWN_FILES)  # an earlier run's frames must not outlive it (--overwrite)
     fixed = from_radec_roll(*attitude) if attitude is not None else None
     truth_rows, star_rows = [], []
     bar = tqdm(range(opts.count), file=sys.stderr, unit="frame", desc="simulate",
@@ -150,6 +160,6 @@ def _random_rotation(rng: np.random.Generator):
 
 def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
     with atomic_text(path) as fh:
-        writer = csv.writer(fh)
+        writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(header)
         writer.writerows(rows)
