@@ -84,11 +84,11 @@ def _csv_chunks(path: Path, columns: dict[str, str]):
 
     line = 2
     try:
-        reader = pd.read_csv(path, usecols=list(columns.values()), chunksize=CSV_CHUNK_ROWS,
-                             dtype=str, keep_default_na=False)
+        reader = pd.read_csv(path, usecols=list(columns.values()), chunksize=CSV_CHUNK_ROWS)
         for chunk in reader:
-            values = chunk.apply(lambda c: pd.to_numeric(c.str.strip(), errors="coerce"))
-            arr = values[list(columns.values())].to_numpy(dtype=float)
+            arr = np.column_stack([
+                pd.to_numeric(chunk[c], errors="coerce").to_numpy(dtype=float)
+                for c in columns.values()]) if len(chunk) else np.zeros((0, len(columns)))
             bad = ~np.isfinite(arr).all(axis=1)
             if bad.any():
                 raise InputError(f"{path}: line {line + int(np.flatnonzero(bad)[0])}: x, y "

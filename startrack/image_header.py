@@ -30,8 +30,8 @@ def check_pixels(width: int, height: int, where: str) -> None:
     """InputError when ``width x height`` is above the documented limit."""
     limit = max_image_pixels()
     if width * height > limit:
-        raise InputError(f"{where}: {width} x {height} px is {width * height / 1e6:.0f} Mpx, "
-                         f"above the {limit / 1e6:.0f} Mpx limit (STARTRACK_MAX_IMAGE_PIXELS)")
+        raise InputError(f"{where}: {width} x {height} = {width * height:,} pixels, above "
+                         f"the limit of {limit:,} (STARTRACK_MAX_IMAGE_PIXELS)")
 
 
 def _png(head: bytes) -> tuple[int, int] | None:

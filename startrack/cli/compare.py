@@ -136,10 +136,15 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     jobs = jobs or os.cpu_count() or 1
     n_units = len(spec.conditions) * frames
     where = f"Dask at {scheduler}" if scheduler else f"{jobs} process(es)"
-    click.echo(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
-               f"{frames} frame(s) from {source} ({n_units} units, {where})", err=True)
-    result = run_comparison(spec, out_dir, jobs=jobs, scheduler=scheduler, resume=resume,
-                            progress=sys.stderr.isatty())
+    def announce() -> None:
+        click.echo(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
+                   f"{frames} frame(s) from {source} ({n_units} units, {where})", err=True)
+
+    try:
+        result = run_comparison(spec, out_dir, jobs=jobs, scheduler=scheduler, resume=resume,
+                                progress=sys.stderr.isatty(), announce=announce)
+    except OSError as exc:  # every file is atomic or resumable: nothing is left torn
+        raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
     if result.units_resumed:
         click.echo(f"resumed: {result.units_resumed} unit(s) were already done", err=True)
     click.echo(format_table(result.summary))
