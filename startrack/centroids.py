@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.errors import InputError
+from startrack.errors import InputError, StartrackWarning
 
 # 1-sigma centroid error assumed when none is given: rendered and real frames centroid to
 # a few tenths of a pixel (scripts/bench_centroid.py); 0.5 px also leaves room for small
@@ -123,7 +123,7 @@ def read_centroid_csv(path: str | Path, max_rows: int | None = None) -> Centroid
             xs, ys, fs = xs[keep], ys[keep], fs[keep]
     if total > limit:
         warnings.warn(f"{path}: kept the brightest {limit} of {total} centroids "
-                      "(the documented bound, MAX_CENTROIDS)", stacklevel=2)
+                      "(the documented bound, MAX_CENTROIDS)", StartrackWarning, stacklevel=2)
     if "flux" not in columns:
         fs = np.arange(len(xs), 0, -1.0)
     return Centroids(xs, ys, fs)

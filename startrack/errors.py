@@ -7,6 +7,11 @@ class InputError(Exception):
     """Bad usage or bad input: says what is wrong and where (exit code 2)."""
 
 
+class StartrackWarning(UserWarning):
+    """Something the user should know, the run going on (the command line prints it as
+    one ``startrack: warning:`` line)."""
+
+
 def check_number(value, where: str, *, integer: bool = False, low: float | None = None,
                  high: float | None = None) -> float | int:
     """``value`` if it is a finite number (an integer if asked) within [low, high]."""

@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 from startrack.attitude import from_quaternion
 from startrack.camera import Camera
 from startrack.camera_file import camera_from_dict
-from startrack.errors import InputError
+from startrack.errors import InputError, StartrackWarning
 from startrack.sky import SkySpec
 
 
@@ -41,7 +41,7 @@ def find_sidecar(input_path: str | Path) -> Path | None:
     if is_sidecar_data(data):
         return path
     warnings.warn(f"{path}: not a startrack sidecar (no 'camera' and 'sky' objects); "
-                  f"ignored for {Path(input_path).name}", stacklevel=2)
+                  f"ignored for {Path(input_path).name}", StartrackWarning, stacklevel=2)
     return None
 
 

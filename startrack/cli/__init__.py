@@ -10,7 +10,7 @@ import warnings
 import click
 
 from startrack import __version__
-from startrack.errors import InputError
+from startrack.errors import InputError, StartrackWarning
 from startrack.outputs import OutputClosed
 
 
@@ -22,8 +22,13 @@ def _on_sigterm(signum, frame) -> None:
     raise Terminated()
 
 
-def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> str:
-    return f"startrack: warning: {message}\n"
+def _show_warning(show):
+    def showwarning(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, StartrackWarning):
+            click.echo(f"startrack: warning: {message}", err=True)
+        else:
+            show(message, category, filename, lineno, file, line)
+    return showwarning
 
 
 def _silence_stdout() -> None:
@@ -58,11 +63,12 @@ class StartrackGroup(click.Group):
             previous = signal.signal(signal.SIGTERM, _on_sigterm)
         except ValueError:  # not the main thread (an embedding caller): leave signals be
             previous = None
-        formatwarning, warnings.formatwarning = warnings.formatwarning, _one_line_warning
         try:
-            code = _finish(self._run(args, prog_name, **extra))
+            with warnings.catch_warnings():
+                warnings.simplefilter("always", StartrackWarning)
+                warnings.showwarning = _show_warning(warnings.showwarning)
+                code = _finish(self._run(args, prog_name, **extra))
         finally:
-            warnings.formatwarning = formatwarning
             if previous is not None:
                 signal.signal(signal.SIGTERM, previous)
         sys.exit(code)

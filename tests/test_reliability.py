@@ -1,0 +1,312 @@
+"""Hostile inputs and outputs (issue 10): each ends as one stderr line and exit 2, or as the
+right answer, and the output paths are left as they were (or whole)."""
+
+from __future__ import annotations
+
+import json
+import os
+import stat
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from startrack.cli import main
+
+CAMERA = {"width": 256, "height": 256, "fov_deg": 17.5}
+
+
+def cli(*args, env: dict | None = None) -> subprocess.CompletedProcess:
+    """The command in this process (click's runner): exit code, stdout, stderr."""
+    result = CliRunner(env=env).invoke(main, [str(a) for a in args], catch_exceptions=False)
+    return subprocess.CompletedProcess(args, result.exit_code, result.stdout, result.stderr)
+
+
+def proc(*args, **kw) -> subprocess.CompletedProcess:
+    """The command as its own process (for the process-level cases)."""
+    kw.setdefault("capture_output", "stdout" not in kw)
+    return subprocess.run([sys.executable, "-m", "startrack", *map(str, args)], text=True,
+                          timeout=120, **kw)
+
+
+def one_error(result, *words: str, code: int = 2) -> str:
+    """Exit ``code`` and exactly one stderr line, without a traceback, holding ``words``."""
+    lines = result.stderr.strip().splitlines()
+    assert result.returncode == code, (result.returncode, result.stderr)
+    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
+    for word in words:
+        assert word in lines[0], lines[0]
+    return lines[0]
+
+
+def no_temporaries(folder: Path) -> None:
+    assert [p.name for p in folder.iterdir() if p.name.startswith(".")] == []
+
+
+@pytest.fixture(scope="module")
+def sim(tmp_path_factory):
+    """Two simulated 256 x 256 frames of the default random sky, and a centroid CSV."""
+    root = tmp_path_factory.mktemp("rel")
+    cam = root / "cam.json"
+    cam.write_text(json.dumps(CAMERA))
+    assert cli("simulate", "--camera", cam, "--frames", "2", "--out", root / "sim").returncode == 0
+    rows = np.genfromtxt(root / "sim" / "stars.csv", delimiter=",", names=True)
+    first = rows[(rows["frame"] == 0) & (rows["is_false"] == 0)]
+    csv_path = root / "frame0.csv"
+    csv_path.write_text("x,y,flux\n" + "".join(f"{r['x']},{r['y']},{r['flux']}\n"
+                                               for r in first))
+    return root, cam, root / "sim" / "frame_0000.png", csv_path
+
+
+def test_the_frames_solve(sim):
+    root, cam, png, csv_path = sim
+    assert cli("identify", png).returncode == 0
+    result = cli("identify", csv_path, "--camera", cam, "--sky", "random", "--format", "json")
+    assert result.returncode == 0 and json.loads(result.stdout)["status"] == "solved"
+
+
+# --- outputs: devices, symlinks, inputs, write errors -----------------------------------
+
+def test_output_to_dev_full_is_written_through_and_stays_a_device(sim):
+    _, _, png, _ = sim
+    one_error(cli("identify", png, "--output", "/dev/full"), "/dev/full", "No space left")
+    assert stat.S_ISCHR(os.stat("/dev/full").st_mode)
+
+
+def test_output_symlink_writes_its_target_and_stays_a_link(sim, tmp_path):
+    _, _, png, _ = sim
+    link, target = tmp_path / "link.jsonl", tmp_path / "target.jsonl"
+    link.symlink_to(target.name)
+    assert cli("identify", png, "--format", "json", "--output", link).returncode == 0
+    assert link.is_symlink() and os.readlink(link) == target.name
+    assert json.loads(target.read_text())["status"] == "solved"
+    no_temporaries(tmp_path)
+
+
+def test_output_fifo_is_written_through(sim, tmp_path):
+    _, _, png, _ = sim
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got: list[str] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_text()))
+    reader.start()
+    assert cli("identify", png, "--format", "json", "--output", fifo).returncode == 0
+    reader.join(30)
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode) and json.loads(got[0])["status"] == "solved"
+
+
+@pytest.mark.parametrize("how", ["same", "symlink", "hardlink"])
+def test_output_that_is_an_input_is_refused(sim, tmp_path, how):
+    _, cam, _, csv_path = sim
+    data = csv_path.read_bytes()
+    out = {"same": csv_path, "symlink": tmp_path / "s.csv", "hardlink": tmp_path / "h.csv"}[how]
+    if how == "symlink":
+        out.symlink_to(csv_path)
+    elif how == "hardlink":
+        os.link(csv_path, out)
+    result = cli("identify", csv_path, "--camera", cam, "--sky", "random", "--output", out)
+    one_error(result, "refusing to overwrite an input")
+    assert csv_path.read_bytes() == data
+
+
+def test_output_under_a_file_is_one_line(sim, tmp_path):
+    _, _, png, _ = sim
+    (tmp_path / "file").write_text("x")
+    one_error(cli("identify", png, "--output", tmp_path / "file" / "out.json"),
+              "parent folder is a file")
+    assert (tmp_path / "file").read_text() == "x"
+
+
+def test_stdout_on_a_full_disk_is_one_line(sim):
+    _, _, png, _ = sim
+    with open("/dev/full", "w") as full:
+        result = proc("identify", png, stdout=full, stderr=subprocess.PIPE)
+    one_error(result, "standard output", "No space left")
+
+
+def test_a_closed_pipe_ends_quietly(sim):
+    _, _, png, _ = sim
+    p = subprocess.Popen([sys.executable, "-m", "startrack", "identify", str(png), str(png),
+                          "--format", "csv"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True)
+    p.stdout.close()  # the reader is gone before anything is written (`| head -0`)
+    err = p.stderr.read()
+    assert p.wait(120) == 2 and err == ""
+
+
+def test_outputs_follow_the_umask_and_csv_is_lf(sim, tmp_path):
+    _, _, png, _ = sim
+    old = os.umask(0o027)
+    try:
+        assert cli("identify", png, "--format", "csv", "--output", tmp_path / "o.csv") \
+            .returncode == 0
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(os.stat(tmp_path / "o.csv").st_mode) == 0o640
+    assert b"\r" not in (tmp_path / "o.csv").read_bytes()
+
+
+# --- camera files and options ------------------------------------------------------------
+
+BAD_CAMERAS = [
+    ('{"width": 1e400, "height": 256, "fov_deg": 10}', "width"),
+    ('{"width": 1' + "0" * 400 + ', "height": 256, "fov_deg": 10}', "width"),
+    ('{"width": "256", "height": 256, "fov_deg": 10}', "width"),
+    ('{"width": true, "height": 256, "fov_deg": 10}', "width"),
+    ('{"width": 256.5, "height": 256, "fov_deg": 10}', "width"),
+    ('{"width": 256, "height": 256, "fov_deg": NaN}', "fov_deg"),
+    ('{"width": 256, "height": 256, "focal_length_mm": NaN, "pixel_size_um": 5}',
+     "focal_length_mm"),
+    ('{"width": 256, "height": 256, "focal_length_mm": 50, "pixel_size_um": Infinity}',
+     "pixel_size_um"),
+    ('{"width": 256, "height": 256, "focal_length_mm": 1e-9, "pixel_size_um": 5}',
+     "focal_length_mm"),
+    ('{"width": 256, "height": 256, "focal_length_mm": 0.01, "pixel_size_um": 500}',
+     "field of view"),
+    ('{"width": 256, "height": 256, "fov_deg": 17.5, "cx": 100000}', "cx"),
+    ('{"width": 256, "height": 256, "fov_deg": 17.5, "cy": -40}', "cy"),
+    ('{"width": 256, "height": 256, "fov_deg": 17.5, "lens": 3}', "unknown key"),
+    ('{"width": 256, "fov_deg": 17.5}', "height"),
+    ('{"width": 256, "height": 256, "fov_deg": 17.5', "not valid"),
+    (b'\xff\xfe{"width": 256}', "not UTF-8"),
+]
+
+
+@pytest.mark.parametrize("text, word", BAD_CAMERAS)
+def test_bad_camera_file_is_one_line_naming_it(sim, tmp_path, text, word):
+    _, _, _, csv_path = sim
+    cam = tmp_path / "bad.json"
+    cam.write_bytes(text if isinstance(text, bytes) else text.encode())
+    out = tmp_path / "out.json"
+    one_error(cli("identify", csv_path, "--camera", cam, "--output", out), "bad.json", word)
+    assert not out.exists()
+    no_temporaries(tmp_path)
+
+
+def test_fov_beside_camera_is_an_error(sim):
+    _, cam, _, csv_path = sim
+    one_error(cli("identify", csv_path, "--camera", cam, "--fov", "10"), "--camera", "--fov")
+
+
+def test_fov_option_overrides_the_sidecar(sim, tmp_path):
+    root, _, png, _ = sim
+    frame = tmp_path / "f.png"
+    frame.write_bytes(png.read_bytes())
+    side = json.loads((root / "sim" / "frame_0000.json").read_text())
+    side["camera"]["fov_deg"] = 12.0  # a wrong sidecar: the option must win
+    (tmp_path / "f.json").write_text(json.dumps(side))
+    result = cli("identify", frame, "--fov", "17.5", "--format", "json")
+    record = json.loads(result.stdout)
+    assert result.returncode == 0 and record["status"] == "solved"
+    fov = record.get("fov_deg", record["diagnostics"]["camera"]["fov_deg"])
+    assert abs(fov - 17.5) < 0.5  # the sidecar's 12 deg was not used
+
+
+def test_an_unrelated_json_beside_an_input_is_not_a_sidecar(sim, tmp_path):
+    _, _, png, _ = sim
+    frame = tmp_path / "f.png"
+    frame.write_bytes(png.read_bytes())
+    (tmp_path / "f.json").write_text('{"camera": "my notes", "observer": "me"}')
+    result = cli("identify", frame, "--fov", "17.5", "--sky", "random", "--format", "json")
+    assert result.returncode == 0 and json.loads(result.stdout)["status"] == "solved"
+    assert "not a startrack sidecar" in one_error(result, "f.json", code=0)
+
+
+# --- inputs: malformed, too large, too few stars -----------------------------------------
+
+@pytest.mark.parametrize("content, word", [
+    ("x,y\n1,2\n3,oops\n", "line 3"),
+    ("a,b\n1,2\n", "missing column 'x'"),
+    ("x,y,flux\n1,2,inf\n", "line 2"),
+    ("", "not a readable CSV"),
+])
+def test_malformed_csv_is_one_line(sim, tmp_path, content, word):
+    _, cam, _, _ = sim
+    bad = tmp_path / "bad.csv"
+    bad.write_text(content)
+    one_error(cli("identify", bad, "--camera", cam), "bad.csv", word)
+
+
+def test_malformed_image_is_one_line(sim, tmp_path):
+    _, cam, _, _ = sim
+    bad = tmp_path / "bad.png"
+    bad.write_bytes(b"\x89PNG\r\n\x1a\n" + b"garbage" * 10)
+    one_error(cli("identify", bad, "--camera", cam), "bad.png")
+
+
+def test_too_few_stars_is_not_solved(sim, tmp_path):
+    _, cam, _, _ = sim
+    few = tmp_path / "few.csv"
+    few.write_text("x,y\n10,10\n100,120\n")
+    result = cli("identify", few, "--camera", cam, "--sky", "random", "--format", "json")
+    assert result.returncode == 1
+    assert json.loads(result.stdout)["reason"] == "too_few_stars"
+
+
+def test_a_batch_answers_every_input(sim, tmp_path):
+    _, _, png, _ = sim
+    out = tmp_path / "out.jsonl"
+    result = cli("identify", png, tmp_path / "missing.png", png, "--format", "json",
+                 "--output", out)
+    assert result.returncode == 2
+    assert [r["status"] for r in map(json.loads, out.read_text().splitlines())] == \
+        ["solved", "error", "solved"]
+
+
+def _png_header(width: int, height: int) -> bytes:
+    import struct
+    import zlib
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 16, 0, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + b"IHDR" + ihdr
+            + struct.pack(">I", zlib.crc32(b"IHDR" + ihdr)))
+
+
+def test_a_huge_image_is_refused_from_its_header(sim, tmp_path):
+    _, _, _, _ = sim
+    huge = tmp_path / "huge.png"
+    huge.write_bytes(_png_header(20000, 20000))  # 400 Mpx claimed: never decoded
+    one_error(cli("identify", huge, "--fov", "10"), "huge.png", "20000 x 20000",
+              "STARTRACK_MAX_IMAGE_PIXELS")
+
+
+@pytest.mark.parametrize("suffix", [".png", ".tiff", ".fits"])
+def test_the_pixel_limit_holds_for_each_format(tmp_path, suffix):
+    from startrack.imageio import write_fits, write_png16
+
+    image = np.zeros((120, 100), np.uint16)
+    path = tmp_path / f"big{suffix}"
+    if suffix == ".tiff":
+        import tifffile
+
+        tifffile.imwrite(path, image)
+    else:
+        (write_fits if suffix == ".fits" else write_png16)(path, image)
+    result = cli("identify", path, "--fov", "10", env={"STARTRACK_MAX_IMAGE_PIXELS": "10000"})
+    one_error(result, path.name, "12,000 pixels")
+
+
+def test_a_200k_row_csv_keeps_its_brightest_rows_and_says_so(sim, tmp_path):
+    _, cam, _, csv_path = sim
+    rng = np.random.default_rng(3)
+    rows = csv_path.read_text().splitlines()[1:]
+    faint = rng.uniform(0, 255, (200_000 - len(rows), 2))
+    text = "x,y,flux\n" + "\n".join(rows) + "\n" + "".join(
+        f"{x:.2f},{y:.2f},0.5\n" for x, y in faint)
+    big = tmp_path / "big.csv"
+    big.write_text(text)
+    result = cli("identify", big, "--camera", cam, "--sky", "random", "--format", "json")
+    assert "kept the brightest 1000 of 200000 centroids" in one_error(
+        result, "big.csv", code=result.returncode)
+    assert result.returncode in (0, 1) and json.loads(result.stdout)["status"] != "error"
+
+
+def test_a_magnitude_limit_beyond_the_pair_budget_names_the_option(sim):
+    _, cam, _, csv_path = sim
+    result = cli("identify", csv_path, "--camera", cam, "--sky", "hipparcos",
+                 "--mag-limit", "20")
+    one_error(result, "--mag-limit", "STARTRACK_MAX_PAIRS")
