@@ -128,6 +128,26 @@ def test_stdout_on_a_full_disk_is_one_line(sim):
     one_error(result, "standard output", "No space left")
 
 
+@pytest.mark.parametrize("args", [["--help"], ["cache", "info"],
+                                  ["simulate", "--camera", "{cam}", "--frames", "1",
+                                   "--out", "{tmp}/sim"]])
+def test_every_command_on_a_full_stdout_is_one_line(sim, tmp_path, args):
+    _, cam, _, _ = sim
+    with open("/dev/full", "w") as full:
+        result = proc(*[a.format(cam=cam, tmp=tmp_path) for a in args], stdout=full,
+                      stderr=subprocess.PIPE)
+    one_error(result, "standard output", "No space left")
+
+
+@pytest.mark.parametrize("args", [["cache", "info"], ["--help"]])
+def test_any_command_on_a_closed_pipe_is_quiet(args):
+    p = subprocess.Popen([sys.executable, "-m", "startrack", *args], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    p.stdout.close()
+    err = p.stderr.read()
+    assert p.wait(60) == 2 and err == ""
+
+
 def test_a_closed_pipe_ends_quietly(sim):
     _, _, png, _ = sim
     p = subprocess.Popen([sys.executable, "-m", "startrack", "identify", str(png), str(png),

@@ -79,6 +79,9 @@ class StartrackGroup(click.Group):
                          standalone_mode=False, **extra)
             return 0
         except SystemExit as exc:
+            if isinstance(sys.stdout, getattr(click.utils, "_PacifyFlushWrapper", ())):
+                _silence_stdout()  # click met a closed pipe (EPIPE) and went quiet
+                return 2
             return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
         except click.exceptions.Exit as exc:
             return exc.exit_code
@@ -104,6 +107,12 @@ class StartrackGroup(click.Group):
             return 2
         except BrokenPipeError:
             _silence_stdout()
+            return 2
+        except OSError as exc:  # I/O failing outside an output's own handling: stdout
+            _silence_stdout()
+            where = exc.filename or "standard output"
+            click.echo(f"startrack: error: {where}: cannot write ({exc.strerror or exc})",
+                       err=True)
             return 2
         except MemoryError:
             click.echo("startrack: error: out of memory (see the size limits in "

@@ -94,6 +94,8 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
         _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too)
     except OSError as exc:  # every file is atomic, so nothing half-written is left behind
         raise InputError(f"{out}: cannot write output ({exc.strerror or exc})") from None
+    click.echo(f"wrote {opts.count} frame(s) to {out}/ (truth.csv, stars.csv, "
+               f"frame_*.png{', frame_*.fits' if write_fits_too else ''}, frame_*.json)")
 
 
 def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions, out: Path,
@@ -148,8 +150,6 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
                                    "dec_deg", "roll_deg"], truth_rows)
     _write_csv(out / "stars.csv", ["frame", "x", "y", "flux", "magnitude", "catalog_id",
                                    "is_false"], star_rows)
-    click.echo(f"wrote {opts.count} frame(s) to {out}/ (truth.csv, stars.csv, "
-               f"frame_*.png{', frame_*.fits' if with_fits else ''}, frame_*.json)")
 
 
 def _random_rotation(rng: np.random.Generator):
