@@ -116,7 +116,7 @@ class StartrackGroup(click.Group):
             return 2
         except MemoryError:
             click.echo("startrack: error: out of memory (see the size limits in "
-                       "docs/conventions.md)", err=True)
+                       "docs/limits.md)", err=True)
             return 2
 
 

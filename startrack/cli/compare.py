@@ -127,6 +127,10 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
             raise InputError(f"--mag-limit must be finite, got {mag_limit}")
         spec_sky = dataclasses.replace(spec_sky, mag_limit=mag_limit)
     spec_sky = resolve_sky(spec_sky, cfg.camera)
+    if source == "images":  # frames are rendered at the camera's size
+        from startrack.image_header import check_pixels
+
+        check_pixels(cfg.camera.width, cfg.camera.height, f"{config_path or 'config'} [camera]")
     levels = _levels(noise_px, false_stars, missing, mag_noise, source)
     spec = RunSpec(
         methods=names, conditions=tuple(build_conditions(levels, grid)), frames=frames,
