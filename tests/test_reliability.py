@@ -234,3 +234,26 @@ def test_an_unrelated_json_beside_an_input_is_not_a_sidecar(sim, tmp_path):
     result = cli("identify", frame, "--fov", "17.5", "--sky", "random", "--format", "json")
     assert result.returncode == 0 and json.loads(result.stdout)["status"] == "solved"
     assert "not a startrack sidecar" in one_error(result, "f.json", code=0)
+
+
+@pytest.fixture()
+def full_disk(tmp_path):
+    """A 64 kB tmpfs, filled (root only; skipped where mounting is not allowed)."""
+    mnt = tmp_path / "full"
+    mnt.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("cannot mount a small tmpfs here")
+    try:
+        (mnt / "fill").write_bytes(b"\0" * 60_000)
+        yield mnt
+    finally:
+        subprocess.run(["umount", str(mnt)], check=True)
+
+
+def test_a_full_disk_is_one_line_and_leaves_nothing(sim, full_disk):
+    _, cam, png, _ = sim
+    one_error(cli("identify", png, png, "--format", "json", "--output", full_disk / "o.json"),
+              "o.json", "No space left")
+    one_error(cli("simulate", "--camera", cam, "--out", full_disk / "sim"), "cannot write")
+    assert sorted(p.name for p in full_disk.rglob("*")) == ["fill", "sim"]
