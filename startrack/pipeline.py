@@ -167,6 +167,9 @@ class Pipeline:
     """Solve many inputs, each with its own camera and sky, sharing loaded databases."""
 
     def __init__(self, options: Options) -> None:
+        if options.camera is not None and options.fov_deg is not None:
+            raise InputError("give a camera or a field of view, not both (the camera sets "
+                             "the field of view)")
         self.options = options
         get_matcher(options.method)  # an unknown method fails before any work
         self._identifiers: dict[tuple[Camera, SkySpec], Identifier] = {}

@@ -106,3 +106,12 @@ def test_a_magnitude_limit_beyond_the_pair_budget_names_the_option(sim):
     result = cli("identify", csv_path, "--camera", cam, "--sky", "hipparcos",
                  "--mag-limit", "20")
     one_error(result, "--mag-limit", "STARTRACK_MAX_PAIRS")
+
+
+def test_the_api_refuses_a_camera_and_a_fov_together():
+    import startrack
+    from startrack.camera import Camera
+    from startrack.errors import InputError
+
+    with pytest.raises(InputError, match="not both"):
+        startrack.Solver(fov_deg=10.0, camera=Camera.from_fov(256, 256, 17.5))

@@ -230,3 +230,18 @@ def test_the_cache_is_capped_least_recently_used_first(tmp_path, monkeypatch):
     from startrack.cache import cache_key
 
     assert names == {f"{cache_key('t', {'k': k})}.npz" for k in (1, 3)}
+
+
+def test_sigterm_during_identify_leaves_no_output(tmp_path):
+    csv_path = tmp_path / "f.csv"
+    csv_path.write_text("x,y\n" + "".join(f"{10 + 7 * k},{20 + 5 * k}\n" for k in range(30)))
+    out = tmp_path / "o" / "out.jsonl"
+    p = subprocess.Popen([sys.executable, "-m", "startrack", "identify", *[str(csv_path)] * 5000,
+                          "--fov", "17.5", "--size", "256x256", "--sky", "random",
+                          "--format", "json", "--output", str(out)],
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    _wait_for(lambda: out.parent.is_dir() and any(out.parent.iterdir()) or p.poll() is not None)
+    p.send_signal(signal.SIGTERM)
+    assert p.wait(60) == 143, p.stderr.read()
+    assert "Traceback" not in p.stderr.read()
+    assert list(out.parent.iterdir()) == []
