@@ -21,6 +21,12 @@ def sidecar_path_for(image_path: str | Path) -> Path:
     return Path(image_path).with_suffix(".json")
 
 
+def with_sidecars(inputs) -> list[Path]:
+    """The inputs and the JSON beside each (what an output must never overwrite)."""
+    paths = [Path(p) for p in inputs]
+    return paths + [sidecar_path_for(p) for p in paths]
+
+
 def is_sidecar_data(data) -> bool:
     """Whether parsed JSON is a startrack frame sidecar: an object with a ``camera`` and a
     ``sky`` object (what ``simulate`` writes), not any JSON that happens to share a stem."""

@@ -99,18 +99,23 @@ def test_output_fifo_is_written_through(sim, tmp_path):
     assert stat.S_ISFIFO(os.lstat(fifo).st_mode) and json.loads(got[0])["status"] == "solved"
 
 
-@pytest.mark.parametrize("how", ["same", "symlink", "hardlink"])
+@pytest.mark.parametrize("how", ["same", "symlink", "hardlink", "sidecar"])
 def test_output_that_is_an_input_is_refused(sim, tmp_path, how):
-    _, cam, _, csv_path = sim
-    data = csv_path.read_bytes()
-    out = {"same": csv_path, "symlink": tmp_path / "s.csv", "hardlink": tmp_path / "h.csv"}[how]
+    _, cam, _, frame_csv = sim
+    csv_path = tmp_path / "in.csv"
+    csv_path.write_bytes(frame_csv.read_bytes())
+    out = {"same": csv_path, "symlink": tmp_path / "s.csv", "hardlink": tmp_path / "h.csv",
+           "sidecar": tmp_path / "in.json"}[how]
     if how == "symlink":
         out.symlink_to(csv_path)
     elif how == "hardlink":
         os.link(csv_path, out)
+    elif how == "sidecar":
+        out.write_text("{}")
+    before = {p: p.read_bytes() for p in (csv_path, out)}
     result = cli("identify", csv_path, "--camera", cam, "--sky", "random", "--output", out)
     one_error(result, "refusing to overwrite an input")
-    assert csv_path.read_bytes() == data
+    assert {p: p.read_bytes() for p in (csv_path, out)} == before
 
 
 def test_output_under_a_file_is_one_line(sim, tmp_path):

@@ -19,6 +19,7 @@ from startrack.matchers import available_methods
 from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
 from startrack.outputs import check_output, guarded_stdout, open_output
 from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
+from startrack.sidecar import with_sidecars
 from startrack.sky import SKY_KINDS
 
 
@@ -81,7 +82,7 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
         raise click.UsageError("give --camera FILE or --fov DEG, not both (the camera file "
                                "sets the field of view)")
     if output:
-        check_output(output, inputs)  # before any work: never overwrite an input
+        check_output(output, with_sidecars(inputs))  # never overwrite an input
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px)
@@ -90,7 +91,7 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
     pending: list[dict] = []  # error records held back until an input is answered
     try:
         with contextlib.ExitStack() as stack:
-            fh = (stack.enter_context(open_output(output, inputs)) if output
+            fh = (stack.enter_context(open_output(output, with_sidecars(inputs))) if output
                   else guarded_stdout())
             emit = _writer(fh, fmt, several=len(inputs) > 1)
             for name in inputs:
