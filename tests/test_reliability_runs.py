@@ -116,6 +116,9 @@ def test_compare_out_under_a_file_and_a_huge_sky_are_one_line(tmp_path):
     result = cli(*RUN, "--frames", "2", "--sky", "hipparcos", "--mag-limit", "20",
                  "--out", tmp_path / "o")
     one_error(result, "--mag-limit", "STARTRACK_MAX_PAIRS")
+    one_error(cli(*RUN, "--frames", "100000000", "--out", tmp_path / "o"), "--frames",
+              "200,000,000 units")
+    assert not (tmp_path / "o").exists()
 
 
 # --- simulate ----------------------------------------------------------------------------

@@ -26,6 +26,7 @@ DEFAULT_METHODS = "angle,triangle,hybrid"
 # measured, its 7000 units cost ~70 s of CPU, i.e. ~40 s on 2 idle cores (more on a
 # loaded machine). 1000 frames put a 95% rate within about +-1.4%.
 DEFAULT_FRAMES = 1000
+MAX_UNITS = 10_000_000  # frames x conditions of one run (docs/limits.md)
 DEFAULT_LEVELS = {"noise_px": "0,0.5,1,2", "false_stars": "0,1,3,5", "missing": "0",
                   "mag_noise": "0"}
 
@@ -139,6 +140,9 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
         hot_pixel_fraction=cfg.frames.hot_pixel_fraction, threshold_arcsec=threshold_arcsec)
     jobs = jobs or os.cpu_count() or 1
     n_units = len(spec.conditions) * frames
+    if n_units > MAX_UNITS:  # the run's unit list alone would not fit in memory
+        raise InputError(f"--frames {frames} x {len(spec.conditions)} condition(s) is "
+                         f"{n_units:,} units, above the limit of {MAX_UNITS:,}")
     where = f"Dask at {scheduler}" if scheduler else f"{jobs} process(es)"
     def announce() -> None:
         click.echo(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
