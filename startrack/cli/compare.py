@@ -64,6 +64,19 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str) -> dict[str,
     }
 
 
+def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
+    if frames < 1:
+        raise InputError(f"--frames must be >= 1, got {frames}")
+    if max_stars < 3:
+        raise InputError(f"--max-stars must be >= 3, got {max_stars}")
+    if jobs is not None and jobs < 1:
+        raise InputError(f"--jobs must be >= 1, got {jobs}")
+    if seed is not None and seed < 0:
+        raise InputError(f"--seed must be >= 0, got {seed}")
+    if not (math.isfinite(threshold_arcsec) and threshold_arcsec > 0):
+        raise InputError(f"--threshold-arcsec must be > 0, got {threshold_arcsec}")
+
+
 @main.command()
 @click.option("--methods", default=DEFAULT_METHODS, show_default=True,
               help="Comma-separated methods to compare.")
@@ -110,16 +123,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
 
     names = parse_methods(methods)
-    if frames < 1:
-        raise InputError(f"--frames must be >= 1, got {frames}")
-    if max_stars < 3:
-        raise InputError(f"--max-stars must be >= 3, got {max_stars}")
-    if jobs is not None and jobs < 1:
-        raise InputError(f"--jobs must be >= 1, got {jobs}")
-    if seed is not None and seed < 0:
-        raise InputError(f"--seed must be >= 0, got {seed}")
-    if not (math.isfinite(threshold_arcsec) and threshold_arcsec > 0):
-        raise InputError(f"--threshold-arcsec must be > 0, got {threshold_arcsec}")
+    _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec)
     cfg = (load_config(config_path) if config_path
            else config_from_dict(DEFAULT_CONFIG, "default config"))
     spec_sky = cfg.sky if sky is None else dataclasses.replace(cfg.sky, kind=sky)
@@ -144,6 +148,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
         raise InputError(f"--frames {frames} x {len(spec.conditions)} condition(s) is "
                          f"{n_units:,} units, above the limit of {MAX_UNITS:,}")
     where = f"Dask at {scheduler}" if scheduler else f"{jobs} process(es)"
+
     def announce() -> None:
         click.echo(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
                    f"{frames} frame(s) from {source} ({n_units} units, {where})", err=True)
