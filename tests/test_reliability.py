@@ -241,19 +241,44 @@ def test_an_unrelated_json_beside_an_input_is_not_a_sidecar(sim, tmp_path):
     assert "not a startrack sidecar" in one_error(result, "f.json", code=0)
 
 
+def _tmpfs(mnt: Path, options: str) -> None:
+    """Mount a tmpfs (root only; the test is skipped where mounting is not allowed)."""
+    mnt.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(mnt)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("cannot mount a tmpfs here")
+
+
 @pytest.fixture()
 def full_disk(tmp_path):
-    """A 64 kB tmpfs, filled (root only; skipped where mounting is not allowed)."""
+    """A 64 kB tmpfs, filled."""
     mnt = tmp_path / "full"
-    mnt.mkdir()
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)],
-                      capture_output=True).returncode != 0:
-        pytest.skip("cannot mount a small tmpfs here")
+    _tmpfs(mnt, "size=64k")
     try:
         (mnt / "fill").write_bytes(b"\0" * 60_000)
         yield mnt
     finally:
         subprocess.run(["umount", str(mnt)], check=True)
+
+
+@pytest.fixture()
+def read_only(tmp_path):
+    """A read-only folder that is read-only for root too (a read-only mount)."""
+    mnt = tmp_path / "ro"
+    _tmpfs(mnt, "ro,size=64k")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", str(mnt)], check=True)
+
+
+def test_a_read_only_folder_is_one_line(sim, read_only):
+    _, cam, png, _ = sim
+    one_error(cli("identify", png, "--output", read_only / "o.json"), "Read-only")
+    one_error(cli("simulate", "--camera", cam, "--out", read_only / "sim"), "Read-only")
+    one_error(cli("compare", "--methods", "angle", "--frames", "2", "--noise-px", "0",
+                  "--false-stars", "0", "--out", read_only / "cmp"), "Read-only")
+    assert list(read_only.iterdir()) == []
 
 
 def test_a_full_disk_is_one_line_and_leaves_nothing(sim, full_disk):
