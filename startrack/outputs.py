@@ -97,11 +97,16 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = (),
         raise InputError(f"{what} {path}: is a folder")
     refuse_inputs(path, inputs, what)
     if st is None:
-        parent = Path(os.path.realpath(path)).parent
-        while not parent.exists():
-            parent = parent.parent
-        if not parent.is_dir():
-            raise InputError(f"{what} {path}: a parent folder is a file ({parent})")
+        _check_parents(path, what)
+
+
+def _check_parents(path: Path, what: str) -> None:
+    """The nearest existing ancestor of a path that does not exist must be a folder."""
+    parent = Path(os.path.realpath(path)).parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise InputError(f"{what} {path}: a parent folder is a file ({parent})")
 
 
 @contextlib.contextmanager
@@ -136,7 +141,7 @@ def check_out_folder(out: str | Path, overwrite: bool, what: str = "--out") -> N
     out = Path(out)
     st = _existing(out, what)
     if st is None:
-        check_output(out / "x", (), what)  # its parents must be folders too
+        _check_parents(out, what)
         return
     if not stat.S_ISDIR(st.st_mode):
         raise InputError(f"{what} {out}: exists and is not a folder")
