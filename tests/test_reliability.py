@@ -113,8 +113,9 @@ def test_output_that_is_an_input_is_refused(sim, tmp_path, how):
     elif how == "sidecar":
         out.write_text("{}")
     before = {p: p.read_bytes() for p in (csv_path, out)}
-    result = cli("identify", csv_path, "--camera", cam, "--sky", "random", "--output", out)
-    one_error(result, "refusing to overwrite an input")
+    for option in ("--output", "--corr"):
+        result = cli("identify", csv_path, "--camera", cam, "--sky", "random", option, out)
+        one_error(result, option, "refusing to overwrite an input")
     assert {p: p.read_bytes() for p in (csv_path, out)} == before
 
 

@@ -17,7 +17,7 @@ from startrack.cli import main
 from startrack.errors import InputError
 from startrack.matchers import available_methods
 from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
-from startrack.outputs import check_output, guarded_stdout, open_output
+from startrack.outputs import check_output, guarded_stdout, open_output, refuse_inputs
 from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
 from startrack.side_outputs import SideOutputs
 from startrack.sidecar import with_sidecars
@@ -98,6 +98,10 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
                                "sets the field of view)")
     if output:
         check_output(output, with_sidecars(inputs))  # never overwrite an input
+    for what, path in (("--annotate", annotate_path), ("--wcs", wcs_path),
+                       ("--corr", corr_path)):
+        if path:
+            refuse_inputs(path, with_sidecars(inputs), what)
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px)
