@@ -95,14 +95,15 @@ class Solver:
                  size: tuple[int, int] | None = None, method: str = DEFAULT_METHOD,
                  sky: str | None = None, mag_limit: float | None = None,
                  epoch: float | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
-                 max_stars: int | None = None) -> None:
+                 max_stars: int | None = None, timeout_ms: float | None = None) -> None:
         if camera is not None and not isinstance(camera, Camera):
             from startrack.camera_file import load_camera
 
             camera = load_camera(camera)
         self._pipeline = Pipeline(Options(method=method, camera=camera, fov_deg=fov_deg,
                                           size=size, sky=sky, mag_limit=mag_limit,
-                                          epoch=epoch, max_stars=max_stars, sigma_px=sigma_px))
+                                          epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
+                                          timeout_ms=timeout_ms))
 
     def solve(self, source: str | Path | np.ndarray) -> SolveResult:
         """Solve a path (image or centroid CSV), a 2-D image array, or an N x 2 / N x 3
