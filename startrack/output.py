@@ -34,6 +34,10 @@ def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timi
     if not solution.solved:
         record["reason"] = solution.reason or "no_match"
     record["method"] = solution.method
+    if solution.solved:
+        record["mode"] = solution.mode
+    if solution.lock is not None:
+        record["lock"] = solution.lock
     record["attitude"] = None
     record["stars"] = []
     if solution.solved and solution.rotation is not None:
