@@ -103,14 +103,20 @@ def load_bench(spec: RunSpec) -> LoadedBench:
         return _LOADED[key]
 
 
-def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
-    """One frame in one condition through every method: a row dict per method."""
+def bench_frame(spec: RunSpec, condition_index: int, frame: int):
+    """The loaded bench, the condition and frame ``frame`` of it, as every method sees it."""
     bench = load_bench(spec)
     condition = spec.conditions[condition_index]
     some = next(iter(bench.identifiers.values()))
     bf = make_frame(some.catalog, spec.camera, condition, spec.seed, frame,
                     source=spec.source, sensor=spec.sensor,
                     hot_pixel_fraction=spec.hot_pixel_fraction)
+    return bench, condition, bf
+
+
+def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
+    """One frame in one condition through every method: a row dict per method."""
+    bench, condition, bf = bench_frame(spec, condition_index, frame)
     rows = []
     for name in spec.methods:
         ident = bench.identifiers[name]
