@@ -27,10 +27,12 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.identify import residuals_arcsec
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
@@ -65,25 +67,56 @@ class TrackConfig:
 
 @dataclass(frozen=True)
 class Prior:
-    """A predicted attitude (camera to ICRS) and its 1-sigma error angle in radians."""
+    """A predicted attitude (camera to ICRS, a 3 x 3 matrix) and its 1-sigma error angle
+    in radians."""
 
-    rotation: Rotation
+    matrix: np.ndarray
     sigma_rad: float
+
+    @classmethod
+    def from_rotation(cls, rotation: Rotation, sigma_rad: float) -> Prior:
+        return cls(rotation.as_matrix(), float(sigma_rad))
+
+
+@lru_cache(maxsize=16)
+def _half_diagonal_rad(camera: Camera) -> float:
+    return math.radians(camera.half_diagonal_deg)
 
 
 def _window_px(obs: Observation, prior: Prior, config: TrackConfig, radius_px: float) -> float:
     cam = obs.camera
     # Off-axis, an angle spans more pixels: 1 + tan^2 at the farthest corner.
-    stretch = 1.0 + math.tan(math.radians(cam.half_diagonal_deg)) ** 2
+    stretch = 1.0 + math.tan(_half_diagonal_rad(cam)) ** 2
     return config.window_sigma * prior.sigma_rad * cam.f_px * stretch + radius_px
+
+
+def _exp(rotvec: np.ndarray) -> np.ndarray:
+    """The rotation matrix of a rotation vector (Rodrigues), without scipy's overhead."""
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-15:
+        return np.eye(3)
+    k = rotvec / angle
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
+
+
+def _log(matrix: np.ndarray) -> np.ndarray:
+    """The rotation vector of a rotation matrix (angles well below pi: frame to frame)."""
+    cos = min(1.0, max(-1.0, (float(np.trace(matrix)) - 1.0) / 2.0))
+    angle = math.acos(cos)
+    axis = np.array([matrix[2, 1] - matrix[1, 2], matrix[0, 2] - matrix[2, 0],
+                     matrix[1, 0] - matrix[0, 1]])
+    if angle < 1e-7:
+        return axis / 2.0
+    return axis * (angle / (2.0 * math.sin(angle)))
 
 
 def _candidates(obs: Observation, database: StarDatabase, prior: Prior, window_px: float,
                 max_stars: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Pairs (observed star, catalog row) within the window, and their displacements."""
     cam = obs.camera
-    matrix = prior.rotation.as_matrix()
-    reach = math.radians(cam.half_diagonal_deg) * 1.02 + window_px / cam.f_px
+    matrix = prior.matrix
+    reach = _half_diagonal_rad(cam) * 1.02 + window_px / cam.f_px
     rows = database.cone(matrix[:, 2], reach)
     x, y, front = cam.vector_to_pixel(database.vectors[rows] @ matrix)
     keep = front & cam.in_image(x, y, margin=-window_px)
@@ -174,17 +207,19 @@ class Tracker:
     """The state of one frame sequence: its solved attitudes and its lock.
 
     :meth:`step` solves the next frame: by tracking when a prediction exists, else (or
-    when tracking fails) by the ``lost_in_space`` callable it is given.
+    when tracking fails) by the ``lost_in_space`` callable it is given. ``initial`` is a
+    prior for the first frame; without it the first frame is solved lost-in-space.
     """
 
-    def __init__(self, config: TrackConfig | None = None) -> None:
+    def __init__(self, config: TrackConfig | None = None, initial: Prior | None = None) -> None:
         self.config = config or TrackConfig()
+        self.initial = initial  # a prior attitude for the first frame (``--prior``)
         self.reset()
 
     def reset(self) -> None:
         """Forget the sequence: the next frame is solved lost-in-space."""
         self.frame = 0
-        self.history: list[tuple[int, Rotation, float]] = []
+        self.history: list[tuple[int, np.ndarray, float]] = []
         self.locked = False
         self.ever_locked = False
 
@@ -193,7 +228,7 @@ class Tracker:
         recent solution to predict from."""
         k = self.frame if frame is None else frame
         if not self.history:
-            return None
+            return self.initial if k == 0 else None
         b, rot_b, sig_b = self.history[-1]
         n = k - b
         cfg = self.config
@@ -202,10 +237,11 @@ class Tracker:
         rate, sig_w = np.zeros(3), cfg.unknown_rate_rad
         if len(self.history) >= 2 and b - self.history[-2][0] <= cfg.max_coast_frames + 1:
             a, rot_a, sig_a = self.history[-2]
-            rate = (rot_a.inv() * rot_b).as_rotvec() / (b - a)
+            # The per-frame rotation in the camera frame: R_b = R_a exp(w (b - a)).
+            rate = _log(rot_a.T @ rot_b) / (b - a)
             sig_w = (math.hypot(sig_a, sig_b) / (b - a) + cfg.accel_fraction
                      * float(np.linalg.norm(rate)) + cfg.rate_floor_rad)
-        return Prior(rot_b * Rotation.from_rotvec(rate * n), sig_b + n * sig_w)
+        return Prior(rot_b @ _exp(rate * n), sig_b + n * sig_w)
 
     def step(self, obs: Observation, database: StarDatabase, verify_config: VerifyConfig,
              lost_in_space: Callable[[Observation], Solution], method: str) -> Solution:
@@ -231,8 +267,8 @@ class Tracker:
         if solved:
             lock = ("tracking" if solution.mode == "tracking"
                     else "reacquired" if self.ever_locked else "acquired")
-            self.history = [*self.history[-1:],
-                            (self.frame, solution.rotation, attitude_sigma_rad(solution, obs))]
+            self.history = [*self.history[-1:], (self.frame, solution.rotation.as_matrix(),
+                                                  attitude_sigma_rad(solution, obs))]
         else:
             lock = "lost" if self.locked else "none"
         self.locked = solved

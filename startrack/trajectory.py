@@ -131,3 +131,19 @@ def profile_trajectory(profile: Profile, fps: float, count: int | None = None) -
     times = profile.times[0] + np.arange(count, dtype=np.float64) / fps
     return Trajectory(times - profile.times[0], profile.at(times),
                       profile.rate_at(times, 1.0 / fps))
+
+
+def simulation_trajectory(r0: Rotation, rate_dps, fps: float | None, profile_path,
+                          count: int | None) -> Trajectory | None:
+    """The frames of ``startrack simulate``: a profile file (``--profile``) at ``fps``, a
+    constant rate from ``r0`` (``--fps`` with ``--rate``, or none: a stare), or None when
+    there is no ``--fps`` (independent frames, as before)."""
+    if fps is None:
+        if profile_path is not None:
+            raise InputError("--profile needs --fps (the frame rate to sample it at)")
+        return None
+    if profile_path is not None:
+        if rate_dps is not None:
+            raise InputError("--rate and --profile exclude each other")
+        return profile_trajectory(read_profile(profile_path), fps, count)
+    return constant_rate(r0, rate_dps or (0.0, 0.0, 0.0), fps, 3 if count is None else count)

@@ -19,6 +19,7 @@ from startrack.errors import InputError
 from startrack.matchers import available_methods
 from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
 from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
+from startrack.sequence import DEFAULT_PRIOR_SIGMA_DEG, SequenceSolver, prior_from_radec_roll
 from startrack.sky import SKY_KINDS
 
 
@@ -33,6 +34,18 @@ def _size(ctx, param, value):
     if w < 1 or h < 1:
         raise click.BadParameter(f"width and height must be positive, got {value!r}")
     return w, h
+
+
+def _prior_triple(ctx, param, value):
+    if value is None:
+        return None
+    try:
+        parts = tuple(float(p) for p in value.split(","))
+    except ValueError:
+        parts = ()
+    if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
+        raise click.BadParameter(f"expected three numbers RA,DEC,ROLL, got {value!r}")
+    return parts
 
 
 def _finite(ctx, param, value):
@@ -70,8 +83,18 @@ def _finite(ctx, param, value):
               show_default=True, help="json: one JSON line per input, in input order.")
 @click.option("--output", type=click.Path(dir_okay=False),
               help="Write here instead of standard output (only when complete).")
+@click.option("--track", is_flag=True,
+              help="The inputs, in order, are one sequence: the first is solved "
+                   "lost-in-space, each later one by tracking from those before it (falling "
+                   "back to lost-in-space); each record says its mode and lock.")
+@click.option("--prior", callback=_prior_triple,
+              help="Prior attitude RA,DEC,ROLL in degrees: each input (with --track, the "
+                   "first) is solved near it first.")
+@click.option("--prior-sigma-deg", type=click.FloatRange(0, 90, min_open=True),
+              default=DEFAULT_PRIOR_SIGMA_DEG, show_default=True,
+              help="1-sigma uncertainty of --prior, degrees.")
 def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, max_stars,
-             sigma_px, fmt, output) -> None:
+             sigma_px, fmt, output, track, prior, prior_sigma_deg) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
@@ -81,6 +104,9 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px)
     pipeline = Pipeline(options)
+    if track or prior is not None:
+        pipeline = SequenceSolver(pipeline, track=track, prior=None if prior is None
+                                  else prior_from_radec_roll(*prior, prior_sigma_deg))
     worst = 0
     pending: list[dict] = []  # error records held back until an input is answered
     try:
@@ -91,6 +117,7 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
                 try:
                     record = pipeline.run(Path(name)).record()
                 except InputError as exc:  # a batch answers every input it can
+                    getattr(pipeline, "skip", lambda: None)()  # a sequence's frame passes
                     click.echo(f"error: {exc}", err=True)
                     pending.append(error_record(name, str(exc)))
                     worst = 2
