@@ -53,7 +53,7 @@ class SolveResult:
 
     @property
     def lock(self) -> str | None:
-        """A tracking Solver's lock state after this frame (startrack.tracking); else None."""
+        """A tracking Solver's lock state after this frame (startrack.tracker); else None."""
         return self.frame.solution.lock
 
     @property

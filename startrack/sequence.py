@@ -16,7 +16,8 @@ from pathlib import Path
 from startrack.attitude import from_radec_roll
 from startrack.errors import InputError
 from startrack.pipeline import FrameInput, FrameResult, Pipeline, read_input
-from startrack.tracking import Prior, TrackConfig, Tracker
+from startrack.tracker import Tracker
+from startrack.tracking import Prior, TrackConfig
 
 DEFAULT_PRIOR_SIGMA_DEG = 1.0
 

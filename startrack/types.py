@@ -80,7 +80,7 @@ class Solution:
     reason: str | None = None
     #: how it was solved (interfaces.md): "lost_in_space" or "tracking"
     mode: str = "lost_in_space"
-    #: in a tracked sequence, the lock state after this frame (startrack.tracking.LOCK_STATES);
+    #: in a tracked sequence, the lock state after this frame (startrack.tracker.LOCK_STATES);
     #: None outside a sequence
     lock: str | None = None
 
