@@ -121,8 +121,11 @@ class Tracker:
         if solved:
             lock = ("tracking" if solution.mode == "tracking"
                     else "reacquired" if self.ever_locked else "acquired")
-            self.history = [*self.history[-1:], (self.frame, solution.rotation.as_matrix(),
-                                                  attitude_sigma_rad(solution, obs))]
+            # A lost-in-space solution starts a new lock: the attitudes before it (before a
+            # jump, say) say nothing about the rate now.
+            kept = self.history[-1:] if lock == "tracking" else []
+            self.history = [*kept, (self.frame, solution.rotation.as_matrix(),
+                                    attitude_sigma_rad(solution, obs))]
         else:
             lock = "lost" if self.locked else "none"
         self.locked = solved

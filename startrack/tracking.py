@@ -51,7 +51,7 @@ class TrackConfig:
     unknown_rate_rad: float = math.radians(0.25)
     max_coast_frames: int = 10
     max_window_px: float = 200.0
-    max_stars: int = 16
+    max_stars: int = 64
     max_hypotheses: int = 8
 
 
