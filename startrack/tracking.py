@@ -30,6 +30,10 @@ from startrack.tracking_kernels import consistent, project_match, quaternion, wa
 from startrack.types import MatchDiagnostics, Observation, Solution
 from startrack.verify import CAPTURE, MAX_REFINEMENTS, VerifyConfig, false_match_probability
 
+# The vote looks for the densest spot of displacements within this many match radii: the
+# true pairs crowd there while chance pairs spread over the whole window.
+VOTE_RADII = 3.0
+
 
 @dataclass(frozen=True)
 class TrackConfig:
@@ -173,7 +177,7 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
         if len(oi) >= 3:
             diag_px = math.hypot(cam.width, cam.height)
             tol = radius_px + config.window_sigma * prior.sigma_rad * diag_px
-            keep = consistent(oi, ci, dx, dy, tol)
+            keep = consistent(oi, ci, dx, dy, min(tol, VOTE_RADII * radius_px), tol)
             o_s, c_s = oi[keep], ci[keep]
             result = _first_accepted(o_s, c_s, project, verify_config, config, diag)
     if result is None:
@@ -192,7 +196,7 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
 
 
 def _first_accepted(o_s, c_s, project, verify_config, config, diag):
-    """Verify three-star hypotheses from the consistent pairs, brightest first."""
+    """Verify three-star hypotheses from the consistent pairs, most consistent first."""
     picks = itertools.islice(itertools.combinations(range(min(len(o_s), 8)), 3),
                              config.max_hypotheses)
     for pick in picks:

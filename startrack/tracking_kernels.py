@@ -138,19 +138,22 @@ def quaternion(m):
 
 
 @njit(cache=True)
-def consistent(oi, ci, dx, dy, tol):
+def consistent(oi, ci, dx, dy, vote_tol, tol):
     """Indices of the pairs that agree on one displacement: the pair whose displacement
-    the most distinct observed stars share (within ``tol`` px; ties: the smaller
-    displacement), then per observed star the pair nearest it, each catalog star once
-    (nearest wins, ties: the lower observed index). Sorted by observed index."""
+    the most distinct observed stars share within ``vote_tol`` px (the densest spot; ties:
+    the smaller displacement), then, within ``tol`` px of it (which allows for the spread
+    a roll error makes), per observed star the pair nearest it, each catalog star once
+    (nearest wins, ties: the lower observed index). Sorted by the distance of their
+    displacement from the winner's."""
     p = oi.shape[0]
+    v2 = vote_tol * vote_tol
     t2 = tol * tol
     seen = np.full(oi.max() + 1 if p else 1, -1, np.int64)
     best, best_votes, best_d = -1, -1, np.inf
     for i in range(p):
         votes = 0
         for j in range(p):
-            if (dx[i] - dx[j]) ** 2 + (dy[i] - dy[j]) ** 2 <= t2 and seen[oi[j]] != i:
+            if (dx[i] - dx[j]) ** 2 + (dy[i] - dy[j]) ** 2 <= v2 and seen[oi[j]] != i:
                 seen[oi[j]] = i
                 votes += 1
         d = dx[i] ** 2 + dy[i] ** 2
@@ -175,4 +178,7 @@ def consistent(oi, ci, dx, dy, tol):
                 else:
                     keep[o] = False
                 break
-    return pick[keep]
+    chosen = pick[keep]
+    # Nearest the winning displacement first: true pairs cluster there, chance pairs
+    # inside a wide window spread over it.
+    return chosen[np.argsort(dist[keep], kind="mergesort")]
