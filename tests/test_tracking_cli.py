@@ -148,3 +148,21 @@ def test_solver_keeps_state_between_frames(csv_sequence, hip_db):
     assert results[2].lock == "tracking" and results[2].to_dict()["mode"] == "tracking"
     solver.reset()
     assert solver.solve(arrays[0]).mode == "lost_in_space"
+
+
+def test_compare_tracking_mode(tmp_path):
+    import pandas as pd
+
+    out = tmp_path / "cmp"
+    code, stdout, err = invoke("compare", "--mode", "tracking", "--frames", "6", "--rates",
+                               "0,5", "--noise-px", "0.5", "--false-stars", "1", "--missing",
+                               "0", "--out", out)
+    assert code == 0, err
+    summary = pd.read_csv(out / "summary.csv")
+    assert set(summary["method"]) >= {"pyramid+track", "pyramid"}
+    assert sorted(set(summary["rate_dps"])) == [0.0, 5.0]
+    tracked = summary[summary["method"] == "pyramid+track"]
+    assert (tracked["tracked_rate"] >= 4 / 6).all() and (tracked["wrong"] == 0).all()
+    assert (summary[summary["method"] == "pyramid"]["tracked_rate"] == 0).all()
+    assert (out / "report.md").read_text().startswith("# Tracking comparison")
+    assert (out / "tracking_rate_dps.png").is_file() and "pyramid+track" in stdout
