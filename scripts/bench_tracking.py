@@ -143,6 +143,29 @@ times are identify times alone; each method runs on the same frame one after the
 not solved by tracking; "reacquire" counts the frames from there to the next solution
 (0: lost-in-space solved that same frame).
 
+## Use
+
+```sh
+startrack simulate --config configs/hipparcos20.toml --frames 50 --fps 10 --rate 1,0.5,2 \
+    --out out/seq                        # one trajectory: frame k at R0 exp(w k / fps)
+startrack simulate --fps 10 --profile slew.csv --out out/slew   # t,qw,qx,qy,qz; SLERP
+startrack identify --track --format json out/seq/frame_*.png    # mode and lock per record
+startrack identify --prior 80,20,30 --prior-sigma-deg 0.5 frame.png
+startrack compare --mode tracking --config configs/hipparcos20.toml --out out/track
+```
+
+```python
+solver = startrack.Solver(fov_deg=20.0, track=True)   # state kept between frames
+for frame in frames:
+    s = solver.solve(frame)                           # s.mode, s.lock
+solver.reset()                                        # a new sequence
+```
+
+Inputs of a sequence are taken as evenly spaced in time, in the order given. Each frame is
+predicted from the last two solved ones; the match window comes from the prediction's
+uncertainty; a hypothesis from it must pass the same binomial false-match test as a
+lost-in-space one (`startrack/tracking.py`), else the frame falls back to lost-in-space.
+
 ## The sequence
 
 {args.frames} frames at 10 fps, (1, 0.5, 2) deg/s, 0.5 px noise, 2 false stars and 10%

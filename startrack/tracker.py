@@ -23,31 +23,12 @@ import numpy as np
 
 from startrack.database import StarDatabase
 from startrack.tracking import Prior, TrackConfig, track
+from startrack.tracking_kernels import rotation_exp as _exp
+from startrack.tracking_kernels import rotation_log as _log
 from startrack.types import Observation, Solution
 from startrack.verify import VerifyConfig
 
 LOCK_STATES = ("acquired", "tracking", "reacquired", "lost", "none")
-
-
-def _exp(rotvec: np.ndarray) -> np.ndarray:
-    """The rotation matrix of a rotation vector (Rodrigues), without scipy's overhead."""
-    angle = float(np.linalg.norm(rotvec))
-    if angle < 1e-15:
-        return np.eye(3)
-    k = rotvec / angle
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
-
-
-def _log(matrix: np.ndarray) -> np.ndarray:
-    """The rotation vector of a rotation matrix (angles well below pi: frame to frame)."""
-    cos = min(1.0, max(-1.0, (float(np.trace(matrix)) - 1.0) / 2.0))
-    angle = math.acos(cos)
-    axis = np.array([matrix[2, 1] - matrix[1, 2], matrix[0, 2] - matrix[2, 0],
-                     matrix[1, 0] - matrix[0, 1]])
-    if angle < 1e-7:
-        return axis / 2.0
-    return axis * (angle / (2.0 * math.sin(angle)))
 
 
 def attitude_sigma_rad(solution: Solution, obs: Observation) -> float:

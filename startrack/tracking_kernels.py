@@ -1,6 +1,7 @@
 """Compiled kernels of the tracking stage: project catalog stars through an attitude and
-pair them with observed stars, in one pass each (numba; a frame has tens of stars and the
-numpy version of the same is dominated by per-call overhead).
+pair them with observed stars, vote on their displacement, Wahba's problem, rotation
+matrix <-> quaternion / rotation vector (numba; a frame has tens of stars, and numpy or
+scipy on so few is dominated by per-call overhead).
 
 :func:`project_match` reproduces :meth:`startrack.verify._Projector.match` exactly: the
 catalog stars in front of the camera and inside the image widened by ``margin`` pixels
@@ -10,6 +11,8 @@ index). ``tests/test_tracking.py`` checks the two agree.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit
@@ -182,3 +185,30 @@ def consistent(oi, ci, dx, dy, vote_tol, tol):
     # Nearest the winning displacement first: true pairs cluster there, chance pairs
     # inside a wide window spread over it.
     return chosen[np.argsort(dist[keep], kind="mergesort")]
+
+
+@njit(cache=True)
+def rotation_exp(rotvec: np.ndarray) -> np.ndarray:
+    """The rotation matrix of a rotation vector (Rodrigues), without scipy's overhead."""
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-15:
+        return np.eye(3)
+    k = rotvec / angle
+    kx = np.zeros((3, 3))
+    kx[0, 1], kx[0, 2], kx[1, 2] = -k[2], k[1], -k[0]
+    kx[1, 0], kx[2, 0], kx[2, 1] = k[2], -k[1], k[0]
+    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
+
+
+@njit(cache=True)
+def rotation_log(matrix: np.ndarray) -> np.ndarray:
+    """The rotation vector of a rotation matrix (angles well below pi: frame to frame)."""
+    cos = min(1.0, max(-1.0, (float(np.trace(matrix)) - 1.0) / 2.0))
+    angle = math.acos(cos)
+    axis = np.empty(3)
+    axis[0] = matrix[2, 1] - matrix[1, 2]
+    axis[1] = matrix[0, 2] - matrix[2, 0]
+    axis[2] = matrix[1, 0] - matrix[0, 1]
+    if angle < 1e-7:
+        return axis / 2.0
+    return axis * (angle / (2.0 * math.sin(angle)))
