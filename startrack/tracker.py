@@ -25,6 +25,7 @@ from startrack.database import StarDatabase
 from startrack.tracking import Prior, TrackConfig, track
 from startrack.tracking_kernels import rotation_exp as _exp
 from startrack.tracking_kernels import rotation_log as _log
+from startrack.tracking_kernels import warm_up
 from startrack.types import Observation, Solution
 from startrack.verify import VerifyConfig
 
@@ -49,6 +50,7 @@ class Tracker:
     def __init__(self, config: TrackConfig | None = None, initial: Prior | None = None) -> None:
         self.config = config or TrackConfig()
         self.initial = initial  # a prior attitude for the first frame (``--prior``)
+        warm_up()
         self.reset()
 
     def reset(self) -> None:

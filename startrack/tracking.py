@@ -56,7 +56,7 @@ class TrackConfig:
     max_coast_frames: int = 10
     max_window_px: float = 200.0
     max_stars: int = 64
-    max_hypotheses: int = 8
+    max_hypotheses: int = 24
 
 
 @dataclass(frozen=True)
@@ -197,7 +197,7 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
 
 def _first_accepted(o_s, c_s, project, verify_config, config, diag):
     """Verify three-star hypotheses from the consistent pairs, most consistent first."""
-    picks = itertools.islice(itertools.combinations(range(min(len(o_s), 8)), 3),
+    picks = itertools.islice(itertools.combinations(range(min(len(o_s), 12)), 3),
                              config.max_hypotheses)
     for pick in picks:
         idx = list(pick)

@@ -212,3 +212,16 @@ def rotation_log(matrix: np.ndarray) -> np.ndarray:
     if angle < 1e-7:
         return axis / 2.0
     return axis * (angle / (2.0 * math.sin(angle)))
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every kernel on a tiny input, so that the first
+    frame of a sequence is not timed with the compilation."""
+    v = np.array([[0.0, 0.0, 1.0], [0.01, 0.0, 1.0], [0.0, 0.01, 1.0]])
+    v /= np.sqrt((v * v).sum(axis=1))[:, None]
+    m, xy = np.eye(3), np.array([1.0, 2.0, 3.0])
+    project_match(v, m, xy, xy, 100.0, 1.0, 1.0, 4.0, 4.0, 1.0, 1.0)
+    oi, cj, dx, dy = window_pairs(v, m, xy, xy, 100.0, 1.0, 1.0, 4.0, 4.0, 50.0)
+    consistent(oi, cj, dx, dy, 1.0, 2.0)
+    quaternion(wahba(v, v))
+    rotation_log(rotation_exp(np.array([0.0, 0.0, 0.1])))
