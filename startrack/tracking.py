@@ -54,7 +54,7 @@ class TrackConfig:
     rate_floor_rad: float = math.radians(0.005)
     unknown_rate_rad: float = math.radians(0.25)
     max_coast_frames: int = 10
-    max_window_px: float = 200.0
+    max_window_px: float = 500.0
     max_stars: int = 64
     max_hypotheses: int = 24
 
