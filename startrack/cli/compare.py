@@ -136,16 +136,10 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
         raise InputError(f"--threshold-arcsec must be > 0, got {threshold_arcsec}")
     cfg = (load_config(config_path) if config_path
            else config_from_dict(DEFAULT_CONFIG, "default config"))
-    spec_sky = cfg.sky if sky is None else dataclasses.replace(cfg.sky, kind=sky)
-    if mag_limit is not None:
-        if not math.isfinite(mag_limit):
-            raise InputError(f"--mag-limit must be finite, got {mag_limit}")
-        spec_sky = dataclasses.replace(spec_sky, mag_limit=mag_limit)
-    spec_sky = resolve_sky(spec_sky, cfg.camera)
-    if mode == "tracking":
-        _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, missing, fps,
-                  seed, out_dir, threshold_arcsec)
-        return
+    spec_sky = _sky_spec(cfg, sky, mag_limit)
+    if mode == "tracking":  # frame sequences (startrack.bench.tracking_report)
+        return _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars,
+                         missing, fps, seed, out_dir, threshold_arcsec)
     levels = _levels(noise_px, false_stars, missing, mag_noise, source)
     spec = RunSpec(
         methods=names, conditions=tuple(build_conditions(levels, grid)), frames=frames,
@@ -176,6 +170,16 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
                f"{result.db_csv}, plots: "
                f"{', '.join(p.name for p in result.plots) or 'none (nothing swept)'} "
                f"in {result.out}/ ({result.wall_seconds:.1f} s)")
+
+
+def _sky_spec(cfg, sky, mag_limit):
+    """The config's sky with --sky and --mag-limit applied, resolved for its camera."""
+    spec_sky = cfg.sky if sky is None else dataclasses.replace(cfg.sky, kind=sky)
+    if mag_limit is not None:
+        if not math.isfinite(mag_limit):
+            raise InputError(f"--mag-limit must be finite, got {mag_limit}")
+        spec_sky = dataclasses.replace(spec_sky, mag_limit=mag_limit)
+    return resolve_sky(spec_sky, cfg.camera)
 
 
 def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, missing, fps,

@@ -119,11 +119,7 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
                disable=not sys.stderr.isatty())
     for i in bar:
         rng = np.random.default_rng([opts.seed, i])  # each frame reproducible on its own
-        rotation = fixed if fixed is not None else _random_rotation(rng)
-        rate_dps = opts.rate_dps
-        if trajectory is not None:  # one sequence: the attitude and rate of frame i
-            rotation = trajectory.rotations[i]
-            rate_dps = tuple(float(w) for w in trajectory.rates_dps[i])
+        rotation, rate_dps = _attitude_and_rate(i, rng, fixed, trajectory, opts)
         scene = observe(catalog, camera, rotation, rng, missing=opts.missing,
                         false_stars=opts.false_stars, mag_noise=opts.mag_noise,
                         hot_pixel_fraction=opts.hot_pixel_fraction)
@@ -162,6 +158,13 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
                                    "is_false"], star_rows)
     click.echo(f"wrote {opts.count} frame(s) to {out}/ (truth.csv, stars.csv, "
                f"frame_*.png{', frame_*.fits' if with_fits else ''}, frame_*.json)")
+
+
+def _attitude_and_rate(i: int, rng, fixed, trajectory, opts: FrameOptions):
+    """Frame i's attitude and rate: the sequence's (--fps), else fixed or random."""
+    if trajectory is not None:
+        return trajectory.rotations[i], tuple(float(w) for w in trajectory.rates_dps[i])
+    return (fixed if fixed is not None else _random_rotation(rng)), opts.rate_dps
 
 
 def _trajectory(attitude, opts: FrameOptions, fps, profile_path, count):
