@@ -99,6 +99,7 @@ def plot_sweeps(summary: pd.DataFrame, conditions: list[TrackCondition], out: Pa
               ("time_median_ms", "median identify time per frame (ms)", True),
               ("boresight_median_arcsec", "median boresight error (arcsec)", False))
     base = conditions[0]
+    colour = {m: f"C{k}" for k, m in enumerate(dict.fromkeys(summary["method"]))}
     written = []
     for var in VARIABLES:
         picked = [k for k, c in enumerate(conditions) if all(
@@ -113,7 +114,11 @@ def plot_sweeps(summary: pd.DataFrame, conditions: list[TrackCondition], out: Pa
                 if column == "tracked_rate" and not is_tracking_method(str(method)):
                     continue
                 rows = rows.sort_values(var)
-                ax.plot(rows[var], rows[column], marker="o", label=method)
+                tracked = is_tracking_method(str(method))  # drawn over its reference
+                ax.plot(rows[var], rows[column], marker="o" if tracked else "s",
+                        ls="-" if tracked else "--", ms=6 if tracked else 8,
+                        mfc="none" if not tracked else None, label=method,
+                        color=colour[method], zorder=3 if tracked else 2)
             ax.set_xlabel(LABELS[var])
             ax.set_title(title)
             ax.grid(True, alpha=0.3)
