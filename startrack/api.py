@@ -137,7 +137,12 @@ class Solver:
     def solve(self, source: str | Path | np.ndarray) -> SolveResult:
         """Solve a path (image or centroid CSV), a 2-D image array, or an N x 2 / N x 3
         array of centroids (x, y[, flux]; brightest first when there is no flux)."""
-        frame = _as_input(source)
+        try:
+            frame = _as_input(source)
+        except InputError:
+            if self._sequence is not None:
+                self._sequence.skip()  # an unreadable frame of a sequence: time passes
+            raise
         solver = self._sequence or self._pipeline
         return SolveResult(solver.solve(frame))
 
