@@ -112,8 +112,8 @@ class Solver:
                  size: tuple[int, int] | None = None, method: str = DEFAULT_METHOD,
                  sky: str | None = None, mag_limit: float | None = None,
                  epoch: float | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
-                 max_stars: int | None = None, track: bool = False,
-                 prior: tuple[float, float, float] | None = None,
+                 max_stars: int | None = None, timeout_ms: float | None = None,
+                 track: bool = False, prior: tuple[float, float, float] | None = None,
                  prior_sigma_deg: float = 1.0) -> None:
         if camera is not None and not isinstance(camera, Camera):
             from startrack.camera_file import load_camera
@@ -121,7 +121,8 @@ class Solver:
             camera = load_camera(camera)
         self._pipeline = Pipeline(Options(method=method, camera=camera, fov_deg=fov_deg,
                                           size=size, sky=sky, mag_limit=mag_limit,
-                                          epoch=epoch, max_stars=max_stars, sigma_px=sigma_px))
+                                          epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
+                                          timeout_ms=timeout_ms))
         self._sequence = None
         if track or prior is not None:
             from startrack.sequence import SequenceSolver, prior_from_radec_roll

@@ -83,6 +83,9 @@ def _finite(ctx, param, value):
 @click.option("--sigma-px", type=click.FloatRange(0, min_open=True), callback=_finite,
               default=DEFAULT_SIGMA_PX, show_default=True,
               help="1-sigma centroid error in pixels; sets match tolerances.")
+@click.option("--timeout-ms", type=click.FloatRange(0, min_open=True), callback=_finite,
+              help="Wall-clock limit per input; past it the input is not solved, with "
+                   "reason timeout (the work is bounded without it too).")
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="json: one JSON line per input, in input order.")
 @click.option("--output", type=click.Path(dir_okay=False),
@@ -108,7 +111,7 @@ def _finite(ctx, param, value):
               default=DEFAULT_PRIOR_SIGMA_DEG, show_default=True,
               help="1-sigma uncertainty of --prior, degrees.")
 def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, max_stars,
-             sigma_px, fmt, output, annotate_path, wcs_path, corr_path, quiet,
+             sigma_px, timeout_ms, fmt, output, annotate_path, wcs_path, corr_path, quiet,
              verbose, track, prior, prior_sigma_deg) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
@@ -117,7 +120,8 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
     Conventions (pixels, attitude, JSON record, exit codes): docs/conventions.md."""
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
-                      mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px)
+                      mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
+                      timeout_ms=timeout_ms)
     pipeline = Pipeline(options)
     if track or prior is not None:
         pipeline = SequenceSolver(pipeline, track=track, prior=None if prior is None
