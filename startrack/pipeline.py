@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -136,13 +137,15 @@ class Identifier:
         """Identify the stars of an observation made elsewhere (the bench's frames)."""
         return identify(obs, self.matcher, self.verify_config, timeout_ms=self.timeout_ms)
 
-    def solve(self, frame: FrameInput) -> FrameResult:
-        """Identify the stars of one input read by :func:`read_input`."""
+    def solve(self, frame: FrameInput,
+              identify: Callable[[Observation], Solution] | None = None) -> FrameResult:
+        """Identify the stars of one input read by :func:`read_input` (by ``identify``
+        when given: a tracking step of :mod:`startrack.sequence`)."""
         if frame.size is not None and frame.size != (self.camera.width, self.camera.height):
             raise InputError(f"{frame.name}: image is {frame.size[0]} x {frame.size[1]} px "
                              f"but the camera is {self.camera.width} x {self.camera.height}")
         obs = self.observation(frame.centroids)
-        solution = self.identify(obs)
+        solution = (identify or self.identify)(obs)
         timing = Timing(frame.centroid_ms, solution.identify_ms,
                         frame.read_ms + frame.centroid_ms + solution.identify_ms)
         return FrameResult(frame.name, solution, obs, frame.centroids, timing, self.camera,

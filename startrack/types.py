@@ -78,6 +78,11 @@ class Solution:
     #: why an unsolved frame has no answer, in a word (interfaces.md): "too_few_stars",
     #: "no_match", "timeout"; None when solved
     reason: str | None = None
+    #: how it was solved (interfaces.md): "lost_in_space" or "tracking"
+    mode: str = "lost_in_space"
+    #: in a tracked sequence, the lock state after this frame (startrack.tracker.LOCK_STATES);
+    #: None outside a sequence
+    lock: str | None = None
 
 
 @dataclass(frozen=True)

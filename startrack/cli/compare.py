@@ -123,12 +123,22 @@ def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
 @click.option("--resume/--no-resume", default=None,
               help="Continue a matching run in --out (default when there is one) or start "
               "over.")
+@click.option("--mode", type=click.Choice(["lost_in_space", "tracking"]),
+              default="lost_in_space", show_default=True,
+              help="tracking: frame sequences solved frame after frame (each matcher "
+              "tracked and alone, tetra3rs's attitude_hint where installed); --frames is "
+              "then the frames per sequence [default 100], --methods the fallback matchers "
+              "[default pyramid].")
+@click.option("--rates", help="Tracking mode: rate magnitudes in deg/s along (1, 0.5, 2) "
+              "(first = base) [default: 2.2913,0,1,5,10].")
+@click.option("--fps", type=float, default=10.0, show_default=True,
+              help="Tracking mode: frames per second.")
 @click.option("--replay", metavar="CONDITION,FRAME",
               help="Rerun one frame of this run through every method and print each answer "
               "(report.md lists the command for every failed frame); writes nothing.")
 def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars, missing,
             mag_noise, grid, max_stars, source, threshold_arcsec, jobs, scheduler, out_dir,
-            seed, resume, replay) -> None:
+            seed, resume, mode, rates, fps, replay) -> None:
     """Compare methods on the same random frames under noise, false and missing stars.
     Writes frames.csv, summary.csv, plots and report.md into --out. Conventions
     (pixels, attitude, quaternions): docs/conventions.md."""
@@ -146,6 +156,9 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
         from startrack.image_header import check_pixels
 
         check_pixels(cfg.camera.width, cfg.camera.height, f"{config_path or 'config'} [camera]")
+    if mode == "tracking":  # frame sequences (startrack.bench.tracking_report)
+        return _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars,
+                         missing, fps, seed, out_dir, threshold_arcsec)
     levels = _levels(noise_px, false_stars, missing, mag_noise, source)
     spec = RunSpec(
         methods=names, conditions=tuple(build_conditions(levels, grid)), frames=frames,
@@ -185,6 +198,31 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
                f"{result.db_csv}, plots: "
                f"{', '.join(p.name for p in result.plots) or 'none (nothing swept)'} "
                f"in {result.out}/ ({result.wall_seconds:.1f} s)")
+
+
+def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, missing, fps,
+              seed, out_dir, threshold_arcsec) -> None:
+    """``--mode tracking``: the options as given (unset ones take the tracking defaults)."""
+    from click.core import ParameterSource
+
+    from startrack.bench import tracking_report as tr
+    from startrack.pipeline import DEFAULT_METHOD
+
+    ctx = click.get_current_context()
+    given = {n: ctx.get_parameter_source(n) == ParameterSource.COMMANDLINE
+             for n in ("methods", "frames")}
+    names = parse_methods(methods) if given["methods"] else (DEFAULT_METHOD,)
+    levels = tr.parse_levels({"rate_dps": rates, "noise_px": noise_px,
+                              "false_stars": false_stars, "missing": missing})
+    summary, _ = tr.compare_tracking(
+        cfg.camera, spec_sky, methods=names, levels=levels,
+        frames=frames if given["frames"] else tr.DEFAULT_FRAMES, fps=fps,
+        seed=cfg.frames.seed if seed is None else seed, out=Path(out_dir),
+        threshold_arcsec=threshold_arcsec,
+        progress=lambda m: click.echo(m, err=True) if sys.stderr.isatty() else None)
+    click.echo(tr.markdown_table(summary))
+    click.echo(f"wrote frames.csv, summary.csv, time_ratio.csv, report.md and plots in "
+               f"{out_dir}/")
 
 
 def _replay(spec, text: str) -> None:

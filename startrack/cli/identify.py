@@ -19,6 +19,7 @@ from startrack.matchers import available_methods
 from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
 from startrack.outputs import check_output, guarded_stdout, open_output, refuse_inputs
 from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
+from startrack.sequence import DEFAULT_PRIOR_SIGMA_DEG, SequenceSolver, prior_from_radec_roll
 from startrack.side_outputs import SideOutputs
 from startrack.sidecar import with_sidecars
 from startrack.sky import SKY_KINDS
@@ -38,6 +39,18 @@ def _size(ctx, param, value):
     if w < 1 or h < 1:
         raise click.BadParameter(f"width and height must be positive, got {value!r}")
     return w, h
+
+
+def _prior_triple(ctx, param, value):
+    if value is None:
+        return None
+    try:
+        parts = tuple(float(p) for p in value.split(","))
+    except ValueError:
+        parts = ()
+    if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
+        raise click.BadParameter(f"expected three numbers RA,DEC,ROLL, got {value!r}")
+    return parts
 
 
 def _finite(ctx, param, value):
@@ -88,9 +101,19 @@ def _finite(ctx, param, value):
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or notes on stderr.")
 @click.option("-v", "--verbose", is_flag=True,
               help="One line per input and per file written on stderr.")
+@click.option("--track", is_flag=True,
+              help="The inputs, in order, are one sequence: the first is solved "
+                   "lost-in-space, each later one by tracking from those before it (falling "
+                   "back to lost-in-space); each record says its mode and lock.")
+@click.option("--prior", callback=_prior_triple,
+              help="Prior attitude RA,DEC,ROLL in degrees: each input (with --track, the "
+                   "first) is solved near it first.")
+@click.option("--prior-sigma-deg", type=click.FloatRange(0, 90, min_open=True),
+              default=DEFAULT_PRIOR_SIGMA_DEG, show_default=True,
+              help="1-sigma uncertainty of --prior, degrees.")
 def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, max_stars,
              sigma_px, timeout_ms, fmt, output, annotate_path, wcs_path, corr_path, quiet,
-             verbose) -> None:
+             verbose, track, prior, prior_sigma_deg) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
@@ -110,6 +133,9 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
                       timeout_ms=timeout_ms)
     pipeline = Pipeline(options)
+    if track or prior is not None:
+        pipeline = SequenceSolver(pipeline, track=track, prior=None if prior is None
+                                  else prior_from_radec_roll(*prior, prior_sigma_deg))
     side = SideOutputs(annotate_path, wcs_path, corr_path, several=len(inputs) > 1)
     note = _notes(quiet, verbose)
     worst = 0
@@ -123,10 +149,13 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
             if todo is not inputs and not output:
                 emit = _around_bar(emit)
             for name in todo:
+                result = None
                 try:
                     result = pipeline.run(Path(name))
                     side.add(result)
                 except InputError as exc:  # a batch answers every input it can
+                    if result is None:  # unread: in a sequence, a frame with no answer
+                        getattr(pipeline, "skip", lambda: None)()
                     click.echo(f"error: {exc}", err=True)
                     pending.append(error_record(name, str(exc)))
                     worst = 2

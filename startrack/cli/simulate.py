@@ -58,7 +58,14 @@ def _triple(names: str):
 @click.option("--missing", type=click.FloatRange(0, 1), help="Star dropout probability.")
 @click.option("--mag-noise", type=click.FloatRange(min=0), help="Magnitude noise sigma.")
 @click.option("--rate", callback=_triple("WX,WY,WZ"),
-              help="Angular rate in the camera frame, deg/s, for motion blur.")
+              help="Angular rate in the camera frame, deg/s: motion blur, and with --fps "
+                   "the frames form one trajectory (frame k at R0 exp(w k / fps)).")
+@click.option("--fps", type=click.FloatRange(0, min_open=True),
+              help="Frames per second: the frames are one sequence (from --attitude, else "
+                   "a random start), turning at --rate or following --profile.")
+@click.option("--profile", "profile_path", type=click.Path(dir_okay=False),
+              help="Attitude profile CSV (t,qw,qx,qy,qz; seconds, camera-to-ICRS "
+                   "quaternion), SLERP-interpolated at --fps; frames: as many as it covers.")
 @click.option("--fits", "write_fits_too", is_flag=True, help="Also write FITS with a WCS.")
 @click.option("--camera", "camera_path", type=click.Path(dir_okay=False),
               help="Camera file (JSON or TOML), overrides the config's [camera].")
@@ -66,7 +73,8 @@ def _triple(names: str):
               help="Write into a non-empty --out, first removing the frames, sidecars and "
                    "CSVs an earlier simulate left there.")
 def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_stars,
-             missing, mag_noise, rate, write_fits_too, camera_path, overwrite) -> None:
+             missing, mag_noise, rate, fps, profile_path, write_fits_too, camera_path,
+             overwrite) -> None:
     """Render frames of a sky, with truth.csv, stars.csv and a JSON sidecar per frame.
     --out must be empty or new (or give --overwrite); frames are at most
     STARTRACK_MAX_IMAGE_PIXELS (default 8192 x 8192).
@@ -90,10 +98,13 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     if attitude is not None and not -90.0 <= attitude[1] <= 90.0:
         raise click.BadParameter(f"Dec must be in [-90, 90], got {attitude[1]}",
                                  param_hint="--attitude")
+    trajectory = _trajectory(attitude, opts, fps, profile_path, count)
+    if trajectory is not None:
+        opts = dataclasses.replace(opts, count=len(trajectory))
     out = Path(out_dir)
     check_out_folder(out, overwrite)
     try:
-        _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too)
+        _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too, trajectory)
     except OSError as exc:  # every file is atomic, so nothing half-written is left behind
         raise InputError(f"{out}: cannot write output ({exc.strerror or exc})") from None
     click.echo(f"wrote {opts.count} frame(s) to {out}/ (truth.csv, stars.csv, "
@@ -101,7 +112,8 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
 
 
 def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions, out: Path,
-         attitude: tuple[float, float, float] | None, with_fits: bool) -> None:
+         attitude: tuple[float, float, float] | None, with_fits: bool,
+         trajectory=None) -> None:
     from tqdm import tqdm
 
     from startrack.attitude import from_radec_roll, to_quaternion, to_radec_roll
@@ -119,11 +131,11 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
                disable=not sys.stderr.isatty())
     for i in bar:
         rng = np.random.default_rng([opts.seed, i])  # each frame reproducible on its own
-        rotation = fixed if fixed is not None else _random_rotation(rng)
+        rotation, rate_dps = _attitude_and_rate(i, rng, fixed, trajectory, opts)
         scene = observe(catalog, camera, rotation, rng, missing=opts.missing,
                         false_stars=opts.false_stars, mag_noise=opts.mag_noise,
                         hot_pixel_fraction=opts.hot_pixel_fraction)
-        image = render_frame(scene, camera, sensor, rng, angular_rate_dps=opts.rate_dps)
+        image = render_frame(scene, camera, sensor, rng, angular_rate_dps=rate_dps)
         name = f"frame_{i:04d}"
         png = out / f"{name}.png"
         write_png16(png, image)
@@ -139,8 +151,10 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
             "attitude": {"quaternion": q, "ra_deg": ra, "dec_deg": dec, "roll_deg": roll},
             "sensor": sensor.to_dict(),
             "frames": {"missing": opts.missing, "false_stars": opts.false_stars,
-                       "mag_noise": opts.mag_noise, "rate_dps": opts.rate_dps},
+                       "mag_noise": opts.mag_noise, "rate_dps": rate_dps},
         }
+        if trajectory is not None:
+            sidecar["time_s"] = float(trajectory.times[i])
         with atomic_text(sidecar_path_for(png)) as fh:
             json.dump(sidecar, fh, indent=2)
             fh.write("\n")
@@ -154,6 +168,23 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
                                    "dec_deg", "roll_deg"], truth_rows)
     _write_csv(out / "stars.csv", ["frame", "x", "y", "flux", "magnitude", "catalog_id",
                                    "is_false"], star_rows)
+
+
+def _attitude_and_rate(i: int, rng, fixed, trajectory, opts: FrameOptions):
+    """Frame i's attitude and rate: the sequence's (--fps), else fixed or random."""
+    if trajectory is not None:
+        return trajectory.rotations[i], tuple(float(w) for w in trajectory.rates_dps[i])
+    return (fixed if fixed is not None else _random_rotation(rng)), opts.rate_dps
+
+
+def _trajectory(attitude, opts: FrameOptions, fps, profile_path, count):
+    """The sequence's attitudes (startrack.trajectory), None for independent frames."""
+    from startrack.attitude import from_radec_roll
+    from startrack.trajectory import simulation_trajectory
+
+    start = (from_radec_roll(*attitude) if attitude is not None
+             else _random_rotation(np.random.default_rng([opts.seed, 1 << 20])))
+    return simulation_trajectory(start, opts.rate_dps, fps, profile_path, count)
 
 
 #: what the numbers in a sidecar are measured in (docs/conventions.md)
