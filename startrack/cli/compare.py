@@ -74,6 +74,12 @@ def _sky(cfg, sky: str | None, mag_limit: float | None):
     return resolve_sky(spec_sky, cfg.camera)
 
 
+def _check_image_size(cfg, config_path) -> None:
+    from startrack.image_header import check_pixels
+
+    check_pixels(cfg.camera.width, cfg.camera.height, f"{config_path or 'config'} [camera]")
+
+
 def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
     if frames < 1:
         raise InputError(f"--frames must be >= 1, got {frames}")
@@ -153,9 +159,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
            else config_from_dict(DEFAULT_CONFIG, "default config"))
     spec_sky = _sky(cfg, sky, mag_limit)
     if source == "images":  # frames are rendered at the camera's size
-        from startrack.image_header import check_pixels
-
-        check_pixels(cfg.camera.width, cfg.camera.height, f"{config_path or 'config'} [camera]")
+        _check_image_size(cfg, config_path)
     if mode == "tracking":  # frame sequences (startrack.bench.tracking_report)
         return _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars,
                          missing, fps, seed, out_dir, threshold_arcsec)

@@ -122,12 +122,7 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
     if camera_path and fov_deg is not None:
         raise click.UsageError("give --camera FILE or --fov DEG, not both (the camera file "
                                "sets the field of view)")
-    if output:
-        check_output(output, with_sidecars(inputs))  # never overwrite an input
-    for what, path in (("--annotate", annotate_path), ("--wcs", wcs_path),
-                       ("--corr", corr_path)):
-        if path:
-            refuse_inputs(path, with_sidecars(inputs), what)
+    _check_output_paths(inputs, output, annotate_path, wcs_path, corr_path)
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
@@ -212,6 +207,16 @@ def _progress(inputs, quiet: bool, stack: contextlib.ExitStack):
 
     return stack.enter_context(tqdm(inputs, file=sys.stderr, unit="input", desc="identify",
                                     leave=False, dynamic_ncols=True))
+
+
+def _check_output_paths(inputs, output, annotate_path, wcs_path, corr_path) -> None:
+    """Refuse, before any work, an output that is one of the inputs (or their sidecars)."""
+    if output:
+        check_output(output, with_sidecars(inputs))
+    for what, path in (("--annotate", annotate_path), ("--wcs", wcs_path),
+                       ("--corr", corr_path)):
+        if path:
+            refuse_inputs(path, with_sidecars(inputs), what)
 
 
 class _NothingAnswered(Exception):
