@@ -16,6 +16,9 @@ Counted per method over the frames:
   radius at the solved attitude but that the solution leaves unidentified (the cost of
   leaving an ambiguous star unidentified rather than guessing).
 
+The observed stars carry the bench's fluxes (exact unless ``--mag-noise``), which the final
+labelling checks against the catalog magnitudes.
+
     .venv/bin/python scripts/harsh_frames.py --frames 200 --seed 0
 """
 
@@ -74,12 +77,13 @@ def run(args: argparse.Namespace) -> int:
     camera = Camera.from_fov(args.size, args.size, args.fov)
     catalog = load_sky(SkySpec(kind="hipparcos", mag_limit=args.mag_limit), camera)
     condition = Condition(noise_px=args.noise_px, false_stars=args.false_stars,
-                          missing=args.missing)
+                          missing=args.missing, mag_noise=args.mag_noise)
     frames = [make_frame(catalog, camera, condition, args.seed, i) for i in range(args.frames)]
     print(f"Hipparcos Hp <= {args.mag_limit} ({len(catalog)} stars after merging pairs closer "
           f"than {UNRESOLVED_PIXELS} px), {args.fov} deg {args.size} px, {args.frames} bench "
           f"frames (seed {args.seed}): {args.noise_px} px noise, {args.false_stars} false "
-          f"stars, {args.missing:.0%} missing, {args.max_stars} stars per matcher")
+          f"stars, {args.missing:.0%} missing, {args.mag_noise} mag photometric noise, "
+          f"{args.max_stars} stars per matcher")
     keys = ["solved", "wrong_att", "ids", "wrong_id", "false_id", "unres", "withheld",
             "identifiable"]
     head = (f"{'method':<9} {'solved':>7} {'wrong att':>9} {'ids':>6} {'wrong id':>8} "
@@ -119,6 +123,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--noise-px", type=float, default=1.0)
     ap.add_argument("--false-stars", type=int, default=5)
     ap.add_argument("--missing", type=float, default=0.2)
+    ap.add_argument("--mag-noise", type=float, default=0.0,
+                    help="1-sigma error of the observed magnitudes (fluxes)")
     ap.add_argument("--max-stars", type=int, default=8)
     return run(ap.parse_args(argv))
 
