@@ -17,9 +17,10 @@ pair is reported only when all of these hold:
   times less likely by their residuals, with the residual scatter fitted over the
   isolated pairs;
 * not a coincidence: a false star landing that close to an unobserved catalog star (the
-  false-star density and the unobserved fraction measured in this frame, the brightness
-  window included) is at most ``false_odds`` times as likely as the true star at that
-  residual. This is what keeps a residual far beyond the other matches' scatter out.
+  false-star density and the unobserved fraction measured in this frame; its brightness
+  uniform over the catalog magnitudes in view) is at most ``false_odds`` times as likely
+  as the true star at that residual and brightness. This is what keeps out a residual
+  far beyond the other matches' scatter.
 """
 
 from __future__ import annotations
@@ -70,24 +71,29 @@ def _isolated(cand: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _brightness(obs: Observation, mag: np.ndarray, cand: np.ndarray,
                 pairs: tuple[np.ndarray, np.ndarray],
-                config: LabelConfig) -> tuple[np.ndarray, float | None]:
-    """Candidates consistent in brightness (all of them without usable fluxes), and the
-    fitted scatter (None when brightness is not used)."""
+                config: LabelConfig) -> tuple[np.ndarray, np.ndarray, float | None]:
+    """Candidates consistent in brightness (all of them without usable fluxes); per pair,
+    the log-likelihood ratio of its brightness for the true star (Gaussian about the
+    fitted zero point) against a false star (uniform over the catalog magnitudes in view;
+    0 without a usable flux); the fitted scatter (None when brightness is not used)."""
+    none = (np.ones_like(cand), np.zeros(cand.shape), None)
     if obs.flux is None:
-        return np.ones_like(cand), None
+        return none
     flux = np.asarray(obs.flux, dtype=np.float64)
     usable = np.isfinite(flux) & (flux > 0)
     inst = np.where(usable, -2.5 * np.log10(np.where(usable, flux, 1.0)), np.nan)
     oi, ci = pairs
     keep = usable[oi]
     if np.count_nonzero(keep) < config.min_fit:
-        return np.ones_like(cand), None
+        return none
     offset = inst[oi[keep]] - mag[ci[keep]]
     zero = float(np.median(offset))
     sigma = max(_MAD_TO_SIGMA * float(np.median(np.abs(offset - zero))), config.min_mag_sigma)
     off = np.abs(inst[:, None] - mag[None, :] - zero)
     ok = ~usable[:, None] | (off <= config.mag_sigmas * sigma)
-    return ok, sigma
+    span = max(float(np.ptp(mag)), 2.0 * config.mag_sigmas * sigma)
+    log_ratio = -0.5 * (off / sigma) ** 2 - math.log(sigma * math.sqrt(2.0 * math.pi) / span)
+    return ok, np.where(usable[:, None], log_ratio, 0.0), sigma
 
 
 def _best_two(score: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -121,21 +127,15 @@ def _rivals(cand: np.ndarray, log_g: np.ndarray,
     return best_c, top_o, clear_o & mutual
 
 
-def _coincidence_log(obs: Observation, near: np.ndarray, mag: np.ndarray,
-                     mag_sigma: float | None, config: LabelConfig) -> tuple[float, float]:
-    """Log density of a false star on an unobserved catalog star (per px^2, brightness
-    window included) and the log probability that a catalog star is observed, both from
-    this frame's own counts (plus one, so that a clean frame still allows for one)."""
+def _coincidence_log(obs: Observation, near: np.ndarray) -> tuple[float, float]:
+    """Log density (per px^2) of a false star on an unobserved catalog star, and the log
+    probability that a catalog star is observed, both from this frame's own counts (plus
+    one, so that a clean frame still allows for one)."""
     area = float(obs.camera.width * obs.camera.height)
     n_false = int(np.count_nonzero(~near.any(axis=1)))
     n_unobserved = int(np.count_nonzero(~near.any(axis=0)))
     unobserved = (n_unobserved + 1.0) / (near.shape[1] + 2.0)
-    window = 1.0
-    if mag_sigma is not None and len(mag):
-        span = max(float(np.ptp(mag)), config.mag_sigmas * mag_sigma)
-        window = min(1.0, 2.0 * config.mag_sigmas * mag_sigma / span)
-    return (math.log((n_false + 1.0) / area * unobserved * window),
-            math.log(1.0 - unobserved))
+    return math.log((n_false + 1.0) / area * unobserved), math.log(1.0 - unobserved)
 
 
 def _unresolved(x: np.ndarray, y: np.ndarray, resolve_px: float) -> np.ndarray:
@@ -180,12 +180,14 @@ def label_stars(obs: Observation, rows: np.ndarray, x: np.ndarray, y: np.ndarray
     if len(pairs[0]) >= config.min_fit:
         sigma = math.sqrt(float(np.median(d2[pairs])) * _MEDIAN_R2_TO_SIGMA2)
     sigma = max(sigma, config.min_sigma_px)
-    bright, mag_sigma = _brightness(obs, mag, near, pairs, config)
+    bright, log_b, mag_sigma = _brightness(obs, mag, near, pairs, config)
     cand = near & bright
     log_g = np.where(cand, -d2 / (2.0 * sigma**2), -np.inf)  # residual log-likelihood
     best_c, top, clear = _rivals(cand, log_g, math.log(config.ambiguity))
-    log_false, log_seen = _coincidence_log(obs, near, mag, mag_sigma, config)
+    log_false, log_seen = _coincidence_log(obs, near)
     log_true = log_seen + top - math.log(2.0 * math.pi * sigma**2)
+    if len(rows):
+        log_true = log_true + log_b[np.arange(len(obs)), best_c]
     has = near.any(axis=1)
     with np.errstate(invalid="ignore"):
         coincidence = ~(log_false - log_true <= math.log(config.false_odds))

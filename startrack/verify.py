@@ -56,7 +56,7 @@ class Verification:
 
     accepted: bool
     rotation: Rotation | None
-    obs_index: np.ndarray  # every observed star matched to the catalog
+    obs_index: np.ndarray  # matched stars; once accepted, the reported identities
     cat_index: np.ndarray
     false_probability: float
     confirmed: int  # matched stars outside the hypothesis
