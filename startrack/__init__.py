@@ -1,3 +1,18 @@
-"""startrack: a star-tracker simulator and star-identification bench."""
+"""startrack: a star-tracker simulator and star-identification bench.
+
+``startrack.solve(...)`` and ``startrack.Solver(...)`` are the Python API
+(docs/conventions.md); they are imported on first use so that ``import startrack``
+and the command line start fast.
+"""
 
 __version__ = "0.1.0"
+
+__all__ = ["Solver", "SolveResult", "solve", "__version__"]
+
+
+def __getattr__(name: str):
+    if name in ("Solver", "SolveResult", "solve"):
+        from startrack import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'startrack' has no attribute {name!r}")

@@ -37,7 +37,7 @@ class SimConfig:
     frames: FrameOptions
 
 
-# The 2011 paper's experiment (configs/paper2011.toml and configs/default.toml say the same).
+# The 2011 paper's experiment (configs/paper2011.toml says the same).
 DEFAULT_CONFIG = {
     "camera": {"width": 1024, "height": 1024, "fov_deg": 17.5},
     "sky": {"kind": "random", "n_stars": 2000, "seed": 0, "mag_limit": 6.5},
@@ -81,9 +81,25 @@ def config_from_dict(data: dict, where: str = "config") -> SimConfig:
     )
 
 
+def _preset_or(path: Path) -> Path:
+    if path.exists() or len(path.parts) > 2 or (len(path.parts) == 2
+                                                 and path.parts[0] != "configs"):
+        return path
+    from startrack.resources import resource_path
+
+    try:
+        return resource_path("configs", f"{path.stem}.toml")
+    except InputError:
+        return path  # the read below reports the missing file by the name given
+
+
 def load_config(path: str | Path) -> SimConfig:
-    """Read a TOML simulation config (see configs/); every error names the file."""
-    path = Path(path)
+    """Read a TOML simulation config; every error names the file.
+
+    A path that does not exist but names a shipped preset (``hipparcos20``,
+    ``configs/hipparcos20.toml``) reads the preset, so the presets work after an install.
+    """
+    path = _preset_or(Path(path))
     try:
         data = tomllib.loads(path.read_text())
     except OSError as exc:

@@ -7,27 +7,15 @@ formats can never disagree.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from startrack.attitude import to_quaternion, to_radec_roll
 from startrack.sky import Catalog
-from startrack.types import Observation, Solution
+from startrack.types import Observation, Solution, Timing
 
-
-@dataclass(frozen=True)
-class Timing:
-    """Milliseconds per stage of one input (interfaces.md ``timing_ms``)."""
-
-    centroid: float = 0.0
-    identify: float = 0.0
-    total: float = 0.0
-
-    def to_dict(self) -> dict:
-        return {"centroid": round(self.centroid, 3), "identify": round(self.identify, 3),
-                "total": round(self.total, 3)}
-
+#: exit code of each record status (interfaces.md): a batch exits with the worst
+EXIT_CODES = {"solved": 0, "not_solved": 1, "error": 2}
 
 CSV_HEADER = ["input", "x", "y", "catalog_id", "ra_deg", "dec_deg", "residual_arcsec"]
 
@@ -43,6 +31,8 @@ def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timi
     if input_name is not None:
         record["input"] = input_name
     record["status"] = "solved" if solution.solved else "not_solved"
+    if not solution.solved:
+        record["reason"] = solution.reason or "no_match"
     record["method"] = solution.method
     record["attitude"] = None
     record["stars"] = []
@@ -68,6 +58,12 @@ def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timi
     return record
 
 
+def error_record(input_name: str, message: str) -> dict:
+    """The record of an input that could not be read: ``error`` holds the stderr line."""
+    return {"input": input_name, "status": "error", "error": message, "attitude": None,
+            "stars": []}
+
+
 def csv_rows(record: dict) -> list[list]:
     """One CSV row (:data:`CSV_HEADER`) per identified star; none when not solved."""
     name = record.get("input", "")
@@ -80,12 +76,15 @@ def format_table(record: dict) -> str:
     lines = []
     if "input" in record:
         lines.append(f"input: {record['input']}")
+    if record["status"] == "error":
+        return "\n".join([*lines, f"status: error: {record['error']}"]) + "\n"
     t = record["timing_ms"]
     timing = (f"timing: centroid {t['centroid']:.1f} ms, identify {t['identify']:.1f} ms, "
               f"total {t['total']:.1f} ms")
     n_cent = record.get("diagnostics", {}).get("centroids", "?")
     if record["status"] != "solved":
-        lines += [f"status: not solved (method {record['method']}, {n_cent} centroids)", timing]
+        lines += [f"status: not solved: {record.get('reason', 'no_match')} (method "
+                  f"{record['method']}, {n_cent} centroids)", timing]
         return "\n".join(lines) + "\n"
     att = record["attitude"]
     res = np.array([s["residual_arcsec"] for s in record["stars"]])

@@ -75,25 +75,39 @@ def observe(catalog: Catalog, camera: Camera, rotation: Rotation, rng: np.random
     rows, x, y = rows[kept], x[kept], y[kept]
     mag = mags_in_view[kept] + noise[kept]
 
+    real = Scene(x=x, y=y, mag=mag, catalog_id=catalog.ids[rows].astype(np.int64),
+                 catalog_row=rows.astype(np.int64), is_false=np.zeros(len(rows), dtype=bool),
+                 hot_pixel=np.zeros(len(rows), dtype=bool), rotation=rotation)
     if false_mag_range is None:
         source = mags_in_view if len(mags_in_view) >= 2 else catalog.mag
         false_mag_range = (float(source.min()), float(source.max()))
-    k = int(false_stars)
-    lo, hi = -0.5 + margin_px, -0.5 - margin_px
-    fx = rng.uniform(lo, camera.width + hi, k)
-    fy = rng.uniform(lo, camera.height + hi, k)
-    fmag = rng.uniform(false_mag_range[0], false_mag_range[1], k)
-    fhot = rng.random(k) < hot_pixel_fraction
+    return add_false_stars(real, rng.random((int(false_stars), 4)), camera, false_mag_range,
+                           hot_pixel_fraction, margin_px)
 
-    n = len(rows)
+
+def add_false_stars(scene: Scene, uniforms: np.ndarray, camera: Camera,
+                    mag_range: tuple[float, float], hot_pixel_fraction: float,
+                    margin_px: float = 0.0) -> Scene:
+    """``scene`` with one false star per row of ``uniforms`` (K x 4 numbers in [0, 1)):
+    x and y uniform over the image (``margin_px`` from the edges), magnitude uniform in
+    ``mag_range``, a hot pixel (a one-pixel spot) when the fourth is below
+    ``hot_pixel_fraction``, else a star-like blob. Taking the uniforms rather than drawing
+    them lets the bench nest its false stars across conditions (K=3 holds K=1's)."""
+    u = np.asarray(uniforms, dtype=np.float64).reshape(-1, 4)
+    k = len(u)
+    lo = -0.5 + margin_px
+    fx = lo + u[:, 0] * (camera.width - 2.0 * margin_px)
+    fy = lo + u[:, 1] * (camera.height - 2.0 * margin_px)
+    fmag = mag_range[0] + u[:, 2] * (mag_range[1] - mag_range[0])
+    fhot = u[:, 3] < hot_pixel_fraction
     minus_one = np.full(k, -1, dtype=np.int64)
     return Scene(
-        x=np.concatenate([x, fx]),
-        y=np.concatenate([y, fy]),
-        mag=np.concatenate([mag, fmag]),
-        catalog_id=np.concatenate([catalog.ids[rows].astype(np.int64), minus_one]),
-        catalog_row=np.concatenate([rows.astype(np.int64), minus_one]),
-        is_false=np.concatenate([np.zeros(n, dtype=bool), np.ones(k, dtype=bool)]),
-        hot_pixel=np.concatenate([np.zeros(n, dtype=bool), fhot]),
-        rotation=rotation,
+        x=np.concatenate([scene.x, fx]),
+        y=np.concatenate([scene.y, fy]),
+        mag=np.concatenate([scene.mag, fmag]),
+        catalog_id=np.concatenate([scene.catalog_id, minus_one]),
+        catalog_row=np.concatenate([scene.catalog_row, minus_one]),
+        is_false=np.concatenate([scene.is_false, np.ones(k, dtype=bool)]),
+        hot_pixel=np.concatenate([scene.hot_pixel, fhot]),
+        rotation=scene.rotation,
     )

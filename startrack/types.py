@@ -82,3 +82,16 @@ class Solution:
     #: why an unsolved frame has no answer, in a word (interfaces.md): "too_few_stars",
     #: "no_match", "timeout"; None when solved
     reason: str | None = None
+
+
+@dataclass(frozen=True)
+class Timing:
+    """Milliseconds per stage of one input (interfaces.md ``timing_ms``)."""
+
+    centroid: float = 0.0
+    identify: float = 0.0
+    total: float = 0.0
+
+    def to_dict(self) -> dict:
+        return {"centroid": round(self.centroid, 3), "identify": round(self.identify, 3),
+                "total": round(self.total, 3)}

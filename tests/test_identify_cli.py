@@ -141,18 +141,16 @@ def _bad_inputs(tmp: Path, cam: Path, good: Path) -> dict[str, list]:
         "missing file": [tmp / "absent.csv", "--camera", cam, *common],
         "unknown method": [good, "--camera", cam, "--method", "nosuch", *common],
         "bad camera": [good, "--camera", tmp / "badcam.json", *common],
-        "too few stars": [tmp / "two.csv", "--camera", cam, *common],
         "no camera": [good, *common],
         "bad image": [tmp / "malformed.csv.png", "--fov", "10"],
-        "good then bad": [good, tmp / "two.csv", "--camera", cam, *common],
     }
 
 
 @pytest.mark.parametrize(("case", "runner"), [
-    ("malformed", run), ("too few stars", run), ("no x column", run_in_process),
+    ("malformed", run), ("no x column", run_in_process),
     ("missing file", run_in_process), ("unknown method", run_in_process),
     ("bad camera", run_in_process), ("no camera", run_in_process),
-    ("bad image", run_in_process), ("good then bad", run_in_process)])
+    ("bad image", run_in_process)])
 def test_bad_input_exit_2_one_line_no_output(setup, case, runner):
     tmp, cam, _, frames = setup
     (tmp / "malformed.csv.png").write_bytes(b"not a png")
@@ -165,8 +163,32 @@ def test_bad_input_exit_2_one_line_no_output(setup, case, runner):
     assert len(lines) == 1, proc.stderr
     assert "Traceback" not in proc.stderr
     assert list(out_dir.iterdir()) == []  # nothing written, not even a temporary file
-    if case in ("too few stars",):
-        assert "two.csv" in lines[0] and "2" in lines[0]
+
+
+@pytest.mark.parametrize("n_stars", [0, 1, 2])
+def test_too_few_stars_is_not_solved_exit_1(setup, n_stars):
+    tmp, cam, _, _ = setup
+    path = tmp / f"few{n_stars}.csv"
+    path.write_text("x,y\n" + "".join(f"{10 + 20 * k},{20 + 9 * k}\n" for k in range(n_stars)))
+    proc = run(path, "--camera", cam, "--sky", "random", "--format", "json")
+    assert proc.returncode == 1, proc.stderr
+    record = json.loads(proc.stdout)
+    assert record["status"] == "not_solved" and record["reason"] == "too_few_stars"
+    assert record["attitude"] is None and record["stars"] == []
+
+
+def test_batch_answers_every_input_around_a_bad_one(setup):
+    tmp, cam, _, frames = setup
+    good = [str(f[0]) for f in frames[:2]]
+    out = tmp / "batch.jsonl"
+    proc = run(good[0], tmp / "absent.csv", good[1], "--camera", cam, "--sky", "random",
+               "--format", "json", "--output", out)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "absent.csv" in lines[0]
+    records = [json.loads(line) for line in out.read_text().splitlines()]
+    assert [r["status"] for r in records] == ["solved", "error", "solved"]
+    assert records[1]["error"] in lines[0] and records[1]["input"].endswith("absent.csv")
 
 
 def test_simulated_frame_solves_with_no_options(tmp_path):

@@ -105,8 +105,8 @@ def test_fixed_attitude_and_fits_with_wcs(tmp_path):
 
 def test_presets_load_and_default_is_paper2011():
     configs = {p.stem: load_config(p) for p in CONFIGS.glob("*.toml")}
-    assert {"default", "paper2011", "radial2008", "realsky"} <= set(configs)
-    assert configs["default"] == config_from_dict(DEFAULT_CONFIG) == configs["paper2011"]
+    assert {"paper2011", "radial2008", "realsky"} <= set(configs)
+    assert config_from_dict(DEFAULT_CONFIG) == configs["paper2011"]
     radial = configs["radial2008"].camera
     assert (radial.width, radial.fov_deg) == (4096, pytest.approx(4.0, abs=1e-5))
     real = configs["realsky"]

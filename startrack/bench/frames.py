@@ -20,7 +20,8 @@ from scipy.spatial.transform import Rotation
 from startrack.attitude import random_attitudes
 from startrack.bench.conditions import Condition
 from startrack.camera import Camera
-from startrack.scene import Scene, observe, stars_in_view
+from startrack.centroids import DEFAULT_SIGMA_PX
+from startrack.scene import Scene, add_false_stars, observe, stars_in_view
 from startrack.sensor import SensorModel
 from startrack.sky import Catalog
 from startrack.types import Observation
@@ -30,10 +31,6 @@ SOURCES = ("centroids", "images")
 _ATTITUDE, _SCENE, _FALSE, _NOISE, _PIXELS = range(5)
 # The sigma the matcher is told for exact centroids (a zero tolerance would be unusable).
 SIGMA_FLOOR_PX = 0.05
-# The centroid error assumed for rendered frames. On the default sensor the extracted
-# centroids are ~0.1 px rms per axis (paper2011 sky, 20 frames); 0.3 px leaves a margin
-# for faint stars and other sensor settings.
-IMAGE_SIGMA_PX = 0.3
 # An extracted centroid this close to a scene star is that star (for scoring only).
 TRUTH_RADIUS_PX = 2.0
 
@@ -75,24 +72,10 @@ def frame_scene(catalog: Catalog, camera: Camera, condition: Condition, seed: in
                    missing=condition.missing, false_stars=0, mag_noise=condition.mag_noise)
     # False stars: a fixed per-frame sequence (x, y, mag, hot) of which the first K are
     # used, so K=3 contains K=1's star (observe() draws each attribute as a block of K).
-    k = int(condition.false_stars)
-    u = _rng(seed, index, _FALSE).random((k, 4))
+    u = _rng(seed, index, _FALSE).random((int(condition.false_stars), 4))
     mags = catalog.mag[rows_in_view] if len(rows_in_view) >= 2 else catalog.mag
-    lo, hi = float(mags.min()), float(mags.max())
-    fx = -0.5 + u[:, 0] * camera.width
-    fy = -0.5 + u[:, 1] * camera.height
-    fmag = lo + u[:, 2] * (hi - lo)
-    fhot = u[:, 3] < hot_pixel_fraction
-    minus_one = np.full(k, -1, dtype=np.int64)
-    scene = Scene(
-        x=np.concatenate([real.x, fx]), y=np.concatenate([real.y, fy]),
-        mag=np.concatenate([real.mag, fmag]),
-        catalog_id=np.concatenate([real.catalog_id, minus_one]),
-        catalog_row=np.concatenate([real.catalog_row, minus_one]),
-        is_false=np.concatenate([real.is_false, np.ones(k, dtype=bool)]),
-        hot_pixel=np.concatenate([real.hot_pixel, fhot]),
-        rotation=rotation,
-    )
+    scene = add_false_stars(real, u, camera, (float(mags.min()), float(mags.max())),
+                            hot_pixel_fraction)
     return scene, rows_in_view
 
 
@@ -147,5 +130,5 @@ def _from_image(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
             np.column_stack([found.x, found.y]), distance_upper_bound=TRUTH_RADIUS_PX)
         hit = np.isfinite(dist)
         truth[hit] = scene.catalog_row[nearest[hit]]
-    obs = Observation.from_pixels(found.x, found.y, camera, IMAGE_SIGMA_PX, found.flux)
+    obs = Observation.from_pixels(found.x, found.y, camera, DEFAULT_SIGMA_PX, found.flux)
     return BenchFrame(obs, truth, scene.rotation, len(rows_in_view), centroid_ms)

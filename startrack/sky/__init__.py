@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import asdict, dataclass
+
+import numpy as np
 
 from startrack.camera import Camera
 from startrack.errors import InputError, check_number
@@ -64,6 +67,34 @@ def merge_separation_deg(spec: SkySpec, camera: Camera | None) -> float:
     return math.degrees(UNRESOLVED_PIXELS / camera.f_px)
 
 
+# Magnitude-limit rule for Hipparcos: the faintest half-magnitude step at which an
+# average frame holds at most this many catalog stars (20 deg -> 6.5, 11.4 deg -> 7.5).
+# More stars than this only slow the pattern search without making it more certain.
+TARGET_STARS_PER_FRAME = 80.0
+
+
+def default_mag_limit(camera: Camera, mags: np.ndarray, target: float = TARGET_STARS_PER_FRAME,
+                      lo: float = 4.0, hi: float = 8.0) -> float:
+    """Faintest limit in [lo, hi], in 0.5 mag steps, with <= ``target`` stars per frame."""
+    frame_fraction = camera.width * camera.height / camera.f_px**2 / (4.0 * math.pi)
+    mags = np.sort(np.asarray(mags, dtype=np.float64))
+    limits = np.arange(lo, hi + 0.25, 0.5)
+    counts = np.searchsorted(mags, limits, side="right") * frame_fraction
+    fitting = limits[counts <= target]
+    return float(fitting.max()) if len(fitting) else float(lo)
+
+
+def resolve_sky(spec: SkySpec, camera: Camera) -> SkySpec:
+    """``spec`` with its defaults made explicit for ``camera``: the one home of the
+    Hipparcos default magnitude rule (simulate, identify and compare all apply it)."""
+    if spec.kind == "hipparcos" and spec.mag_limit is None:
+        from startrack.sky.hipparcos import hipparcos_arrays
+
+        return dataclasses.replace(spec, mag_limit=default_mag_limit(
+            camera, hipparcos_arrays()["mag"]))
+    return spec
+
+
 def load_sky(spec: SkySpec, camera: Camera | None = None) -> Catalog:
     """The catalog that ``spec`` describes, magnitude-cut and with close stars merged.
 
@@ -89,6 +120,8 @@ __all__ = [
     "Catalog",
     "SkySpec",
     "load_sky",
+    "resolve_sky",
+    "default_mag_limit",
     "merge_separation_deg",
     "UNRESOLVED_PIXELS",
     "random_sky",

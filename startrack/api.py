@@ -1,0 +1,128 @@
+"""The Python API of docs/conventions.md: ``startrack.solve(...)`` and ``startrack.Solver``.
+
+A :class:`Solver` loads the catalog and database once and solves frame after frame; each
+answer is a :class:`SolveResult` whose ``to_dict()`` is the JSON record that
+``startrack identify --format json`` prints.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from startrack.attitude import to_quaternion, to_radec_roll
+from startrack.camera import Camera
+from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
+from startrack.errors import InputError
+from startrack.pipeline import (
+    DEFAULT_METHOD,
+    FrameInput,
+    FrameResult,
+    Options,
+    Pipeline,
+    image_input,
+    read_input,
+)
+
+STAR_COLUMNS = ["x", "y", "catalog_id", "ra_deg", "dec_deg", "residual_arcsec"]
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """One frame's answer. ``catalog_id`` is the HIP number for Hipparcos, the source id
+    for a deeper catalog and the 0-based index for a random sky."""
+
+    frame: FrameResult
+
+    @property
+    def solved(self) -> bool:
+        return self.frame.solution.solved
+
+    @property
+    def reason(self) -> str | None:
+        """Why the frame is not solved ("too_few_stars", "no_match", ...); None if solved."""
+        return None if self.solved else (self.frame.solution.reason or "no_match")
+
+    @property
+    def quaternion(self) -> np.ndarray | None:
+        """Camera-to-ICRS attitude, scalar first [w, x, y, z]."""
+        rot = self.frame.solution.rotation
+        return None if rot is None or not self.solved else to_quaternion(rot)
+
+    def _radec_roll(self) -> tuple[float, float, float] | tuple[None, None, None]:
+        rot = self.frame.solution.rotation
+        return (None, None, None) if rot is None or not self.solved else to_radec_roll(rot)
+
+    @property
+    def ra_deg(self) -> float | None:
+        return self._radec_roll()[0]
+
+    @property
+    def dec_deg(self) -> float | None:
+        return self._radec_roll()[1]
+
+    @property
+    def roll_deg(self) -> float | None:
+        return self._radec_roll()[2]
+
+    @property
+    def fov_deg(self) -> float | None:
+        """The horizontal field of view of the camera the frame was solved with."""
+        return self.frame.camera.fov_deg if self.solved else None
+
+    @property
+    def stars(self) -> pd.DataFrame:
+        """The identified stars: x, y, catalog_id, ra_deg, dec_deg, residual_arcsec."""
+        return pd.DataFrame(self.to_dict()["stars"], columns=STAR_COLUMNS)
+
+    def to_dict(self) -> dict:
+        """The interfaces.md solution record (``input`` is left out for arrays)."""
+        return self.frame.record(with_input=self.frame.input != "<array>")
+
+
+class Solver:
+    """Loads catalog and database once; :meth:`solve` answers one frame at a time.
+
+    Give the camera as ``fov_deg`` (with ``size=(width, height)`` for centroid arrays;
+    images give their own size) or ``camera`` (a :class:`Camera` or a camera file path).
+    The other keywords are ``startrack identify``'s options.
+    """
+
+    def __init__(self, fov_deg: float | None = None, *, camera: Camera | str | Path | None = None,
+                 size: tuple[int, int] | None = None, method: str = DEFAULT_METHOD,
+                 sky: str | None = None, mag_limit: float | None = None,
+                 epoch: float | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
+                 max_stars: int | None = None) -> None:
+        if camera is not None and not isinstance(camera, Camera):
+            from startrack.camera_file import load_camera
+
+            camera = load_camera(camera)
+        self._pipeline = Pipeline(Options(method=method, camera=camera, fov_deg=fov_deg,
+                                          size=size, sky=sky, mag_limit=mag_limit,
+                                          epoch=epoch, max_stars=max_stars, sigma_px=sigma_px))
+
+    def solve(self, source: str | Path | np.ndarray) -> SolveResult:
+        """Solve a path (image or centroid CSV), a 2-D image array, or an N x 2 / N x 3
+        array of centroids (x, y[, flux]; brightest first when there is no flux)."""
+        return SolveResult(self._pipeline.solve(_as_input(source)))
+
+
+def solve(source: str | Path | np.ndarray, **options) -> SolveResult:
+    """Solve one frame; ``options`` are :class:`Solver`'s keywords."""
+    return Solver(**options).solve(source)
+
+
+def _as_input(source: str | Path | np.ndarray) -> FrameInput:
+    if isinstance(source, str | Path):
+        return read_input(source)
+    array = np.asarray(source)
+    if array.ndim == 2 and array.shape[1] in (2, 3) and np.issubdtype(array.dtype, np.floating):
+        flux = array[:, 2] if array.shape[1] == 3 else np.arange(len(array), 0, -1.0)
+        return FrameInput("<array>", Centroids(array[:, 0], array[:, 1], flux))
+    if array.ndim == 2:
+        return image_input(array, "<array>")
+    raise InputError(f"cannot solve an array of shape {array.shape}: give a 2-D image or "
+                     "an N x 2 / N x 3 float array of centroids")
