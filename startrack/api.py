@@ -158,8 +158,11 @@ def _as_input(source: str | Path | np.ndarray) -> FrameInput:
         return read_input(source)
     array = np.asarray(source)
     if array.ndim == 2 and array.shape[1] in (2, 3) and np.issubdtype(array.dtype, np.floating):
-        flux = array[:, 2] if array.shape[1] == 3 else np.arange(len(array), 0, -1.0)
-        return FrameInput("<array>", Centroids(array[:, 0], array[:, 1], flux))
+        if array.shape[1] == 3:
+            return FrameInput("<array>", Centroids(array[:, 0], array[:, 1], array[:, 2]))
+        ranks = np.arange(len(array), 0, -1.0)  # listed brightest first
+        return FrameInput("<array>", Centroids(array[:, 0], array[:, 1], ranks,
+                                               photometric=False))
     if array.ndim == 2:
         return image_input(array, "<array>")
     raise InputError(f"cannot solve an array of shape {array.shape}: give a 2-D image or "

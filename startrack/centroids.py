@@ -26,6 +26,9 @@ class Centroids:
 
     ``flux`` is linear brightness (background removed); ``saturated`` flags spots with a
     saturated pixel; ``area`` is the spot's pixel count (0 when unknown).
+    ``photometric`` is False when ``flux`` only ranks the stars (a centroid list without
+    a flux column): the order is then right but brightness cannot be compared with the
+    catalog's magnitudes.
     """
 
     x: np.ndarray
@@ -33,6 +36,7 @@ class Centroids:
     flux: np.ndarray
     saturated: np.ndarray = field(default=None)  # type: ignore[assignment]
     area: np.ndarray = field(default=None)  # type: ignore[assignment]
+    photometric: bool = True
 
     def __post_init__(self) -> None:
         n = len(self.x)
@@ -56,7 +60,7 @@ class Centroids:
 
     def brightest(self, n: int) -> Centroids:
         return Centroids(self.x[:n], self.y[:n], self.flux[:n], self.saturated[:n],
-                         self.area[:n])
+                         self.area[:n], self.photometric)
 
 
 def _csv_columns(path: Path) -> dict[str, str]:
@@ -125,7 +129,7 @@ def read_centroid_csv(path: str | Path, max_rows: int | None = None) -> Centroid
         warnings.warn(f"{path}: kept the brightest {limit} of {total} centroids "
                       "(the documented bound, MAX_CENTROIDS)", StartrackWarning, stacklevel=2)
     if "flux" not in columns:
-        fs = np.arange(len(xs), 0, -1.0)
+        return Centroids(xs, ys, np.arange(len(xs), 0, -1.0), photometric=False)
     return Centroids(xs, ys, fs)
 
 

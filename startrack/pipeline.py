@@ -131,7 +131,9 @@ class Identifier:
         self.load_seconds = time.perf_counter() - t0
 
     def observation(self, centroids: Centroids) -> Observation:
-        return Observation.from_pixels(centroids.x, centroids.y, self.camera, self.sigma_px)
+        flux = centroids.flux if centroids.photometric else None
+        return Observation.from_pixels(centroids.x, centroids.y, self.camera, self.sigma_px,
+                                       flux=flux)
 
     def identify(self, obs: Observation) -> Solution:
         """Identify the stars of an observation made elsewhere (the bench's frames)."""

@@ -26,9 +26,9 @@ from scipy.spatial.transform import Rotation
 
 from startrack.camera import Camera
 from startrack.database import StarDatabase
-from startrack.tracking_kernels import consistent, project_match, quaternion, wahba, window_pairs
-from startrack.types import MatchDiagnostics, Observation, Solution
-from startrack.verify import CAPTURE, MAX_REFINEMENTS, VerifyConfig, false_match_probability
+from startrack.tracking_kernels import consistent, project_match, window_pairs
+from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
+from startrack.verify import CAPTURE, VerifyConfig, verify
 
 # The vote looks for the densest spot of displacements within this many match radii: the
 # true pairs crowd there while chance pairs spread over the whole window.
@@ -96,6 +96,14 @@ class _Projector:
         self._geometry = (float(cam.f_px), float(cam.cx), float(cam.cy), float(cam.width),
                           float(cam.height))
 
+    def __call__(self, matrix: np.ndarray,
+                 radius_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rows and pixel positions of the catalog stars that fall in the image."""
+        cam = self.obs.camera
+        x, y, front = cam.vector_to_pixel(self.vectors @ matrix)
+        keep = front & cam.in_image(x, y, margin=-radius_px)
+        return self.rows[keep], x[keep], y[keep]
+
     def match(self, matrix: np.ndarray,
               radius_px: float | None = None) -> tuple[np.ndarray, np.ndarray, int]:
         """As verify's: (observed index, catalog row, catalog stars in the image)."""
@@ -111,49 +119,6 @@ class _Projector:
                                        self.obs.x[:m], self.obs.y[:m], *self._geometry,
                                        float(window_px))
         return oi, self.rows[pos], dx, dy
-
-
-def verify_tracked(obs_h: np.ndarray, cat_h: np.ndarray, project: _Projector,
-                   config: VerifyConfig) -> tuple | None:
-    """:func:`startrack.verify.verify`'s test of one hypothesis, step for step (Wahba fit,
-    every hypothesis star within the match radius, evidence only from the other stars,
-    the same binomial bound and thresholds, then the refit on all matched stars), on
-    the compiled projector. (obs_index, cat_index, matrix, false_probability, confirmed) when
-    accepted, else None. ``tests/test_tracking.py`` checks it decides as verify does."""
-    obs, cat = project.obs, project.database.vectors
-    radius_px = project.radius_px
-    cam_h, cat_v = obs.vectors[obs_h], cat[cat_h]
-    matrix = wahba(cam_h, cat_v)
-    cos_err = np.einsum("ij,ij->i", cam_h @ matrix.T, cat_v)
-    if np.any(cos_err < math.cos(radius_px / obs.camera.f_px)):
-        return None
-    obs_m, cat_m, n_cat = project.match(matrix)
-    chosen = np.zeros(len(obs), bool)
-    chosen[obs_h] = True
-    confirmed = int(np.count_nonzero(~chosen[obs_m]))
-    prob = false_match_probability(len(obs) - len(obs_h), confirmed, n_cat, radius_px,
-                                   obs.camera.width, obs.camera.height)
-    if confirmed < config.min_confirmed or prob > config.max_false_probability:
-        return None
-    obs_m, cat_m, matrix = _refit(project, obs_m, cat_m)
-    return obs_m, cat_m, matrix, prob, confirmed
-
-
-def _refit(project: _Projector, obs_m: np.ndarray,
-           cat_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Refit on every matched star and match again until the matched set stops changing
-    (as verification's refinement; a tracking hypothesis spans the frame, so its wider
-    capture step is not needed)."""
-    vectors, cat = project.obs.vectors, project.database.vectors
-    matrix = wahba(vectors[obs_m], cat[cat_m])
-    for _ in range(MAX_REFINEMENTS):
-        obs_new, cat_new, _ = project.match(matrix)
-        if len(obs_new) < len(obs_m) or (np.array_equal(obs_new, obs_m)
-                                         and np.array_equal(cat_new, cat_m)):
-            break
-        obs_m, cat_m = obs_new, cat_new
-        matrix = wahba(vectors[obs_m], cat[cat_m])
-    return obs_m, cat_m, matrix
 
 
 def track(obs: Observation, database: StarDatabase, prior: Prior,
@@ -185,13 +150,13 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
                         identify_ms=(time.perf_counter() - t0) * 1000.0,
                         reason="no_track" if len(obs) >= 3 else "too_few_stars",
                         mode="tracking")
-    obs_index, cat_index, matrix, prob, _ = result
-    sky = obs.vectors[obs_index] @ matrix.T
+    order = np.argsort(result.obs_index)
+    obs_index, cat_index = result.obs_index[order], result.cat_index[order]
+    sky = result.rotation.apply(obs.vectors[obs_index])
     cos = np.clip(np.einsum("ij,ij->i", sky, database.vectors[cat_index]), -1.0, 1.0)
-    rotation = Rotation.from_quat(quaternion(matrix), scalar_first=True)
-    return Solution(True, method, rotation=rotation, obs_index=obs_index,
+    return Solution(True, method, rotation=result.rotation, obs_index=obs_index,
                     cat_index=cat_index, residual_arcsec=np.degrees(np.arccos(cos)) * 3600.0,
-                    false_probability=prob, diagnostics=diag,
+                    false_probability=result.false_probability, diagnostics=diag,
                     identify_ms=(time.perf_counter() - t0) * 1000.0, mode="tracking")
 
 
@@ -202,7 +167,8 @@ def _first_accepted(o_s, c_s, project, verify_config, config, diag):
     for pick in picks:
         idx = list(pick)
         diag.hypotheses += 1
-        result = verify_tracked(o_s[idx], c_s[idx], project, verify_config)
-        if result is not None:
-            return result
+        check = verify(Hypothesis(o_s[idx], c_s[idx]), project.obs, project.database,
+                       verify_config, project)
+        if check.accepted:
+            return check
     return None

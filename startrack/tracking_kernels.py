@@ -102,45 +102,6 @@ def window_pairs(vectors, matrix, ox, oy, f, cx, cy, width, height, window):
 
 
 @njit(cache=True)
-def wahba(cam, icrs):
-    """The rotation matrix R minimising sum |icrs - R cam|^2 (SVD, as
-    :func:`startrack.attitude.wahba_matrices`, for one set of pairs)."""
-    b = np.zeros((3, 3))
-    for k in range(cam.shape[0]):
-        for i in range(3):
-            for j in range(3):
-                b[i, j] += icrs[k, i] * cam[k, j]
-    u, _, vt = np.linalg.svd(b)
-    if np.linalg.det(u) * np.linalg.det(vt) < 0:
-        u[:, 2] = -u[:, 2]
-    return u @ vt
-
-
-@njit(cache=True)
-def quaternion(m):
-    """Scalar-first unit quaternion of a rotation matrix (Shepperd's method)."""
-    t = m[0, 0] + m[1, 1] + m[2, 2]
-    q = np.empty(4)
-    if t > max(m[0, 0], m[1, 1], m[2, 2]):
-        s = 2.0 * np.sqrt(1.0 + t)
-        q[:] = (0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s,
-                (m[1, 0] - m[0, 1]) / s)
-    elif m[0, 0] >= m[1, 1] and m[0, 0] >= m[2, 2]:
-        s = 2.0 * np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
-        q[:] = ((m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s,
-                (m[0, 2] + m[2, 0]) / s)
-    elif m[1, 1] >= m[2, 2]:
-        s = 2.0 * np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
-        q[:] = ((m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s,
-                (m[1, 2] + m[2, 1]) / s)
-    else:
-        s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
-        q[:] = ((m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s,
-                0.25 * s)
-    return q / np.sqrt(np.sum(q * q))
-
-
-@njit(cache=True)
 def consistent(oi, ci, dx, dy, vote_tol, tol):
     """Indices of the pairs that agree on one displacement: the pair whose displacement
     the most distinct observed stars share within ``vote_tol`` px (the densest spot; ties:
@@ -223,5 +184,4 @@ def warm_up() -> None:
     project_match(v, m, xy, xy, 100.0, 1.0, 1.0, 4.0, 4.0, 1.0, 1.0)
     oi, cj, dx, dy = window_pairs(v, m, xy, xy, 100.0, 1.0, 1.0, 4.0, 4.0, 50.0)
     consistent(oi, cj, dx, dy, 1.0, 2.0)
-    quaternion(wahba(v, v))
     rotation_log(rotation_exp(np.array([0.0, 0.0, 0.1])))

@@ -132,8 +132,12 @@ def false_match_probability(n_other: int, n_confirmed: int, n_catalog_in_image: 
 
 
 def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
-           config: VerifyConfig) -> Verification:
-    """Solve the attitude from ``hypothesis`` and accept it only on independent evidence."""
+           config: VerifyConfig, project: _Projector | None = None) -> Verification:
+    """Solve the attitude from ``hypothesis`` and accept it only on independent evidence.
+
+    ``project`` replaces the default catalog projector with one of the same interface
+    (``match`` and calling it): tracking passes one restricted to the stars around its
+    prediction, so that a tracked frame is held to exactly this test and labelling."""
     rejected = Verification(False, None, np.zeros(0, np.int64), np.zeros(0, np.int64), 1.0, 0)
     obs_h = np.asarray(hypothesis.obs_index, dtype=np.int64)
     cat_h = np.asarray(hypothesis.cat_index, dtype=np.int64)
@@ -146,7 +150,7 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
     cos_err = np.einsum("ij,ij->i", cam_h @ matrix.T, cat_v)
     if np.any(cos_err < math.cos(radius_rad)):
         return rejected
-    project = _Projector(obs, database, radius_px)
+    project = project or _Projector(obs, database, radius_px)
     obs_m, cat_m, n_cat = project.match(matrix)
     # Evidence comes only from stars the matcher did not choose.
     chosen = np.zeros(len(obs), bool)
