@@ -127,7 +127,8 @@ def variant_lines(table: pd.DataFrame, pairs: list[tuple[str, str, str]]) -> str
         ratio = (b["seq_ms_median"].to_numpy() / a["seq_ms_median"].to_numpy())
         lines.append(f"* `{variant}` ({what}) against `{ours}`, over all conditions: "
                      f"{stats(b)}, against {stats(a)}; median identify time "
-                     f"{np.median(ratio):.2f} times ours (median over conditions).\n")
+                     f"{np.median(ratio):.2f} times `{ours}`'s (median over conditions)."
+                     f"\n")
     return "".join(lines)
 
 
