@@ -7,9 +7,11 @@ import tomllib
 from pathlib import Path
 
 from startrack.camera import Camera
+from startrack.distortion import distortion_from_dict
 from startrack.errors import InputError
 
-CAMERA_KEYS = {"width", "height", "fov_deg", "focal_length_mm", "pixel_size_um", "cx", "cy"}
+CAMERA_KEYS = {"width", "height", "fov_deg", "focal_length_mm", "pixel_size_um", "cx", "cy",
+               "distortion"}
 
 
 def camera_from_dict(data: dict, where: str = "camera") -> Camera:
@@ -29,13 +31,19 @@ def camera_from_dict(data: dict, where: str = "camera") -> Camera:
             if "focal_length_mm" in data or "pixel_size_um" in data:
                 raise InputError(f"{where}: give fov_deg or focal_length_mm + pixel_size_um, "
                                  "not both")
-            return Camera.from_fov(width, height, float(data["fov_deg"]), cx, cy)
+            return Camera.from_fov(width, height, float(data["fov_deg"]), cx, cy,
+                                   _distortion(data, where))
         if "focal_length_mm" in data and "pixel_size_um" in data:
             return Camera.from_optics(width, height, float(data["focal_length_mm"]),
-                                      float(data["pixel_size_um"]), cx, cy)
+                                      float(data["pixel_size_um"]), cx, cy,
+                                      _distortion(data, where))
     except (TypeError, ValueError) as exc:
         raise InputError(f"{where}: bad value ({exc})") from None
     raise InputError(f"{where}: needs fov_deg, or focal_length_mm and pixel_size_um")
+
+
+def _distortion(data: dict, where: str):
+    return distortion_from_dict(data.get("distortion"), where)
 
 
 def load_camera(path: str | Path) -> Camera:
