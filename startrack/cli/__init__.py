@@ -1,4 +1,4 @@
-"""The ``startrack`` command group: simulate, identify, compare."""
+"""The ``startrack`` command group: simulate, identify, compare, calibrate."""
 
 from __future__ import annotations
 
@@ -43,6 +43,7 @@ def main() -> None:
 def _add_commands() -> None:
     # Each command lives in its own module; importing it registers it on the group.
     from startrack.cli import (
+        calibrate,  # noqa: F401
         compare,  # noqa: F401
         identify,  # noqa: F401
         simulate,  # noqa: F401
