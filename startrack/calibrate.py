@@ -108,11 +108,15 @@ def _sweep(frames, nominal: Camera, catalog: Catalog,
     from startrack.pipeline import Identifier
 
     config = VerifyConfig(max_hypotheses=SWEEP_MAX_HYPOTHESES)
+    # Every swept FOV builds a database: not worth it for frames with too few stars.
+    frames = [f for f in frames if len(f.centroids.x) >= 3][:SWEEP_FRAMES]
+    if not frames:
+        return None
     for step in SWEEP_STEPS:
         camera = dataclasses.replace(nominal, f_px=nominal.f_px / (1.0 + step))
         ident = Identifier(camera, catalog, method, sigma_px=SWEEP_SIGMA_PX,
                            verify_config=config)
-        for frame in frames[:SWEEP_FRAMES]:
+        for frame in frames:
             stars = _stars(frame, ident)
             if stars is not None:
                 return stars, camera
