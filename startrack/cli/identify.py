@@ -35,6 +35,14 @@ def _size(ctx, param, value):
     return w, h
 
 
+def _time(ctx, param, value):
+    if value is None:
+        return None
+    from startrack.aberration import parse_time
+
+    return parse_time(value)
+
+
 def _finite(ctx, param, value):
     if value is not None and not math.isfinite(value):
         raise click.BadParameter(f"must be a finite number, got {value}")
@@ -58,6 +66,10 @@ def _finite(ctx, param, value):
 @click.option("--epoch", type=float, callback=_finite,
               help="Julian year to carry Hipparcos positions to by proper motion "
                    "(default: the catalog epoch, J1991.25).")
+@click.option("--time", "obs_time", callback=_time,
+              help="Observation time, ISO 8601 (e.g. 2019-07-29T20:47:26Z; no offset = "
+                   "UTC): the attitude is corrected for annual aberration (up to 20 "
+                   "arcsec). Default: a FITS input's DATE-OBS, else no correction.")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True,
               help=f"Matcher, one of: {', '.join(available_methods())} (docs/results.md "
                    "compares them).")
@@ -70,8 +82,8 @@ def _finite(ctx, param, value):
               show_default=True, help="json: one JSON line per input, in input order.")
 @click.option("--output", type=click.Path(dir_okay=False),
               help="Write here instead of standard output (only when complete).")
-def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, max_stars,
-             sigma_px, fmt, output) -> None:
+def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, obs_time, method,
+             max_stars, sigma_px, fmt, output) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
@@ -79,7 +91,8 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
     Conventions (pixels, attitude, JSON record, exit codes): docs/conventions.md."""
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
-                      mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px)
+                      mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
+                      time=obs_time)
     pipeline = Pipeline(options)
     worst = 0
     pending: list[dict] = []  # error records held back until an input is answered

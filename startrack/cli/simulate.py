@@ -57,9 +57,12 @@ def _triple(names: str):
               help="Angular rate in the camera frame, deg/s, for motion blur.")
 @click.option("--fits", "write_fits_too", is_flag=True, help="Also write FITS with a WCS.")
 @click.option("--camera", "camera_path", type=click.Path(dir_okay=False),
-              help="Camera file (JSON or TOML), overrides the config's [camera].")
+              help="Camera file (JSON or TOML), overrides the config's [camera]; its "
+                   "distortion is rendered.")
+@click.option("--time", "obs_time", help="Observation time, ISO 8601: stars are rendered "
+              "where they appear from the moving Earth (annual aberration).")
 def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_stars,
-             missing, mag_noise, rate, write_fits_too, camera_path) -> None:
+             missing, mag_noise, rate, write_fits_too, camera_path, obs_time) -> None:
     """Render frames of a sky, with truth.csv, stars.csv and a JSON sidecar per frame."""
     cfg = load_config(config_path) if config_path else config_from_dict(DEFAULT_CONFIG,
                                                                         "default config")
@@ -78,17 +81,22 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     if attitude is not None and not -90.0 <= attitude[1] <= 90.0:
         raise click.BadParameter(f"Dec must be in [-90, 90], got {attitude[1]}",
                                  param_hint="--attitude")
+    if obs_time is not None:
+        from startrack.aberration import parse_time
+
+        obs_time = parse_time(obs_time)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise click.BadParameter(f"{out} exists and is not a folder", param_hint="--out")
     try:
-        _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too)
+        _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too, obs_time)
     except OSError as exc:  # every file is atomic, so nothing half-written is left behind
         raise InputError(f"{out}: cannot write output ({exc.strerror or exc})") from None
 
 
 def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions, out: Path,
-         attitude: tuple[float, float, float] | None, with_fits: bool) -> None:
+         attitude: tuple[float, float, float] | None, with_fits: bool,
+         obs_time=None) -> None:
     from tqdm import tqdm
 
     from startrack.attitude import from_radec_roll, to_quaternion, to_radec_roll
@@ -99,6 +107,11 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
     from startrack.wcs import wcs_header
 
     catalog = load_sky(spec, camera)  # before any output: a bad sky leaves no files
+    when = None if obs_time is None else obs_time.utc.isot
+    if obs_time is not None:
+        from startrack.aberration import apparent_catalog
+
+        catalog = apparent_catalog(catalog, obs_time)
     fixed = from_radec_roll(*attitude) if attitude is not None else None
     truth_rows, star_rows = [], []
     bar = tqdm(range(opts.count), file=sys.stderr, unit="frame", desc="simulate",
@@ -114,14 +127,17 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
         png = out / f"{name}.png"
         write_png16(png, image)
         if with_fits:
-            write_fits(out / f"{name}.fits", image, wcs_header(camera, rotation))
+            header = wcs_header(camera, rotation)
+            if when is not None:
+                header["DATE-OBS"] = when
+            write_fits(out / f"{name}.fits", image, header)
         q = [float(c) for c in to_quaternion(rotation)]
         ra, dec, roll = to_radec_roll(rotation)
         sidecar = {
             "image": png.name, "frame": i, "seed": opts.seed,
             "camera": camera.to_dict(), "sky": spec.to_dict(),
             "attitude": {"quaternion": q, "ra_deg": ra, "dec_deg": dec, "roll_deg": roll},
-            "sensor": sensor.to_dict(),
+            "sensor": sensor.to_dict(), "time_utc": when,
             "frames": {"missing": opts.missing, "false_stars": opts.false_stars,
                        "mag_noise": opts.mag_noise, "rate_dps": opts.rate_dps},
         }
