@@ -14,7 +14,7 @@ time (a site, a solar elongation) and are below the centroid errors of a star tr
 from __future__ import annotations
 
 import dataclasses
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +36,7 @@ def parse_time(text: str, where: str = "--time"):
         raise InputError(f"{where}: not an ISO 8601 time (e.g. 2019-07-29T20:47:26Z), "
                          f"got {text!r}") from None
     if moment.tzinfo is not None:
-        moment = moment.astimezone(timezone.utc).replace(tzinfo=None)
+        moment = moment.astimezone(UTC).replace(tzinfo=None)
     return Time(moment, scale="utc")
 
 
