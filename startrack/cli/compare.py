@@ -27,7 +27,8 @@ DEFAULT_METHODS = "angle,triangle,hybrid"
 # loaded machine). 1000 frames put a 95% rate within about +-1.4%.
 DEFAULT_FRAMES = 1000
 DEFAULT_LEVELS = {"noise_px": "0,0.5,1,2", "false_stars": "0,1,3,5", "missing": "0",
-                  "mag_noise": "0"}
+                  "mag_noise": "0", "fov_error": "0", "distortion_k1": "0",
+                  "modelled_k1": "0"}
 
 
 def parse_methods(text: str) -> tuple[str, ...]:
@@ -44,7 +45,8 @@ def parse_methods(text: str) -> tuple[str, ...]:
     return tuple(names)
 
 
-def _levels(noise_px, false_stars, missing, mag_noise, source: str) -> dict[str, tuple]:
+def _levels(noise_px, false_stars, missing, mag_noise, source: str,
+            camera_levels: dict | None = None) -> dict[str, tuple]:
     from startrack.bench.conditions import parse_values
 
     if source == "images":
@@ -53,13 +55,19 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str) -> dict[str,
                        "sets the pixel noise); ignored", err=True)
         noise_px = "0"
     given = {"noise_px": noise_px, "false_stars": false_stars, "missing": missing,
-             "mag_noise": mag_noise}
+             "mag_noise": mag_noise, "fov_error": None, "distortion_k1": None,
+             "modelled_k1": None, **(camera_levels or {})}
     text = {k: DEFAULT_LEVELS[k] if v is None else v for k, v in given.items()}
     return {
         "noise_px": parse_values(text["noise_px"], "--noise-px"),
         "false_stars": parse_values(text["false_stars"], "--false-stars", integer=True),
         "missing": parse_values(text["missing"], "--missing", high=1.0),
         "mag_noise": parse_values(text["mag_noise"], "--mag-noise"),
+        "fov_error": parse_values(text["fov_error"], "--fov-error", low=-0.5, high=0.5),
+        "distortion_k1": parse_values(text["distortion_k1"], "--distortion", low=-1.0,
+                                      high=1.0),
+        "modelled_k1": parse_values(text["modelled_k1"], "--modelled-distortion", low=-1.0,
+                                    high=1.0),
     }
 
 
@@ -78,6 +86,12 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str) -> dict[str,
               f"[default: {DEFAULT_LEVELS['false_stars']}].")
 @click.option("--missing", help="Star dropout fractions (first = base) [default: 0].")
 @click.option("--mag-noise", help="Magnitude noise levels (first = base) [default: 0].")
+@click.option("--fov-error", help="Fractional errors of the FOV the methods are told, e.g. "
+              "0,0.02,-0.05 (first = base) [default: 0].")
+@click.option("--distortion", "distortion_k1", help="Radial k1 of the frames' lens, not "
+              "told to the methods, e.g. 0,-0.05 (first = base) [default: 0].")
+@click.option("--modelled-distortion", "modelled_k1", help="Radial k1 of the frames' lens, "
+              "given to the methods in their camera model (first = base) [default: 0].")
 @click.option("--grid", type=click.Choice(["oat", "full"]), default="oat", show_default=True,
               help="oat: vary one variable at a time around the base; full: every "
               "combination.")
@@ -100,9 +114,10 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str) -> dict[str,
               help="Continue a matching run in --out (default when there is one) or start "
               "over.")
 def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars, missing,
-            mag_noise, grid, max_stars, source, threshold_arcsec, jobs, scheduler, out_dir,
-            seed, resume) -> None:
-    """Compare methods on the same random frames under noise, false and missing stars."""
+            mag_noise, fov_error, distortion_k1, modelled_k1, grid, max_stars, source,
+            threshold_arcsec, jobs, scheduler, out_dir, seed, resume) -> None:
+    """Compare methods on the same random frames under noise, false and missing stars, and
+    a wrong camera (FOV error, lens distortion with or without its model)."""
     from startrack.bench.conditions import build_conditions
     from startrack.bench.runner import RunSpec
     from startrack.bench.session import format_table, run_comparison
@@ -127,7 +142,9 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
             raise InputError(f"--mag-limit must be finite, got {mag_limit}")
         spec_sky = dataclasses.replace(spec_sky, mag_limit=mag_limit)
     spec_sky = resolve_sky(spec_sky, cfg.camera)
-    levels = _levels(noise_px, false_stars, missing, mag_noise, source)
+    levels = _levels(noise_px, false_stars, missing, mag_noise, source,
+                     {"fov_error": fov_error, "distortion_k1": distortion_k1,
+                      "modelled_k1": modelled_k1})
     spec = RunSpec(
         methods=names, conditions=tuple(build_conditions(levels, grid)), frames=frames,
         seed=cfg.frames.seed if seed is None else seed, camera=cfg.camera, sky=spec_sky,
