@@ -88,21 +88,27 @@ class Solver:
 
     Give the camera as ``fov_deg`` (with ``size=(width, height)`` for centroid arrays;
     images give their own size) or ``camera`` (a :class:`Camera` or a camera file path).
-    The other keywords are ``startrack identify``'s options.
+    The other keywords are ``startrack identify``'s options (``time``: ISO 8601 text or an
+    astropy Time, for the aberration correction).
     """
 
     def __init__(self, fov_deg: float | None = None, *, camera: Camera | str | Path | None = None,
                  size: tuple[int, int] | None = None, method: str = DEFAULT_METHOD,
                  sky: str | None = None, mag_limit: float | None = None,
                  epoch: float | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
-                 max_stars: int | None = None) -> None:
+                 max_stars: int | None = None, time: str | None = None) -> None:
+        if time is not None and isinstance(time, str):
+            from startrack.aberration import parse_time
+
+            time = parse_time(time, where="time")
         if camera is not None and not isinstance(camera, Camera):
             from startrack.camera_file import load_camera
 
             camera = load_camera(camera)
         self._pipeline = Pipeline(Options(method=method, camera=camera, fov_deg=fov_deg,
                                           size=size, sky=sky, mag_limit=mag_limit,
-                                          epoch=epoch, max_stars=max_stars, sigma_px=sigma_px))
+                                          epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
+                                          time=time))
 
     def solve(self, source: str | Path | np.ndarray) -> SolveResult:
         """Solve a path (image or centroid CSV), a 2-D image array, or an N x 2 / N x 3
