@@ -41,19 +41,15 @@ def parse_time(text: str, where: str = "--time"):
 
 
 def fits_time(path: str | Path):
-    """The DATE-OBS of a FITS image (a ``Time``), or None when it has none or is no FITS."""
+    """The DATE-OBS of a FITS image (a ``Time``), or None when it has none or is no FITS.
+    (A TIFF's DateTime tag is not used: it is often the time the file was written.)"""
     path = Path(path)
     if path.suffix.lower() not in FITS_SUFFIXES:
         return None
-    from astropy.io import fits
+    from startrack.wcs import date_obs_of
 
-    try:
-        value = fits.getheader(path).get("DATE-OBS")
-    except OSError:
-        return None
-    if not value:
-        return None
-    return parse_time(str(value), where=f"{path}: DATE-OBS")
+    value = date_obs_of(path)
+    return None if value is None else parse_time(value, where=f"{path}: DATE-OBS")
 
 
 def earth_velocity(time) -> np.ndarray:

@@ -3,7 +3,7 @@
 Coordinates here are normalised: ``u = (x - cx) / f``, ``v = (y - cy) / f``. The model maps
 the ideal pinhole point to the observed one, ``u_obs = u * (1 + k1 r2 + k2 r2^2 + k3 r2^3)``
 with ``r2 = u^2 + v^2``; the inverse is found by Newton's method on the radius, vectorised.
-:func:`sip_coefficients` expresses a camera's distortion as FITS TAN-SIP polynomials.
+(FITS TAN-SIP terms of this model: :func:`startrack.wcs.sip_from_camera`.)
 """
 
 from __future__ import annotations
@@ -102,45 +102,3 @@ def distortion_from_dict(data, where: str = "camera") -> RadialDistortion | None
                          f"got {model!r}")
     k = {key: _number(data.get(key, 0.0), key, where) for key in ("k1", "k2", "k3")}
     return RadialDistortion(**k)
-
-
-def sip_coefficients(camera, order: int = 5, grid: int = 41) -> dict[str, np.ndarray]:
-    """FITS SIP polynomials for ``camera``'s distortion (astropy ``wcs.Sip`` layout).
-
-    Returns ``a``, ``b`` (order x order + 1 square arrays: observed pixel offset from
-    ``crpix`` -> ideal offset, the forward SIP) and ``ap``, ``bp`` (ideal -> observed, the
-    inverse). Offsets are in pixels, as SIP wants. The inverse is exact for k1 at order 3,
-    k2 at 5, k3 at 7; the forward one is a least-squares fit over a ``grid`` x ``grid``
-    sampling of the image. Use ``astropy.wcs.Sip(a, b, ap, bp, crpix)`` with
-    ``crpix = (cx + 1, cy + 1)``.
-    """
-    if order < 2:
-        raise ValueError(f"SIP order must be >= 2, got {order}")
-    dist = camera.distortion or RadialDistortion()
-    f = camera.f_px
-    xs = np.linspace(-0.5, camera.width - 0.5, grid) - camera.cx
-    ys = np.linspace(-0.5, camera.height - 0.5, grid) - camera.cy
-    gx, gy = (a.ravel() for a in np.meshgrid(xs, ys))
-    # Forward: observed offsets (gx, gy) -> ideal offsets.
-    iu, iv = dist.undistort(gx / f, gy / f)
-    a, b = _fit_sip(gx, gy, iu * f - gx, iv * f - gy, order)
-    # Inverse: ideal offsets sampled over the same region -> observed offsets.
-    ou, ov = dist.distort(iu, iv)
-    ap, bp = _fit_sip(iu * f, iv * f, ou * f - iu * f, ov * f - iv * f, order)
-    return {"a": a, "b": b, "ap": ap, "bp": bp}
-
-
-def _fit_sip(x: np.ndarray, y: np.ndarray, dx: np.ndarray, dy: np.ndarray,
-             order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares SIP terms p + q in [2, order] (SIP leaves the linear part to CD)."""
-    terms = [(p, q) for p in range(order + 1) for q in range(order + 1 - p) if p + q >= 2]
-    scale = max(float(np.abs(x).max()), float(np.abs(y).max()), 1.0)  # conditioning
-    design = np.column_stack([(x / scale) ** p * (y / scale) ** q for p, q in terms])
-    coef_x = np.linalg.lstsq(design, dx, rcond=None)[0]
-    coef_y = np.linalg.lstsq(design, dy, rcond=None)[0]
-    a = np.zeros((order + 1, order + 1))
-    b = np.zeros((order + 1, order + 1))
-    for (p, q), cx, cy in zip(terms, coef_x, coef_y, strict=True):
-        a[p, q] = cx / scale ** (p + q)
-        b[p, q] = cy / scale ** (p + q)
-    return a, b

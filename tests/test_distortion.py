@@ -9,7 +9,7 @@ import pytest
 
 from startrack.camera import Camera
 from startrack.camera_file import camera_from_dict, load_camera
-from startrack.distortion import RadialDistortion, sip_coefficients
+from startrack.distortion import RadialDistortion
 from startrack.errors import InputError
 
 
@@ -83,28 +83,6 @@ def test_bad_distortion_entries_are_input_errors(bad, message):
     with pytest.raises(InputError, match=message):
         camera_from_dict({"width": 100, "height": 100, "fov_deg": 10.0, "distortion": bad},
                          where="cam.json")
-
-
-def test_sip_coefficients_match_the_camera_through_astropy():
-    from astropy.wcs import Sip
-
-    cam = Camera.from_fov(1024, 768, 20.0, cx=500.0, cy=390.0,
-                          distortion=RadialDistortion(k1=-0.3, k2=0.1))
-    sip = sip_coefficients(cam, order=5)
-    crpix = (cam.cx + 1.0, cam.cy + 1.0)
-    model = Sip(sip["a"], sip["b"], sip["ap"], sip["bp"], crpix)
-    x, y = _grid(cam, 25)
-    # Forward SIP on FITS pixels gives the ideal (pinhole) position offset from crpix.
-    ideal = model.pix2foc(np.column_stack([x + 1.0, y + 1.0]), 1)
-    want_x, want_y = cam.ideal_pixels(x, y)
-    assert np.abs(ideal[:, 0] - (want_x - cam.cx)).max() < 0.05
-    assert np.abs(ideal[:, 1] - (want_y - cam.cy)).max() < 0.05
-    back = model.foc2pix(ideal, 1)
-    assert np.abs(back[:, 0] - (x + 1.0)).max() < 0.05
-    # k1 alone is exact in the inverse at order 3: AP_30 = AP_12 = k1 / f^2.
-    k1_only = sip_coefficients(cam.with_distortion(RadialDistortion(k1=-0.3)), order=3)
-    assert k1_only["ap"][3, 0] == pytest.approx(-0.3 / cam.f_px**2, rel=1e-6)
-    assert k1_only["ap"][1, 2] == pytest.approx(-0.3 / cam.f_px**2, rel=1e-6)
 
 
 def test_simulate_renders_the_lens_and_identify_solves_with_its_model(tmp_path):
