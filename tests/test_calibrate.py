@@ -80,3 +80,28 @@ def test_calibrate_real_frames_recovers_their_fov(tmp_path):
                      "--output", out)
     assert run.returncode == 0, run.stderr
     assert abs(json.loads(out.read_text())["fov_deg"] - 11.42) < 0.02
+
+
+def test_the_fit_cuts_outliers_and_recovers_the_camera():
+    from startrack.calibrate import FrameStars, _fit
+    from startrack.scene import stars_in_view
+    from startrack.sky import random_sky
+
+    sky = random_sky(4000, seed=3)
+    rng = np.random.default_rng(9)
+    frames = []
+    for rotation in random_attitudes(3, rng):
+        rows, x, y = stars_in_view(sky, TRUE, rotation)
+        x = x + rng.normal(0.0, 0.1, len(x))
+        y = y + rng.normal(0.0, 0.1, len(y))
+        frames.append(FrameStars("f", x, y, rotation, np.arange(len(x)), rows))
+    bad = frames[0].x.copy()
+    bad[:3] += 15.0  # three centroids far from their catalog stars
+    frames[0] = FrameStars("f", bad, frames[0].y, frames[0].rotation, frames[0].obs_index,
+                           frames[0].cat_index)
+    nominal = Camera.from_fov(1024, 1024, 20.4)
+    fit = _fit(frames, nominal, sky, terms=1)
+    assert not fit.keep[:3].any() and fit.keep[3:].mean() > 0.97
+    assert abs(fit.camera.fov_deg - 20.0) < 0.01
+    assert abs(fit.camera.distortion.k1 + 0.3) < 0.01
+    assert fit.rms < 0.25
