@@ -119,10 +119,9 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str,
 def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars, missing,
             mag_noise, fov_error, distortion_k1, modelled_k1, grid, max_stars, source,
             threshold_arcsec, jobs, scheduler, out_dir, seed, resume, replay) -> None:
-    """Compare methods on the same random frames under noise, false and missing stars, and
-    a wrong camera (FOV error, lens distortion with or without its model).
-    Writes frames.csv, summary.csv, plots and report.md into --out. Conventions
-    (pixels, attitude, quaternions): docs/conventions.md."""
+    """Compare methods on the same random frames under noise, false and missing stars and a
+    wrong camera (FOV error, lens distortion). Writes frames.csv, summary.csv, plots and
+    report.md into --out. Conventions (pixels, attitude, quaternions): docs/conventions.md."""
     from startrack.bench.conditions import build_conditions
     from startrack.bench.runner import RunSpec
     from startrack.bench.session import format_table, run_comparison
@@ -147,9 +146,8 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
             raise InputError(f"--mag-limit must be finite, got {mag_limit}")
         spec_sky = dataclasses.replace(spec_sky, mag_limit=mag_limit)
     spec_sky = resolve_sky(spec_sky, cfg.camera)
-    levels = _levels(noise_px, false_stars, missing, mag_noise, source,
-                     {"fov_error": fov_error, "distortion_k1": distortion_k1,
-                      "modelled_k1": modelled_k1})
+    levels = _levels(noise_px, false_stars, missing, mag_noise, source, dict(
+        fov_error=fov_error, distortion_k1=distortion_k1, modelled_k1=modelled_k1))
     spec = RunSpec(
         methods=names, conditions=tuple(build_conditions(levels, grid)), frames=frames,
         seed=cfg.frames.seed if seed is None else seed, camera=cfg.camera, sky=spec_sky,
@@ -175,8 +173,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     ctx = click.get_current_context()
     report = write_report(result, command_line(ctx), command_line(ctx, drop=NOT_REPLAYED))
     click.echo(f"wrote {report}, {result.frames_csv} (per frame), {result.summary_csv} "
-               "(per condition), "
-               f"{result.db_csv}, plots: "
+               f"(per condition), {result.db_csv}, plots: "
                f"{', '.join(p.name for p in result.plots) or 'none (nothing swept)'} "
                f"in {result.out}/ ({result.wall_seconds:.1f} s)")
 

@@ -108,12 +108,9 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
     from startrack.sky import load_sky
     from startrack.wcs import wcs_header
 
-    catalog = load_sky(spec, camera)  # before any output: a bad sky leaves no files
+    # Before any output, so that a bad sky leaves no files.
+    catalog = _apparent(load_sky(spec, camera), obs_time)
     when = None if obs_time is None else obs_time.utc.isot
-    if obs_time is not None:
-        from startrack.aberration import apparent_catalog
-
-        catalog = apparent_catalog(catalog, obs_time)
     fixed = from_radec_roll(*attitude) if attitude is not None else None
     truth_rows, star_rows = [], []
     bar = tqdm(range(opts.count), file=sys.stderr, unit="frame", desc="simulate",
@@ -177,6 +174,15 @@ def _sky_entry(spec: SkySpec) -> dict:
         entry.pop("n_stars", None)
         entry.pop("seed", None)
     return entry
+
+
+def _apparent(catalog, obs_time):
+    """The catalog as seen from the Earth at ``obs_time`` (unchanged without a time)."""
+    if obs_time is None:
+        return catalog
+    from startrack.aberration import apparent_catalog
+
+    return apparent_catalog(catalog, obs_time)
 
 
 def _fits_keywords(sensor: SensorModel, png_name: str) -> dict:
