@@ -96,7 +96,8 @@ class Solver:
                  size: tuple[int, int] | None = None, method: str = DEFAULT_METHOD,
                  sky: str | None = None, mag_limit: float | None = None,
                  epoch: float | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
-                 max_stars: int | None = None, time: str | None = None) -> None:
+                 max_stars: int | None = None, timeout_ms: float | None = None,
+                 time: str | None = None) -> None:
         if time is not None and isinstance(time, str):
             from startrack.aberration import parse_time
 
@@ -108,7 +109,7 @@ class Solver:
         self._pipeline = Pipeline(Options(method=method, camera=camera, fov_deg=fov_deg,
                                           size=size, sky=sky, mag_limit=mag_limit,
                                           epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
-                                          time=time))
+                                          timeout_ms=timeout_ms, time=time))
 
     def solve(self, source: str | Path | np.ndarray) -> SolveResult:
         """Solve a path (image or centroid CSV), a 2-D image array, or an N x 2 / N x 3

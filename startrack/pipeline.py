@@ -114,12 +114,14 @@ class Identifier:
 
     def __init__(self, camera: Camera, catalog: Catalog, method: str, *,
                  max_stars: int | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
-                 verify_config: VerifyConfig | None = None) -> None:
+                 verify_config: VerifyConfig | None = None,
+                 timeout_ms: float | None = None) -> None:
         if not (sigma_px > 0 and math.isfinite(sigma_px)):
             raise InputError(f"--sigma-px must be a positive number, got {sigma_px}")
         self.camera = camera
         self.catalog = catalog
         self.sigma_px = float(sigma_px)
+        self.timeout_ms = timeout_ms
         self.verify_config = verify_config or VerifyConfig()
         config = MatcherConfig() if max_stars is None else dataclasses.replace(
             MatcherConfig(), max_stars=int(max_stars))
@@ -134,7 +136,7 @@ class Identifier:
 
     def identify(self, obs: Observation) -> Solution:
         """Identify the stars of an observation made elsewhere (the bench's frames)."""
-        return identify(obs, self.matcher, self.verify_config)
+        return identify(obs, self.matcher, self.verify_config, timeout_ms=self.timeout_ms)
 
     def solve(self, frame: FrameInput) -> FrameResult:
         """Identify the stars of one input read by :func:`read_input`."""
@@ -163,6 +165,7 @@ class Options:
     epoch: float | None = None
     max_stars: int | None = None
     sigma_px: float = DEFAULT_SIGMA_PX
+    timeout_ms: float | None = None  # wall-clock limit per input (reason "timeout")
     #: observation time (astropy Time) for the aberration correction; None: a FITS
     #: input's DATE-OBS, else no correction
     time: object | None = None
@@ -212,7 +215,8 @@ class Pipeline:
                 self._catalogs[sky] = load_sky(sky, camera)
             opt = self.options
             self._identifiers[key] = Identifier(camera, self._catalogs[sky], opt.method,
-                                                max_stars=opt.max_stars, sigma_px=opt.sigma_px)
+                                                max_stars=opt.max_stars, sigma_px=opt.sigma_px,
+                                                timeout_ms=opt.timeout_ms)
         return self._identifiers[key]
 
     def solve(self, frame: FrameInput) -> FrameResult:

@@ -82,6 +82,9 @@ def _finite(ctx, param, value):
 @click.option("--sigma-px", type=click.FloatRange(0, min_open=True), callback=_finite,
               default=DEFAULT_SIGMA_PX, show_default=True,
               help="1-sigma centroid error in pixels; sets match tolerances.")
+@click.option("--timeout-ms", type=click.FloatRange(0, min_open=True), callback=_finite,
+              help="Wall-clock limit per input; past it the input is not solved, with "
+                   "reason timeout (the work is bounded without it too).")
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="json: one JSON line per input, in input order.")
 @click.option("--output", type=click.Path(dir_okay=False),
@@ -97,8 +100,8 @@ def _finite(ctx, param, value):
 @click.option("-v", "--verbose", is_flag=True,
               help="One line per input and per file written on stderr.")
 def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, obs_time, method,
-             max_stars, sigma_px, fmt, output, annotate_path, wcs_path, corr_path, quiet,
-             verbose) -> None:
+             max_stars, sigma_px, timeout_ms, fmt, output, annotate_path, wcs_path, corr_path,
+             quiet, verbose) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
@@ -107,7 +110,7 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, obs_time
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
-                      time=obs_time)
+                      timeout_ms=timeout_ms, time=obs_time)
     pipeline = Pipeline(options)
     side = SideOutputs(annotate_path, wcs_path, corr_path, several=len(inputs) > 1)
     note = _notes(quiet, verbose)
