@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,8 +27,8 @@ from startrack.errors import InputError
 from startrack.identify import identify
 from startrack.matchers import MatcherConfig, get_matcher
 from startrack.output import solution_record
-from startrack.sidecar import read_sidecar
-from startrack.sky import Catalog, SkySpec, load_sky, resolve_sky
+from startrack.sidecar import find_sidecar, read_sidecar
+from startrack.sky import Catalog, SkySpec, check_pair_budget, load_sky, resolve_sky
 from startrack.types import Observation, Solution, Timing
 from startrack.verify import VerifyConfig
 
@@ -125,6 +126,7 @@ class Identifier:
         self.verify_config = verify_config or VerifyConfig()
         config = MatcherConfig() if max_stars is None else dataclasses.replace(
             MatcherConfig(), max_stars=int(max_stars))
+        check_pair_budget(catalog, camera)  # before a database that would not fit memory
         self.database = StarDatabase(catalog, camera)
         self.matcher = get_matcher(method)(self.database, config)
         t0 = time.perf_counter()
@@ -132,19 +134,23 @@ class Identifier:
         self.load_seconds = time.perf_counter() - t0
 
     def observation(self, centroids: Centroids) -> Observation:
-        return Observation.from_pixels(centroids.x, centroids.y, self.camera, self.sigma_px)
+        flux = centroids.flux if centroids.photometric else None
+        return Observation.from_pixels(centroids.x, centroids.y, self.camera, self.sigma_px,
+                                       flux=flux)
 
     def identify(self, obs: Observation) -> Solution:
         """Identify the stars of an observation made elsewhere (the bench's frames)."""
         return identify(obs, self.matcher, self.verify_config, timeout_ms=self.timeout_ms)
 
-    def solve(self, frame: FrameInput) -> FrameResult:
-        """Identify the stars of one input read by :func:`read_input`."""
+    def solve(self, frame: FrameInput,
+              identify: Callable[[Observation], Solution] | None = None) -> FrameResult:
+        """Identify the stars of one input read by :func:`read_input` (by ``identify``
+        when given: a tracking step of :mod:`startrack.sequence`)."""
         if frame.size is not None and frame.size != (self.camera.width, self.camera.height):
             raise InputError(f"{frame.name}: image is {frame.size[0]} x {frame.size[1]} px "
                              f"but the camera is {self.camera.width} x {self.camera.height}")
         obs = self.observation(frame.centroids)
-        solution = self.identify(obs)
+        solution = (identify or self.identify)(obs)
         timing = Timing(frame.centroid_ms, solution.identify_ms,
                         frame.read_ms + frame.centroid_ms + solution.identify_ms)
         return FrameResult(frame.name, solution, obs, frame.centroids, timing, self.camera,
@@ -175,6 +181,9 @@ class Pipeline:
     """Solve many inputs, each with its own camera and sky, sharing loaded databases."""
 
     def __init__(self, options: Options) -> None:
+        if options.camera is not None and options.fov_deg is not None:
+            raise InputError("give a camera or a field of view, not both (the camera sets "
+                             "the field of view)")
         self.options = options
         get_matcher(options.method)  # an unknown method fails before any work
         self._identifiers: dict[tuple[Camera, SkySpec], Identifier] = {}
@@ -184,15 +193,13 @@ class Pipeline:
         """The camera and sky for one input: options, else sidecar, else defaults."""
         opt = self.options
         side_camera, side_sky = None, None
-        if frame.path is not None:
-            from startrack.sidecar import sidecar_path_for
-
-            sidecar = sidecar_path_for(frame.path)
-            if sidecar.is_file() and sidecar != frame.path:
-                side_camera, side_sky, _ = read_sidecar(sidecar)
-        camera = opt.camera or side_camera
-        if camera is None and opt.fov_deg is not None:
-            size = opt.size or frame.size
+        sidecar = find_sidecar(frame.path) if frame.path is not None else None
+        if sidecar is not None:
+            side_camera, side_sky, _ = read_sidecar(sidecar)
+        camera = opt.camera or (side_camera if opt.fov_deg is None else None)
+        if camera is None and opt.fov_deg is not None:  # --fov overrides the sidecar's
+            side_size = (side_camera.width, side_camera.height) if side_camera else None
+            size = opt.size or frame.size or side_size
             if size is None:
                 raise InputError(f"{frame.name}: a centroid list with --fov needs the image "
                                  "size (--size WxH) or use --camera FILE")
