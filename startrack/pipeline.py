@@ -229,9 +229,12 @@ class Pipeline:
     def solve(self, frame: FrameInput) -> FrameResult:
         """Identify one input that is already read (attitude corrected for aberration
         when the time of observation is known)."""
-        return self._aberration(frame, self.identifier(*self.setup_for(frame)).solve(frame))
+        return self.correct_aberration(frame,
+                                       self.identifier(*self.setup_for(frame)).solve(frame))
 
-    def _aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
+    def correct_aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
+        """``result`` with its attitude corrected for annual aberration when the time of
+        observation is known (``Options.time``, else a FITS input's DATE-OBS)."""
         from startrack.aberration import correct_solution, fits_time
 
         when = self.options.time

@@ -96,8 +96,10 @@ def test_simulate_renders_the_lens_and_identify_solves_with_its_model(tmp_path):
                                 "distortion": {"model": "radial", "k1": -0.3}}))
     sim = subprocess.run([sys.executable, "-m", "startrack", "simulate", "--frames", "1",
                           "--camera", str(lens), "--attitude", "80,20,10", "--sky",
-                          "hipparcos", "--out", str(tmp_path)], capture_output=True, text=True)
+                          "hipparcos", "--out", str(tmp_path / "sim")], capture_output=True,
+                         text=True)
     assert sim.returncode == 0, sim.stderr
+    tmp_path = tmp_path / "sim"
     side = json.loads((tmp_path / "frame_0000.json").read_text())
     assert side["camera"]["distortion"]["k1"] == -0.3
     stars = list(csv.DictReader((tmp_path / "stars.csv").open()))

@@ -160,9 +160,8 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
             mag_noise, fov_error, distortion_k1, modelled_k1, grid, max_stars, source,
             threshold_arcsec, jobs, scheduler, out_dir, seed, resume, mode, rates, fps,
             replay) -> None:
-    """Compare methods on the same random frames under noise, false and missing stars and a
-    wrong camera (FOV error, lens distortion). Writes frames.csv, summary.csv, plots and
-    report.md into --out. Conventions (pixels, attitude, quaternions): docs/conventions.md."""
+    """Compare methods on random frames under noise, false and missing stars and a wrong
+    camera (FOV error, lens distortion); frames.csv, summary.csv, plots, report.md in --out."""
     from startrack.bench.conditions import build_conditions
     from startrack.bench.runner import RunSpec
     from startrack.bench.session import format_table, run_comparison
