@@ -161,7 +161,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
             threshold_arcsec, jobs, scheduler, out_dir, seed, resume, mode, rates, fps,
             replay) -> None:
     """Compare methods on random frames under noise, false and missing stars and a wrong
-    camera (FOV error, lens distortion); frames.csv, summary.csv, plots, report.md in --out."""
+    camera (FOV error, distortion); CSVs, plots, report.md in --out. docs/conventions.md."""
     from startrack.bench.conditions import build_conditions
     from startrack.bench.runner import RunSpec
     from startrack.bench.session import format_table, run_comparison
