@@ -98,7 +98,8 @@ class Solver:
 
     Give the camera as ``fov_deg`` (with ``size=(width, height)`` for centroid arrays;
     images give their own size) or ``camera`` (a :class:`Camera` or a camera file path).
-    The other keywords are ``startrack identify``'s options.
+    The other keywords are ``startrack identify``'s options (``time``: ISO 8601 text or an
+    astropy Time, for the aberration correction).
 
     Tracking (``identify --track``): with ``track=True`` the frames given to :meth:`solve`
     are one sequence, in order: the first is solved lost-in-space, each later one by
@@ -114,7 +115,11 @@ class Solver:
                  epoch: float | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
                  max_stars: int | None = None, timeout_ms: float | None = None,
                  track: bool = False, prior: tuple[float, float, float] | None = None,
-                 prior_sigma_deg: float = 1.0) -> None:
+                 prior_sigma_deg: float = 1.0, time: str | None = None) -> None:
+        if time is not None and isinstance(time, str):
+            from startrack.aberration import parse_time
+
+            time = parse_time(time, where="time")
         if camera is not None and not isinstance(camera, Camera):
             from startrack.camera_file import load_camera
 
@@ -122,7 +127,7 @@ class Solver:
         self._pipeline = Pipeline(Options(method=method, camera=camera, fov_deg=fov_deg,
                                           size=size, sky=sky, mag_limit=mag_limit,
                                           epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
-                                          timeout_ms=timeout_ms))
+                                          timeout_ms=timeout_ms, time=time))
         self._sequence = None
         if track or prior is not None:
             from startrack.sequence import SequenceSolver, prior_from_radec_roll

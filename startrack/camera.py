@@ -1,12 +1,18 @@
-"""The pinhole camera of shared/interfaces.md: pixels <-> camera-frame unit vectors."""
+"""The camera of shared/interfaces.md: pixels <-> camera-frame unit vectors.
+
+A pinhole with optional Brown-Conrady radial distortion (:mod:`startrack.distortion`);
+every pixel -> direction and direction -> pixel in startrack goes through this class.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from startrack.distortion import RadialDistortion
 from startrack.errors import InputError
 
 
@@ -16,6 +22,7 @@ class Camera:
 
     Pixel (x, y) = (column, row), (0, 0) the centre of the top-left pixel. Camera +z is
     the boresight, +x towards increasing columns, +y towards increasing rows.
+    ``distortion`` maps the ideal pinhole point to the observed pixel (None: a pinhole).
     """
 
     width: int
@@ -23,31 +30,57 @@ class Camera:
     f_px: float
     cx: float
     cy: float
+    distortion: RadialDistortion | None = None
 
     @classmethod
     def from_fov(cls, width: int, height: int, fov_deg: float,
-                 cx: float | None = None, cy: float | None = None) -> Camera:
+                 cx: float | None = None, cy: float | None = None,
+                 distortion: RadialDistortion | None = None) -> Camera:
         """``fov_deg`` is the full horizontal angle across the image width."""
         if not 0 < fov_deg < 180:
             raise InputError(f"camera: fov_deg must be in (0, 180), got {fov_deg}")
         f = (width / 2.0) / math.tan(math.radians(fov_deg) / 2.0)
-        return cls._checked(width, height, f, cx, cy)
+        return cls._checked(width, height, f, cx, cy, distortion)
 
     @classmethod
     def from_optics(cls, width: int, height: int, focal_length_mm: float, pixel_size_um: float,
-                    cx: float | None = None, cy: float | None = None) -> Camera:
+                    cx: float | None = None, cy: float | None = None,
+                    distortion: RadialDistortion | None = None) -> Camera:
         if focal_length_mm <= 0 or pixel_size_um <= 0:
             raise InputError("camera: focal_length_mm and pixel_size_um must be positive")
-        return cls._checked(width, height, focal_length_mm * 1000.0 / pixel_size_um, cx, cy)
+        return cls._checked(width, height, focal_length_mm * 1000.0 / pixel_size_um, cx, cy,
+                            distortion)
 
     @classmethod
-    def _checked(cls, width, height, f, cx, cy) -> Camera:
+    def _checked(cls, width, height, f, cx, cy, distortion=None) -> Camera:
         if int(width) != width or int(height) != height or width < 1 or height < 1:
             raise InputError(f"camera: width and height must be positive integers, "
                              f"got {width} x {height}")
         cx = (width - 1) / 2.0 if cx is None else float(cx)
         cy = (height - 1) / 2.0 if cy is None else float(cy)
-        return cls(int(width), int(height), float(f), cx, cy)
+        camera = cls(int(width), int(height), float(f), cx, cy)
+        return camera.with_distortion(distortion)
+
+    def with_distortion(self, distortion: RadialDistortion | None) -> Camera:
+        """This camera with another distortion (None or all-zero: a pinhole). The model
+        must stay invertible over the whole image: a lens whose image folds back on
+        itself inside the frame is an error."""
+        if distortion is None or distortion.is_identity:
+            return dataclasses.replace(self, distortion=None)
+        corners_x = np.array([-0.5, self.width - 0.5]) - self.cx
+        corners_y = np.array([-0.5, self.height - 0.5]) - self.cy
+        rd2 = float((np.abs(corners_x).max() ** 2 + np.abs(corners_y).max() ** 2)
+                    / self.f_px**2)
+        r2 = distortion.max_r2
+        if math.isfinite(r2) and rd2 >= r2 * distortion.factor(np.array(r2)) ** 2:
+            raise InputError(f"camera: distortion {distortion.to_dict()} folds back inside "
+                             "the image (not invertible at the corners)")
+        return dataclasses.replace(self, distortion=distortion)
+
+    @property
+    def pinhole(self) -> Camera:
+        """The same camera without distortion."""
+        return dataclasses.replace(self, distortion=None)
 
     @property
     def fov_deg(self) -> float:
@@ -68,23 +101,38 @@ class Camera:
         v = self.pixel_to_vector(corners_x, corners_y)
         return float(np.degrees(np.arccos(np.clip(v[:, 2], -1, 1))).max())
 
+    def ideal_pixels(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Where observed pixels would be without distortion (the pinhole image)."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        if self.distortion is None:
+            return x, y
+        u, v = self.distortion.undistort((x - self.cx) / self.f_px, (y - self.cy) / self.f_px)
+        return self.cx + self.f_px * u, self.cy + self.f_px * v
+
     def pixel_to_vector(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Camera-frame unit vectors (N x 3) for pixel coordinates."""
         x = np.asarray(x, dtype=np.float64)
         y = np.asarray(y, dtype=np.float64)
-        v = np.stack([(x - self.cx) / self.f_px, (y - self.cy) / self.f_px, np.ones_like(x)],
-                     axis=-1)
-        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+        u, v = (x - self.cx) / self.f_px, (y - self.cy) / self.f_px
+        if self.distortion is not None:
+            u, v = self.distortion.undistort(u, v)
+        vec = np.stack([u, v, np.ones_like(u)], axis=-1)
+        return vec / np.linalg.norm(vec, axis=-1, keepdims=True)
 
     def vector_to_pixel(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Pixel (x, y) of camera-frame vectors, and a mask of those in front (z > 0)."""
+        """Pixel (x, y) of camera-frame vectors, and a mask of those in front (z > 0) and,
+        with distortion, inside the radius where the lens model is invertible."""
         v = np.asarray(v, dtype=np.float64)
         z = v[..., 2]
         front = z > 1e-12
         zs = np.where(front, z, 1.0)
-        x = self.cx + self.f_px * v[..., 0] / zs
-        y = self.cy + self.f_px * v[..., 1] / zs
-        return x, y, front
+        u, w = v[..., 0] / zs, v[..., 1] / zs
+        if self.distortion is not None:
+            # Beyond the fold a far-off star would land back inside the image.
+            front = front & (u * u + w * w < self.distortion.max_r2)
+            u, w = self.distortion.distort(u, w)
+        return self.cx + self.f_px * u, self.cy + self.f_px * w, front
 
     def in_image(self, x: np.ndarray, y: np.ndarray, margin: float = 0.0) -> np.ndarray:
         """Mask of pixel positions inside the image, ``margin`` pixels from every edge."""
@@ -92,5 +140,9 @@ class Camera:
                 & (y >= -0.5 + margin) & (y <= self.height - 0.5 - margin))
 
     def to_dict(self) -> dict:
-        return {"width": self.width, "height": self.height, "fov_deg": self.fov_deg,
-                "cx": self.cx, "cy": self.cy}
+        """The camera-file keys of interfaces.md (``distortion`` only when there is one)."""
+        out = {"width": self.width, "height": self.height, "fov_deg": self.fov_deg,
+               "cx": self.cx, "cy": self.cy}
+        if self.distortion is not None:
+            out["distortion"] = self.distortion.to_dict()
+        return out

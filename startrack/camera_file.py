@@ -13,9 +13,11 @@ import tomllib
 from pathlib import Path
 
 from startrack.camera import Camera
+from startrack.distortion import distortion_from_dict
 from startrack.errors import InputError, check_number
 
-CAMERA_KEYS = {"width", "height", "fov_deg", "focal_length_mm", "pixel_size_um", "cx", "cy"}
+CAMERA_KEYS = {"width", "height", "fov_deg", "focal_length_mm", "pixel_size_um", "cx", "cy",
+               "distortion"}
 MAX_SIDE_PX = 100_000  # image width or height
 FOCAL_LENGTH_MM = (1e-3, 1e5)  # 1 micron to 100 m
 PIXEL_SIZE_UM = (1e-2, 1e3)  # 10 nm to 1 mm
@@ -73,9 +75,10 @@ def camera_from_dict(data: dict, where: str = "camera") -> Camera:
     f_px = _focal_px(data, width, where)
     cx = _principal_point(data, "cx", width, where)
     cy = _principal_point(data, "cy", height, where)
-    return Camera(width, height, float(f_px),
-                  (width - 1) / 2.0 if cx is None else cx,
-                  (height - 1) / 2.0 if cy is None else cy)
+    camera = Camera(width, height, float(f_px),
+                    (width - 1) / 2.0 if cx is None else cx,
+                    (height - 1) / 2.0 if cy is None else cy)
+    return camera.with_distortion(distortion_from_dict(data.get("distortion"), where))
 
 
 def load_camera(path: str | Path) -> Camera:

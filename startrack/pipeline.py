@@ -98,11 +98,14 @@ class FrameResult:
     sigma_px: float
     match_radius_px: float
     image: np.ndarray | None = None
+    time_utc: str | None = None  # observation time the attitude is corrected for (ISO)
 
     def record(self, with_input: bool = True) -> dict:
         """The interfaces.md solution record of this input."""
         extra = {"sigma_px": self.sigma_px, "match_radius_px": self.match_radius_px,
                  "sky": self.catalog.source, "camera": self.camera.to_dict()}
+        if self.time_utc is not None:
+            extra["time_utc"] = self.time_utc
         return solution_record(self.solution, self.obs, self.catalog, self.timing,
                                input_name=self.input if with_input else None, extra=extra)
 
@@ -169,6 +172,9 @@ class Options:
     max_stars: int | None = None
     sigma_px: float = DEFAULT_SIGMA_PX
     timeout_ms: float | None = None  # wall-clock limit per input (reason "timeout")
+    #: observation time (astropy Time) for the aberration correction; None: a FITS
+    #: input's DATE-OBS, else no correction
+    time: object | None = None
 
 
 class Pipeline:
@@ -221,8 +227,29 @@ class Pipeline:
         return self._identifiers[key]
 
     def solve(self, frame: FrameInput) -> FrameResult:
-        """Identify one input that is already read."""
-        return self.identifier(*self.setup_for(frame)).solve(frame)
+        """Identify one input that is already read (attitude corrected for aberration
+        when the time of observation is known)."""
+        return self.correct_aberration(frame,
+                                       self.identifier(*self.setup_for(frame)).solve(frame))
+
+    def correct_aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
+        """``result`` with its attitude corrected for annual aberration when the time of
+        observation is known (``Options.time``, else a FITS input's DATE-OBS)."""
+        from startrack.aberration import correct_solution, fits_time
+
+        when = self.options.time
+        if when is None and frame.path is not None:
+            when = fits_time(frame.path)
+        if when is None:
+            return result
+        t0 = time.perf_counter()
+        solution = correct_solution(result.solution, result.obs, result.catalog.vectors, when)
+        ms = (time.perf_counter() - t0) * 1000.0
+        timing = Timing(result.timing.centroid, result.timing.identify + ms,
+                        result.timing.total + ms)
+        solution = dataclasses.replace(solution, identify_ms=solution.identify_ms + ms)
+        return dataclasses.replace(result, solution=solution, timing=timing,
+                                   time_utc=when.utc.isot)
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` (image or centroid CSV) once and identify its stars."""

@@ -72,7 +72,7 @@ class SequenceSolver:
                                          ident.identify, ident.matcher.name)
             return solution if self.track else dataclasses.replace(solution, lock=None)
 
-        return ident.solve(frame, identify=step)
+        return self.pipeline.correct_aberration(frame, ident.solve(frame, identify=step))
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` and solve it as the next input of the sequence."""

@@ -54,8 +54,10 @@ def setup(tmp_path_factory):
         frame = synthetic_frame(catalog, camera, rotation, rng, noise_px=0.2)
         if len(frame.obs) >= 10:
             path = tmp / f"frame{len(frames)}.csv"
-            write_centroid_csv(path, Centroids(frame.obs.x, frame.obs.y,
-                                               np.arange(len(frame.obs), 0, -1.0)))
+            # no flux column: the rows are listed brightest first (interfaces.md)
+            path.write_text("x,y\n" + "".join(f"{x:.6f},{y:.6f}\n"
+                                               for x, y in zip(frame.obs.x, frame.obs.y,
+                                                                strict=True)))
             frames.append((path, frame))
     cam_file = tmp / "camera.json"
     cam_file.write_text(json.dumps(CAMERA))

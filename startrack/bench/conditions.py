@@ -1,4 +1,4 @@
-"""The condition grid of a comparison: which noise, false-star and dropout levels to run.
+"""The condition grid of a comparison: noise, false-star, dropout and camera-error levels.
 
 A condition fixes every variable. The default "one-at-a-time" design sweeps one variable
 while the others stay at the base condition (the first value of each list), which keeps a
@@ -14,19 +14,29 @@ from dataclasses import asdict, dataclass
 from startrack.errors import InputError
 
 # The swept variables, in column order; each is a field of Condition.
-VARIABLES = ("noise_px", "false_stars", "missing", "mag_noise")
+VARIABLES = ("noise_px", "false_stars", "missing", "mag_noise", "fov_error", "distortion_k1",
+             "modelled_k1")
+#: variables a caller may leave out of ``levels`` (the camera is then exact)
+OPTIONAL = {"fov_error": (0.0,), "distortion_k1": (0.0,), "modelled_k1": (0.0,)}
 GRIDS = ("oat", "full")
 
 
 @dataclass(frozen=True)
 class Condition:
     """One setting of every perturbation: centroid noise (px, 1 sigma per axis), false
-    stars per frame, star dropout probability, magnitude noise (mag, 1 sigma)."""
+    stars per frame, star dropout probability, magnitude noise (mag, 1 sigma), and the
+    camera: ``fov_error`` is the fractional error of the FOV the matcher is told (its
+    camera has ``fov * (1 + fov_error)``); the frames are seen through a lens with radial
+    distortion ``k1 = distortion_k1 + modelled_k1``, of which the matcher's camera carries
+    only ``modelled_k1`` (so ``distortion_k1`` is the part it does not know about)."""
 
     noise_px: float = 0.0
     false_stars: int = 0
     missing: float = 0.0
     mag_noise: float = 0.0
+    fov_error: float = 0.0
+    distortion_k1: float = 0.0
+    modelled_k1: float = 0.0
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -64,6 +74,7 @@ def build_conditions(levels: dict[str, tuple], grid: str = "oat") -> list[Condit
     """
     if grid not in GRIDS:
         raise InputError(f"--grid must be one of {', '.join(GRIDS)}, got {grid!r}")
+    levels = {**OPTIONAL, **{k: v for k, v in levels.items() if v}}
     missing = [v for v in VARIABLES if not levels.get(v)]
     if missing:
         raise InputError(f"no values given for {', '.join(missing)}")

@@ -6,10 +6,16 @@ them: standard normals scaled by the noise level, uniforms compared with the dro
 fraction, a fixed sequence of false stars of which the first K are used. Conditions are
 then paired comparisons: the only difference between two conditions' frame i is the
 perturbation itself, and every method sees exactly the same frames.
+
+A condition may also make the camera wrong: the frames are seen through
+:func:`true_camera` (the run's camera with the condition's lens distortion) and the
+matcher is told :func:`matcher_camera` (the FOV off by ``fov_error``, only the modelled
+part of the distortion).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -21,6 +27,7 @@ from startrack.attitude import random_attitudes
 from startrack.bench.conditions import Condition
 from startrack.camera import Camera
 from startrack.centroids import DEFAULT_SIGMA_PX
+from startrack.distortion import RadialDistortion
 from startrack.scene import Scene, add_false_stars, observe, stars_in_view
 from startrack.sensor import SensorModel
 from startrack.sky import Catalog
@@ -49,6 +56,24 @@ class BenchFrame:
     rotation: Rotation
     n_in_view: int
     centroid_ms: float = 0.0
+
+
+def true_camera(camera: Camera, condition: Condition) -> Camera:
+    """The camera the frames of ``condition`` are seen through."""
+    k1 = condition.distortion_k1 + condition.modelled_k1
+    return camera.with_distortion(RadialDistortion(k1=k1)) if k1 else camera
+
+
+def matcher_camera(camera: Camera, condition: Condition) -> Camera:
+    """The camera the matcher is told about under ``condition``."""
+    distortion = camera.distortion
+    if condition.distortion_k1 or condition.modelled_k1:
+        distortion = RadialDistortion(k1=condition.modelled_k1)
+    f_px = camera.f_px
+    if condition.fov_error:
+        f_px = Camera.from_fov(camera.width, camera.height,
+                               camera.fov_deg * (1.0 + condition.fov_error)).f_px
+    return dataclasses.replace(camera, f_px=f_px, distortion=None).with_distortion(distortion)
 
 
 def _rng(seed: int, index: int, purpose: int) -> np.random.Generator:
@@ -87,14 +112,17 @@ def make_frame(catalog: Catalog, camera: Camera, condition: Condition, seed: int
     ``source="centroids"``: the true positions plus Gaussian noise of ``noise_px``.
     ``source="images"``: the frame is rendered with ``sensor`` and the centroids are
     extracted from the pixels (the noise then comes from the sensor; ``noise_px`` is
-    ignored).
+    ignored). The observation carries :func:`matcher_camera`.
     """
-    scene, rows_in_view = frame_scene(catalog, camera, condition, seed, index,
+    seen = true_camera(camera, condition)
+    scene, rows_in_view = frame_scene(catalog, seen, condition, seed, index,
                                       hot_pixel_fraction)
+    told = matcher_camera(camera, condition)
     if source == "centroids":
-        return _from_centroids(scene, rows_in_view, camera, condition, seed, index)
+        return _from_centroids(scene, rows_in_view, told, condition, seed, index)
     if source == "images":
-        return _from_image(scene, rows_in_view, camera, sensor or SensorModel(), seed, index)
+        return _from_image(scene, rows_in_view, seen, told, sensor or SensorModel(), seed,
+                           index)
     raise ValueError(f"source must be one of {SOURCES}, got {source!r}")
 
 
@@ -115,7 +143,7 @@ def _from_centroids(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
     return BenchFrame(obs, scene.catalog_row[order], scene.rotation, len(rows_in_view))
 
 
-def _from_image(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
+def _from_image(scene: Scene, rows_in_view: np.ndarray, camera: Camera, told: Camera,
                 sensor: SensorModel, seed: int, index: int) -> BenchFrame:
     from startrack.extract import extract_centroids
     from startrack.render import render_frame
@@ -130,5 +158,5 @@ def _from_image(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
             np.column_stack([found.x, found.y]), distance_upper_bound=TRUTH_RADIUS_PX)
         hit = np.isfinite(dist)
         truth[hit] = scene.catalog_row[nearest[hit]]
-    obs = Observation.from_pixels(found.x, found.y, camera, DEFAULT_SIGMA_PX, found.flux)
+    obs = Observation.from_pixels(found.x, found.y, told, DEFAULT_SIGMA_PX, found.flux)
     return BenchFrame(obs, truth, scene.rotation, len(rows_in_view), centroid_ms)

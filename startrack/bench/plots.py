@@ -22,6 +22,9 @@ LABELS = {
     "false_stars": "false stars per frame",
     "missing": "fraction of stars missing",
     "mag_noise": "magnitude noise (mag, 1 sigma)",
+    "fov_error": "FOV error told to the method (fraction)",
+    "distortion_k1": "lens distortion k1, not modelled",
+    "modelled_k1": "lens distortion k1, modelled",
 }
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 

@@ -197,7 +197,7 @@ def raw_unit(spec: RunSpec, condition_index: int, frame: int, *, limit: int = DE
     n_top = min(spec.max_stars, len(bf.truth_rows))
     rows = []
     for name in spec.methods:
-        ident = bench.identifiers[name]
+        ident = bench.identifier(name, bf.obs.camera)
         point_patch(ident.matcher, bf)
         row = {"condition": condition_index, **condition.to_dict(), "frame": frame,
                "method": name, "real_in_top": int(np.count_nonzero(bf.truth_rows[:n_top] >= 0)),

@@ -80,6 +80,21 @@ class LoadedBench:
     identifiers: dict
     load_seconds: dict[str, float]
 
+    def identifier(self, method: str, camera: Camera):
+        """The method's identifier for the camera a condition tells it (built on first use
+        when a condition's camera differs from the run's; not in ``load_seconds``)."""
+        base = self.identifiers[method]
+        if camera == base.camera:
+            return base
+        key = (method, camera)
+        with _LOCK:
+            if key not in self.identifiers:
+                from startrack.pipeline import Identifier
+
+                self.identifiers[key] = Identifier(camera, base.catalog, method,
+                                                   max_stars=self.spec.max_stars)
+        return self.identifiers[key]
+
 
 _LOADED: dict[str, LoadedBench] = {}
 _LOCK = threading.Lock()
@@ -111,7 +126,7 @@ def bench_frame(spec: RunSpec, condition_index: int, frame: int):
     """The loaded bench, the condition and frame ``frame`` of it, as every method sees it."""
     bench = load_bench(spec)
     condition = spec.conditions[condition_index]
-    some = next(iter(bench.identifiers.values()))
+    some = bench.identifiers[spec.methods[0]]
     bf = make_frame(some.catalog, spec.camera, condition, spec.seed, frame,
                     source=spec.source, sensor=spec.sensor,
                     hot_pixel_fraction=spec.hot_pixel_fraction)
@@ -134,7 +149,7 @@ def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
                       strict=True))
     rows = []
     for name in spec.methods:
-        ident = bench.identifiers[name]
+        ident = bench.identifier(name, bf.obs.camera)
         point_patch(ident.matcher, bf)
         solution = ident.identify(bf.obs)
         score = score_frame(solution, bf.truth_rows, bf.rotation, bf.n_in_view,

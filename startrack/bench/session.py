@@ -189,6 +189,9 @@ def format_table(summary: pd.DataFrame) -> str:
         "false": summary["false_stars"],
         "miss": summary["missing"].map("{:g}".format),
         "magn": summary["mag_noise"].map("{:g}".format),
+        **{short: summary[var].map("{:g}".format) for var, short in
+           (("fov_error", "fov_err"), ("distortion_k1", "k1"), ("modelled_k1", "k1_mod"))
+           if var in summary and (summary[var] != 0).any()},
         "method": summary["method"],
         "n": summary["frames"],
         "solved": summary["solved_rate"].map("{:.1%}".format),

@@ -1,4 +1,4 @@
-"""The ``startrack`` command group: simulate, identify, compare, cache."""
+"""The ``startrack`` command group: simulate, identify, compare, calibrate, cache."""
 
 from __future__ import annotations
 
@@ -131,6 +131,7 @@ def _add_commands() -> None:
     # Each command lives in its own module; importing it registers it on the group.
     from startrack.cli import (
         cache,  # noqa: F401
+        calibrate,  # noqa: F401
         compare,  # noqa: F401
         identify,  # noqa: F401
         simulate,  # noqa: F401

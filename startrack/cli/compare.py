@@ -28,7 +28,8 @@ DEFAULT_METHODS = "angle,triangle,hybrid"
 DEFAULT_FRAMES = 1000
 MAX_UNITS = 10_000_000  # frames x conditions of one run (docs/limits.md)
 DEFAULT_LEVELS = {"noise_px": "0,0.5,1,2", "false_stars": "0,1,3,5", "missing": "0",
-                  "mag_noise": "0"}
+                  "mag_noise": "0", "fov_error": "0", "distortion_k1": "0",
+                  "modelled_k1": "0"}
 
 
 def parse_methods(text: str) -> tuple[str, ...]:
@@ -45,7 +46,8 @@ def parse_methods(text: str) -> tuple[str, ...]:
     return tuple(names)
 
 
-def _levels(noise_px, false_stars, missing, mag_noise, source: str) -> dict[str, tuple]:
+def _levels(noise_px, false_stars, missing, mag_noise, source: str,
+            camera_levels: dict | None = None) -> dict[str, tuple]:
     from startrack.bench.conditions import parse_values
 
     if source == "images":
@@ -54,13 +56,19 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str) -> dict[str,
                        "sets the pixel noise); ignored", err=True)
         noise_px = "0"
     given = {"noise_px": noise_px, "false_stars": false_stars, "missing": missing,
-             "mag_noise": mag_noise}
+             "mag_noise": mag_noise, "fov_error": None, "distortion_k1": None,
+             "modelled_k1": None, **(camera_levels or {})}
     text = {k: DEFAULT_LEVELS[k] if v is None else v for k, v in given.items()}
     return {
         "noise_px": parse_values(text["noise_px"], "--noise-px"),
         "false_stars": parse_values(text["false_stars"], "--false-stars", integer=True),
         "missing": parse_values(text["missing"], "--missing", high=1.0),
         "mag_noise": parse_values(text["mag_noise"], "--mag-noise"),
+        "fov_error": parse_values(text["fov_error"], "--fov-error", low=-0.5, high=0.5),
+        "distortion_k1": parse_values(text["distortion_k1"], "--distortion", low=-1.0,
+                                      high=1.0),
+        "modelled_k1": parse_values(text["modelled_k1"], "--modelled-distortion", low=-1.0,
+                                    high=1.0),
     }
 
 
@@ -108,6 +116,12 @@ def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
               f"[default: {DEFAULT_LEVELS['false_stars']}].")
 @click.option("--missing", help="Star dropout fractions (first = base) [default: 0].")
 @click.option("--mag-noise", help="Magnitude noise levels (first = base) [default: 0].")
+@click.option("--fov-error", help="Fractional errors of the FOV the methods are told, e.g. "
+              "0,0.02,-0.05 (first = base) [default: 0].")
+@click.option("--distortion", "distortion_k1", help="Radial k1 of the frames' lens, not "
+              "told to the methods, e.g. 0,-0.05 (first = base) [default: 0].")
+@click.option("--modelled-distortion", "modelled_k1", help="Radial k1 of the frames' lens, "
+              "given to the methods in their camera model (first = base) [default: 0].")
 @click.option("--grid", type=click.Choice(["oat", "full"]), default="oat", show_default=True,
               help="oat: vary one variable at a time around the base; full: every "
               "combination.")
@@ -143,11 +157,11 @@ def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
               help="Rerun one frame of this run through every method and print each answer "
               "(report.md lists the command for every failed frame); writes nothing.")
 def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars, missing,
-            mag_noise, grid, max_stars, source, threshold_arcsec, jobs, scheduler, out_dir,
-            seed, resume, mode, rates, fps, replay) -> None:
-    """Compare methods on the same random frames under noise, false and missing stars.
-    Writes frames.csv, summary.csv, plots and report.md into --out. Conventions
-    (pixels, attitude, quaternions): docs/conventions.md."""
+            mag_noise, fov_error, distortion_k1, modelled_k1, grid, max_stars, source,
+            threshold_arcsec, jobs, scheduler, out_dir, seed, resume, mode, rates, fps,
+            replay) -> None:
+    """Compare methods on random frames under noise, false and missing stars and a wrong
+    camera (FOV error, distortion); CSVs, plots, report.md in --out. docs/conventions.md."""
     from startrack.bench.conditions import build_conditions
     from startrack.bench.runner import RunSpec
     from startrack.bench.session import format_table, run_comparison
@@ -163,7 +177,8 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     if mode == "tracking":  # frame sequences (startrack.bench.tracking_report)
         return _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars,
                          missing, fps, seed, out_dir, threshold_arcsec)
-    levels = _levels(noise_px, false_stars, missing, mag_noise, source)
+    levels = _levels(noise_px, false_stars, missing, mag_noise, source, dict(
+        fov_error=fov_error, distortion_k1=distortion_k1, modelled_k1=modelled_k1))
     spec = RunSpec(
         methods=names, conditions=tuple(build_conditions(levels, grid)), frames=frames,
         seed=cfg.frames.seed if seed is None else seed, camera=cfg.camera, sky=spec_sky,
@@ -198,8 +213,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     ctx = click.get_current_context()
     report = write_report(result, command_line(ctx), command_line(ctx, drop=NOT_REPLAYED))
     click.echo(f"wrote {report}, {result.frames_csv} (per frame), {result.summary_csv} "
-               "(per condition), "
-               f"{result.db_csv}, plots: "
+               f"(per condition), {result.db_csv}, plots: "
                f"{', '.join(p.name for p in result.plots) or 'none (nothing swept)'} "
                f"in {result.out}/ ({result.wall_seconds:.1f} s)")
 

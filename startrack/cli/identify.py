@@ -41,6 +41,14 @@ def _size(ctx, param, value):
     return w, h
 
 
+def _time(ctx, param, value):
+    if value is None:
+        return None
+    from startrack.aberration import parse_time
+
+    return parse_time(value)
+
+
 def _prior_triple(ctx, param, value):
     if value is None:
         return None
@@ -76,6 +84,10 @@ def _finite(ctx, param, value):
 @click.option("--epoch", type=float, callback=_finite,
               help="Julian year to carry Hipparcos positions to by proper motion "
                    "(default: the catalog epoch, J1991.25).")
+@click.option("--time", "obs_time", callback=_time,
+              help="Observation time, ISO 8601 (e.g. 2019-07-29T20:47:26Z; no offset = "
+                   "UTC): the attitude is corrected for annual aberration (up to 20 "
+                   "arcsec). Default: a FITS input's DATE-OBS, else no correction.")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True,
               help=f"Matcher, one of: {', '.join(available_methods())} (docs/results.md "
                    "compares them).")
@@ -111,9 +123,9 @@ def _finite(ctx, param, value):
 @click.option("--prior-sigma-deg", type=click.FloatRange(0, 90, min_open=True),
               default=DEFAULT_PRIOR_SIGMA_DEG, show_default=True,
               help="1-sigma uncertainty of --prior, degrees.")
-def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, max_stars,
-             sigma_px, timeout_ms, fmt, output, annotate_path, wcs_path, corr_path, quiet,
-             verbose, track, prior, prior_sigma_deg) -> None:
+def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, obs_time, method,
+             max_stars, sigma_px, timeout_ms, fmt, output, annotate_path, wcs_path, corr_path,
+             quiet, verbose, track, prior, prior_sigma_deg) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
@@ -126,7 +138,7 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, method, 
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
-                      timeout_ms=timeout_ms)
+                      timeout_ms=timeout_ms, time=obs_time)
     pipeline = Pipeline(options)
     if track or prior is not None:
         pipeline = SequenceSolver(pipeline, track=track, prior=None if prior is None

@@ -68,13 +68,16 @@ def _triple(names: str):
                    "quaternion), SLERP-interpolated at --fps; frames: as many as it covers.")
 @click.option("--fits", "write_fits_too", is_flag=True, help="Also write FITS with a WCS.")
 @click.option("--camera", "camera_path", type=click.Path(dir_okay=False),
-              help="Camera file (JSON or TOML), overrides the config's [camera].")
+              help="Camera file (JSON or TOML), overrides the config's [camera]; its "
+                   "distortion is rendered.")
 @click.option("--overwrite", is_flag=True,
               help="Write into a non-empty --out, first removing the frames, sidecars and "
                    "CSVs an earlier simulate left there.")
+@click.option("--time", "obs_time", help="Observation time, ISO 8601: stars are rendered "
+              "where they appear from the moving Earth (annual aberration).")
 def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_stars,
              missing, mag_noise, rate, fps, profile_path, write_fits_too, camera_path,
-             overwrite) -> None:
+             overwrite, obs_time) -> None:
     """Render frames of a sky, with truth.csv, stars.csv and a JSON sidecar per frame.
     --out must be empty or new (or give --overwrite); frames are at most
     STARTRACK_MAX_IMAGE_PIXELS (default 8192 x 8192).
@@ -101,10 +104,15 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     trajectory = _trajectory(attitude, opts, fps, profile_path, count)
     if trajectory is not None:
         opts = dataclasses.replace(opts, count=len(trajectory))
+    if obs_time is not None:
+        from startrack.aberration import parse_time
+
+        obs_time = parse_time(obs_time)
     out = Path(out_dir)
     check_out_folder(out, overwrite)
     try:
-        _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too, trajectory)
+        _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too, trajectory,
+             obs_time)
     except OSError as exc:  # every file is atomic, so nothing half-written is left behind
         raise InputError(f"{out}: cannot write output ({exc.strerror or exc})") from None
     click.echo(f"wrote {opts.count} frame(s) to {out}/ (truth.csv, stars.csv, "
@@ -113,7 +121,7 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
 
 def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions, out: Path,
          attitude: tuple[float, float, float] | None, with_fits: bool,
-         trajectory=None) -> None:
+         trajectory=None, obs_time=None) -> None:
     from tqdm import tqdm
 
     from startrack.attitude import from_radec_roll, to_quaternion, to_radec_roll
@@ -123,8 +131,10 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
     from startrack.sky import load_sky
     from startrack.wcs import wcs_header
 
-    catalog = load_sky(spec, camera)  # before any output: a bad sky leaves no files
+    # Before any output, so that a bad sky leaves no files.
+    catalog = _apparent(load_sky(spec, camera), obs_time)
     remove_own(out, OWN_FILES)  # an earlier run's frames must not outlive it (--overwrite)
+    when = None if obs_time is None else obs_time.utc.isot
     fixed = from_radec_roll(*attitude) if attitude is not None else None
     truth_rows, star_rows = [], []
     bar = tqdm(range(opts.count), file=sys.stderr, unit="frame", desc="simulate",
@@ -141,7 +151,7 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
         write_png16(png, image)
         if with_fits:
             write_fits(out / f"{name}.fits", image, wcs_header(
-                camera, rotation, extra=_fits_keywords(sensor, png.name)))
+                camera, rotation, date_obs=when, extra=_fits_keywords(sensor, png.name)))
         q = [float(c) for c in to_quaternion(rotation)]
         ra, dec, roll = to_radec_roll(rotation)
         sidecar = {
@@ -149,7 +159,7 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
             "units": SIDECAR_UNITS,
             "camera": camera.to_dict(), "sky": _sky_entry(spec),
             "attitude": {"quaternion": q, "ra_deg": ra, "dec_deg": dec, "roll_deg": roll},
-            "sensor": sensor.to_dict(),
+            "sensor": sensor.to_dict(), "time_utc": when,
             "frames": {"missing": opts.missing, "false_stars": opts.false_stars,
                        "mag_noise": opts.mag_noise, "rate_dps": rate_dps},
         }
@@ -205,6 +215,15 @@ def _sky_entry(spec: SkySpec) -> dict:
         entry.pop("n_stars", None)
         entry.pop("seed", None)
     return entry
+
+
+def _apparent(catalog, obs_time):
+    """The catalog as seen from the Earth at ``obs_time`` (unchanged without a time)."""
+    if obs_time is None:
+        return catalog
+    from startrack.aberration import apparent_catalog
+
+    return apparent_catalog(catalog, obs_time)
 
 
 def _fits_keywords(sensor: SensorModel, png_name: str) -> dict:

@@ -36,8 +36,8 @@ from startrack.types import Hypothesis, MatchDiagnostics, Observation
 def tetra3_centroids(obs: Observation) -> np.ndarray:
     """Our centroids as tetra3's (y, x): corner origin, optical axis at the image centre."""
     cam = obs.camera
-    return np.column_stack([obs.y - cam.cy + cam.height / 2.0,
-                            obs.x - cam.cx + cam.width / 2.0])
+    x, y = cam.ideal_pixels(obs.x, obs.y)  # the peer knows no lens distortion
+    return np.column_stack([y - cam.cy + cam.height / 2.0, x - cam.cx + cam.width / 2.0])
 
 
 def attitude_from_tetra3(ra_deg: float, dec_deg: float, roll_deg: float):

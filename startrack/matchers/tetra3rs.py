@@ -33,7 +33,8 @@ from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 def tetra3rs_centroids(obs: Observation) -> np.ndarray:
     """Our centroids as tetra3rs's (x, y), origin at the optical axis."""
-    return np.column_stack([obs.x - obs.camera.cx, obs.y - obs.camera.cy])
+    x, y = obs.camera.ideal_pixels(obs.x, obs.y)  # the peer knows no lens distortion
+    return np.column_stack([x - obs.camera.cx, y - obs.camera.cy])
 
 
 def attitude_from_tetra3rs(icrs_to_camera: np.ndarray) -> Rotation:

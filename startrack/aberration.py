@@ -1,0 +1,96 @@
+"""Annual aberration: star directions as seen from the moving Earth, and the attitude fix.
+
+A camera on the Earth sees each star displaced towards the Earth's direction of motion by
+up to v/c ~ 20.5 arcsec. The catalog holds barycentric (ICRS) directions, so an attitude
+solved against it is off by about that much. Given the observation time, the Earth's
+barycentric velocity (astropy's ephemeris) turns catalog directions into apparent ones
+(special-relativistic aberration, exact in v/c); :func:`correct_solution` re-solves the
+attitude of an identified frame against the apparent directions of its matched stars.
+Diurnal aberration (the observer's 0.3 arcsec from the Earth's rotation) and light
+deflection by the Sun (milliarcseconds away from it) are left out: both need more than a
+time (a site, a solar elongation) and are below the centroid errors of a star tracker.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+from startrack.errors import InputError
+
+FITS_SUFFIXES = (".fits", ".fit", ".fts")
+C_KM_S = 299792.458
+
+
+def parse_time(text: str, where: str = "--time"):
+    """An astropy ``Time`` (UTC) from ISO 8601 text such as ``2019-07-29T20:47:26Z``; an
+    offset such as ``+02:00`` is honoured, no offset means UTC."""
+    from astropy.time import Time
+
+    try:
+        moment = datetime.fromisoformat(str(text).strip())
+    except ValueError:
+        raise InputError(f"{where}: not an ISO 8601 time (e.g. 2019-07-29T20:47:26Z), "
+                         f"got {text!r}") from None
+    if moment.tzinfo is not None:
+        moment = moment.astimezone(UTC).replace(tzinfo=None)
+    return Time(moment, scale="utc")
+
+
+def fits_time(path: str | Path):
+    """The DATE-OBS of a FITS image (a ``Time``), or None when it has none or is no FITS.
+    (A TIFF's DateTime tag is not used: it is often the time the file was written.)"""
+    path = Path(path)
+    if path.suffix.lower() not in FITS_SUFFIXES:
+        return None
+    from startrack.wcs import date_obs_of
+
+    value = date_obs_of(path)
+    return None if value is None else parse_time(value, where=f"{path}: DATE-OBS")
+
+
+def earth_velocity(time) -> np.ndarray:
+    """The Earth's barycentric velocity at ``time`` as a fraction of c (ICRS axes, 3,)."""
+    from astropy.coordinates import get_body_barycentric_posvel
+
+    _, vel = get_body_barycentric_posvel("earth", time)
+    return vel.xyz.to_value("km/s") / C_KM_S
+
+
+def aberrate(vectors: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """Apparent directions (N x 3) of barycentric unit vectors for an observer moving at
+    ``beta`` (v/c): ``(u / g + b + (g / (1 + g)) (u.b) b) / (1 + u.b)``, g the Lorentz
+    factor. The inverse is the same map with ``-beta``."""
+    u = np.asarray(vectors, dtype=np.float64)
+    b = np.asarray(beta, dtype=np.float64)
+    gamma = 1.0 / np.sqrt(1.0 - b @ b)
+    ub = u @ b
+    out = (u / gamma + b + (gamma / (1.0 + gamma)) * ub[..., None] * b) / (1.0 + ub)[..., None]
+    return out / np.linalg.norm(out, axis=-1, keepdims=True)
+
+
+def apparent_catalog(catalog, time):
+    """``catalog`` with every star moved to where it appears from the Earth at ``time``
+    (what ``simulate --time`` renders)."""
+    from startrack.sky.catalog import Catalog, vectors_to_radec
+
+    ra, dec = vectors_to_radec(aberrate(catalog.vectors, earth_velocity(time)))
+    return Catalog(catalog.ids, ra, dec, catalog.mag, source=dict(catalog.source))
+
+
+def correct_solution(solution, obs, catalog_vectors: np.ndarray, time):
+    """``solution`` with its attitude re-solved against the apparent directions of its
+    matched stars at ``time`` (and residuals recomputed); unsolved ones are unchanged."""
+    if not solution.solved or len(solution.obs_index) < 2:
+        return solution
+    from startrack.attitude import solve_wahba
+    from startrack.identify import residuals_arcsec
+
+    apparent = aberrate(catalog_vectors[solution.cat_index], earth_velocity(time))
+    rotation = solve_wahba(obs.vectors[solution.obs_index], apparent)
+    return dataclasses.replace(
+        solution, rotation=rotation,
+        residual_arcsec=residuals_arcsec(rotation, obs, solution.obs_index, apparent))

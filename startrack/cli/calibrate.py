@@ -1,0 +1,103 @@
+"""`startrack calibrate`: fit a camera file (focal length, principal point, distortion)."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import click
+
+from startrack.cache import atomic_text
+from startrack.camera_file import load_camera
+from startrack.cli import main
+from startrack.cli.identify import _finite, _size
+from startrack.errors import InputError
+from startrack.pipeline import DEFAULT_METHOD, read_input
+from startrack.sky import SKY_KINDS
+
+
+@main.command()
+@click.argument("inputs", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--fov", "fov_deg", type=click.FloatRange(0, 180, min_open=True, max_open=True),
+              callback=_finite, help="Nominal horizontal field of view in degrees (a "
+              "datasheet value: up to 10% off is searched).")
+@click.option("--camera", "camera_path", type=click.Path(dir_okay=False),
+              help="Nominal camera file instead of --fov (its distortion is the start).")
+@click.option("--size", callback=_size, help="Image size WxH for centroid CSVs with --fov.")
+@click.option("--output", required=True, type=click.Path(dir_okay=False),
+              help="Camera file to write (JSON, interfaces.md keys).")
+@click.option("--terms", type=click.IntRange(0, 3), default=1, show_default=True,
+              help="Radial distortion coefficients to fit: 0 none, 1 k1, 2 k1 k2, 3 k1-k3.")
+@click.option("--fix-center", is_flag=True, help="Keep the principal point of the nominal "
+              "camera instead of fitting it.")
+@click.option("--sky", type=click.Choice(SKY_KINDS), default="hipparcos", show_default=True,
+              help="Catalog.")
+@click.option("--mag-limit", type=float, callback=_finite, help="Faintest catalog magnitude.")
+@click.option("--epoch", type=float, callback=_finite,
+              help="Julian year to carry catalog positions to by proper motion.")
+@click.option("--method", default=DEFAULT_METHOD, show_default=True, help="Matcher.")
+def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky, mag_limit,
+              epoch, method) -> None:
+    """Solve every INPUT (images or centroid CSVs from one camera), fit its focal length,
+    principal point and radial distortion by least squares over all matched stars (with
+    outlier rejection), write the camera file and print the residual RMS before and after.
+    Exit 1 when no input solves (nothing is written)."""
+    from startrack.calibrate import calibrate as run
+    from startrack.matchers import get_matcher
+    from startrack.sky import SkySpec, load_sky, resolve_sky
+
+    if (fov_deg is None) == (camera_path is None):
+        raise InputError("calibrate: give exactly one of --fov DEG and --camera FILE")
+    get_matcher(method)
+    frames = [read_input(Path(name)) for name in inputs]
+    nominal = _nominal(frames, fov_deg, camera_path, size)
+    spec = SkySpec(kind=sky, mag_limit=mag_limit, epoch=epoch)
+    catalog = load_sky(resolve_sky(spec, nominal), nominal)
+    result = run(frames, nominal, catalog, method=method, terms=terms,
+                 fit_center=not fix_center)
+    if result is None:
+        click.echo(f"calibrate: none of the {len(frames)} input(s) solved within 10% of the "
+                   "nominal field of view; nothing written", err=True)
+        sys.exit(1)
+    for name in result.unsolved:
+        click.echo(f"calibrate: {name}: not solved, left out", err=True)
+    cam = result.camera
+    with atomic_text(output) as fh:
+        json.dump(cam.to_dict(), fh, indent=2)
+        fh.write("\n")
+    d = cam.distortion.to_dict() if cam.distortion else {"k1": 0.0, "k2": 0.0, "k3": 0.0}
+    click.echo(f"calibrate: {len(result.solved)} of {len(frames)} input(s) solved, "
+               f"{result.n_stars} stars fitted ({result.n_rejected} rejected as outliers)")
+    click.echo(f"residual RMS before: {result.rms_before_px:.3f} px (nominal camera, "
+               "attitudes refitted)")
+    click.echo(f"residual RMS after:  {result.rms_after_px:.3f} px")
+    click.echo(f"fov_deg {cam.fov_deg:.4f} (nominal {nominal.fov_deg:.4f}), f {cam.f_px:.2f} px, "
+               f"cx {cam.cx:.2f}, cy {cam.cy:.2f}, k1 {d['k1']:.5f}, k2 {d['k2']:.5f}, "
+               f"k3 {d['k3']:.5f}")
+    click.echo(f"wrote {output}")
+
+
+def _nominal(frames, fov_deg, camera_path, size):
+    """The nominal camera: the file, or --fov with the image (or --size) dimensions."""
+    from startrack.camera import Camera
+
+    sizes = {f.size for f in frames if f.size is not None}
+    if len(sizes) > 1:
+        raise InputError(f"calibrate: the images differ in size ({sorted(sizes)}); "
+                         "calibrate one camera at a time")
+    if camera_path is not None:
+        camera = load_camera(camera_path)
+    else:
+        dims = size or (next(iter(sizes)) if sizes else None)
+        if dims is None:
+            raise InputError("calibrate: centroid lists with --fov need --size WxH")
+        camera = Camera.from_fov(dims[0], dims[1], fov_deg)
+    if sizes and next(iter(sizes)) != (camera.width, camera.height):
+        w, h = next(iter(sizes))
+        raise InputError(f"calibrate: the images are {w} x {h} px but the camera is "
+                         f"{camera.width} x {camera.height}")
+    if not math.isfinite(camera.f_px):
+        raise InputError("calibrate: the nominal camera has no finite focal length")
+    return camera
