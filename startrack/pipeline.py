@@ -23,11 +23,12 @@ from startrack.camera import Camera
 from startrack.centroids import DEFAULT_SIGMA_PX, Centroids, read_centroid_csv
 from startrack.database import StarDatabase
 from startrack.errors import InputError
+from startrack.fov import DEFAULT_FOV_TOLERANCE, BlindSolver, solve_approximate
 from startrack.identify import identify
 from startrack.matchers import MatcherConfig, get_matcher
 from startrack.output import solution_record
 from startrack.sidecar import read_sidecar
-from startrack.sky import Catalog, SkySpec, load_sky, resolve_sky
+from startrack.sky import Catalog, SkySpec, default_sky_kind, load_sky, resolve_sky
 from startrack.types import Observation, Solution, Timing
 from startrack.verify import VerifyConfig
 
@@ -103,7 +104,8 @@ class FrameResult:
         extra = {"sigma_px": self.sigma_px, "match_radius_px": self.match_radius_px,
                  "sky": self.catalog.source, "camera": self.camera.to_dict()}
         return solution_record(self.solution, self.obs, self.catalog, self.timing,
-                               input_name=self.input if with_input else None, extra=extra)
+                               input_name=self.input if with_input else None, extra=extra,
+                               fov_deg=self.camera.fov_deg)
 
 
 class Identifier:
@@ -160,6 +162,8 @@ class Options:
     epoch: float | None = None
     max_stars: int | None = None
     sigma_px: float = DEFAULT_SIGMA_PX
+    #: how far the true FOV may be from the given one (a fraction); 0: exactly as given
+    fov_tolerance: float = DEFAULT_FOV_TOLERANCE
 
 
 class Pipeline:
@@ -170,9 +174,11 @@ class Pipeline:
         get_matcher(options.method)  # an unknown method fails before any work
         self._identifiers: dict[tuple[Camera, SkySpec], Identifier] = {}
         self._catalogs: dict[SkySpec, Catalog] = {}
+        self._blind: dict[SkySpec, BlindSolver] = {}
 
-    def setup_for(self, frame: FrameInput) -> tuple[Camera, SkySpec]:
-        """The camera and sky for one input: options, else sidecar, else defaults."""
+    def setup_for(self, frame: FrameInput) -> tuple[Camera | None, SkySpec]:
+        """The camera and sky for one input: options, else sidecar, else defaults. No
+        camera at all (None) means an unknown field of view: a blind search."""
         opt = self.options
         side_camera, side_sky = None, None
         if frame.path is not None:
@@ -188,10 +194,7 @@ class Pipeline:
                 raise InputError(f"{frame.name}: a centroid list with --fov needs the image "
                                  "size (--size WxH) or use --camera FILE")
             camera = Camera.from_fov(size[0], size[1], opt.fov_deg)
-        if camera is None:
-            raise InputError(f"{frame.name}: no camera (no sidecar beside it); give "
-                             "--camera FILE or --fov DEG")
-        kind = opt.sky or (side_sky.kind if side_sky else "hipparcos")
+        kind = opt.sky or (side_sky.kind if side_sky else default_sky_kind(camera))
         sky = side_sky if side_sky is not None and side_sky.kind == kind else SkySpec(kind=kind)
         if opt.epoch is not None:
             sky = dataclasses.replace(sky, epoch=opt.epoch)
@@ -210,8 +213,29 @@ class Pipeline:
         return self._identifiers[key]
 
     def solve(self, frame: FrameInput) -> FrameResult:
-        """Identify one input that is already read."""
-        return self.identifier(*self.setup_for(frame)).solve(frame)
+        """Identify one input that is already read (startrack.fov: a nominal or unknown
+        field of view)."""
+        camera, sky = self.setup_for(frame)
+        if camera is None:
+            return self.blind_solver(sky).solve(frame, self._blind_size(frame))
+        if self.options.fov_tolerance > 0:
+            return solve_approximate(self.identifier(camera, sky), frame,
+                                     self.options.fov_tolerance)
+        return self.identifier(camera, sky).solve(frame)
+
+    def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
+        size = self.options.size or frame.size
+        if size is None:
+            raise InputError(f"{frame.name}: a centroid list with no camera needs the image "
+                             "size (--size WxH), or give --camera FILE or --fov DEG")
+        return size
+
+    def blind_solver(self, sky: SkySpec) -> BlindSolver:
+        if sky not in self._blind:
+            if sky not in self._catalogs:
+                self._catalogs[sky] = load_sky(sky, None)
+            self._blind[sky] = BlindSolver(self._catalogs[sky], sky, self.options.sigma_px)
+        return self._blind[sky]
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` (image or centroid CSV) once and identify its stars."""
