@@ -26,14 +26,14 @@ from startrack.identify import residuals_arcsec
 from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution, Timing
-from startrack.verify import VerifyConfig, Verification, verify
+from startrack.verify import Verification, VerifyConfig, verify
 
 #: default ``--fov-tolerance``: the true FOV may be this fraction above or below nominal
 DEFAULT_FOV_TOLERANCE = 0.10
 #: the horizontal FOVs (degrees) searched when none is given
 BLIND_FOV_RANGE = (1.0, 40.0)
 WINDOW_STEP = 2.0 ** 0.25  # ratio of the focal lengths at a search window's two ends
-MAX_VERIFY = 60  # hypotheses verified per window: bounded work on a junk frame
+MAX_VERIFY = 25  # hypotheses verified per window: bounded work on a junk frame
 
 
 def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
@@ -92,7 +92,7 @@ def search_window(matcher: QuadMatcher, x, y, camera: Camera, f_lo: float, f_hi:
     :func:`verify_fitted` against ``database``: (verification, camera, obs) or None."""
     n_cat = len(database.vectors)
     tried = 0
-    for sh in matcher.scaled(x, y, camera, f_lo, f_hi, diag):
+    for sh in matcher.scaled(x, y, camera, f_lo, f_hi, diag, database):
         hyp = sh.hypothesis
         key = tuple(sorted(zip(hyp.obs_index.tolist(), hyp.cat_index.tolist(), strict=True)))
         if key in seen or hyp.cat_index.max() >= n_cat:

@@ -78,8 +78,8 @@ def _finite(ctx, param, value):
               show_default=True, help="json: one JSON line per input, in input order.")
 @click.option("--output", type=click.Path(dir_okay=False),
               help="Write here instead of standard output (only when complete).")
-def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, epoch, method, max_stars,
-             sigma_px, fmt, output) -> None:
+def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, epoch, method,
+             max_stars, sigma_px, fmt, output) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad

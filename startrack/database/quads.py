@@ -4,16 +4,16 @@ A pattern is four stars; its key is the five smaller of its six pair angles divi
 the largest, sorted and quantised, so the key does not depend on the focal length and
 a match gives the image scale (the largest edge in pixels against the same edge on the
 sky). The sky is covered at levels of field of view ``F`` a factor sqrt(2) apart: at
-each level the pattern stars are the catalog thinned brightest first to a minimum
-separation of ``SEPARATION * F`` (about 15 to 30 per frame), and each pattern star makes
-patterns with every three of its ``NEIGHBOURS`` nearest pattern stars within
-``PATTERN_SIZE * F``. A frame of field of view F is searched in the level nearest F.
+each level the pattern stars are the brightest stars, as many as give
+``STARS_PER_FRAME`` in an average frame (all of a catalog that holds fewer), and every
+four pattern stars whose edges are all within ``PATTERN_SIZE * F`` make a pattern. The
+brightest stars of an image are then mostly pattern stars, wherever it points. A frame of field
+of view F is searched in the level nearest F.
 Each level is built once and cached (:func:`startrack.cache.cached_arrays`).
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -22,10 +22,10 @@ from scipy.spatial import cKDTree
 
 from startrack.cache import cached_arrays
 
-SEPARATION = 0.2  # minimum separation of pattern stars, in level FOVs
-PATTERN_SIZE = 0.6  # largest pattern edge, in level FOVs
-NEIGHBOURS = 5  # nearest pattern stars a pattern star combines with
-BIN = 0.02  # key quantisation step of an edge ratio
+STARS_PER_FRAME = 20  # pattern stars in an average frame of a level's FOV
+PATTERN_SIZE = 0.35  # largest pattern edge, in level FOVs
+MAX_HIGHER = 16  # fainter pattern stars each pattern star combines with, at most
+BIN = 0.025  # key quantisation step of an edge ratio (at least twice the lookup tolerance)
 NBINS = int(round(1.0 / BIN))
 LEVEL_STEP = math.sqrt(2.0)
 FORMAT_VERSION = 1
@@ -36,30 +36,6 @@ EDGES = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
 def level_for(fov_deg: float) -> float:
     """The level (a power of sqrt 2, in degrees) nearest ``fov_deg``."""
     return float(LEVEL_STEP ** round(math.log(fov_deg) / math.log(LEVEL_STEP)))
-
-
-@njit(cache=True)
-def _greedy_keep(n: int, pairs: np.ndarray) -> np.ndarray:
-    """Keep row b unless a kept brighter row a is within the separation; ``pairs`` (a < b)
-    sorted by a, so a's fate is settled before its pairs are read."""
-    keep = np.ones(n, np.bool_)
-    for k in range(pairs.shape[0]):
-        if keep[pairs[k, 0]]:
-            keep[pairs[k, 1]] = False
-    return keep
-
-
-def thin(vectors: np.ndarray, separation_rad: float) -> np.ndarray:
-    """Rows (brightest first) with no brighter kept row within ``separation_rad``."""
-    if len(vectors) < 2:
-        return np.arange(len(vectors))
-    chord = 2.0 * math.sin(separation_rad / 2.0)
-    pairs = cKDTree(vectors).query_pairs(chord, output_type="ndarray")
-    if len(pairs) == 0:
-        return np.arange(len(vectors))
-    pairs = np.sort(pairs, axis=1)
-    pairs = np.ascontiguousarray(pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))], np.int64)
-    return np.flatnonzero(_greedy_keep(len(vectors), pairs))
 
 
 def edge_angles(vectors: np.ndarray, quads: np.ndarray) -> np.ndarray:
@@ -83,44 +59,75 @@ def keys_of(r: np.ndarray) -> np.ndarray:
     return (q * (NBINS ** np.arange(5))).sum(axis=1)
 
 
-def neighbour_quads(vectors: np.ndarray, centres: np.ndarray, max_edge_rad: float,
-                    k: int) -> np.ndarray:
-    """Patterns (M x 4, sorted rows, unique) of each centre row with every three of its
-    ``k`` nearest other rows within ``max_edge_rad``, every edge at most that long."""
+@njit(cache=True)
+def _dot(v, a, b):
+    return v[a, 0] * v[b, 0] + v[a, 1] * v[b, 1] + v[a, 2] * v[b, 2]
+
+
+@njit(cache=True)
+def _enumerate(indptr, indices, vectors, cos_max, out):
+    """Every pattern (a, b, c, d), a < b < c < d, with b, c, d among the higher
+    neighbours of a and every edge within the angle whose cosine is ``cos_max``; writes
+    them to ``out`` when it is large enough and returns how many there are."""
+    m = 0
+    for a in range(len(indptr) - 1):
+        lo, hi = indptr[a], min(indptr[a + 1], indptr[a] + MAX_HIGHER)
+        for i in range(lo, hi):
+            b = indices[i]
+            for j in range(i + 1, hi):
+                c = indices[j]
+                if _dot(vectors, b, c) < cos_max:
+                    continue
+                for k in range(j + 1, hi):
+                    d = indices[k]
+                    if _dot(vectors, b, d) < cos_max or _dot(vectors, c, d) < cos_max:
+                        continue
+                    if m < out.shape[0]:
+                        out[m, 0], out[m, 1], out[m, 2], out[m, 3] = a, b, c, d
+                    m += 1
+    return m
+
+
+def all_quads(vectors: np.ndarray, max_edge_rad: float) -> np.ndarray:
+    """Every four rows of ``vectors`` whose six edges are at most ``max_edge_rad``, each
+    row combining with at most the first ``MAX_HIGHER`` later rows near it (rows are
+    brightest first, so a crowded field keeps its brighter patterns)."""
     n = len(vectors)
-    if n < 4 or len(centres) == 0:
+    if n < 4:
         return np.zeros((0, 4), np.int64)
-    k = min(k, n - 1)
     chord = 2.0 * math.sin(max_edge_rad / 2.0)
-    _, near = cKDTree(vectors).query(vectors[centres], k=k + 1, distance_upper_bound=chord)
-    near = near.reshape(len(centres), k + 1)[:, 1:]
-    combos = np.array(list(itertools.combinations(range(k), 3)))
-    quads = np.concatenate([np.repeat(centres[:, None], len(combos), 0).reshape(-1, 1),
-                            near[:, combos].reshape(-1, 3)], axis=1)
-    quads = quads[np.all(quads < n, axis=1)]
-    if len(quads) == 0:
+    pairs = cKDTree(vectors).query_pairs(chord, output_type="ndarray")
+    if len(pairs) == 0:
         return np.zeros((0, 4), np.int64)
-    quads = np.unique(np.sort(quads, axis=1), axis=0)
-    edges = edge_angles(vectors, quads)
-    return quads[edges.max(axis=1) <= max_edge_rad]
+    pairs = np.sort(pairs, axis=1)
+    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+    indptr = np.zeros(n + 1, np.int64)
+    np.cumsum(np.bincount(pairs[:, 0], minlength=n), out=indptr[1:])
+    indices = np.ascontiguousarray(pairs[:, 1], np.int64)
+    v = np.ascontiguousarray(vectors, np.float64)
+    cos_max = math.cos(max_edge_rad)
+    m = _enumerate(indptr, indices, v, cos_max, np.zeros((0, 4), np.int64))
+    out = np.zeros((m, 4), np.int64)
+    _enumerate(indptr, indices, v, cos_max, out)
+    return out
+
+
+def level_stars(level_deg: float) -> int:
+    """How many of the brightest stars make patterns at a level: ``STARS_PER_FRAME`` in
+    an average frame ``level_deg`` wide with the 4:3 shape of most sensors."""
+    frame_sr = math.radians(level_deg) ** 2 * 0.75
+    return int(STARS_PER_FRAME * 4.0 * math.pi / frame_sr)
 
 
 def build_level_arrays(vectors: np.ndarray, level_deg: float) -> dict[str, np.ndarray]:
     """The pattern table of one level: keys (sorted), quads (rows of ``vectors``, which
     are brightest first) and the largest edge of each pattern in radians."""
-    level = math.radians(level_deg)
-    sep = SEPARATION * level
-    # Greedy thinning keeps about one star per 1.6 sep^2 of sky; the brightest eight
-    # times that many stars are plenty to choose from, and bound the pair search.
-    wanted = int(4.0 * math.pi / (1.6 * sep * sep))
-    head = vectors[: min(len(vectors), 8 * wanted)]
-    rows = thin(head, sep)
-    quads = neighbour_quads(head[rows], np.arange(len(rows)), PATTERN_SIZE * level,
-                            NEIGHBOURS)
-    r, largest = ratios(edge_angles(head[rows], quads))
+    head = vectors[: min(len(vectors), level_stars(level_deg))]
+    quads = all_quads(head, PATTERN_SIZE * math.radians(level_deg))
+    r, largest = ratios(edge_angles(head, quads))
     keys = keys_of(r)
     order = np.argsort(keys, kind="stable")
-    return {"keys": keys[order], "quads": rows[quads[order]].astype(np.int32),
+    return {"keys": keys[order], "quads": quads[order].astype(np.int32),
             "largest": largest[order].astype(np.float32)}
 
 
@@ -149,7 +156,7 @@ class QuadLevel:
 def quad_level(catalog, level_deg: float) -> QuadLevel:
     """The cached pattern table of ``catalog`` at one level."""
     params = {"catalog": catalog.fingerprint(), "level": round(level_deg, 9),
-              "sep": SEPARATION, "size": PATTERN_SIZE, "k": NEIGHBOURS, "bin": BIN,
+              "stars": STARS_PER_FRAME, "size": PATTERN_SIZE, "k": MAX_HIGHER, "bin": BIN,
               "v": FORMAT_VERSION}
     arrays = cached_arrays("quads", params,
                            lambda: build_level_arrays(catalog.vectors, level_deg))

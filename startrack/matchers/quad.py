@@ -1,14 +1,14 @@
 """Scale-free four-star patterns: the matcher for an approximate or unknown field of view.
 
-The brightest observed stars, thinned as the catalog is (:mod:`startrack.database.quads`),
-make four-star patterns with their nearest neighbours; each pattern's key (its edge
+Every four of the brightest observed stars that fit a level of
+:mod:`startrack.database.quads` make a pattern; each pattern's key (its edge
 ratios) is looked up with a tolerance in the level nearest the assumed field of view,
 and every catalog pattern whose six edges agree (in the best of the 24 star orders)
 becomes a hypothesis with the focal length that its size implies. The focal length is
 only assumed to within a window, so :meth:`QuadMatcher.scaled` serves an approximate
 FOV (a window about the nominal value) and a blind search (:mod:`startrack.fov` sweeps
-the window over the whole range). Work is bounded: at most ``POOL`` stars,
-``CENTRES`` pattern centres and ``MAX_CANDIDATES`` candidates per window.
+the window over the whole range). Work is bounded: at most ``IMAGE_STARS`` stars and
+``MAX_CANDIDATES`` candidates per window.
 """
 
 from __future__ import annotations
@@ -21,16 +21,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from startrack.attitude import wahba_matrices
 from startrack.camera import Camera
+from startrack.database import StarDatabase
 from startrack.database import quads as Q
 from startrack.matchers.base import Matcher, register
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
-POOL = 40  # brightest observed stars considered
-CENTRES = 10  # brightest thinned stars that centre patterns
-IMAGE_NEIGHBOURS = 6  # one more than the catalog's: a missing or extra star is tolerated
+IMAGE_STARS = 16  # brightest observed stars whose every four make a pattern
 RATIO_TOLERANCE = 0.012  # largest error of one edge ratio (key lookup and edge test)
-MAX_CANDIDATES = 400
+MAX_CANDIDATES = 4000  # best by edge agreement, before the confirmation count
+CHECK_STARS = 16  # brightest observed stars counted against the catalog per candidate
+CHECK_RADIUS_PX = 6.0  # generous: the focal length is known only from the pattern
 #: for each of the 24 star orders, the catalog edge that each image edge corresponds to
 _EDGE_INDEX = {tuple(e): k for k, e in enumerate(Q.EDGES.tolist())}
 PERM_EDGES = np.array([[_EDGE_INDEX[tuple(sorted((p[a], p[b])))] for a, b in Q.EDGES]
@@ -48,7 +50,8 @@ class ScaledHypothesis:
 
 
 def _query_keys(r: np.ndarray) -> np.ndarray:
-    """The (M x 32) keys of every bin combination within the ratio tolerance."""
+    """The (M x 32) keys of every bin combination within the ratio tolerance (a window
+    of +-RATIO_TOLERANCE meets at most two bins, as ``Q.BIN >= 2 * RATIO_TOLERANCE``)."""
     lo = np.clip(((r - RATIO_TOLERANCE) / Q.BIN).astype(np.int64), 0, Q.NBINS - 1)
     hi = np.clip(((r + RATIO_TOLERANCE) / Q.BIN).astype(np.int64), 0, Q.NBINS - 1)
     pick = np.array(list(itertools.product((0, 1), repeat=5)))  # 32 x 5
@@ -58,16 +61,11 @@ def _query_keys(r: np.ndarray) -> np.ndarray:
 
 def image_patterns(vectors: np.ndarray, level_deg: float,
                    slack: float) -> tuple[np.ndarray, np.ndarray]:
-    """Observed patterns (M x 4 observation rows) and their six edges, for one level.
-
-    ``slack`` is how much larger than assumed the scale may be (edges may look longer)."""
-    level = math.radians(level_deg)
-    pool = np.arange(min(len(vectors), POOL))
-    kept = pool[Q.thin(vectors[pool], Q.SEPARATION * level / slack)]
-    centres = np.arange(min(len(kept), CENTRES))
-    quads = Q.neighbour_quads(vectors[kept], centres, Q.PATTERN_SIZE * level * slack,
-                              IMAGE_NEIGHBOURS)
-    quads = kept[quads]
+    """Observed patterns (M x 4 observation rows) and their six edges, for one level:
+    every four of the ``IMAGE_STARS`` brightest stars whose edges fit the level.
+    ``slack``: how much larger than assumed the scale may be."""
+    top = np.arange(min(len(vectors), IMAGE_STARS))
+    quads = Q.all_quads(vectors[top], Q.PATTERN_SIZE * math.radians(level_deg) * slack)
     return quads, Q.edge_angles(vectors, quads)
 
 
@@ -102,6 +100,40 @@ def match_patterns(vectors: np.ndarray, table: Q.QuadLevel, cat_vectors: np.ndar
     return quads[qi[good]], cat_ordered, scale, error[good]
 
 
+def _pinhole(x: np.ndarray, y: np.ndarray, camera: Camera, f: np.ndarray) -> np.ndarray:
+    """Unit vectors (P x N x 3) of pixels ``x``, ``y`` (P x N) at focal lengths ``f`` (P)."""
+    v = np.stack([(x - camera.cx) / f[:, None], (y - camera.cy) / f[:, None],
+                  np.ones_like(x)], axis=-1)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def confirmations(x: np.ndarray, y: np.ndarray, camera: Camera, obs_q: np.ndarray,
+                  cat_q: np.ndarray, f: np.ndarray, check: StarDatabase) -> np.ndarray:
+    """For each candidate, how many of the ``CHECK_STARS`` brightest stars outside its
+    pattern lie within ``CHECK_RADIUS_PX`` of a catalog star at the attitude the pattern
+    gives: a cheap, batched first look that ranks candidates for verification."""
+    n = min(CHECK_STARS, len(x))
+    cat_v = check.vectors
+    if cat_q.max() >= len(cat_v):
+        ok = np.all(cat_q < len(cat_v), axis=1)
+        out = np.full(len(cat_q), -1, np.int64)
+        if ok.any():
+            out[ok] = confirmations(x, y, camera, obs_q[ok], cat_q[ok], f[ok], check)
+        return out
+    quad_v = _pinhole(x[obs_q], y[obs_q], camera, f)
+    matrices = wahba_matrices(quad_v, cat_v[cat_q])
+    others = _pinhole(np.broadcast_to(x[:n], (len(f), n)), np.broadcast_to(y[:n], (len(f), n)),
+                      camera, f)
+    sky = np.einsum("pij,pkj->pki", matrices, others)
+    radius = CHECK_RADIUS_PX / f
+    rows = check.nearest(sky, float(radius.max()), k=1)[..., 0]
+    hit = rows >= 0
+    cos = np.einsum("pkj,pkj->pk", sky, cat_v[np.where(hit, rows, 0)])
+    hit &= cos >= np.cos(radius)[:, None]
+    in_quad = (np.arange(n)[None, :, None] == obs_q[:, None, :]).any(axis=2)
+    return np.count_nonzero(hit & ~in_quad, axis=1)
+
+
 @register
 class QuadMatcher(Matcher):
     """Four-star patterns keyed on edge ratios; the scale follows from the match."""
@@ -124,21 +156,28 @@ class QuadMatcher(Matcher):
         return levels[key]
 
     def scaled(self, x: np.ndarray, y: np.ndarray, camera: Camera, f_lo: float, f_hi: float,
-               diag: MatchDiagnostics) -> list[ScaledHypothesis]:
+               diag: MatchDiagnostics, check: StarDatabase | None = None,
+               ) -> list[ScaledHypothesis]:
         """Hypotheses for the stars at pixels ``x``, ``y`` (brightest first) seen through
-        ``camera`` with its focal length anywhere in [f_lo, f_hi], best first."""
+        ``camera`` with its focal length anywhere in [f_lo, f_hi]; best first: most of
+        the brightest other stars confirmed against ``check`` (default: this matcher's
+        database) at each pattern's own attitude and scale, then closest edges."""
         f_mid = math.sqrt(f_lo * f_hi)
         guess = dataclasses.replace(camera, f_px=f_mid)
         vectors = guess.pixel_to_vector(x, y)
         slack = math.sqrt(f_hi / f_lo) * 1.02
         obs_q, cat_q, scale, error = match_patterns(
             vectors, self.level(guess.fov_deg), self.database.vectors, slack)
-        diag.candidates += len(obs_q)
         f = f_mid * scale
         keep = (f >= f_lo) & (f <= f_hi)
-        return [ScaledHypothesis(Hypothesis(o, c), float(fk), float(e))
-                for o, c, fk, e in zip(obs_q[keep], cat_q[keep], f[keep], error[keep],
-                                       strict=True)]
+        obs_q, cat_q, f, error = obs_q[keep], cat_q[keep], f[keep], error[keep]
+        diag.candidates += len(obs_q)
+        if len(obs_q) == 0:
+            return []
+        count = confirmations(x, y, camera, obs_q, cat_q, f, check or self.database)
+        order = np.lexsort((error, -count))
+        return [ScaledHypothesis(Hypothesis(obs_q[k], cat_q[k]), float(f[k]), float(error[k]))
+                for k in order]
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         f = obs.camera.f_px
