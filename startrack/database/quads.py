@@ -22,9 +22,9 @@ from scipy.spatial import cKDTree
 
 from startrack.cache import cached_arrays
 
-STARS_PER_FRAME = 20  # pattern stars in an average frame of a level's FOV
-PATTERN_SIZE = 0.35  # largest pattern edge, in level FOVs
-MAX_HIGHER = 16  # fainter pattern stars each pattern star combines with, at most
+STARS_PER_FRAME = 25  # pattern stars in an average frame of a level's FOV
+PATTERN_SIZE = 0.4  # largest pattern edge, in level FOVs
+MAX_HIGHER = 8  # fainter pattern stars each pattern star combines with, at most
 BIN = 0.025  # key quantisation step of an edge ratio (at least twice the lookup tolerance)
 NBINS = int(round(1.0 / BIN))
 LEVEL_STEP = math.sqrt(2.0)
@@ -120,15 +120,14 @@ def level_stars(level_deg: float) -> int:
 
 
 def build_level_arrays(vectors: np.ndarray, level_deg: float) -> dict[str, np.ndarray]:
-    """The pattern table of one level: keys (sorted), quads (rows of ``vectors``, which
-    are brightest first) and the largest edge of each pattern in radians."""
+    """The pattern table of one level: keys (sorted, int32: NBINS**5 < 2**31) and quads
+    (rows of ``vectors``, which are brightest first)."""
     head = vectors[: min(len(vectors), level_stars(level_deg))]
     quads = all_quads(head, PATTERN_SIZE * math.radians(level_deg))
-    r, largest = ratios(edge_angles(head, quads))
+    r, _ = ratios(edge_angles(head, quads))
     keys = keys_of(r)
     order = np.argsort(keys, kind="stable")
-    return {"keys": keys[order], "quads": quads[order].astype(np.int32),
-            "largest": largest[order].astype(np.float32)}
+    return {"keys": keys[order].astype(np.int32), "quads": quads[order].astype(np.int32)}
 
 
 class QuadLevel:
@@ -136,9 +135,8 @@ class QuadLevel:
 
     def __init__(self, level_deg: float, arrays: dict[str, np.ndarray]) -> None:
         self.level_deg = level_deg
-        self.keys = arrays["keys"]
+        self.keys = arrays["keys"].astype(np.int64)
         self.quads = arrays["quads"]
-        self.largest = arrays["largest"]
 
     def __len__(self) -> int:
         return len(self.keys)
