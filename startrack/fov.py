@@ -33,6 +33,7 @@ DEFAULT_FOV_TOLERANCE = 0.10
 #: the horizontal FOVs (degrees) searched when none is given
 BLIND_FOV_RANGE = (1.0, 40.0)
 WINDOW_STEP = 2.0 ** 0.25  # ratio of the focal lengths at a search window's two ends
+MARGIN = 0.02  # searched beyond the tolerance, as a fraction
 MAX_VERIFY = 25  # hypotheses verified per window: bounded work on a junk frame
 
 
@@ -125,6 +126,15 @@ def windows(f_lo: float, f_hi: float, step: float = WINDOW_STEP) -> list[tuple[f
     return [(float(a), float(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
 
 
+def focal_range(camera: Camera, tolerance: float) -> tuple[float, float]:
+    """The focal lengths of the FOVs within ``tolerance`` (a fraction) of ``camera``'s,
+    widened by ``MARGIN``: a true FOV at the very edge must still be found."""
+    fov = camera.fov_deg
+    hi_fov = min(fov * (1.0 + tolerance) * (1.0 + MARGIN), 179.0)
+    return (f_of_fov(camera.width, hi_fov),
+            f_of_fov(camera.width, fov * (1.0 - tolerance) / (1.0 + MARGIN)))
+
+
 def f_of_fov(width: int, fov_deg: float) -> float:
     return (width / 2.0) / math.tan(math.radians(fov_deg) / 2.0)
 
@@ -161,7 +171,7 @@ def solve_approximate(ident, frame, tolerance: float):
     if quad is None:
         quad = ident.__dict__["_quad"] = QuadMatcher(db)
     diag, seen = MatchDiagnostics(), set()
-    for lo, hi in windows(cam.f_px / (1 + tolerance), cam.f_px * (1 + tolerance)):
+    for lo, hi in windows(*focal_range(cam, tolerance)):
         found = search_window(quad, x, y, cam, lo, hi, ident.sigma_px, db, config, diag, seen)
         if found is not None:
             return _result(frame, found, ident.catalog, quad.name, diag, t0, ident.sigma_px,
