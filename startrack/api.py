@@ -17,6 +17,7 @@ from startrack.attitude import to_quaternion, to_radec_roll
 from startrack.camera import Camera
 from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
 from startrack.errors import InputError
+from startrack.fov import DEFAULT_FOV_TOLERANCE
 from startrack.pipeline import (
     DEFAULT_METHOD,
     FrameInput,
@@ -87,7 +88,9 @@ class Solver:
     """Loads catalog and database once; :meth:`solve` answers one frame at a time.
 
     Give the camera as ``fov_deg`` (with ``size=(width, height)`` for centroid arrays;
-    images give their own size) or ``camera`` (a :class:`Camera` or a camera file path).
+    images give their own size) or ``camera`` (a :class:`Camera` or a camera file path);
+    either is nominal, good to ``fov_tolerance`` (a fraction; 0: exact). With neither, the
+    field of view is searched (:data:`startrack.fov.BLIND_FOV_RANGE`).
     The other keywords are ``startrack identify``'s options.
     """
 
@@ -95,14 +98,16 @@ class Solver:
                  size: tuple[int, int] | None = None, method: str = DEFAULT_METHOD,
                  sky: str | None = None, mag_limit: float | None = None,
                  epoch: float | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
-                 max_stars: int | None = None) -> None:
+                 max_stars: int | None = None,
+                 fov_tolerance: float = DEFAULT_FOV_TOLERANCE) -> None:
         if camera is not None and not isinstance(camera, Camera):
             from startrack.camera_file import load_camera
 
             camera = load_camera(camera)
         self._pipeline = Pipeline(Options(method=method, camera=camera, fov_deg=fov_deg,
                                           size=size, sky=sky, mag_limit=mag_limit,
-                                          epoch=epoch, max_stars=max_stars, sigma_px=sigma_px))
+                                          epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
+                                          fov_tolerance=fov_tolerance))
 
     def solve(self, source: str | Path | np.ndarray) -> SolveResult:
         """Solve a path (image or centroid CSV), a 2-D image array, or an N x 2 / N x 3
