@@ -34,14 +34,17 @@ DEFAULT_FOV_TOLERANCE = 0.10
 BLIND_FOV_RANGE = (1.0, 40.0)
 WINDOW_STEP = 2.0 ** 0.25  # ratio of the focal lengths at a search window's two ends
 MARGIN = 0.02  # searched beyond the tolerance, as a fraction
+#: no fallback to the configured method for a deeper catalog: its pair tables would take
+#: minutes and gigabytes to build for a narrow field
+FALLBACK_MAX_STARS = 150_000
 MAX_VERIFY = 25  # hypotheses verified per window: bounded work on a junk frame
 
 
 def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
-              iterations: int = 4) -> float:
+              iterations: int = 12) -> float:
     """The focal length (px) that, with its best attitude, fits the pixels ``x``, ``y`` to
     the catalog directions: alternate Wahba's problem and the linear least squares of
-    ``pixel - centre = f * tangent-plane position``."""
+    ``pixel - centre = f * tangent-plane position`` until the focal length settles."""
     f = camera.f_px
     d = np.stack([np.asarray(x, float) - camera.cx, np.asarray(y, float) - camera.cy], 1)
     for _ in range(iterations):
@@ -52,7 +55,11 @@ def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndar
         denom = float(np.sum(t * t))
         if denom <= 0:
             break
-        f = float(np.sum(d * t) / denom)
+        f_new = float(np.sum(d * t) / denom)
+        done = abs(f_new - f) <= 1e-10 * abs(f)
+        f = f_new
+        if done:
+            break
     return f
 
 
@@ -159,35 +166,39 @@ def _result(frame, found, catalog: Catalog, method: str, diag: MatchDiagnostics,
                        catalog, sigma_px, config.radius_px(obs), frame.image)
 
 
-def solve_approximate(ident, frame, tolerance: float):
-    """Solve ``frame`` with ``ident`` (an :class:`startrack.pipeline.Identifier`) whose
-    camera's focal length is nominal: the true FOV may be ``tolerance`` off either way."""
+def solve_approximate(ident, frame, tolerance: float, fallback=None):
+    """Solve ``frame`` with ``ident`` (an :class:`startrack.pipeline.Identifier` of the
+    quad matcher) whose camera's focal length is nominal: the true FOV may be
+    ``tolerance`` off either way. ``fallback()``, when given, returns the Identifier of
+    the configured method, tried at the nominal FOV when the search finds nothing."""
     t0 = time.perf_counter()
     x, y = frame.centroids.x, frame.centroids.y
     if len(x) < 3:
         return ident.solve(frame)
-    cam, db, config = ident.camera, ident.database, ident.verify_config
-    quad = ident.__dict__.get("_quad")
-    if quad is None:
-        quad = ident.__dict__["_quad"] = QuadMatcher(db)
+    cam, db, config, quad = ident.camera, ident.database, ident.verify_config, ident.matcher
     diag, seen = MatchDiagnostics(), set()
     for lo, hi in windows(*focal_range(cam, tolerance)):
         found = search_window(quad, x, y, cam, lo, hi, ident.sigma_px, db, config, diag, seen)
         if found is not None:
             return _result(frame, found, ident.catalog, quad.name, diag, t0, ident.sigma_px,
                            config, db)
-    fallback = ident.solve(frame)  # the configured method at the nominal focal length
-    sol = fallback.solution
+    obs = Observation.from_pixels(x, y, cam, ident.sigma_px)
+    nothing = _result(frame, (None, cam, obs), ident.catalog, quad.name, diag, t0,
+                      ident.sigma_px, config, db)
+    if fallback is None or len(ident.catalog) > FALLBACK_MAX_STARS:
+        return nothing
+    other = fallback()
+    result = other.solve(frame)  # the configured method at the nominal focal length
+    sol = result.solution
     if not sol.solved:
-        return fallback
+        return result
     # obs_index is sorted: the four brightest matched stars stand as the hypothesis
     hyp = Hypothesis(sol.obs_index[:4], sol.cat_index[:4])
-    found = verify_fitted(hyp, x, y, cam, ident.sigma_px, db, config)
+    found = verify_fitted(hyp, x, y, cam, other.sigma_px, other.database, config)
     if found is None:
-        return _result(frame, (None, cam, fallback.obs), ident.catalog, sol.method,
-                       sol.diagnostics, t0, ident.sigma_px, config, db)
-    return _result(frame, found, ident.catalog, sol.method, sol.diagnostics, t0,
-                   ident.sigma_px, config, db)
+        found = (None, cam, result.obs)
+    return _result(frame, found, other.catalog, sol.method, sol.diagnostics, t0,
+                   other.sigma_px, config, other.database)
 
 
 class BlindSolver:

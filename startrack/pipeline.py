@@ -172,7 +172,7 @@ class Pipeline:
     def __init__(self, options: Options) -> None:
         self.options = options
         get_matcher(options.method)  # an unknown method fails before any work
-        self._identifiers: dict[tuple[Camera, SkySpec], Identifier] = {}
+        self._identifiers: dict[tuple[Camera, SkySpec, str], Identifier] = {}
         self._catalogs: dict[SkySpec, Catalog] = {}
         self._blind: dict[SkySpec, BlindSolver] = {}
 
@@ -202,13 +202,14 @@ class Pipeline:
             sky = dataclasses.replace(sky, mag_limit=opt.mag_limit)
         return camera, resolve_sky(sky, camera)
 
-    def identifier(self, camera: Camera, sky: SkySpec) -> Identifier:
-        key = (camera, sky)
+    def identifier(self, camera: Camera, sky: SkySpec, method: str | None = None) -> Identifier:
+        opt = self.options
+        method = method or opt.method
+        key = (camera, sky, method)
         if key not in self._identifiers:
             if sky not in self._catalogs:
                 self._catalogs[sky] = load_sky(sky, camera)
-            opt = self.options
-            self._identifiers[key] = Identifier(camera, self._catalogs[sky], opt.method,
+            self._identifiers[key] = Identifier(camera, self._catalogs[sky], method,
                                                 max_stars=opt.max_stars, sigma_px=opt.sigma_px)
         return self._identifiers[key]
 
@@ -219,8 +220,9 @@ class Pipeline:
         if camera is None:
             return self.blind_solver(sky).solve(frame, self._blind_size(frame))
         if self.options.fov_tolerance > 0:
-            return solve_approximate(self.identifier(camera, sky), frame,
-                                     self.options.fov_tolerance)
+            return solve_approximate(self.identifier(camera, sky, "quad"), frame,
+                                     self.options.fov_tolerance,
+                                     fallback=lambda: self.identifier(camera, sky))
         return self.identifier(camera, sky).solve(frame)
 
     def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
