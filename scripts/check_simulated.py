@@ -24,11 +24,13 @@ WRONG_ARCSEC = 60.0
 
 
 def main(truth_path: str, ids_path: str) -> None:
-    truth = {row["file"]: row for row in csv.DictReader(open(truth_path))}
+    with open(truth_path, newline="") as fh:
+        truth = {row["file"]: row for row in csv.DictReader(fh)}
+    with open(ids_path) as fh:
+        records = [json.loads(line) for line in fh if line.strip()]
     solved = wrong = total = 0
     worst, fovs, times = 0.0, [], []
-    for line in open(ids_path):
-        rec = json.loads(line)
+    for rec in records:
         total += 1
         times.append(rec.get("timing_ms", {}).get("identify", float("nan")))
         if rec["status"] != "solved":

@@ -81,9 +81,25 @@ def config_from_dict(data: dict, where: str = "config") -> SimConfig:
     )
 
 
+def _preset_or(path: Path) -> Path:
+    if path.exists() or len(path.parts) > 2 or (len(path.parts) == 2
+                                                 and path.parts[0] != "configs"):
+        return path
+    from startrack.resources import resource_path
+
+    try:
+        return resource_path("configs", f"{path.stem}.toml")
+    except InputError:
+        return path  # the read below reports the missing file by the name given
+
+
 def load_config(path: str | Path) -> SimConfig:
-    """Read a TOML simulation config (see configs/); every error names the file."""
-    path = Path(path)
+    """Read a TOML simulation config; every error names the file.
+
+    A path that does not exist but names a shipped preset (``hipparcos20``,
+    ``configs/hipparcos20.toml``) reads the preset, so the presets work after an install.
+    """
+    path = _preset_or(Path(path))
     try:
         data = tomllib.loads(path.read_text())
     except OSError as exc:

@@ -15,9 +15,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import pandas as pd
 
-from startrack.bench.frames import make_frame
-from startrack.bench.runner import RunSpec, load_bench
-from startrack.identify import identify
+from startrack.bench.runner import RunSpec, bench_frame, load_bench
 from startrack.matchers.base import Matcher
 from startrack.types import MatchDiagnostics, Observation
 
@@ -106,12 +104,7 @@ def raw_unit(spec: RunSpec, condition_index: int, frame: int, *, limit: int = DE
     when ``repeats`` > 0, the fastest of ``repeats`` verified identify() runs in this
     process (``seq_ms``, a timing less exposed to a loaded machine than one run) with that
     run's diagnostics, the matcher's extra counters as ``x_<name>`` (numbers only)."""
-    bench = load_bench(spec)
-    condition = spec.conditions[condition_index]
-    some = next(iter(bench.identifiers.values()))
-    bf = make_frame(some.catalog, spec.camera, condition, spec.seed, frame,
-                    source=spec.source, sensor=spec.sensor,
-                    hot_pixel_fraction=spec.hot_pixel_fraction)
+    bench, condition, bf = bench_frame(spec, condition_index, frame)
     n_top = min(spec.max_stars, len(bf.truth_rows))
     rows = []
     for name in spec.methods:
@@ -120,7 +113,7 @@ def raw_unit(spec: RunSpec, condition_index: int, frame: int, *, limit: int = DE
                "method": name, "real_in_top": int(np.count_nonzero(bf.truth_rows[:n_top] >= 0)),
                **score_hypotheses(ident.matcher, bf.obs, bf.truth_rows, limit).to_dict()}
         if repeats > 0:
-            runs = [identify(bf.obs, ident.matcher, ident.verify_config) for _ in range(repeats)]
+            runs = [ident.identify(bf.obs) for _ in range(repeats)]
             diag = runs[0].diagnostics
             row.update(seq_ms=min(r.identify_ms for r in runs), solved=runs[0].solved,
                        candidates=diag.candidates, pivots=diag.pivots,

@@ -27,7 +27,10 @@ from startrack.sky import SkySpec
 
 KEY_COLUMNS = ["condition", *VARIABLES, "frame", "method"]
 SCORE_COLUMNS = list(FrameScore.__dataclass_fields__)
-COLUMNS = KEY_COLUMNS + SCORE_COLUMNS
+# Per-frame attitudes (scalar-first quaternions, camera to ICRS): the truth, and the
+# method's answer (empty when not solved), so a failure can be looked at and replayed.
+ATTITUDE_COLUMNS = [f"{who}_q{c}" for who in ("true", "solved") for c in "wxyz"]
+COLUMNS = KEY_COLUMNS + SCORE_COLUMNS + ATTITUDE_COLUMNS
 TIMING_COLUMNS = ("identify_ms", "method_ms", "centroid_ms")
 
 
@@ -103,14 +106,24 @@ def load_bench(spec: RunSpec) -> LoadedBench:
         return _LOADED[key]
 
 
-def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
-    """One frame in one condition through every method: a row dict per method."""
+def bench_frame(spec: RunSpec, condition_index: int, frame: int):
+    """The loaded bench, the condition and frame ``frame`` of it, as every method sees it."""
     bench = load_bench(spec)
     condition = spec.conditions[condition_index]
     some = next(iter(bench.identifiers.values()))
     bf = make_frame(some.catalog, spec.camera, condition, spec.seed, frame,
                     source=spec.source, sensor=spec.sensor,
                     hot_pixel_fraction=spec.hot_pixel_fraction)
+    return bench, condition, bf
+
+
+def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
+    """One frame in one condition through every method: a row dict per method."""
+    from startrack.attitude import to_quaternion
+
+    bench, condition, bf = bench_frame(spec, condition_index, frame)
+    true_q = dict(zip(ATTITUDE_COLUMNS[:4], map(float, to_quaternion(bf.rotation)),
+                      strict=True))
     rows = []
     for name in spec.methods:
         ident = bench.identifiers[name]
@@ -118,8 +131,11 @@ def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
         score = score_frame(solution, bf.truth_rows, bf.rotation, bf.n_in_view,
                             centroid_ms=bf.centroid_ms, threshold_arcsec=spec.threshold_arcsec,
                             sigma_arcsec=float(np.degrees(bf.obs.sigma_rad)) * 3600.0)
+        q = (to_quaternion(solution.rotation) if solution.solved
+             and solution.rotation is not None else np.full(4, np.nan))
         rows.append({"condition": condition_index, **condition.to_dict(), "frame": frame,
-                     "method": name, **score.to_dict()})
+                     "method": name, **score.to_dict(), **true_q,
+                     **dict(zip(ATTITUDE_COLUMNS[4:], map(float, q), strict=True))})
     return rows
 
 

@@ -64,7 +64,8 @@ def _resumable(spec: RunSpec, out: Path, resume: bool | None) -> dict:
 
 
 def _clear_outputs(out: Path) -> None:
-    for path in [out / SUMMARY_FILE, out / DB_FILE, *out.glob("plot_*.png")]:
+    for path in [out / SUMMARY_FILE, out / DB_FILE, out / "report.md",
+                 *out.glob("plot_*.png"), *out.glob("heatmap_*.png")]:
         path.unlink(missing_ok=True)
 
 
@@ -146,8 +147,8 @@ def format_table(summary: pd.DataFrame) -> str:
         "wrong": summary["wrong"],
         "prec": summary["star_precision"].map("{:.3f}".format),
         "recall": summary["star_recall"].map("{:.3f}".format),
-        "err_med\"": summary["error_median_arcsec"].map("{:.1f}".format),
-        "bore_med\"": summary["boresight_median_arcsec"].map("{:.1f}".format),
+        "err_med_as": summary["error_median_arcsec"].map("{:.1f}".format),
+        "bore_med_as": summary["boresight_median_arcsec"].map("{:.1f}".format),
         "t_med_ms": summary["time_median_ms"].map("{:.2f}".format),
         "t_p95_ms": summary["time_p95_ms"].map("{:.2f}".format),
     })

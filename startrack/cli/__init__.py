@@ -37,7 +37,8 @@ class StartrackGroup(click.Group):
 @click.group(cls=StartrackGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="startrack")
 def main() -> None:
-    """Star-tracker simulator and star-identification bench."""
+    """Star-tracker simulator and star-identification bench. Conventions (pixels,
+    attitude, file formats, exit codes): docs/conventions.md."""
 
 
 def _add_commands() -> None:

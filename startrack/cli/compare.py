@@ -99,10 +99,15 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str) -> dict[str,
 @click.option("--resume/--no-resume", default=None,
               help="Continue a matching run in --out (default when there is one) or start "
               "over.")
+@click.option("--replay", metavar="CONDITION,FRAME",
+              help="Rerun one frame of this run through every method and print each answer "
+              "(report.md lists the command for every failed frame); writes nothing.")
 def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars, missing,
             mag_noise, grid, max_stars, source, threshold_arcsec, jobs, scheduler, out_dir,
-            seed, resume) -> None:
-    """Compare methods on the same random frames under noise, false and missing stars."""
+            seed, resume, replay) -> None:
+    """Compare methods on the same random frames under noise, false and missing stars.
+    Writes frames.csv, summary.csv, plots and report.md into --out. Conventions
+    (pixels, attitude, quaternions): docs/conventions.md."""
     from startrack.bench.conditions import build_conditions
     from startrack.bench.runner import RunSpec
     from startrack.bench.session import format_table, run_comparison
@@ -133,6 +138,9 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
         seed=cfg.frames.seed if seed is None else seed, camera=cfg.camera, sky=spec_sky,
         sensor=cfg.sensor, source=source, grid=grid, max_stars=max_stars,
         hot_pixel_fraction=cfg.frames.hot_pixel_fraction, threshold_arcsec=threshold_arcsec)
+    if replay is not None:
+        _replay(spec, replay)
+        return
     jobs = jobs or os.cpu_count() or 1
     n_units = len(spec.conditions) * frames
     where = f"Dask at {scheduler}" if scheduler else f"{jobs} process(es)"
@@ -145,7 +153,30 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     click.echo(format_table(result.summary))
     loads = ", ".join(f"{k} {v:.2f} s" for k, v in result.load_seconds.items())
     click.echo(f"\nload (sky, database+prepare per method): {loads}")
-    click.echo(f"wrote {result.frames_csv} (per frame), {result.summary_csv} (per condition), "
+    from startrack.bench.report import NOT_REPLAYED, command_line, write_report
+
+    ctx = click.get_current_context()
+    report = write_report(result, command_line(ctx), command_line(ctx, drop=NOT_REPLAYED))
+    click.echo(f"wrote {report}, {result.frames_csv} (per frame), {result.summary_csv} "
+               "(per condition), "
                f"{result.db_csv}, plots: "
                f"{', '.join(p.name for p in result.plots) or 'none (nothing swept)'} "
                f"in {result.out}/ ({result.wall_seconds:.1f} s)")
+
+
+def _replay(spec, text: str) -> None:
+    """Run one (condition, frame) unit of ``spec`` and print every method's answer."""
+    from startrack.bench.report import replay_text
+    from startrack.bench.runner import run_unit
+
+    try:
+        condition, frame = (int(p) for p in text.split(","))
+    except ValueError:
+        raise InputError(f"--replay: expected CONDITION,FRAME (two integers), got {text!r}") \
+            from None
+    if not 0 <= condition < len(spec.conditions) or not 0 <= frame < spec.frames:
+        raise InputError(f"--replay: this run has conditions 0..{len(spec.conditions) - 1} "
+                         f"and frames 0..{spec.frames - 1}, got {text!r}")
+    click.echo(f"condition {condition} ({spec.conditions[condition].to_dict()}), "
+               f"frame {frame}:")
+    click.echo(replay_text(run_unit(spec, condition, frame)))

@@ -20,7 +20,11 @@ from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.matchers import available_methods
 from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
 from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
+from startrack.side_outputs import SideOutputs
 from startrack.sky import GAIA_BELOW_FOV_DEG, SKY_KINDS
+
+#: a batch of at least this many inputs shows a progress bar (when stderr is a terminal)
+PROGRESS_MIN_INPUTS = 3
 
 
 def _size(ctx, param, value):
@@ -45,7 +49,7 @@ def _finite(ctx, param, value):
 @main.command()
 @click.argument("inputs", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--camera", "camera_path", type=click.Path(dir_okay=False),
-              help="Camera file (JSON or TOML, interfaces.md keys).")
+              help="Camera file (JSON or TOML, keys in docs/conventions.md).")
 @click.option("--fov", "fov_deg", type=click.FloatRange(0, 180, min_open=True, max_open=True),
               help="Horizontal field of view in degrees (image size from the image, or "
                    "--size for a CSV).")
@@ -78,8 +82,19 @@ def _finite(ctx, param, value):
               show_default=True, help="json: one JSON line per input, in input order.")
 @click.option("--output", type=click.Path(dir_okay=False),
               help="Write here instead of standard output (only when complete).")
+@click.option("--annotate", "annotate_path", type=click.Path(),
+              help="Write the frame as a PNG with the identified stars labelled (a folder "
+                   "with several inputs).")
+@click.option("--wcs", "wcs_path", type=click.Path(),
+              help="Write the solved WCS as a FITS header (a folder with several inputs).")
+@click.option("--corr", "corr_path", type=click.Path(dir_okay=False),
+              help="Write matched stars (pixel, flux, catalog magnitude, residual) as CSV.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar or notes on stderr.")
+@click.option("-v", "--verbose", is_flag=True,
+              help="One line per input and per file written on stderr.")
 def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, epoch, method,
-             max_stars, sigma_px, fmt, output) -> None:
+             max_stars, sigma_px, fmt, output, annotate_path, wcs_path, corr_path, quiet,
+             verbose) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
@@ -90,20 +105,28 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
                       fov_tolerance=fov_tolerance)
     pipeline = Pipeline(options)
+    side = SideOutputs(annotate_path, wcs_path, corr_path, several=len(inputs) > 1)
+    note = _notes(quiet, verbose)
     worst = 0
     pending: list[dict] = []  # error records held back until an input is answered
     try:
         with contextlib.ExitStack() as stack:
             fh = stack.enter_context(atomic_text(output)) if output else sys.stdout
             emit = _writer(fh, fmt, several=len(inputs) > 1)
-            for name in inputs:
+            todo = _progress(inputs, quiet, stack)
+            if todo is not inputs and fh is sys.stdout:
+                emit = _around_bar(emit)
+            for name in todo:
                 try:
-                    record = pipeline.run(Path(name)).record()
+                    result = pipeline.run(Path(name))
+                    side.add(result)
                 except InputError as exc:  # a batch answers every input it can
                     click.echo(f"error: {exc}", err=True)
                     pending.append(error_record(name, str(exc)))
                     worst = 2
                     continue
+                record = result.record()
+                note(_summary(record))
                 worst = max(worst, EXIT_CODES[record["status"]])
                 for rec in [*pending, record]:
                     emit(rec)
@@ -112,9 +135,48 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
                 raise _NothingAnswered  # no input could be read: leave no output at all
             for rec in pending:
                 emit(rec)
+            side.finish()
     except _NothingAnswered:
         pass
+    for path in side.written:
+        note(f"wrote {path}")
     sys.exit(worst)
+
+
+def _around_bar(emit):
+    """``emit`` that lifts the progress bar off the terminal while it prints."""
+    from tqdm import tqdm
+
+    def emit_clear(record: dict) -> None:
+        with tqdm.external_write_mode(file=sys.stdout):
+            emit(record)
+    return emit_clear
+
+
+def _notes(quiet: bool, verbose: bool):
+    """A function printing a note on stderr when -v is given (never with -q)."""
+    def note(text: str) -> None:
+        if verbose and not quiet:
+            click.echo(text, err=True)
+    return note
+
+
+def _summary(record: dict) -> str:
+    n = len(record["stars"])
+    ms = record["timing_ms"]["total"]
+    what = f"solved, {n} stars" if record["status"] == "solved" else \
+        f"not solved ({record.get('reason', 'no_match')})"
+    return f"{record.get('input', '')}: {what}, {ms:.0f} ms"
+
+
+def _progress(inputs, quiet: bool, stack: contextlib.ExitStack):
+    """The inputs, with a progress bar on stderr for a batch when stderr is a terminal."""
+    if quiet or len(inputs) < PROGRESS_MIN_INPUTS or not sys.stderr.isatty():
+        return inputs
+    from tqdm import tqdm
+
+    return stack.enter_context(tqdm(inputs, file=sys.stderr, unit="input", desc="identify",
+                                    leave=False, dynamic_ncols=True))
 
 
 class _NothingAnswered(Exception):

@@ -41,7 +41,8 @@ def _triple(names: str):
 
 @main.command()
 @click.option("--config", "config_path", type=click.Path(dir_okay=False),
-              help="TOML preset (see configs/); default: the 2011 paper's experiment.")
+              help="TOML preset: a file, or a shipped preset by name (hipparcos20, "
+                   "paper2011, radial2008, realsky); default: the 2011 paper's experiment.")
 @click.option("--sky", type=click.Choice(SKY_KINDS), help="Sky kind (overrides the config).")
 @click.option("--mag-limit", type=float, help="Faintest catalog magnitude to use.")
 @click.option("--frames", "count", type=click.IntRange(min=1), help="Number of frames.")
@@ -60,7 +61,8 @@ def _triple(names: str):
               help="Camera file (JSON or TOML), overrides the config's [camera].")
 def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_stars,
              missing, mag_noise, rate, write_fits_too, camera_path) -> None:
-    """Render frames of a sky, with truth.csv, stars.csv and a JSON sidecar per frame."""
+    """Render frames of a sky, with truth.csv, stars.csv and a JSON sidecar per frame.
+    Conventions (pixels, attitude, sidecar units): docs/conventions.md."""
     cfg = load_config(config_path) if config_path else config_from_dict(DEFAULT_CONFIG,
                                                                         "default config")
     camera = load_camera(camera_path) if camera_path else cfg.camera
@@ -114,12 +116,14 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
         png = out / f"{name}.png"
         write_png16(png, image)
         if with_fits:
-            write_fits(out / f"{name}.fits", image, wcs_header(camera, rotation))
+            write_fits(out / f"{name}.fits", image, wcs_header(
+                camera, rotation, extra=_fits_keywords(sensor, png.name)))
         q = [float(c) for c in to_quaternion(rotation)]
         ra, dec, roll = to_radec_roll(rotation)
         sidecar = {
             "image": png.name, "frame": i, "seed": opts.seed,
-            "camera": camera.to_dict(), "sky": spec.to_dict(),
+            "units": SIDECAR_UNITS,
+            "camera": camera.to_dict(), "sky": _sky_entry(spec),
             "attitude": {"quaternion": q, "ra_deg": ra, "dec_deg": dec, "roll_deg": roll},
             "sensor": sensor.to_dict(),
             "frames": {"missing": opts.missing, "false_stars": opts.false_stars,
@@ -140,6 +144,33 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
                                    "is_false"], star_rows)
     click.echo(f"wrote {opts.count} frame(s) to {out}/ (truth.csv, stars.csv, "
                f"frame_*.png{', frame_*.fits' if with_fits else ''}, frame_*.json)")
+
+
+#: what the numbers in a sidecar are measured in (docs/conventions.md)
+SIDECAR_UNITS = {
+    "pixels": "px; (0, 0) is the centre of the top-left pixel, x right, y down",
+    "angles": "deg (fov_deg, ra_deg, dec_deg, roll_deg, min_separation_deg)",
+    "quaternion": "scalar first [w, x, y, z], camera frame to ICRS",
+    "rate_dps": "deg/s about the camera axes",
+    "magnitudes": "catalog magnitudes (Hipparcos Hp for the Hipparcos sky)",
+    "sensor": "electrons (e-), ADU counts, seconds; gain in e-/ADU",
+}
+
+
+def _sky_entry(spec: SkySpec) -> dict:
+    """The sky as a sidecar records it: a random sky's size and seed, only for one."""
+    entry = spec.to_dict()
+    if spec.kind != "random":
+        entry.pop("n_stars", None)
+        entry.pop("seed", None)
+    return entry
+
+
+def _fits_keywords(sensor: SensorModel, png_name: str) -> dict:
+    return {"EXPTIME": (sensor.exposure_s, "[s] exposure time"),
+            "GAIN": (sensor.gain, "[e-/ADU] detector gain"),
+            "BUNIT": ("adu", "pixel values are detector counts (ADU)"),
+            "FRAME": (png_name, "the same frame as PNG")}
 
 
 def _random_rotation(rng: np.random.Generator):

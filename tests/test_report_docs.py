@@ -1,0 +1,156 @@
+"""compare's report.md and --replay; the README's Python API example; docs and help point
+to docs/conventions.md; simulate's FITS keywords and sidecar; shipped files are found."""
+
+import csv
+import re
+import shlex
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from startrack.bench.plots import wilson
+from startrack.bench.runner import ATTITUDE_COLUMNS
+from startrack.cli import main
+
+ROOT = Path(__file__).parents[1]
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report") / "cmp"
+    # the issue's command, as given (default levels: 7 conditions), into a test folder
+    result = CliRunner().invoke(main, ["compare", "--frames", "20", "--methods",
+                                       "angle,pyramid", "--out", str(out), "--jobs", "1"])
+    assert result.exit_code == 0, result.output
+    header = result.stdout.splitlines()[0]
+    assert "err_med_as" in header and '"' not in header  # no quote characters in names
+    return out, (out / "report.md").read_text()
+
+
+def test_report_has_every_method_provenance_plots_and_intervals(report):
+    out, text = report
+    for method in ("angle", "pyramid"):
+        assert f"| {method} |" in text
+    for key in ("startrack", "git commit", "date (UTC)", "host", "CPU", "Python",
+                "libraries", "numpy", "scipy", "command"):
+        assert key in text
+    assert "startrack compare --methods angle,pyramid --frames 20 --jobs 1 --out" in text
+    links = re.findall(r"!\[[^]]*\]\(([^)]+)\)", text)
+    assert {"plot_noise_px.png", "plot_false_stars.png"} <= set(links)
+    assert all((out / link).is_file() for link in links)
+    # a rate of 20/20 has the Wilson interval [83.9%, 100.0%]
+    assert "100.0% [83.9%, 100.0%]" in text
+
+
+def test_frames_keep_quaternions_and_a_failed_frame_replays(report):
+    out, text = report
+    with open(out / "frames.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert set(ATTITUDE_COLUMNS) <= set(rows[0])
+    solved = [r for r in rows if r["solved"] == "1"]
+    q = np.array([[float(r[c]) for c in ATTITUDE_COLUMNS[4:]] for r in solved])
+    assert np.allclose(np.linalg.norm(q, axis=1), 1.0)
+    commands = re.findall(r"`(startrack compare [^`]*--replay \d+,\d+)`", text)
+    assert commands, "angle misses frames with false stars: the report lists them"
+    args = shlex.split(commands[0])[1:]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    assert "angle:" in result.output and "pyramid:" in result.output
+    assert "true quaternion" in result.output
+    bad = CliRunner().invoke(main, [*args[:-1], "99,0"])
+    assert bad.exit_code == 2
+
+
+def test_full_grid_draws_a_heat_map(tmp_path):
+    result = CliRunner().invoke(main, ["compare", "--frames", "3", "--methods", "pyramid",
+                                       "--out", str(tmp_path), "--jobs", "1", "--grid", "full",
+                                       "--noise-px", "0,1", "--false-stars", "0,3"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "heatmap_correct.png").is_file()
+    assert "heatmap_correct.png" in (tmp_path / "report.md").read_text()
+
+
+def test_wilson_interval():
+    low, high = wilson(np.array([0, 10, 20]), np.array([20, 20, 20]))
+    assert low[0] == 0 and 0.16 < high[0] < 0.17
+    assert low[1] < 0.5 < high[1] and np.isclose(low[1] + high[1], 1.0)
+    assert np.isnan(wilson(0, 0)[0])
+
+
+def test_readme_python_example_runs(monkeypatch):
+    text = (ROOT / "README.md").read_text()
+    section = text.split("## Python API", 1)[1]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    assert len(code.strip().splitlines()) == 5
+    monkeypatch.chdir(ROOT)
+    namespace: dict = {}
+    exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102 - our own README
+    s = namespace["s"]
+    assert s.solved and len(s.stars) >= 30 and "catalog_id" in s.stars
+    assert namespace["solver"].solve(ROOT / "tests/data/realsky_azi45.png").solved
+
+
+def test_docs_and_help_point_to_the_conventions():
+    conventions = ROOT / "docs" / "conventions.md"
+    assert conventions.is_file()
+    text = conventions.read_text()
+    for topic in ("Pixel", "quaternion", "Roll", "distortion", "Exit codes", "reason",
+                  "fov_deg", "--annotate", "startrack.solve"):
+        assert topic in text
+    assert "interfaces.md" not in (ROOT / "README.md").read_text()
+    assert "docs/conventions.md" in (ROOT / "README.md").read_text()
+    for command in ("identify", "simulate", "compare"):
+        out = CliRunner().invoke(main, [command, "--help"]).output
+        assert "docs/conventions.md" in out and "interfaces.md" not in out.replace(
+            "docs/conventions.md", "")
+
+
+def test_simulate_fits_keywords_and_hipparcos_sidecar(tmp_path):
+    import json
+
+    from astropy.io import fits
+
+    result = CliRunner().invoke(main, ["simulate", "--config", "hipparcos20", "--frames",
+                                       "1", "--fits", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    header = fits.getheader(tmp_path / "frame_0000.fits")
+    assert header["BUNIT"] == "adu" and header["EXPTIME"] > 0 and header["GAIN"] > 0
+    sidecar = json.loads((tmp_path / "frame_0000.json").read_text())
+    assert "n_stars" not in sidecar["sky"] and "seed" not in sidecar["sky"]
+    assert "deg" in sidecar["units"]["angles"]
+
+
+def test_shipped_files_are_found_and_match_the_checkout():
+    from startrack.config import load_config
+    from startrack.resources import preset_names, resource_path
+
+    assert resource_path("data", "iau_star_names.csv").read_bytes() == (
+        ROOT / "data" / "iau_star_names.csv").read_bytes()
+    assert "hipparcos20" in preset_names()
+    assert load_config("hipparcos20").camera.width == 1024
+    license_text = (ROOT / "LICENSE").read_text()
+    assert "Apache License" in license_text and "Version 2.0" in license_text
+
+
+@pytest.mark.slow
+def test_a_non_editable_install_finds_data_and_configs(tmp_path):
+    import subprocess
+    import sys
+    import sysconfig
+
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    # the test venv's packages serve as dependencies; startrack itself is installed anew
+    (venv / "lib" / f"python{sys.version_info.major}.{sys.version_info.minor}" /
+     "site-packages" / "deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    py = venv / "bin" / "python"
+    subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", str(ROOT)],
+                   check=True, cwd=tmp_path)
+    code = ("import startrack, startrack.annotate as a, startrack.config as c;"
+            "assert 'site-packages' in startrack.__file__;"
+            "print(len(a.star_names()), c.load_config('realsky').camera.width)")
+    out = subprocess.run([str(py), "-c", code], check=True, cwd=tmp_path,
+                         capture_output=True, text=True).stdout.split()
+    assert int(out[0]) > 400 and out[1] == "1024"
