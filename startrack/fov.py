@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -25,7 +26,7 @@ from startrack.database import StarDatabase
 from startrack.identify import residuals_arcsec
 from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
-from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution, Timing
+from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
 from startrack.verify import Verification, VerifyConfig, verify
 
 #: default ``--fov-tolerance``: the true FOV may be this fraction above or below nominal
@@ -146,59 +147,61 @@ def f_of_fov(width: int, fov_deg: float) -> float:
     return (width / 2.0) / math.tan(math.radians(fov_deg) / 2.0)
 
 
-def timing_of(frame, solution: Solution) -> Timing:
-    return Timing(frame.centroid_ms, solution.identify_ms,
-                  frame.read_ms + frame.centroid_ms + solution.identify_ms)
 
 
-def _result(frame, found, catalog: Catalog, method: str, diag: MatchDiagnostics, t0: float,
-            sigma_px: float, config: VerifyConfig, database: StarDatabase):
-    """The FrameResult of a verified find (or of nothing: ``found`` None)."""
-    from startrack.pipeline import FrameResult
+@dataclass(frozen=True)
+class FovResult:
+    """What a search found (or not): the solution, the fitted camera it holds for, the
+    observation through that camera, and the catalog its rows index."""
 
+    solution: Solution
+    camera: Camera
+    obs: Observation
+    catalog: Catalog
+    match_radius_px: float
+
+
+def _result(found, catalog: Catalog, method: str, diag: MatchDiagnostics, t0: float,
+            config: VerifyConfig, database: StarDatabase, reason: str = "no_match"):
+    """The :class:`FovResult` of a verified find (or of nothing: ``found[0]`` None)."""
     check, camera, obs = found
     if check is None:
-        sol = Solution(False, method, diagnostics=diag, reason="no_match",
+        sol = Solution(False, method, diagnostics=diag, reason=reason,
                        identify_ms=(time.perf_counter() - t0) * 1000.0)
     else:
         sol = _solution(check, obs, database, method, diag, t0)
-    return FrameResult(frame.name, sol, obs, frame.centroids, timing_of(frame, sol), camera,
-                       catalog, sigma_px, config.radius_px(obs), frame.image)
+    return FovResult(sol, camera, obs, catalog, config.radius_px(obs))
 
 
-def solve_approximate(ident, frame, tolerance: float, fallback=None):
-    """Solve ``frame`` with ``ident`` (an :class:`startrack.pipeline.Identifier` of the
-    quad matcher) whose camera's focal length is nominal: the true FOV may be
-    ``tolerance`` off either way. ``fallback()``, when given, returns the Identifier of
-    the configured method, tried at the nominal FOV when the search finds nothing."""
+def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
+                      fallback=None) -> FovResult:
+    """Solve the stars at pixels ``x``, ``y`` with ``ident`` (an
+    :class:`startrack.pipeline.Identifier` of the quad matcher) whose camera's focal
+    length is nominal: the true FOV may be ``tolerance`` off either way. ``fallback()``,
+    when given, returns the Identifier of the configured method, tried at the nominal FOV
+    when the search finds nothing."""
     t0 = time.perf_counter()
-    x, y = frame.centroids.x, frame.centroids.y
-    if len(x) < 3:
-        return ident.solve(frame)
     cam, db, config, quad = ident.camera, ident.database, ident.verify_config, ident.matcher
+    obs = Observation.from_pixels(x, y, cam, ident.sigma_px)
     diag, seen = MatchDiagnostics(), set()
+    if len(x) < 3:
+        return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db,
+                       reason="too_few_stars")
     for lo, hi in windows(*focal_range(cam, tolerance)):
         found = search_window(quad, x, y, cam, lo, hi, ident.sigma_px, db, config, diag, seen)
         if found is not None:
-            return _result(frame, found, ident.catalog, quad.name, diag, t0, ident.sigma_px,
-                           config, db)
-    obs = Observation.from_pixels(x, y, cam, ident.sigma_px)
-    nothing = _result(frame, (None, cam, obs), ident.catalog, quad.name, diag, t0,
-                      ident.sigma_px, config, db)
+            return _result(found, ident.catalog, quad.name, diag, t0, config, db)
     if fallback is None or len(ident.catalog) > FALLBACK_MAX_STARS:
-        return nothing
+        return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db)
     other = fallback()
-    result = other.solve(frame)  # the configured method at the nominal focal length
-    sol = result.solution
-    if not sol.solved:
-        return result
-    # obs_index is sorted: the four brightest matched stars stand as the hypothesis
-    hyp = Hypothesis(sol.obs_index[:4], sol.cat_index[:4])
-    found = verify_fitted(hyp, x, y, cam, other.sigma_px, other.database, config)
-    if found is None:
-        found = (None, cam, result.obs)
-    return _result(frame, found, other.catalog, sol.method, sol.diagnostics, t0,
-                   other.sigma_px, config, other.database)
+    sol = other.identify(obs)  # the configured method at the nominal focal length
+    found = None
+    if sol.solved:
+        # obs_index is sorted: the four brightest matched stars stand as the hypothesis
+        hyp = Hypothesis(sol.obs_index[:4], sol.cat_index[:4])
+        found = verify_fitted(hyp, x, y, cam, other.sigma_px, other.database, config)
+    return _result(found or (None, cam, obs), other.catalog, sol.method, sol.diagnostics, t0,
+                   config, other.database)
 
 
 class BlindSolver:
@@ -223,11 +226,10 @@ class BlindSolver:
             self._databases[n] = StarDatabase(self.catalog.subset(np.arange(n)), camera)
         return self._databases[n]
 
-    def solve(self, frame, size: tuple[int, int]):
+    def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int]) -> FovResult:
         """Search every window, widest field first; the first verified find wins."""
         t0 = time.perf_counter()
         base = Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
-        x, y = frame.centroids.x, frame.centroids.y
         diag, seen = MatchDiagnostics(), set()
         f_lo, f_hi = (f_of_fov(size[0], fov) for fov in sorted(self.fov_range, reverse=True))
         db = self.database_for(base)
@@ -236,12 +238,8 @@ class BlindSolver:
             found = search_window(self.matcher, x, y, base, lo, hi, self.sigma_px, db,
                                   self.config, diag, seen)
             if found is not None:
-                return _result(frame, found, self.catalog, self.matcher.name, diag, t0,
-                               self.sigma_px, self.config, db)
+                return _result(found, self.catalog, self.matcher.name, diag, t0,
+                               self.config, db)
         obs = Observation.from_pixels(x, y, base, self.sigma_px)
-        result = _result(frame, (None, base, obs), self.catalog, self.matcher.name, diag, t0,
-                         self.sigma_px, self.config, db)
-        if len(x) < 3:
-            result = dataclasses.replace(result, solution=dataclasses.replace(
-                result.solution, reason="too_few_stars"))
-        return result
+        return _result((None, base, obs), self.catalog, self.matcher.name, diag, t0,
+                       self.config, db, reason="no_match" if len(x) >= 3 else "too_few_stars")

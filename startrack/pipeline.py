@@ -217,13 +217,23 @@ class Pipeline:
         """Identify one input that is already read (startrack.fov: a nominal or unknown
         field of view)."""
         camera, sky = self.setup_for(frame)
+        x, y = frame.centroids.x, frame.centroids.y
         if camera is None:
-            return self.blind_solver(sky).solve(frame, self._blind_size(frame))
-        if self.options.fov_tolerance > 0:
-            return solve_approximate(self.identifier(camera, sky, "quad"), frame,
-                                     self.options.fov_tolerance,
-                                     fallback=lambda: self.identifier(camera, sky))
-        return self.identifier(camera, sky).solve(frame)
+            found = self.blind_solver(sky).solve(x, y, self._blind_size(frame))
+        elif self.options.fov_tolerance > 0:
+            ident = self.identifier(camera, sky, "quad")
+            if frame.size is not None and frame.size != (camera.width, camera.height):
+                return ident.solve(frame)  # the size mismatch is an InputError there
+            found = solve_approximate(ident, x, y, self.options.fov_tolerance,
+                                      fallback=lambda: self.identifier(camera, sky))
+        else:
+            return self.identifier(camera, sky).solve(frame)
+        sol = found.solution
+        timing = Timing(frame.centroid_ms, sol.identify_ms,
+                        frame.read_ms + frame.centroid_ms + sol.identify_ms)
+        return FrameResult(frame.name, sol, found.obs, frame.centroids, timing, found.camera,
+                           found.catalog, self.options.sigma_px, found.match_radius_px,
+                           frame.image)
 
     def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
         size = self.options.size or frame.size
