@@ -38,6 +38,9 @@ MARGIN = 0.02  # searched beyond the tolerance, as a fraction
 #: no fallback to the configured method for a deeper catalog: its pair tables would take
 #: minutes and gigabytes to build for a narrow field
 FALLBACK_MAX_STARS = 150_000
+#: a candidate is verified only when this many other bright stars already fall near
+#: catalog stars at its attitude (verification needs two, at a tighter radius)
+MIN_CONFIRMED = 2
 MAX_VERIFY = 25  # hypotheses verified per window: bounded work on a junk frame
 
 
@@ -104,6 +107,8 @@ def search_window(matcher: QuadMatcher, x, y, camera: Camera, f_lo: float, f_hi:
     for sh in matcher.scaled(x, y, camera, f_lo, f_hi, diag, database):
         hyp = sh.hypothesis
         key = tuple(sorted(zip(hyp.obs_index.tolist(), hyp.cat_index.tolist(), strict=True)))
+        if sh.confirmed < MIN_CONFIRMED:
+            break  # best first: no later candidate has more support
         if key in seen or hyp.cat_index.max() >= n_cat:
             continue
         seen.add(key)

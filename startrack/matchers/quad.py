@@ -31,7 +31,7 @@ from startrack.types import Hypothesis, MatchDiagnostics, Observation
 IMAGE_STARS = 16  # brightest observed stars whose every four make a pattern
 RATIO_TOLERANCE = 0.012  # largest error of one edge ratio (key lookup and edge test)
 MAX_CANDIDATES = 4000  # best by edge agreement, before the confirmation count
-CHECK_STARS = 16  # brightest observed stars counted against the catalog per candidate
+CHECK_STARS = 24  # brightest observed stars counted against the catalog per candidate
 CHECK_RADIUS_PX = 6.0  # generous: the focal length is known only from the pattern
 #: for each of the 24 star orders, the catalog edge that each image edge corresponds to
 _EDGE_INDEX = {tuple(e): k for k, e in enumerate(Q.EDGES.tolist())}
@@ -47,6 +47,7 @@ class ScaledHypothesis:
     hypothesis: Hypothesis
     f_px: float
     error: float  # largest edge-ratio disagreement
+    confirmed: int = 0  # other bright stars near a catalog star (:func:`confirmations`)
 
 
 def _query_keys(r: np.ndarray) -> np.ndarray:
@@ -176,8 +177,8 @@ class QuadMatcher(Matcher):
             return []
         count = confirmations(x, y, camera, obs_q, cat_q, f, check or self.database)
         order = np.lexsort((error, -count))
-        return [ScaledHypothesis(Hypothesis(obs_q[k], cat_q[k]), float(f[k]), float(error[k]))
-                for k in order]
+        return [ScaledHypothesis(Hypothesis(obs_q[k], cat_q[k]), float(f[k]), float(error[k]),
+                                 int(count[k])) for k in order]
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         f = obs.camera.f_px
