@@ -34,14 +34,14 @@ WRONG_ARCSEC = 60.0
 SIZES = {True: (1024, 768), False: (1280, 1024)}
 
 
-def frames_for(fov: float, n: int, seed: int):
+def frames_for(fov: float, n: int, seed: int, with_catalog: bool = False):
     """``n`` bench frames of a camera with horizontal FOV ``fov`` (its default sky)."""
     width, height = SIZES[fov < 15]
     camera = Camera.from_fov(width, height, fov)
     spec = resolve_sky(SkySpec(kind=default_sky_kind(camera)), camera)
     catalog = load_sky(spec, camera)
     frames = [make_frame(catalog, camera, CONDITION, seed, i) for i in range(n)]
-    return camera, frames
+    return (camera, frames, catalog) if with_catalog else (camera, frames)
 
 
 def solve_ours(pipeline: Pipeline, frame, camera: Camera):

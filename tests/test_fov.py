@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -151,3 +152,35 @@ def test_no_fov_for_a_centroid_list_needs_the_size():
     frame, _, _ = _frames(CAMERA, 1, seed=12)[0]
     with pytest.raises(InputError, match="--size"):
         Pipeline(Options(sky="random")).solve(frame)
+
+
+REAL_FRAME = Path(__file__).parent / "data" / "realsky_azi45.png"
+AZI45 = (355.2046, 58.1518)  # tetra3's pointing (shared/real-sky/README.md), true FOV 11.42
+
+
+def _off_arcsec(result) -> float:
+    from startrack.sky import radec_to_vectors
+
+    a = radec_to_vectors(np.array([result.ra_deg]), np.array([result.dec_deg]))[0]
+    b = radec_to_vectors(np.array([AZI45[0]]), np.array([AZI45[1]]))[0]
+    return math.degrees(math.acos(min(1.0, float(a @ b)))) * 3600.0
+
+
+@pytest.mark.parametrize("nominal", [11.0, 12.0])
+def test_real_frame_solves_from_a_nominal_fov(nominal):
+    import startrack
+
+    result = startrack.solve(REAL_FRAME, fov_deg=nominal, epoch=2019.6)
+    assert result.solved and _off_arcsec(result) < 30.0
+    assert result.fov_deg == pytest.approx(11.42, abs=0.02)
+    assert result.to_dict()["fov_deg"] == pytest.approx(result.fov_deg)
+
+
+@pytest.mark.slow
+def test_real_frame_solves_with_no_fov():
+    """Builds the gaia sky's pattern tables for 1 to 40 deg on a fresh cache: minutes."""
+    import startrack
+
+    result = startrack.solve(REAL_FRAME, epoch=2019.6)
+    assert result.solved and _off_arcsec(result) < 30.0
+    assert result.fov_deg == pytest.approx(11.42, abs=0.02)
