@@ -1,10 +1,10 @@
 """An approximate or unknown field of view: search the focal length, fit it, verify again.
 
 ``--fov`` (or a camera file) is a nominal value: :func:`solve_approximate` searches the
-focal lengths within ``--fov-tolerance`` of it with the scale-free ``quad`` matcher, then
-falls back to the configured method at the nominal value. With no field of view at all,
-:class:`BlindSolver` sweeps the quad matcher over :data:`BLIND_FOV_RANGE` in windows a
-factor :data:`WINDOW_STEP` wide, each verified against the catalog cut for that field
+focal lengths within ``--fov-tolerance`` of it with the scale-free ``quad`` matcher (the
+configured ``--method`` is used as it always was with ``--fov-tolerance 0``, an exact
+FOV). With no field of view at all, :class:`BlindSolver` sweeps the quad matcher over
+:data:`BLIND_FOV_RANGE` in windows a factor :data:`WINDOW_STEP` wide, each verified against the catalog cut for that field
 (the magnitude rule of :func:`startrack.sky.resolve_sky`). Whatever found it, a solution
 is kept only if the camera fitted to its matched stars (least squares on the focal
 length with the attitude) passes the same verification (:func:`startrack.verify.verify`,
@@ -35,9 +35,6 @@ DEFAULT_FOV_TOLERANCE = 0.10
 BLIND_FOV_RANGE = (1.0, 40.0)
 WINDOW_STEP = 2.0 ** 0.25  # ratio of the focal lengths at a search window's two ends
 MARGIN = 0.02  # searched beyond the tolerance, as a fraction
-#: no fallback to the configured method for a deeper catalog: its pair tables would take
-#: minutes and gigabytes to build for a narrow field
-FALLBACK_MAX_STARS = 150_000
 #: a candidate is verified only when this many other bright stars already fall near
 #: catalog stars at its attitude (verification needs two, at a tighter radius)
 MIN_CONFIRMED = 2
@@ -178,13 +175,10 @@ def _result(found, catalog: Catalog, method: str, diag: MatchDiagnostics, t0: fl
     return FovResult(sol, camera, obs, catalog, config.radius_px(obs))
 
 
-def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
-                      fallback=None) -> FovResult:
+def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float) -> FovResult:
     """Solve the stars at pixels ``x``, ``y`` with ``ident`` (an
     :class:`startrack.pipeline.Identifier` of the quad matcher) whose camera's focal
-    length is nominal: the true FOV may be ``tolerance`` off either way. ``fallback()``,
-    when given, returns the Identifier of the configured method, tried at the nominal FOV
-    when the search finds nothing."""
+    length is nominal: the true FOV may be ``tolerance`` off either way."""
     t0 = time.perf_counter()
     cam, db, config, quad = ident.camera, ident.database, ident.verify_config, ident.matcher
     obs = Observation.from_pixels(x, y, cam, ident.sigma_px)
@@ -196,17 +190,7 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
         found = search_window(quad, x, y, cam, lo, hi, ident.sigma_px, db, config, diag, seen)
         if found is not None:
             return _result(found, ident.catalog, quad.name, diag, t0, config, db)
-    if fallback is None or len(ident.catalog) > FALLBACK_MAX_STARS:
-        return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db)
-    other = fallback()
-    sol = other.identify(obs)  # the configured method at the nominal focal length
-    found = None
-    if sol.solved:
-        # obs_index is sorted: the four brightest matched stars stand as the hypothesis
-        hyp = Hypothesis(sol.obs_index[:4], sol.cat_index[:4])
-        found = verify_fitted(hyp, x, y, cam, other.sigma_px, other.database, config)
-    return _result(found or (None, cam, obs), other.catalog, sol.method, sol.diagnostics, t0,
-                   config, other.database)
+    return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db)
 
 
 class BlindSolver:
@@ -220,13 +204,17 @@ class BlindSolver:
         self.fov_range = fov_range
         self.matcher = QuadMatcher(StarDatabase(catalog, Camera.from_fov(1024, 1024, 10.0)))
         self._databases: dict[int, StarDatabase] = {}
+        self._limits: dict[float, float | None] = {}
 
     def database_for(self, camera: Camera) -> StarDatabase:
         """The catalog cut by the default magnitude rule for ``camera``; rows are a prefix
         of the whole catalog (brightest first), so row numbers agree."""
-        spec = resolve_sky(dataclasses.replace(self.sky, mag_limit=None), camera)
-        n = len(self.catalog) if spec.mag_limit is None else int(
-            np.searchsorted(self.catalog.mag, spec.mag_limit, side="right"))
+        if camera.f_px not in self._limits:
+            spec = resolve_sky(dataclasses.replace(self.sky, mag_limit=None), camera)
+            self._limits[camera.f_px] = spec.mag_limit
+        limit = self._limits[camera.f_px]
+        n = len(self.catalog) if limit is None else int(
+            np.searchsorted(self.catalog.mag, limit, side="right"))
         if n not in self._databases:
             self._databases[n] = StarDatabase(self.catalog.subset(np.arange(n)), camera)
         return self._databases[n]

@@ -224,8 +224,7 @@ class Pipeline:
             ident = self.identifier(camera, sky, "quad")
             if frame.size is not None and frame.size != (camera.width, camera.height):
                 return ident.solve(frame)  # the size mismatch is an InputError there
-            found = solve_approximate(ident, x, y, self.options.fov_tolerance,
-                                      fallback=lambda: self.identifier(camera, sky))
+            found = solve_approximate(ident, x, y, self.options.fov_tolerance)
         else:
             return self.identifier(camera, sky).solve(frame)
         sol = found.solution

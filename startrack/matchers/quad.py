@@ -80,11 +80,10 @@ def match_patterns(vectors: np.ndarray, table: Q.QuadLevel, cat_vectors: np.ndar
         return empty
     r, largest = Q.ratios(edges)
     qi, rows = table.lookup(_query_keys(r).ravel())
-    qi //= 32
-    pairs = np.unique(np.stack([qi, rows], axis=1), axis=0)
-    if len(pairs) == 0:
+    if len(qi) == 0:
         return empty
-    qi, rows = pairs[:, 0], pairs[:, 1]
+    pair = np.unique((qi // 32) * len(table) + rows)  # one per (pattern, table row)
+    qi, rows = pair // len(table), pair % len(table)
     img = edges[qi] / largest[qi, None]  # (P, 6)
     cat_quads = table.quads[rows].astype(np.int64)
     cat_edges = Q.edge_angles(cat_vectors, cat_quads)
