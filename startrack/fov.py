@@ -2,13 +2,14 @@
 
 ``--fov`` (or a camera file) is a nominal value: :func:`solve_approximate` searches the
 focal lengths within ``--fov-tolerance`` of it with the scale-free ``quad`` matcher (the
-configured ``--method`` is used as it always was with ``--fov-tolerance 0``, an exact
-FOV). With no field of view at all, :class:`BlindSolver` sweeps the quad matcher over
-:data:`BLIND_FOV_RANGE` in windows a factor :data:`WINDOW_STEP` wide, each verified against the catalog cut for that field
-(the magnitude rule of :func:`startrack.sky.resolve_sky`). Whatever found it, a solution
-is kept only if the camera fitted to its matched stars (least squares on the focal
-length with the attitude) passes the same verification (:func:`startrack.verify.verify`,
-its binomial bound) again; the record reports that camera's ``fov_deg``.
+configured ``--method`` runs as before with ``--fov-tolerance 0``, an exact FOV). With
+no field of view at all, :class:`BlindSolver` sweeps the quad matcher over
+:data:`BLIND_FOV_RANGE` in windows a factor :data:`WINDOW_STEP` wide, each verified
+against the catalog cut for that field (the magnitude rule of
+:func:`startrack.sky.resolve_sky`). A solution is kept only if the camera fitted to its
+matched stars (least squares on the focal length with the attitude) passes the same
+verification (:func:`startrack.verify.verify`, its binomial bound) again; the record
+reports that camera's ``fov_deg``.
 """
 
 from __future__ import annotations
