@@ -11,6 +11,9 @@ SensorModel: PSF sigma 1 px, read noise 10 e-, 16-bit ADC), so the truth is exac
 
     .venv/bin/python scripts/bench_centroid.py
     .venv/bin/python scripts/bench_centroid.py --frames 20 --repeats 30
+    .venv/bin/python scripts/bench_centroid.py --fast      # the same for CentroidConfig.fast
+
+Beside tetra3rs on the same pixels: scripts/bench_centroid_peers.py.
 """
 
 from __future__ import annotations
@@ -24,7 +27,8 @@ from scipy.spatial import cKDTree
 
 from startrack.attitude import random_attitudes
 from startrack.camera import Camera
-from startrack.extract import extract_centroids
+from startrack.extract import FAST, CentroidConfig
+from startrack.extract import extract_centroids as _extract
 from startrack.imageio import read_image
 from startrack.render import deposit_gaussians, digitise, render_frame
 from startrack.scene import observe
@@ -33,6 +37,11 @@ from startrack.sky.random_sky import random_sky
 
 REAL_SKY = Path(__file__).resolve().parents[1] / "tests" / "data" / "realsky_azi45.png"
 MATCH_PX = 1.5
+CONFIG = CentroidConfig()
+
+
+def extract_centroids(image):
+    return _extract(image, CONFIG)
 
 
 def nearest(found_x, found_y, x, y) -> tuple[np.ndarray, np.ndarray]:
@@ -131,7 +140,11 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=8, help="frames per table row")
     parser.add_argument("--repeats", type=int, default=15, help="timing repeats")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--fast", action="store_true", help="CentroidConfig(fast=True)")
     args = parser.parse_args()
+    global CONFIG
+    CONFIG = FAST if args.fast else CentroidConfig()
+    print(f"extract_centroids with {CONFIG}")
     rng = np.random.default_rng(args.seed)
     sensor = SensorModel()
     accuracy_table(sensor, args.frames, rng)

@@ -6,6 +6,10 @@ count and condition). Prints the solved/wrong count and median time, then the pr
     .venv/bin/python scripts/profile_identify.py --method pyramid --noise-px 1 \
         --false-stars 5 --missing 0.2 --frames 50 --sort tottime
     .venv/bin/python scripts/profile_identify.py --method pyramid --param pattern_per_region=10
+    .venv/bin/python scripts/profile_identify.py --method pyramid --junk 100   # the "no" path
+
+With ``--junk N`` the frames are N random centroid sets instead (4-60 points, no star
+pattern: scripts/false_positives.py's), where every hypothesis must be refused.
 """
 
 from __future__ import annotations
@@ -21,8 +25,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_identify import make_frames  # noqa: E402
+from bench_identify import Frame, make_frames  # noqa: E402
 from bench_peers import misidentified  # noqa: E402
+from false_positives import random_sets  # noqa: E402
 
 from startrack.camera import Camera  # noqa: E402
 from startrack.database import StarDatabase  # noqa: E402
@@ -55,6 +60,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sort", default="tottime", help="pstats sort key (tottime, cumulative)")
     ap.add_argument("--top", type=int, default=25)
     ap.add_argument("--no-profile", action="store_true", help="time only")
+    ap.add_argument("--junk", type=int, default=0,
+                    help="profile the 'no' on this many random centroid sets instead")
     args = ap.parse_args(argv)
 
     camera = Camera.from_fov(1024, 1024, 20.0)
@@ -62,11 +69,15 @@ def main(argv: list[str] | None = None) -> int:
                                min_separation_deg=args.min_sep_px * np.degrees(1 / camera.f_px)))
     frames = make_frames(catalog, camera, args.frames, args.seed, args.noise_px,
                          args.false_stars, args.missing, args.noise_px)
+    if args.junk:
+        frames = [Frame(obs, np.full(len(obs), -1), None)
+                  for obs in random_sets(camera, args.junk, args.seed, 4, 60, args.noise_px)]
     matcher = get_matcher(args.method)(StarDatabase(catalog, camera),
                                        MatcherConfig(max_stars=args.max_stars),
                                        **dict(args.param))
     matcher.prepare()
     verify = VerifyConfig()
+    identify(frames[0].obs, matcher, verify)  # compiled kernels loaded before timing
     prof = cProfile.Profile()
     times, solved, wrong, hyps = [], 0, 0, []
     for frame in frames:
@@ -79,8 +90,10 @@ def main(argv: list[str] | None = None) -> int:
         solved += int(sol.solved)
         wrong += int(sol.solved and misidentified(sol, frame))
     t = np.array(times)
-    print(f"{args.method} {dict(args.param)}: {args.noise_px} px, {args.false_stars} false, "
-          f"{args.missing:.0%} missing, {args.frames} frames: solved {solved}, wrong "
+    what = (f"{args.junk} random centroid sets, sigma {args.noise_px} px" if args.junk else
+            f"{args.noise_px} px, {args.false_stars} false, {args.missing:.0%} missing, "
+            f"{args.frames} frames")
+    print(f"{args.method} {dict(args.param)}: {what}: solved {solved}, wrong "
           f"{wrong}, median {np.median(t):.2f} ms, p95 {np.percentile(t, 95):.2f} ms, "
           f"max {t.max():.1f} ms, hypotheses/frame {np.mean(hyps):.1f}")
     if not args.no_profile:

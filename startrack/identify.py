@@ -20,19 +20,27 @@ def residuals_arcsec(rotation: Rotation, obs: Observation, obs_index: np.ndarray
     return np.degrees(np.arccos(cos)) * 3600.0
 
 
-def identify(obs: Observation, matcher: Matcher,
-             config: VerifyConfig | None = None) -> Solution:
+def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = None,
+             timeout_ms: float | None = None) -> Solution:
     """Try the matcher's hypotheses in order; return the first one verification accepts.
 
+    The work is bounded on every machine alike by the matcher's own budgets (patterns
+    tried) and ``config.max_hypotheses``; ``timeout_ms`` adds a wall-clock limit, checked
+    between hypotheses: when it trips the frame is not solved, with reason "timeout".
     The time covers matching, verification and the attitude, with the database loaded.
     """
     config = config or VerifyConfig()
     diag = MatchDiagnostics()
     t0 = time.perf_counter()
+    deadline = None if timeout_ms is None else t0 + float(timeout_ms) / 1000.0
     seen: set[tuple] = set()
     result = None
+    timed_out = False
     if len(obs) >= 3:
         for hyp in matcher.hypotheses(obs, diag):
+            if deadline is not None and time.perf_counter() > deadline:
+                timed_out = True
+                break
             key = tuple(sorted(zip(np.asarray(hyp.obs_index).tolist(),
                                    np.asarray(hyp.cat_index).tolist(), strict=True)))
             if key in seen:
@@ -48,6 +56,8 @@ def identify(obs: Observation, matcher: Matcher,
     elapsed = (time.perf_counter() - t0) * 1000.0
     if result is None:
         reason = "no_match" if len(obs) >= 3 else "too_few_stars"
+        if timed_out:
+            reason = "timeout"
         return Solution(False, matcher.name, diagnostics=diag, identify_ms=elapsed,
                         reason=reason)
     vectors = matcher.database.vectors[result.cat_index]

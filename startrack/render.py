@@ -111,14 +111,29 @@ def render_expected(scene: Scene, camera: Camera, sensor: SensorModel, *,
 
 
 def digitise(expected: np.ndarray, sensor: SensorModel, rng: np.random.Generator) -> np.ndarray:
-    """Shot noise, full-well clip, read noise, gain, bias and ADC: electrons to counts."""
-    electrons = rng.poisson(expected).astype(np.float32)
-    np.minimum(electrons, sensor.full_well, out=electrons)
-    electrons += rng.standard_normal(expected.shape, dtype=np.float32) * sensor.read_noise
-    adu = electrons / np.float32(sensor.gain) + np.float32(sensor.bias_adu)
-    np.rint(adu, out=adu)
-    np.clip(adu, 0, sensor.adc_max, out=adu)
-    return adu.astype(np.uint16)
+    """Shot noise, full-well clip, read noise, gain, bias and ADC: electrons to counts.
+
+    Shot noise is exact Poisson up to ``render_kernels.GAUSS_ABOVE`` expected electrons
+    and Gaussian (same mean and variance) above; every draw comes from ``rng``.
+    """
+    from startrack import render_kernels as rk
+
+    expected = np.asarray(expected)
+    if expected.dtype not in (np.float32, np.float64):
+        expected = expected.astype(np.float64)
+    electrons = np.empty(expected.shape, np.float32)
+    rk.shot_noise(expected, rng.random(expected.shape, dtype=np.float32), electrons)
+    for mark, draw in ((-1.0, rng.poisson),
+                       (-2.0, lambda lam: np.rint(lam + np.sqrt(lam) * rng.standard_normal(
+                           lam.shape)).clip(0, None))):
+        where = np.flatnonzero(electrons.ravel() == mark)
+        if len(where):
+            electrons.ravel()[where] = draw(expected.ravel()[where])
+    out = np.empty(expected.shape, np.uint16)
+    rk.readout(electrons, rng.standard_normal(expected.shape, dtype=np.float32),
+               float(sensor.full_well), float(sensor.read_noise), float(sensor.gain),
+               float(sensor.bias_adu), float(sensor.adc_max), out)
+    return out
 
 
 def render_frame(scene: Scene, camera: Camera, sensor: SensorModel, rng: np.random.Generator,

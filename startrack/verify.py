@@ -22,6 +22,7 @@ from scipy.special import bdtrc
 from startrack.attitude import wahba_matrices
 from startrack.camera import Camera
 from startrack.database import StarDatabase
+from startrack.matching.verify_kernels import nearest_matches
 from startrack.types import Hypothesis, Observation
 
 MAX_REFINEMENTS = 5
@@ -107,16 +108,9 @@ class _Projector:
         obs = self.obs
         if len(rows) == 0 or len(obs) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64), len(rows)
-        # Tens of stars on each side: a direct distance table beats building a k-d tree.
-        d2 = (obs.x[:, None] - cx[None, :]) ** 2 + (obs.y[:, None] - cy[None, :]) ** 2
-        nearest = np.argmin(d2, axis=1)
-        dist2 = d2[np.arange(len(obs)), nearest]
-        obs_idx = np.flatnonzero(dist2 <= radius_px**2)
-        cat_pos = nearest[obs_idx]
-        order = np.argsort(dist2[obs_idx], kind="stable")
-        _, first = np.unique(cat_pos[order], return_index=True)
-        chosen = np.sort(order[first])
-        return obs_idx[chosen], rows[cat_pos[chosen]], len(rows)
+        # Tens of stars on each side: a direct distance table (compiled) beats a k-d tree.
+        obs_idx, cat_pos = nearest_matches(obs.x, obs.y, cx, cy, float(radius_px))
+        return obs_idx, rows[cat_pos], len(rows)
 
 
 def match_catalog(rotation: Rotation, obs: Observation, database: StarDatabase,

@@ -199,3 +199,70 @@ def test_real_sky_frame():
     assert np.all(found.area >= CentroidConfig().min_area)
     # the inverted frame has holes where the stars were: no noise or gradient detections
     assert len(extract_centroids((65535 - image).astype(np.uint16))) <= 2
+
+
+def test_known_subpixel_position_uint16():
+    rng = np.random.default_rng(20)
+    truth = np.array([[123.37, 88.81, 6e4]])
+    image = np.clip(np.rint(frame(rng, truth, noise=5.0)), 0, 65535).astype(np.uint16)
+    found = extract_centroids(image)
+    assert len(found) == 1
+    assert np.hypot(found.x[0] - 123.37, found.y[0] - 88.81) < 0.05
+
+
+def saturated_plate(rng, size, blob_sigma):
+    """A 16-bit plate with faint stars and one huge saturated star (a bloomed blob)."""
+    stars = random_stars(rng, 8, shape=(size, size), flux=(2e4, 5e4), margin=100)
+    image = frame(rng, stars, shape=(size, size), slope=(0.5, 0.3))
+    add_spot(image, size / 2 + 0.3, size / 2 - 0.2, 4e8, blob_sigma)
+    return np.clip(np.rint(image), 0, 65535).astype(np.uint16), stars
+
+
+def test_large_saturated_star_kept_on_a_big_plate():
+    rng = np.random.default_rng(21)
+    image, stars = saturated_plate(rng, 2048, 7.0)
+    found = extract_centroids(image)
+    assert found.saturated[0] and found.area[0] > 400  # bigger than the old fixed limit
+    assert np.hypot(found.x[0] - 1024.3, found.y[0] - 1023.8) < 0.2  # and the brightest
+    assert np.all(match(found, stars) >= 0)
+    # explicit limits still apply
+    small = extract_centroids(image, CentroidConfig(max_area=400, max_saturated_area=400))
+    assert not np.any(np.hypot(small.x - 1024.3, small.y - 1023.8) < 5)
+    assert CentroidConfig().area_limits((2048, 2048)) == (1600, 6400)
+    assert CentroidConfig().area_limits((100, 100)) == (400, 1600)
+
+
+def test_vignetted_glow_with_hot_pixels_and_no_stars_gives_nothing():
+    rng = np.random.default_rng(22)
+    rows, cols = np.mgrid[0:768, 0:1024]
+    r2 = ((cols - 512) / 512.0) ** 2 + ((rows - 384) / 512.0) ** 2
+    glow = 2000 + 4000 * np.exp(-r2 / 0.6) + 3.0 * cols  # vignetting + sky-glow gradient
+    image = glow + rng.normal(0, 40, glow.shape)
+    hot = rng.integers(0, [768, 1024], size=(60, 2))
+    image[hot[:, 0], hot[:, 1]] += rng.uniform(3000, 30000, 60)
+    image = np.clip(np.rint(image), 0, 65535).astype(np.uint16)
+    for config in (None, CentroidConfig(fast=True)):
+        assert len(extract_centroids(image, config)) == 0
+
+
+def test_fast_mode_finds_the_bright_stars_as_accurately():
+    rng = np.random.default_rng(23)
+    truth = random_stars(rng, 20, flux=(3e4, 2e5))
+    image = frame(rng, truth)
+    fast = extract_centroids(image, CentroidConfig(fast=True))
+    j = match(fast, truth)
+    assert np.all(j >= 0) and len(fast) == len(truth)
+    err = np.hypot(fast.x[j] - truth[:, 0], fast.y[j] - truth[:, 1])
+    assert err.max() < 0.1
+
+
+@pytest.mark.parametrize("n", [1, 2, 7, 64, 255, 256, 5000])
+def test_histogram_median_is_exact(n):
+    from startrack.extract_sky import mad_sigma, median
+
+    rng = np.random.default_rng(n)
+    for values in (rng.normal(0, 3, n), np.rint(rng.normal(200, 2, n)),
+                   np.r_[rng.normal(0, 1, n - n // 3), np.full(n // 3, 6e4)]):
+        assert median(values, np.empty(256, np.int64), np.empty(n)) == np.median(values)
+        want = 1.4826 * np.median(np.abs(values - np.median(values)))
+        assert mad_sigma(values, 1.4826) == pytest.approx(want, rel=1e-12, abs=1e-12)

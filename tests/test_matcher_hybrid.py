@@ -11,8 +11,8 @@ from synth import assert_correct, frames, prepared_matcher, with_false_star
 from startrack.attitude import angle_between_deg
 from startrack.identify import identify
 from startrack.matchers import get_matcher
-from startrack.matchers.hybrid import angle_votes, confirm, join_sides
-from startrack.types import MatchDiagnostics, Observation
+from startrack.matchers.hybrid import angle_votes
+from startrack.types import MatchDiagnostics
 
 METHOD = "hybrid"
 
@@ -33,22 +33,6 @@ def test_real_sky_with_false_stars(hip_db):
         assert angle_between_deg(solution.rotation, frame.rotation) * 3600 < 120.0
 
 
-def test_mirrored_frame_yields_no_hypothesis(random_db, matcher):
-    frame = next(frames(random_db.catalog, random_db.camera, 5, seed=27))
-    obs = frame.obs
-    mirrored = Observation.from_pixels(obs.camera.width - 1 - obs.x, obs.y, obs.camera, 0.05)
-    assert not identify(mirrored, matcher).solved
-
-
-def test_join_sides_equals_brute_force():
-    rng = np.random.default_rng(5)
-    ab, bc = rng.integers(0, 12, size=(70, 2)), rng.integers(0, 12, size=(50, 2))
-    got = join_sides(ab, bc)
-    want = [(x, y, z) for x, y in ab.tolist() for y2, z in bc.tolist() if y2 == y and z != x]
-    assert sorted(map(tuple, got.tolist())) == sorted(want)
-    assert join_sides(ab, bc[:0]).shape == (0, 3)
-
-
 def test_shortlists_hold_the_true_star_and_are_small(random_db):
     frame = next(frames(random_db.catalog, random_db.camera, 5, seed=81, noise_px=0.3))
     n = 8
@@ -66,17 +50,6 @@ def test_shortlists_hold_the_true_star_and_are_small(random_db):
         if 0 in (a, b):
             want[np.unique(rows)] += 1
     assert np.array_equal(votes[0], want)
-
-
-def test_confirm_equals_brute_force():
-    rng = np.random.default_rng(8)
-    trip = rng.integers(0, 9, size=(15, 3))
-    sides = [np.unique(rng.integers(0, 9, size=(40, 2)), axis=0) for _ in range(3)]
-    hit, w = confirm(trip, sides)
-    sets = [set(map(tuple, s.tolist())) for s in sides]
-    want = sorted((k, x) for k, t in enumerate(trip.tolist()) for x in range(9)
-                  if all((t[m], x) in sets[m] for m in range(3)))
-    assert sorted(zip(hit.tolist(), w.tolist(), strict=True)) == want
 
 
 def test_no_pivoting_and_a_false_star_costs_a_pass(random_db, matcher):

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from synth import frames, prepared_matcher
 
-from startrack.identify import identify
 from startrack.matchers import MatcherConfig, get_matcher
-from startrack.matchers.planar_triangle import brightness_triples, join_on, map_vertices
-from startrack.types import MatchDiagnostics, Observation
+from startrack.matchers.planar_triangle import map_vertices
+from startrack.matching.triples import brightness_triples
+from startrack.types import MatchDiagnostics
 
 METHOD = "triangle"
 
@@ -43,30 +43,12 @@ def test_map_vertices_finds_the_order_and_refuses_the_mirror():
     assert len(map_vertices(mirror, cat, 1e-9, check_mirror=False)[0]) >= 1
 
 
-def test_join_on_equals_brute_force():
-    rng = np.random.default_rng(5)
-    hyps = rng.integers(0, 10, size=(60, 3))
-    new = rng.integers(0, 10, size=(80, 3))
-    got = join_on(hyps, 1, 2, new)
-    want = [(*h, t[2]) for h in hyps.tolist() for t in new.tolist()
-            if t[0] == h[1] and t[1] == h[2] and t[2] not in h]
-    assert sorted(map(tuple, got.tolist())) == sorted(want)
-    assert join_on(hyps, 0, 1, new[:0]).shape == (0, 4)
-
-
 @pytest.mark.slow
 def test_real_sky_table_caps_pattern_stars(hip_db):
     """Hipparcos needs the pattern-star cap (the brightest stars of a frame are in it);
     building the table takes seconds, hence slow."""
     prepared_matcher(METHOD, hip_db)
     assert hip_db.triangles.max_per_region is not None
-
-
-def test_mirrored_frame_yields_no_hypothesis(random_db, matcher):
-    frame = next(frames(random_db.catalog, random_db.camera, 5, seed=27))
-    obs = frame.obs
-    mirrored = Observation.from_pixels(obs.camera.width - 1 - obs.x, obs.y, obs.camera, 0.05)
-    assert not identify(mirrored, matcher).solved
 
 
 def test_wide_tolerance_forces_pivots(random_db):

@@ -148,3 +148,42 @@ def test_motion_blur_elongates_along_the_expected_axis(axis):
     assert along - across == pytest.approx(length**2 / 12, rel=0.1)
     assert abs(cx - x0) < 0.05 and abs(cy - y0) < 0.05  # the truth is mid-exposure
     assert blur.sum() == pytest.approx(sharp.sum(), rel=1e-3)
+
+
+@pytest.mark.parametrize("lam", [0.0, 0.3, 3.0, 25.0, 200.0, 2500.0])
+def test_shot_noise_has_poisson_mean_and_variance(lam):
+    # gain 1, no read noise: counts - bias are the electrons; 2^18 pixels, seeded
+    from startrack.render import digitise
+
+    sensor = SensorModel(gain=1.0, read_noise=0.0, bias_adu=100.0, full_well=1e6)
+    counts = digitise(np.full((512, 512), lam), sensor, np.random.default_rng(5))
+    e = counts.astype(np.float64) - 100.0
+    n = e.size
+    assert abs(e.mean() - lam) < 5 * np.sqrt(max(lam, 1e-3) / n) + 1e-9
+    # the variance of a sample variance is ~ (mu4 - sigma^4) / n = (lam + 2 lam^2) / n
+    assert abs(e.var() - lam) < 5 * np.sqrt((lam + 2 * lam**2) / n) + 1e-9
+    if lam < 1000:  # exact Poisson: integer counts, P(0) = exp(-lam)
+        assert abs(np.mean(e == 0) - np.exp(-lam)) < 5 * np.sqrt(np.exp(-lam) / n) + 1e-9
+
+
+def test_read_noise_and_gain_add_up():
+    from startrack.render import digitise
+
+    sensor = SensorModel(gain=0.5, read_noise=10.0, bias_adu=300.0)
+    lam = np.where(np.arange(512)[:, None] % 2 == 0, 4.0, 1500.0) * np.ones((512, 512))
+    counts = digitise(lam, sensor, np.random.default_rng(6)).astype(np.float64)
+    for value in (4.0, 1500.0):
+        sel = counts[lam == value]
+        assert abs(sel.mean() - (value / 0.5 + 300.0)) < 0.5
+        # variance in ADU: (shot + read^2) / gain^2 plus 1/12 of rounding
+        want = (value + 100.0) / 0.25 + 1 / 12
+        assert abs(sel.var() / want - 1) < 0.03
+
+
+def test_digitise_is_reproducible_with_a_seed():
+    from startrack.render import digitise
+
+    lam = np.linspace(0, 5000, 64 * 64).reshape(64, 64)
+    a = digitise(lam, SensorModel(), np.random.default_rng(9))
+    b = digitise(lam, SensorModel(), np.random.default_rng(9))
+    np.testing.assert_array_equal(a, b)

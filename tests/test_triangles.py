@@ -160,13 +160,35 @@ def test_queries_match_a_brute_force_filter(small_db):
         assert idx.tolist() == want.tolist()
 
 
-def test_building_in_small_chunks_gives_the_same_table(small_db, monkeypatch):
-    from startrack.database import triangles
+def test_compiled_enumeration_equals_brute_force():
+    from startrack.database.build_kernels import triangles_of_pairs
 
-    whole = small_db.triangle_table(max_per_region=None)
-    monkeypatch.setattr(triangles, "_CHUNK", 500)
-    chunked = triangles.build_triangle_arrays(small_db.vectors, small_db.pairs.i,
-                                              small_db.pairs.j, 0.3, max_per_region=None)
-    assert np.array_equal(np.sort(chunked["area"]), whole.area)
-    assert {tuple(t) for t in chunked["rows"].tolist()} == {tuple(t) for t in
-                                                            whole.rows.tolist()}
+    rng = np.random.default_rng(3)
+    n = 25
+    pairs = {(a, b) for a, b in rng.integers(0, n, size=(150, 2)).tolist() if a < b}
+    lo, hi = (np.array(c, np.int64) for c in zip(*sorted(pairs), strict=True))
+    v = rng.normal(size=(n, 3))
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    rows, area, _ = triangles_of_pairs(n, lo, hi, v)
+    want = [t for t in itertools.combinations(range(n), 3)
+            if {(t[0], t[1]), (t[1], t[2]), (t[0], t[2])} <= pairs]
+    assert sorted(tuple(sorted(r)) for r in rows.tolist()) == want
+    for r in rows:  # vertex 0 faces the shortest side, vertex 2 the longest
+        opposite = [np.linalg.norm(v[r[1]] - v[r[2]]), np.linalg.norm(v[r[0]] - v[r[2]]),
+                    np.linalg.norm(v[r[0]] - v[r[1]])]
+        assert opposite[0] <= opposite[1] <= opposite[2]
+    np.testing.assert_allclose(area, triangle_features(v[rows[:, 0]], v[rows[:, 1]],
+                                                       v[rows[:, 2]])[0])
+
+
+def test_bucket_argsort_is_the_stable_argsort():
+    from startrack.database.build_kernels import stable_argsort
+
+    rng = np.random.default_rng(12)
+    values = np.concatenate([rng.uniform(0, 1, 3000), rng.uniform(0, 1, 20).repeat(5),
+                             [0.0, 1.0, 1.0]])
+    np.testing.assert_array_equal(stable_argsort(values, 0.0, 1.0),
+                                  np.argsort(values, kind="stable"))
+    skewed = rng.exponential(1e-3, 5000)
+    np.testing.assert_array_equal(stable_argsort(skewed, 0.0, float(skewed.max())),
+                                  np.argsort(skewed, kind="stable"))

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
+from startrack.database import build_kernels
 from startrack.database.kvector import KVector
 
 
@@ -30,15 +30,10 @@ class PairTable:
 
 def build_pair_arrays(vectors: np.ndarray, max_angle_rad: float) -> dict[str, np.ndarray]:
     """All pairs within ``max_angle_rad``, as arrays sorted by angle."""
-    chord = 2.0 * np.sin(max_angle_rad / 2.0)
-    pairs = cKDTree(vectors).query_pairs(chord, output_type="ndarray")
-    if len(pairs) == 0:
-        pairs = np.zeros((0, 2), np.int64)
-    pairs = np.sort(pairs, axis=1)
-    dots = np.einsum("ij,ij->i", vectors[pairs[:, 0]], vectors[pairs[:, 1]])
-    angle = np.arccos(np.clip(dots, -1.0, 1.0))
-    order = np.argsort(angle, kind="stable")
-    return {"i": pairs[order, 0].astype(np.int32), "j": pairs[order, 1].astype(np.int32),
+    vectors = np.ascontiguousarray(vectors, dtype=np.float64).reshape(-1, 3)
+    i, j, angle = build_kernels.close_pairs(vectors, float(max_angle_rad))
+    order = build_kernels.stable_argsort(angle, 0.0, float(max_angle_rad))
+    return {"i": i[order].astype(np.int32), "j": j[order].astype(np.int32),
             "angle": angle[order]}
 
 

@@ -22,12 +22,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from startrack.database import build_kernels
 from startrack.database.kvector import KVector
 
 # The default cap on the table: the random 2000-star sky at 17.5 deg needs no thinning
 # (1.6 M triangles); Hipparcos Hp <= 6.5 at 20 deg gets a cap of 15 (1968 stars, 2.5 M).
 TRIANGLE_BUDGET = 3_000_000
-_CHUNK = 4_000_000  # candidate third stars examined at once while building
 
 
 def _cross(u: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -148,33 +148,6 @@ def auto_max_per_region(brighter: np.ndarray, pair_i: np.ndarray, pair_j: np.nda
     return int(fits[-1]) + 1 if len(fits) else 1
 
 
-def _enumerate_triangles(n: int, pi: np.ndarray, pj: np.ndarray) -> np.ndarray:
-    """Every (i, j, k), i < j < k, whose three pairs are all among the pairs (pi < pj)."""
-    order = np.lexsort((pj, pi))
-    pi, pj = pi[order].astype(np.int64), pj[order].astype(np.int64)
-    indptr = np.searchsorted(pi, np.arange(n + 1))
-    keys = pi * n + pj  # sorted: membership of a pair is one searchsorted
-    # For pair (i, j), candidate third stars are j's forward neighbours k > j.
-    counts = (indptr[pj + 1] - indptr[pj])
-    ends = np.cumsum(counts)
-    out = []
-    lo = 0
-    while lo < len(pi):
-        base = ends[lo - 1] if lo else 0
-        hi = max(int(np.searchsorted(ends, base + _CHUNK, side="right")), lo + 1)
-        c = counts[lo:hi]
-        ei = np.repeat(pi[lo:hi], c)
-        ej = np.repeat(pj[lo:hi], c)
-        offset = np.arange(int(c.sum())) - np.repeat(np.cumsum(c) - c, c)
-        ek = pj[indptr[ej] + offset]
-        want = ei * n + ek
-        pos = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
-        hit = keys[pos] == want
-        out.append(np.column_stack([ei[hit], ej[hit], ek[hit]]))
-        lo = hi
-    return np.concatenate(out) if out else np.zeros((0, 3), np.int64)
-
-
 def build_triangle_arrays(vectors: np.ndarray, pair_i: np.ndarray, pair_j: np.ndarray,
                           region_radius_rad: float, max_per_region: int | str | None = "auto",
                           budget: int = TRIANGLE_BUDGET) -> dict[str, np.ndarray]:
@@ -196,20 +169,9 @@ def build_triangle_arrays(vectors: np.ndarray, pair_i: np.ndarray, pair_j: np.nd
     sel = is_pattern[pair_i] & is_pattern[pair_j]
     lo = np.minimum(pair_i[sel], pair_j[sel])
     hi = np.maximum(pair_i[sel], pair_j[sel])
-    tri = _enumerate_triangles(n, lo, hi) if len(lo) else np.zeros((0, 3), np.int64)
-    p = [vectors[tri[:, m]] for m in range(3)]
-    # Canonical vertex order: by the length of the side each vertex faces.
-    opposite = np.column_stack([np.linalg.norm(p[1] - p[2], axis=1),
-                                np.linalg.norm(p[0] - p[2], axis=1),
-                                np.linalg.norm(p[0] - p[1], axis=1)])
-    first = np.argmin(opposite, axis=1)
-    last = np.argmax(opposite, axis=1)
-    last = np.where(last == first, (first + 2) % 3, last)  # three equal sides
-    # Three argmin/argmax passes: a row-wise argsort of 3 values is several times slower.
-    order = np.column_stack([first, 3 - first - last, last])
-    tri = np.take_along_axis(tri, order, axis=1)
-    area, polar = triangle_features(vectors[tri[:, 0]], vectors[tri[:, 1]], vectors[tri[:, 2]])
-    order = np.argsort(area, kind="stable")
+    tri, area, polar = build_kernels.triangles_of_pairs(n, lo.astype(np.int64),
+                                                        hi.astype(np.int64), vectors)
+    order = build_kernels.stable_argsort(area, 0.0, float(area.max()) if len(area) else 1.0)
     return {"area": area[order], "polar": polar[order], "rows": tri[order].astype(np.int32),
             "pattern": pattern.astype(np.int32),
             "max_per_region": np.array(-1 if max_per_region is None else cap)}

@@ -8,121 +8,20 @@ new star joins the candidates on the shared star and appends one column; a pair 
 two chain stars keeps only the rows whose two catalog stars form a candidate pair. The
 pivots go on until one hypothesis remains or the stars run out.
 
-The join helpers here (:class:`PairLookup`, :func:`join_extend`, :func:`join_close`)
-also serve the Pyramid matcher.
+The lookups and joins are the shared ones of :mod:`startrack.matching.pairs` (compiled).
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
-from functools import cached_property
 
 import numpy as np
 
 from startrack.database import StarDatabase
-from startrack.database.pairs import PairTable
 from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.matching.pairs import PairLookup, join_close, join_extend, pair_index
+from startrack.matching.triples import smart_triples
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
-
-
-class PairCandidates:
-    """Catalog pairs that one observed pair (p, q) may be: p is cp[m] while q is cq[m].
-
-    Grouped by cp with a start index per catalog row, so that a join reads each
-    hypothesis's partners directly, and as sorted keys cp * n_catalog + cq for membership
-    tests; each form is built the first time a join needs it.
-    """
-
-    def __init__(self, cp: np.ndarray, cq: np.ndarray, n_catalog: int) -> None:
-        self.cp, self.cq = cp, cq
-        self.n_catalog = n_catalog
-
-    @cached_property
-    def starts(self) -> np.ndarray:
-        """Partners of catalog row c are ``partners[starts[c]:starts[c + 1]]``."""
-        counts = np.bincount(self.cp, minlength=self.n_catalog)
-        return np.concatenate([[0], np.cumsum(counts)])
-
-    @cached_property
-    def partners(self) -> np.ndarray:
-        return self.cq[np.argsort(self.cp, kind="stable")]
-
-    @cached_property
-    def keys(self) -> np.ndarray:
-        return np.sort(self.cp * self.n_catalog + self.cq)
-
-    def __len__(self) -> int:
-        return len(self.cp)
-
-
-class PairLookup:
-    """Catalog pair candidates for the observed pairs of one frame, memoised.
-
-    ``lookup(p, q)`` gives the :class:`PairCandidates` of the observed pair p-q: both
-    orientations of every catalog pair whose angle lies within ``tol`` of the observed
-    angle. Only first lookups count as database candidates.
-    """
-
-    def __init__(self, pairs: PairTable, vectors: np.ndarray, tol: float, n_catalog: int,
-                 diag: MatchDiagnostics) -> None:
-        self.pairs = pairs
-        self.angles = np.arccos(np.clip(vectors @ vectors.T, -1.0, 1.0))
-        self.tol = tol
-        self.n_catalog = n_catalog
-        self.diag = diag
-        self._raw: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
-        self._memo: dict[tuple[int, int], PairCandidates] = {}
-
-    def __call__(self, p: int, q: int) -> PairCandidates:
-        if (p, q) in self._memo:
-            return self._memo[p, q]
-        key = (min(p, q), max(p, q))
-        if key not in self._raw:
-            theta = self.angles[key]
-            i, j, _ = self.pairs.query(theta - self.tol, theta + self.tol)
-            self.diag.candidates += len(i)
-            self.diag.extra["lookups"] = self.diag.extra.get("lookups", 0) + 1
-            self._raw[key] = (np.concatenate([i, j]).astype(np.int64),
-                              np.concatenate([j, i]).astype(np.int64))
-        cp, cq = self._raw[key]
-        if p != key[0]:
-            cp, cq = cq, cp
-        self._memo[p, q] = PairCandidates(cp, cq, self.n_catalog)
-        return self._memo[p, q]
-
-
-def join_extend(hyps: np.ndarray, col: int, cand: PairCandidates) -> np.ndarray:
-    """Join on a shared star: every row whose column ``col`` is some cp[m] becomes one row
-    per such m, with cq[m] appended; rows that would use a catalog star twice go."""
-    if len(hyps) == 0 or len(cand) == 0:
-        return np.zeros((0, hyps.shape[1] + 1), np.int64)
-    key = hyps[:, col]
-    left = cand.starts[key]
-    counts = cand.starts[key + 1] - left
-    rows = np.repeat(np.arange(len(hyps)), counts)
-    first = np.cumsum(counts) - counts
-    new = cand.partners[left[rows] + np.arange(len(rows)) - first[rows]]
-    old = hyps[rows]
-    keep = np.all(old != new[:, None], axis=1)
-    return np.column_stack([old[keep], new[keep]])
-
-
-def join_close(hyps: np.ndarray, col_p: int, col_q: int, cand: PairCandidates) -> np.ndarray:
-    """Keep the rows whose catalog stars in columns (col_p, col_q) are a candidate pair."""
-    if len(hyps) == 0 or len(cand) == 0:
-        return hyps[:0]
-    wanted = hyps[:, col_p] * cand.n_catalog + hyps[:, col_q]
-    pos = np.minimum(np.searchsorted(cand.keys, wanted), len(cand.keys) - 1)
-    return hyps[cand.keys[pos] == wanted]
-
-
-def smart_triples(n: int) -> Iterator[tuple[int, int, int]]:
-    """Star triples i < j < k in Mortari's Pyramid order (index gaps dj, dk outermost), which
-    spreads the stars over the first tries so that a false star is soon left out."""
-    for dj in range(1, n - 1):
-        for dk in range(1, n - dj):
-            for i in range(n - dj - dk):
-                yield i, i + dj, i + dj + dk
 
 
 @register
@@ -149,8 +48,8 @@ class AngleMatcher(Matcher):
         n = min(self.config.max_stars, len(obs))
         if n < 3:
             return
-        lookup = PairLookup(self.database.pairs, obs.vectors[:n], self.angle_tolerance(obs),
-                            len(self.database.vectors), diag)
+        index = pair_index(self.database.pairs, len(self.database.vectors))
+        lookup = PairLookup(index, obs.vectors[:n], self.angle_tolerance(obs), diag)
         budget = [self.max_lookups]
         # Each chain starts from another ordering of the stars: the first three of a triple
         # in spreading order, then the rest by brightness.
@@ -176,11 +75,11 @@ class AngleMatcher(Matcher):
         false star. Returns (observed stars, hypotheses as rows of catalog rows) when one
         hypothesis remains, or at most ``max_ambiguous`` when the stars run out.
         """
-        first = lookup(order[0], order[1])
+        hyps = lookup.pairs(order[0], order[1])
         budget[0] -= 1
-        if len(first) == 0:
+        if len(hyps) == 0:
             return None
-        hyps, cols, skips = np.column_stack([first.cp, first.cq]), list(order[:2]), 0
+        cols, skips = list(order[:2]), 0
         for q in order[2:]:
             if len(cols) >= 3 and len(hyps) == 1:
                 break
@@ -189,14 +88,15 @@ class AngleMatcher(Matcher):
             before = hyps
             budget[0] -= 1
             diag.pivots += 1
-            hyps = join_extend(hyps, len(cols) - 1, lookup(cols[-1], q))
+            hyps, total = join_extend(hyps, len(cols) - 1, lookup, cols[-1], q,
+                                      self.max_rows + 1)
             for col_t in range(len(cols) - 1):
-                if len(hyps) <= 1 or budget[0] <= 0:
+                if len(hyps) <= 1 or budget[0] <= 0 or total > self.max_rows:
                     break
                 budget[0] -= 1
                 diag.pivots += 1
-                hyps = join_close(hyps, len(cols), col_t, lookup(q, cols[col_t]))
-            if len(hyps) == 0 or len(hyps) > self.max_rows:
+                hyps = join_close(hyps, len(cols), col_t, lookup, q, cols[col_t])
+            if len(hyps) == 0 or total > self.max_rows:
                 hyps, skips = before, skips + 1
                 diag.extra["skipped"] = diag.extra.get("skipped", 0) + 1
                 continue

@@ -15,6 +15,7 @@ from typing import ClassVar
 import numpy as np
 
 from startrack.database import StarDatabase
+from startrack.matching.pairs import pair_index
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
@@ -48,7 +49,9 @@ class Matcher(ABC):
     def prepare(self) -> None:
         """Build or load the database tables this method needs (before any timing)."""
         for table in self.tables:
-            getattr(self.database, table)
+            loaded = getattr(self.database, table)
+            if table == "pairs":  # the compiled joins' neighbour lists, built once
+                pair_index(loaded, len(self.database.vectors))
 
     @abstractmethod
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:

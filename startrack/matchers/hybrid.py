@@ -26,13 +26,12 @@ from collections.abc import Iterator
 import numpy as np
 
 from startrack.database import StarDatabase
-from startrack.database.triangles import triangle_features
 from startrack.matchers.base import Matcher, MatcherConfig, register
-from startrack.matchers.planar_triangle import (
-    brightness_triples,
-    feature_sigma,
-    observed_features,
-)
+from startrack.matching import hybrid_kernels
+from startrack.matching.features import feature_sigma, observed_features
+from startrack.matching.geometry import angle_table, handedness
+from startrack.matching.pairs import pair_index
+from startrack.matching.triples import brightness_triples
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
@@ -58,44 +57,6 @@ def angle_votes(vectors: np.ndarray, database: StarDatabase, tolerance: float,
     return votes, found
 
 
-def oriented(found: dict[tuple[int, int], np.ndarray], a: int, b: int) -> np.ndarray:
-    """Catalog pairs (x, y) for the observed pair, x standing for a and y for b."""
-    return found[a, b] if a < b else found[b, a][:, ::-1]
-
-
-def join_sides(ab: np.ndarray, bc: np.ndarray, distinct: bool = True) -> np.ndarray:
-    """Triplets (x, y, z) with (x, y) in ``ab`` and (y, z) in ``bc`` (and x != z)."""
-    if len(ab) == 0 or len(bc) == 0:
-        return np.zeros((0, 3), np.int64)
-    order = np.argsort(bc[:, 0], kind="stable")
-    keys = bc[order, 0]
-    lo = np.searchsorted(keys, ab[:, 1], side="left")
-    count = np.searchsorted(keys, ab[:, 1], side="right") - lo
-    rows = np.repeat(np.arange(len(ab)), count)
-    pos = np.repeat(lo - np.cumsum(count) + count, count) + np.arange(int(count.sum()))
-    out = np.column_stack([ab[rows], bc[order[pos], 1]]).astype(np.int64)
-    return out[out[:, 0] != out[:, 2]] if distinct else out
-
-
-def confirm(trip: np.ndarray, sides: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Candidates (K x 3 catalog rows for observed a, b, c) that a fourth observed star d
-    confirms: some catalog star w with (x, w), (y, w), (z, w) in ``sides`` (the catalog
-    pairs of (a, d), (b, d), (c, d)). Returns (candidate index, w), one row per match."""
-    ad, bd, cd = sides
-    if len(trip) == 0 or min(len(ad), len(bd), len(cd)) == 0:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    base = int(max(trip.max(), ad.max(), bd.max(), cd.max())) + 1
-    first = join_sides(np.column_stack([np.arange(len(trip)), trip[:, 0]]), ad, False)
-    k, w = first[:, 0], first[:, 2]
-    ok = np.ones(len(k), bool)
-    for col, side in ((1, bd), (2, cd)):
-        keys = np.sort(side[:, 0].astype(np.int64) * base + side[:, 1])
-        want = trip[k, col] * base + w
-        pos = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
-        ok &= keys[pos] == want
-    return k[ok], w[ok]
-
-
 @register
 class HybridMatcher(Matcher):
     """Sedaghat, Toloei and Ghanbarpoor (2011): angle shortlists, then planar triangles."""
@@ -115,58 +76,56 @@ class HybridMatcher(Matcher):
         n = min(self.config.max_stars, len(obs))
         if n < 3:
             return
-        votes, found = angle_votes(obs.vectors[:n], self.database, self.angle_tolerance(obs),
-                                   diag)
+        tol = self.angle_tolerance(obs)
+        votes, _ = angle_votes(obs.vectors[:n], self.database, tol, diag)
+        index = pair_index(self.database.pairs, len(self.database.vectors))
+        ang = angle_table(obs.vectors[:n])
+        windows = {(a, b): np.array(index.window(ang[a, b] - tol, ang[a, b] + tol))
+                   for a, b in itertools.combinations(range(n), 2)}
         triples = brightness_triples(n)
-        feats = observed_features(obs.vectors[:n], triples, feature_sigma(obs, self.config))
+        sigma = feature_sigma(obs, self.config.tolerance_sigma, self.config.min_tolerance_rad)
+        feats = observed_features(obs.vectors[:n], triples, sigma)
         diag.extra.update(triangles_tested=0, passes=0)
         for missed in range(min(self.max_false, n - 3) + 1):
             diag.extra["passes"] += 1
-            yield from self._triangles(obs, votes >= n - 1 - missed, found, triples, feats,
-                                       diag)
+            yield from self._triangles(obs, votes >= n - 1 - missed, windows, triples,
+                                       feats, diag)
 
     def _triangles(self, obs: Observation, shortlist: np.ndarray,
-                   found: dict[tuple[int, int], np.ndarray], triples: list,
-                   feats: dict, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+                   windows: dict, triples: list, feats: dict,
+                   diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         """The triangle test over the shortlisted catalog stars of every observed triple."""
         n = len(shortlist)
         vec = obs.vectors[:n]
         diag.extra["shortlist"] = shortlist.sum(axis=1).tolist()
-        edges: dict[tuple[int, int], np.ndarray] = {}
         unconfirmed: list[tuple[float, Hypothesis]] = []
-
-        def side(a: int, b: int) -> np.ndarray:
-            if (a, b) not in edges:
-                e = oriented(found, a, b)
-                edges[a, b] = e[shortlist[a][e[:, 0]] & shortlist[b][e[:, 1]]]
-            return edges[a, b]
 
         k = self.config.tolerance_sigma
         cat = self.database.vectors
+        index = pair_index(self.database.pairs, len(cat))
+        pi, pj, tol = index.pi, index.pj, self.angle_tolerance(obs)
+        ang = angle_table(vec)
+        heads = np.full(len(cat), -1, np.int64)
         for a, b, c in triples:
             if not (shortlist[a].any() and shortlist[b].any() and shortlist[c].any()):
                 continue  # no catalog candidate for one of the stars
-            trip = join_sides(side(a, b), side(b, c))
-            diag.extra["triangles_tested"] += len(trip)
-            if len(trip) == 0:
-                continue
-            obs_tri = vec[[a, b, c]]
-            area, polar, s_area, s_polar = feats[a, b, c]
-            ca, cp = triangle_features(cat[trip[:, 0]], cat[trip[:, 1]], cat[trip[:, 2]])
-            err = np.hypot((ca - area) / s_area, (cp - polar) / s_polar)
-            ok = (np.abs(ca - area) <= k * s_area) & (np.abs(cp - polar) <= k * s_polar)
-            if area > k * s_area:  # the mirror image has the same area and moment
-                hand = np.sign(np.linalg.det(cat[trip]))
-                ok &= hand == np.sign(np.linalg.det(obs_tri))
-            keep = np.flatnonzero(ok)
-            keep = keep[np.argsort(err[keep], kind="stable")][: self.max_per_triangle]
+            features = np.array(feats[a, b, c])
+            # The mirror image has the same area and moment: its handedness tells it apart.
+            hand = (int(handedness(vec[a], vec[b], vec[c])) if features[0] > k * features[2]
+                    else 0)
+            trip, err, tested = hybrid_kernels.shortlisted_triangles(
+                pi, pj, windows[a, b], windows[b, c], shortlist[a], shortlist[b],
+                shortlist[c], cat, features, k, hand, heads)
+            diag.extra["triangles_tested"] += int(tested)
+            keep = np.argsort(err, kind="stable")[: self.max_per_triangle]
             if len(keep) == 0:
                 continue
             # A chance triangle among hundreds of shortlisted stars is common on a dense
             # sky; one more star's three angles removes it before the costlier verification.
             confirmed = False
             for d in (d for d in range(n) if d not in (a, b, c)):
-                hit, w = confirm(trip[keep], [side(a, d), side(b, d), side(c, d)])
+                hit, w = hybrid_kernels.confirm(trip[keep], np.array([a, b, c]), d, ang,
+                                                tol, shortlist[d], index.lists)
                 for t, star in zip(keep[hit], w, strict=True):
                     yield Hypothesis(np.array([a, b, c, d]), np.append(trip[t], star))
                 if len(hit):

@@ -17,33 +17,16 @@ from functools import cache
 import numpy as np
 
 from startrack.database import StarDatabase
-from startrack.database.triangles import feature_sigmas, triangle_features
 from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.matching.features import feature_sigma, observed_features
+from startrack.matching.geometry import handedness
+from startrack.matching.pairs import join_sorted
+from startrack.matching.triples import brightness_triples
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 # The six vertex orders; the odd ones reverse the handedness (the triple product's sign).
 _PERMS = np.array(list(itertools.permutations(range(3))))
 _ODD = np.array([False, True, True, False, False, True])
-
-
-def brightness_triples(n: int) -> list[tuple[int, int, int]]:
-    """Every triple of the ``n`` brightest stars, those of the brightest stars first."""
-    return sorted(itertools.combinations(range(n), 3), key=lambda t: (t[2], t[1], t[0]))
-
-
-def feature_sigma(obs: Observation, config: MatcherConfig) -> float:
-    """Per-axis centroid sigma used for triangle features, floored like angle windows."""
-    floor = config.min_tolerance_rad / (config.tolerance_sigma * np.sqrt(2.0))
-    return max(obs.sigma_rad, floor)
-
-
-def observed_features(vectors: np.ndarray, triples: list[tuple[int, int, int]],
-                      sigma: float) -> dict[tuple[int, int, int], tuple[float, ...]]:
-    """(area, polar, sigma_area, sigma_polar) of every observed triple, in one batch."""
-    idx = np.array(triples, dtype=np.int64).reshape(-1, 3)
-    verts = [vectors[idx[:, m]] for m in range(3)]
-    feats = np.column_stack([*triangle_features(*verts), *feature_sigmas(*verts, sigma)])
-    return dict(zip(triples, map(tuple, feats.tolist()), strict=True))
 
 
 def map_vertices(obs_tri: np.ndarray, cat_vectors: np.ndarray, side_tol: float,
@@ -55,8 +38,8 @@ def map_vertices(obs_tri: np.ndarray, cat_vectors: np.ndarray, side_tol: float,
     o = obs_tri
     obs_sides = np.array([np.linalg.norm(o[0] - o[1]), np.linalg.norm(o[1] - o[2]),
                           np.linalg.norm(o[0] - o[2])])
-    obs_hand = np.sign(np.linalg.det(o))
-    cat_hand = np.sign(np.linalg.det(cat_vectors)) if len(cat_vectors) else np.zeros(0)
+    obs_hand = handedness(o[0], o[1], o[2])
+    cat_hand = handedness(cat_vectors[:, 0], cat_vectors[:, 1], cat_vectors[:, 2])
     cands, perms, errs = [], [], []
     for k, p in enumerate(_PERMS):
         c = cat_vectors[:, p]
@@ -74,26 +57,6 @@ def map_vertices(obs_tri: np.ndarray, cat_vectors: np.ndarray, side_tol: float,
     cand, perm, err = (np.concatenate(x) for x in (cands, perms, errs))
     order = np.argsort(err, kind="stable")
     return cand[order], perm[order]
-
-
-def join_on(hyps: np.ndarray, col_a: int, col_b: int, new: np.ndarray) -> np.ndarray:
-    """Extend hypotheses (M x s catalog rows) by the triangles ``new`` (K x 3) whose first
-    two stars equal columns ``col_a``, ``col_b``; the third becomes a new column. A new
-    star already in the hypothesis is refused."""
-    if len(hyps) == 0 or len(new) == 0:
-        return np.zeros((0, hyps.shape[1] + 1), np.int64)
-    base = int(max(hyps.max(), new.max())) + 1
-    key_h = hyps[:, col_a].astype(np.int64) * base + hyps[:, col_b]
-    key_n = new[:, 0].astype(np.int64) * base + new[:, 1]
-    order = np.argsort(key_n, kind="stable")
-    lo = np.searchsorted(key_n[order], key_h, side="left")
-    hi = np.searchsorted(key_n[order], key_h, side="right")
-    count = hi - lo
-    rows = np.repeat(np.arange(len(hyps)), count)
-    pos = np.repeat(lo - np.cumsum(count) + count, count) + np.arange(int(count.sum()))
-    third = new[order[pos], 2]
-    out = np.column_stack([hyps[rows], third])
-    return out[np.all(out[:, :-1] != third[:, None], axis=1)]
 
 
 @register
@@ -134,7 +97,7 @@ class PlanarTriangleMatcher(Matcher):
         if n < 3:
             return
         vec = obs.vectors[:n]
-        sigma = feature_sigma(obs, self.config)
+        sigma = feature_sigma(obs, self.config.tolerance_sigma, self.config.min_tolerance_rad)
         triples = brightness_triples(n)
         feats = observed_features(vec, triples, sigma)
 
@@ -152,8 +115,8 @@ class PlanarTriangleMatcher(Matcher):
                 p, q = last[1], last[2]
                 for extra in (s for s in range(n) if s not in stars):
                     diag.pivots += 1
-                    joined = join_on(hyps, stars.index(p), stars.index(q),
-                                     lookup(p, q, extra))
+                    joined = join_sorted(hyps, (stars.index(p), stars.index(q)),
+                                         lookup(p, q, extra))
                     if len(joined):
                         hyps, last = joined, (p, q, extra)
                         stars.append(extra)

@@ -20,15 +20,8 @@ import numpy as np
 from startrack.database import StarDatabase
 from startrack.database.radial import RadialTable, observed_masks
 from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.matching.geometry import angle_table, handedness, triple_products
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
-
-
-def _angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.arccos(np.clip(a @ b.T, -1.0, 1.0))
-
-
-def _handedness(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    return np.sign(np.einsum("...i,...i->...", np.cross(a, b), c))
 
 
 @register
@@ -105,24 +98,24 @@ class RadialMatcher(Matcher):
         usable = [k for k in range(n) if sizes[k]]
         eps = self.angle_tolerance(obs)
         ov = obs.vectors[:n]
-        obs_d = _angles(ov, ov)
+        obs_d = angle_table(ov, ov)
         cat = [self.database.vectors[s] for s in lists]
         for a, b, c in combinations(usable, 3):
             diag.pivots += 1
-            ab = np.abs(_angles(cat[a], cat[b]) - obs_d[a, b]) <= eps
+            ab = np.abs(angle_table(cat[a], cat[b]) - obs_d[a, b]) <= eps
             if not ab.any():
                 continue
-            bc = np.abs(_angles(cat[b], cat[c]) - obs_d[b, c]) <= eps
-            ac = np.abs(_angles(cat[a], cat[c]) - obs_d[a, c]) <= eps
+            bc = np.abs(angle_table(cat[b], cat[c]) - obs_d[b, c]) <= eps
+            ac = np.abs(angle_table(cat[a], cat[c]) - obs_d[a, c]) <= eps
             ia, ib, ic = np.nonzero(ab[:, :, None] & bc[None, :, :] & ac[:, None, :])
             if len(ia) == 0:
                 continue
             ra, rb, rc = lists[a][ia], lists[b][ib], lists[c][ic]
             # Side-side-side cannot tell a triangle from its mirror image; a rotation can.
             keep = (ra != rb) & (rb != rc) & (ra != rc)
-            triple = float(np.dot(np.cross(ov[a], ov[b]), ov[c]))
+            triple = float(triple_products(ov[a], ov[b], ov[c]))
             if abs(triple) > 2.0 * eps * max(obs_d[a, b], obs_d[b, c], obs_d[a, c]):
-                keep &= _handedness(cat[a][ia], cat[b][ib], cat[c][ic]) == np.sign(triple)
+                keep &= handedness(cat[a][ia], cat[b][ib], cat[c][ic]) == np.sign(triple)
             ra, rb, rc = ra[keep][: self.max_matches], rb[keep][: self.max_matches], \
                 rc[keep][: self.max_matches]
             others = [e for e in usable if e not in (a, b, c)]
@@ -141,7 +134,7 @@ class RadialMatcher(Matcher):
         right angle from all three triangle stars."""
         tv = self.database.vectors[np.asarray(tri)]
         for e in others:
-            d = _angles(cat[e], tv)  # m_e x 3
+            d = angle_table(cat[e], tv)  # m_e x 3
             ok = np.all(np.abs(d - obs_d[e, list(stars)]) <= eps, axis=1)
             ok &= ~np.isin(lists[e], tri)
             if ok.sum() == 1:

@@ -1,0 +1,167 @@
+"""The shared matcher toolkit: compiled pair joins against brute force (rows and their
+order), sorted-key joins, triple orders and handedness."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from startrack.database.pairs import build_pair_arrays, pair_table_from_arrays
+from startrack.matching.geometry import handedness, triple_products
+from startrack.matching.pairs import (
+    PairLookup,
+    join_close,
+    join_extend,
+    join_sorted,
+    member_pairs,
+    pair_index,
+)
+from startrack.matching.triples import brightness_triples, smart_triples, triple_order
+from startrack.types import MatchDiagnostics
+
+
+def _sky(n: int = 40, seed: int = 5) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(n, 3)) * np.array([0.3, 0.3, 1.0]) + np.array([0.0, 0.0, 2.0])
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def _lookup(vectors: np.ndarray, observed: np.ndarray, tol: float):
+    table = pair_table_from_arrays(build_pair_arrays(vectors, 0.6))
+    return table, PairLookup(pair_index(table, len(vectors)), observed, tol, MatchDiagnostics())
+
+
+def _reference_pairs(table, lo: float, hi: float, flip: bool) -> tuple[np.ndarray, ...]:
+    """Both orientations of the window's pairs, grouped by first star in stable order."""
+    sel = (table.angle >= lo) & (table.angle <= hi)
+    i, j = table.i[sel].astype(np.int64), table.j[sel].astype(np.int64)
+    if flip:
+        i, j = j, i
+    cp, cq = np.concatenate([i, j]), np.concatenate([j, i])
+    order = np.argsort(cp, kind="stable")
+    return cp[order], cq[order]
+
+
+def test_join_extend_equals_the_stable_sort_join():
+    vectors = _sky()
+    observed = vectors[[3, 8, 17]]
+    table, lookup = _lookup(vectors, observed, 0.02)
+    rng = np.random.default_rng(1)
+    hyps = rng.integers(0, len(vectors), size=(60, 2))
+    for p, q in ((1, 2), (2, 1)):
+        lo, hi = lookup.window(p, q)
+        cp, cq = _reference_pairs(table, lo, hi, flip=p > q)
+        want = [(*h, b) for h in hyps.tolist() for a, b in zip(cp, cq, strict=True)
+                if a == h[1] and b not in h]
+        got, total = join_extend(hyps, 1, lookup, p, q)
+        assert [tuple(r) for r in got.tolist()] == want
+        assert total == len(want)
+    assert join_extend(hyps[:0], 0, lookup, 1, 2)[0].shape == (0, 3)
+
+
+def test_join_extend_stops_at_max_rows_but_counts_all():
+    vectors = _sky()
+    _, lookup = _lookup(vectors, vectors[[3, 8]], 0.1)
+    hyps = np.arange(len(vectors)).reshape(-1, 1)
+    full, total = join_extend(hyps, 0, lookup, 0, 1)
+    some, total_again = join_extend(hyps, 0, lookup, 0, 1, max_rows=3)
+    assert total == total_again == len(full) > 3
+    np.testing.assert_array_equal(some, full[:3])
+
+
+def test_join_close_equals_brute_force():
+    vectors = _sky()
+    observed = vectors[[2, 5, 11]]
+    table, lookup = _lookup(vectors, observed, 0.03)
+    lo, hi = lookup.window(0, 2)
+    sel = (table.angle >= lo) & (table.angle <= hi)
+    allowed = set(zip(table.i[sel].tolist(), table.j[sel].tolist(), strict=True))
+    allowed |= {(b, a) for a, b in allowed}
+    rng = np.random.default_rng(6)
+    hyps = rng.integers(0, len(vectors), size=(400, 3))
+    hyps = np.vstack([hyps, [[2, 0, 11], [11, 1, 2]]])
+    got = join_close(hyps, 0, 2, lookup, 0, 2)
+    want = [h for h in hyps.tolist() if (h[0], h[2]) in allowed]
+    assert got.tolist() == want and len(want) >= 2
+
+
+def test_lookup_counts_first_lookups_only():
+    vectors = _sky()
+    table, lookup = _lookup(vectors, vectors[[2, 5]], 0.03)
+    lookup.pairs(0, 1)
+    lookup.pairs(1, 0)
+    lo, hi = lookup.window(0, 1)
+    assert lookup.diag.candidates == int(np.count_nonzero((table.angle >= lo)
+                                                          & (table.angle <= hi)))
+    assert lookup.diag.extra["lookups"] == 1
+    np.testing.assert_array_equal(lookup.pairs(1, 0), lookup.pairs(0, 1)[:, ::-1])
+
+
+def test_join_sorted_equals_brute_force():
+    rng = np.random.default_rng(8)
+    left = rng.integers(0, 9, size=(50, 3))
+    right = rng.integers(0, 9, size=(70, 3))
+    got = join_sorted(left, (1, 2), right)
+    want = [(*h, r[2]) for h in left.tolist() for r in right.tolist()
+            if (r[0], r[1]) == (h[1], h[2]) and r[2] not in h]
+    assert sorted(map(tuple, got.tolist())) == sorted(want)
+    assert join_sorted(left, (0,), right[:0]).shape == (0, 4)
+    keep = member_pairs(left[:, 0], left[:, 1], right[:, :2])
+    pairs = set(map(tuple, right[:, :2].tolist()))
+    assert keep.tolist() == [(a, b) in pairs for a, b in left[:, :2].tolist()]
+
+
+def test_triple_orders_cover_every_triple_once():
+    for n in range(3, 10):
+        assert sorted(smart_triples(n)) == list(itertools.combinations(range(n), 3))
+        assert sorted(brightness_triples(n)) == list(itertools.combinations(range(n), 3))
+    first = list(smart_triples(8))[:6]
+    # Star 0 drops out of the tries at once: the second triple avoids it.
+    assert first[0] == (0, 1, 2) and 0 not in first[1]
+    order = triple_order(5, 8, 1000)
+    assert sorted(order) == list(itertools.combinations(range(8), 3))
+    assert all(max(t) < 5 for t in order[:10]) and len(triple_order(5, 8, 7)) == 7
+
+
+def test_triple_product_sign_flips_in_a_mirror():
+    rng = np.random.default_rng(4)
+    v = rng.normal(size=(3, 20, 3))
+    v /= np.linalg.norm(v, axis=2, keepdims=True)
+    mirror = v * np.array([-1.0, 1.0, 1.0])
+    np.testing.assert_allclose(triple_products(*mirror), -triple_products(*v))
+    np.testing.assert_allclose(triple_products(*v), np.linalg.det(np.stack(v, axis=1)))
+    np.testing.assert_array_equal(handedness(*mirror), -handedness(*v))
+
+
+def test_timeout_gives_a_not_solved_with_its_reason(random_db):
+    from synth import frames, prepared_matcher
+
+    from startrack.identify import identify
+
+    matcher = prepared_matcher("pyramid", random_db)
+    frame = next(frames(random_db.catalog, random_db.camera, 5, seed=71, noise_px=0.3))
+    assert identify(frame.obs, matcher, timeout_ms=None).solved
+    late = identify(frame.obs, matcher, timeout_ms=0.0)
+    assert not late.solved and late.reason == "timeout" and late.rotation is None
+    few = identify(type(frame.obs).from_pixels(frame.obs.x[:2], frame.obs.y[:2],
+                                                frame.obs.camera, 0.3), matcher)
+    assert few.reason == "too_few_stars"
+
+
+def test_nearest_matches_keep_the_nearest_claim():
+    from startrack.matching.verify_kernels import nearest_matches
+
+    rng = np.random.default_rng(9)
+    ox, oy = rng.uniform(0, 50, 40), rng.uniform(0, 50, 40)
+    cx, cy = rng.uniform(0, 50, 30), rng.uniform(0, 50, 30)
+    rows, pos = nearest_matches(ox, oy, cx, cy, 4.0)
+    d2 = (ox[:, None] - cx[None, :]) ** 2 + (oy[:, None] - cy[None, :]) ** 2
+    want = []
+    for i in range(len(ox)):
+        j = int(np.argmin(d2[i]))
+        rivals = [k for k in range(len(ox)) if int(np.argmin(d2[k])) == j]
+        if d2[i, j] <= 16.0 and all(d2[i, j] <= d2[k, j] for k in rivals):
+            want.append((i, j))
+    assert list(zip(rows.tolist(), pos.tolist(), strict=True)) == want and want
+    assert len(set(pos.tolist())) == len(pos)
