@@ -48,6 +48,16 @@ class SolveResult:
         return None if self.solved else (self.frame.solution.reason or "no_match")
 
     @property
+    def mode(self) -> str | None:
+        """How it was solved: "lost_in_space" or "tracking"; None if not solved."""
+        return self.frame.solution.mode if self.solved else None
+
+    @property
+    def lock(self) -> str | None:
+        """A tracking Solver's lock state after this frame (startrack.tracker); else None."""
+        return self.frame.solution.lock
+
+    @property
     def quaternion(self) -> np.ndarray | None:
         """Camera-to-ICRS attitude, scalar first [w, x, y, z]."""
         rot = self.frame.solution.rotation
@@ -92,13 +102,22 @@ class Solver:
     either is nominal, good to ``fov_tolerance`` (a fraction; 0: exact). With neither, the
     field of view is searched (:data:`startrack.fov.BLIND_FOV_RANGE`).
     The other keywords are ``startrack identify``'s options.
+
+    Tracking (``identify --track``): with ``track=True`` the frames given to :meth:`solve`
+    are one sequence, in order: the first is solved lost-in-space, each later one by
+    tracking from the attitudes before it (falling back to lost-in-space when tracking
+    fails); :meth:`reset` starts a new sequence. ``prior=(ra, dec, roll)`` in degrees,
+    1-sigma ``prior_sigma_deg`` (``identify --prior``), seeds the first frame of a
+    sequence, or every frame without ``track``. ``SolveResult.mode`` says which solved it.
     """
 
     def __init__(self, fov_deg: float | None = None, *, camera: Camera | str | Path | None = None,
                  size: tuple[int, int] | None = None, method: str = DEFAULT_METHOD,
                  sky: str | None = None, mag_limit: float | None = None,
                  epoch: float | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
-                 max_stars: int | None = None,
+                 max_stars: int | None = None, timeout_ms: float | None = None,
+                 track: bool = False, prior: tuple[float, float, float] | None = None,
+                 prior_sigma_deg: float = 1.0,
                  fov_tolerance: float = DEFAULT_FOV_TOLERANCE) -> None:
         if camera is not None and not isinstance(camera, Camera):
             from startrack.camera_file import load_camera
@@ -107,12 +126,30 @@ class Solver:
         self._pipeline = Pipeline(Options(method=method, camera=camera, fov_deg=fov_deg,
                                           size=size, sky=sky, mag_limit=mag_limit,
                                           epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
-                                          fov_tolerance=fov_tolerance))
+                                          timeout_ms=timeout_ms, fov_tolerance=fov_tolerance))
+        self._sequence = None
+        if track or prior is not None:
+            from startrack.sequence import SequenceSolver, prior_from_radec_roll
+
+            seed = None if prior is None else prior_from_radec_roll(*prior, prior_sigma_deg)
+            self._sequence = SequenceSolver(self._pipeline, track=track, prior=seed)
+
+    def reset(self) -> None:
+        """Start a new sequence (``track=True``): the next frame is solved lost-in-space."""
+        if self._sequence is not None:
+            self._sequence.reset()
 
     def solve(self, source: str | Path | np.ndarray) -> SolveResult:
         """Solve a path (image or centroid CSV), a 2-D image array, or an N x 2 / N x 3
         array of centroids (x, y[, flux]; brightest first when there is no flux)."""
-        return SolveResult(self._pipeline.solve(_as_input(source)))
+        try:
+            frame = _as_input(source)
+        except InputError:
+            if self._sequence is not None:
+                self._sequence.skip()  # an unreadable frame of a sequence: time passes
+            raise
+        solver = self._sequence or self._pipeline
+        return SolveResult(solver.solve(frame))
 
 
 def solve(source: str | Path | np.ndarray, **options) -> SolveResult:
@@ -125,8 +162,11 @@ def _as_input(source: str | Path | np.ndarray) -> FrameInput:
         return read_input(source)
     array = np.asarray(source)
     if array.ndim == 2 and array.shape[1] in (2, 3) and np.issubdtype(array.dtype, np.floating):
-        flux = array[:, 2] if array.shape[1] == 3 else np.arange(len(array), 0, -1.0)
-        return FrameInput("<array>", Centroids(array[:, 0], array[:, 1], flux))
+        if array.shape[1] == 3:
+            return FrameInput("<array>", Centroids(array[:, 0], array[:, 1], array[:, 2]))
+        ranks = np.arange(len(array), 0, -1.0)  # listed brightest first
+        return FrameInput("<array>", Centroids(array[:, 0], array[:, 1], ranks,
+                                               photometric=False))
     if array.ndim == 2:
         return image_input(array, "<array>")
     raise InputError(f"cannot solve an array of shape {array.shape}: give a 2-D image or "

@@ -3,6 +3,12 @@
 Every file startrack writes goes through here, so an interrupted run never leaves one
 half-written: outputs (:func:`atomic_path`, :func:`atomic_text`) and cache entries
 (:func:`cached_arrays` for arrays, :func:`cached_file` for a peer's own file format).
+Files are created with the permissions the umask allows, like any ``open()``.
+
+Cache entries carry a SHA-256 of their arrays, checked on every load, so an entry whose
+contents were altered (not just torn) is rebuilt rather than trusted. The cache is
+bounded: after each write the least recently used entries are evicted until the total is
+at most ``$STARTRACK_CACHE_MAX_MB`` (default :data:`DEFAULT_CACHE_MAX_MB`).
 """
 
 from __future__ import annotations
@@ -11,13 +17,34 @@ import contextlib
 import hashlib
 import json
 import os
+import re
 import tempfile
+import threading
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
 
-CACHE_VERSION = 1
+CACHE_VERSION = 2  # 2: entries carry a checksum
+DEFAULT_CACHE_MAX_MB = 1024
+CHECKSUM_KEY = "__sha256__"
+# What the cache writes: kind-<20 hex>.suffix; anything else in the folder is left alone.
+ENTRY_NAME = re.compile(r"^[a-z0-9_]+-[0-9a-f]{20}(\.[A-Za-z0-9]+)+$")
+TEMP_NAME = re.compile(r"^\.[a-z0-9_]+-[0-9a-f]{20}\.")
+_UMASK_LOCK = threading.Lock()
+
+
+def current_umask() -> int:
+    """The process umask (read without changing it where /proc allows)."""
+    with contextlib.suppress(OSError, ValueError), open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    with _UMASK_LOCK:
+        mask = os.umask(0o022)
+        os.umask(mask)
+    return mask
 
 
 @contextlib.contextmanager
@@ -26,7 +53,10 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    os.close(fd)
+    try:
+        os.fchmod(fd, 0o666 & ~current_umask())  # mkstemp makes 0600; follow the umask
+    finally:
+        os.close(fd)
     try:
         yield Path(tmp)
         os.replace(tmp, path)
@@ -52,37 +82,128 @@ def cache_dir() -> Path:
     return Path(user_cache_dir("startrack"))
 
 
+def cache_max_bytes() -> int:
+    """The cache size cap: ``$STARTRACK_CACHE_MAX_MB`` megabytes (default 1024)."""
+    text = os.environ.get("STARTRACK_CACHE_MAX_MB", "")
+    try:
+        mb = float(text) if text else DEFAULT_CACHE_MAX_MB
+    except ValueError:
+        mb = DEFAULT_CACHE_MAX_MB
+    return int(max(mb, 0.0) * 1024 * 1024)
+
+
 def cache_key(kind: str, params: dict) -> str:
     """A file stem unique to (kind, params) and the cache format version."""
     blob = json.dumps({"kind": kind, "v": CACHE_VERSION, **params}, sort_keys=True, default=str)
     return f"{kind}-{hashlib.sha256(blob.encode()).hexdigest()[:20]}"
 
 
+def arrays_checksum(arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 over each array's name, dtype, shape and bytes, in name order."""
+    digest = hashlib.sha256()
+    for name in sorted(arrays):
+        arr = np.ascontiguousarray(arrays[name])
+        digest.update(f"{name}\0{arr.dtype.str}\0{arr.shape}\0".encode())
+        digest.update(arr.reshape(-1).view(np.uint8))  # the bytes, without a copy
+    return digest.hexdigest()
+
+
+def _load_checked(path: Path) -> dict[str, np.ndarray] | None:
+    """The arrays of a cache entry, or None when it is damaged or altered."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {name: data[name] for name in data.files}
+    except Exception:  # any damage (truncation, bad zip, bad CRC) means a rebuild
+        return None
+    stored = arrays.pop(CHECKSUM_KEY, None)
+    if not arrays or stored is None or str(stored) != arrays_checksum(arrays):
+        return None
+    return arrays
+
+
+def _touch(path: Path) -> None:
+    """Mark an entry as just used (the eviction order); atime is unreliable on most mounts."""
+    with contextlib.suppress(OSError):
+        os.utime(path)
+
+
 def cached_arrays(kind: str, params: dict,
                   build: Callable[[], dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     """Load the arrays for (kind, params) from the cache, or build and store them.
 
-    An unreadable entry is rebuilt; a read-only cache only costs the rebuild next time.
+    A damaged or altered entry (checksum mismatch) is rebuilt; a read-only cache only
+    costs the rebuild next time.
     """
     path = cache_dir() / f"{cache_key(kind, params)}.npz"
     if path.exists():
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                arrays = {name: data[name] for name in data.files}
-            if arrays:
-                return arrays
-        except Exception:  # any damage (truncation, bad zip, bad CRC) means a rebuild
-            pass
+        arrays = _load_checked(path)
+        if arrays is not None:
+            _touch(path)
+            return arrays
     arrays = build()
+    stored = {**arrays, CHECKSUM_KEY: np.array(arrays_checksum(arrays))}
     with contextlib.suppress(OSError), atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        np.savez(fh, **arrays)
+        np.savez(fh, **stored)
+    evict(keep=path)
     return arrays
 
 
 def cached_file(kind: str, params: dict, suffix: str, build: Callable[[Path], None]) -> Path:
     """The cache path for (kind, params); ``build(tmp_path)`` writes it when missing."""
     path = cache_dir() / f"{cache_key(kind, params)}{suffix}"
-    if not path.exists():
-        with atomic_path(path) as tmp:
-            build(tmp)
+    if path.exists():
+        _touch(path)
+        return path
+    with atomic_path(path) as tmp:
+        build(tmp)
+    evict(keep=path)
     return path
+
+
+def cache_entries(folder: Path | None = None) -> list[tuple[Path, int, float]]:
+    """(path, bytes, last use) of every cache entry, least recently used first."""
+    folder = cache_dir() if folder is None else folder
+    found = []
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(folder):
+            if entry.is_file(follow_symlinks=False) and ENTRY_NAME.match(entry.name):
+                with contextlib.suppress(OSError):
+                    st = entry.stat(follow_symlinks=False)
+                    found.append((Path(entry.path), st.st_size, st.st_mtime))
+    return sorted(found, key=lambda e: e[2])
+
+
+def evict(keep: Path | None = None, max_bytes: int | None = None) -> list[Path]:
+    """Remove least recently used entries until the cache fits its cap; ``keep`` stays."""
+    cap = cache_max_bytes() if max_bytes is None else max_bytes
+    entries = cache_entries(None if keep is None else keep.parent)
+    total = sum(size for _, size, _ in entries)
+    removed = []
+    for path, size, _ in entries:
+        if total <= cap:
+            break
+        if keep is not None and path == keep:
+            continue
+        with contextlib.suppress(OSError):
+            path.unlink()
+            removed.append(path)
+            total -= size
+    return removed
+
+
+def clear_cache() -> tuple[int, int]:
+    """Remove every cache entry (and leftover temporary files); (entries, bytes) freed."""
+    entries = cache_entries()
+    freed = 0
+    for path, size, _ in entries:
+        with contextlib.suppress(OSError):
+            path.unlink()
+            freed += size
+    # Temporary files of writes that were killed; an hour old, so no write in progress.
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(cache_dir()):
+            if TEMP_NAME.match(entry.name):
+                with contextlib.suppress(OSError):
+                    if time.time() - entry.stat(follow_symlinks=False).st_mtime > 3600:
+                        os.unlink(entry.path)
+    return len(entries), freed

@@ -1,19 +1,66 @@
-"""Camera files (shared/interfaces.md keys, JSON or TOML) read into a :class:`Camera`."""
+"""Camera files (shared/interfaces.md keys, JSON or TOML) read into a :class:`Camera`.
+
+Every value is checked before use: sizes are positive integers (not ``"1024"``, ``true``
+or ``1024.5``), numbers are finite, and the camera must make physical sense within the
+documented bounds below; anything else is an :class:`InputError` naming the file and key.
+"""
 
 from __future__ import annotations
 
 import json
+import math
 import tomllib
 from pathlib import Path
 
 from startrack.camera import Camera
-from startrack.errors import InputError
+from startrack.errors import InputError, check_number
 
 CAMERA_KEYS = {"width", "height", "fov_deg", "focal_length_mm", "pixel_size_um", "cx", "cy"}
+MAX_SIDE_PX = 100_000  # image width or height
+FOCAL_LENGTH_MM = (1e-3, 1e5)  # 1 micron to 100 m
+PIXEL_SIZE_UM = (1e-2, 1e3)  # 10 nm to 1 mm
+FOV_DEG = (1e-3, 179.0)  # the horizontal field of view a camera file may give or imply
+
+
+def _size(data: dict, key: str, where: str) -> int:
+    value = data[key]
+    if isinstance(value, float) and math.isfinite(value) and value.is_integer():
+        value = int(value)  # 1024.0 is 1024; 1024.5 is an error below
+    return int(check_number(value, f"{where}: {key}", integer=True, low=1, high=MAX_SIDE_PX))
+
+
+def _principal_point(data: dict, key: str, size: int, where: str) -> float | None:
+    """cx / cy: inside the image (pixel centres run 0..size-1, edges at -0.5, size-0.5)."""
+    if data.get(key) is None:
+        return None
+    return float(check_number(data[key], f"{where}: {key}", low=-0.5, high=size - 0.5))
+
+
+def _focal_px(data: dict, width: int, where: str) -> float:
+    if "fov_deg" in data:
+        if "focal_length_mm" in data or "pixel_size_um" in data:
+            raise InputError(f"{where}: give fov_deg or focal_length_mm + pixel_size_um, "
+                             "not both")
+        fov = check_number(data["fov_deg"], f"{where}: fov_deg", low=FOV_DEG[0],
+                           high=FOV_DEG[1])
+        return (width / 2.0) / math.tan(math.radians(fov) / 2.0)
+    if "focal_length_mm" not in data or "pixel_size_um" not in data:
+        raise InputError(f"{where}: needs fov_deg, or focal_length_mm and pixel_size_um")
+    focal = check_number(data["focal_length_mm"], f"{where}: focal_length_mm",
+                         low=FOCAL_LENGTH_MM[0], high=FOCAL_LENGTH_MM[1])
+    pixel = check_number(data["pixel_size_um"], f"{where}: pixel_size_um",
+                         low=PIXEL_SIZE_UM[0], high=PIXEL_SIZE_UM[1])
+    f_px = focal * 1000.0 / pixel
+    fov = math.degrees(2.0 * math.atan((width / 2.0) / f_px))
+    if not FOV_DEG[0] <= fov <= FOV_DEG[1]:
+        raise InputError(f"{where}: focal_length_mm {focal} and pixel_size_um {pixel} give a "
+                         f"{fov:.4g} deg field of view across {width} px, outside "
+                         f"[{FOV_DEG[0]}, {FOV_DEG[1]}] deg")
+    return f_px
 
 
 def camera_from_dict(data: dict, where: str = "camera") -> Camera:
-    """A camera from the interfaces.md keys; unknown or missing keys are errors."""
+    """A camera from the interfaces.md keys; unknown, missing or bad values are errors."""
     if not isinstance(data, dict):
         raise InputError(f"{where}: expected a table of camera keys")
     unknown = set(data) - CAMERA_KEYS
@@ -22,29 +69,27 @@ def camera_from_dict(data: dict, where: str = "camera") -> Camera:
     for key in ("width", "height"):
         if key not in data:
             raise InputError(f"{where}: missing key '{key}'")
-    try:
-        width, height = int(data["width"]), int(data["height"])
-        cx, cy = data.get("cx"), data.get("cy")
-        if "fov_deg" in data:
-            if "focal_length_mm" in data or "pixel_size_um" in data:
-                raise InputError(f"{where}: give fov_deg or focal_length_mm + pixel_size_um, "
-                                 "not both")
-            return Camera.from_fov(width, height, float(data["fov_deg"]), cx, cy)
-        if "focal_length_mm" in data and "pixel_size_um" in data:
-            return Camera.from_optics(width, height, float(data["focal_length_mm"]),
-                                      float(data["pixel_size_um"]), cx, cy)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{where}: bad value ({exc})") from None
-    raise InputError(f"{where}: needs fov_deg, or focal_length_mm and pixel_size_um")
+    width, height = _size(data, "width", where), _size(data, "height", where)
+    f_px = _focal_px(data, width, where)
+    cx = _principal_point(data, "cx", width, where)
+    cy = _principal_point(data, "cy", height, where)
+    return Camera(width, height, float(f_px),
+                  (width - 1) / 2.0 if cx is None else cx,
+                  (height - 1) / 2.0 if cy is None else cy)
 
 
 def load_camera(path: str | Path) -> Camera:
     """Read a camera file (JSON or TOML, chosen by extension; JSON otherwise)."""
     path = Path(path)
     try:
-        text = path.read_text()
+        raw = path.read_bytes()
     except OSError as exc:
         raise InputError(f"{path}: cannot read camera file ({exc.strerror})") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: camera file is not UTF-8 text (byte {exc.start})") \
+            from None
     try:
         data = tomllib.loads(text) if path.suffix.lower() == ".toml" else json.loads(text)
     except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:

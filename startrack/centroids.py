@@ -2,17 +2,22 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from startrack.errors import InputError
+from startrack.errors import InputError, StartrackWarning
 
 # 1-sigma centroid error assumed when none is given: rendered and real frames centroid to
 # a few tenths of a pixel (scripts/bench_centroid.py); 0.5 px also leaves room for small
 # lens distortion. identify, the Python API and compare --from images all assume it.
 DEFAULT_SIGMA_PX = 0.5
+# A centroid CSV keeps its brightest MAX_CENTROIDS rows (a star tracker's frame holds tens
+# to hundreds of stars; more only costs memory and time); it is read CSV_CHUNK_ROWS at once.
+MAX_CENTROIDS = 1000
+CSV_CHUNK_ROWS = 50_000
 
 
 @dataclass(frozen=True)
@@ -21,6 +26,9 @@ class Centroids:
 
     ``flux`` is linear brightness (background removed); ``saturated`` flags spots with a
     saturated pixel; ``area`` is the spot's pixel count (0 when unknown).
+    ``photometric`` is False when ``flux`` only ranks the stars (a centroid list without
+    a flux column): the order is then right but brightness cannot be compared with the
+    catalog's magnitudes.
     """
 
     x: np.ndarray
@@ -28,6 +36,7 @@ class Centroids:
     flux: np.ndarray
     saturated: np.ndarray = field(default=None)  # type: ignore[assignment]
     area: np.ndarray = field(default=None)  # type: ignore[assignment]
+    photometric: bool = True
 
     def __post_init__(self) -> None:
         n = len(self.x)
@@ -51,39 +60,77 @@ class Centroids:
 
     def brightest(self, n: int) -> Centroids:
         return Centroids(self.x[:n], self.y[:n], self.flux[:n], self.saturated[:n],
-                         self.area[:n])
+                         self.area[:n], self.photometric)
 
 
-def read_centroid_csv(path: str | Path) -> Centroids:
-    """Read an interfaces.md centroid CSV: header, ``x``, ``y``, optional ``flux``.
-
-    Without a flux column the rows are taken as listed brightest first.
-    """
+def _csv_columns(path: Path) -> dict[str, str]:
+    """{wanted name: the header's own spelling} for x, y and flux; errors name the file."""
     import pandas as pd
 
-    path = Path(path)
     try:
-        table = pd.read_csv(path)
+        header = pd.read_csv(path, nrows=0)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except (OSError, ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"{path}: not a readable CSV ({first})") from None
-    table.columns = [str(c).strip() for c in table.columns]
+    names = {str(c).strip(): c for c in header.columns}
     for col in ("x", "y"):
-        if col not in table.columns:
+        if col not in names:
             raise InputError(f"{path}: missing column '{col}' (columns: "
-                             f"{', '.join(table.columns) or 'none'})")
-    cols = ["x", "y"] + (["flux"] if "flux" in table.columns else [])
-    values = table[cols].apply(pd.to_numeric, errors="coerce")
-    bad = values.isna().any(axis=1) | ~np.isfinite(values.to_numpy(dtype=float)).all(axis=1)
-    if bad.any():
-        row = int(np.flatnonzero(bad.to_numpy())[0])
-        raise InputError(f"{path}: line {row + 2}: x, y and flux must be finite numbers")
-    x = values["x"].to_numpy(float)
-    y = values["y"].to_numpy(float)
-    flux = values["flux"].to_numpy(float) if "flux" in values else np.arange(len(x), 0, -1.0)
-    return Centroids(x, y, flux)
+                             f"{', '.join(names) or 'none'})")
+    return {k: names[k] for k in ("x", "y", "flux") if k in names}
+
+
+def _csv_chunks(path: Path, columns: dict[str, str]):
+    """(first line number, x, y, flux or None) per chunk of rows, each checked finite."""
+    import pandas as pd
+
+    line = 2
+    try:
+        reader = pd.read_csv(path, usecols=list(columns.values()), chunksize=CSV_CHUNK_ROWS)
+        for chunk in reader:
+            arr = np.column_stack([
+                pd.to_numeric(chunk[c], errors="coerce").to_numpy(dtype=float)
+                for c in columns.values()]) if len(chunk) else np.zeros((0, len(columns)))
+            bad = ~np.isfinite(arr).all(axis=1)
+            if bad.any():
+                raise InputError(f"{path}: line {line + int(np.flatnonzero(bad)[0])}: x, y "
+                                 "and flux must be finite numbers")
+            yield line, arr[:, 0], arr[:, 1], (arr[:, 2] if arr.shape[1] > 2 else None)
+            line += len(arr)
+    except (OSError, ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InputError(f"{path}: not a readable CSV ({first})") from None
+
+
+def read_centroid_csv(path: str | Path, max_rows: int | None = None) -> Centroids:
+    """Read an interfaces.md centroid CSV: header, ``x``, ``y``, optional ``flux``.
+
+    Without a flux column the rows are taken as listed brightest first. The file is read
+    in chunks and only the brightest ``max_rows`` (default :data:`MAX_CENTROIDS`) are
+    kept, with a warning saying how many were dropped: memory stays bounded whatever the
+    file's length. Rows past the bound are still checked.
+    """
+    path = Path(path)
+    limit = MAX_CENTROIDS if max_rows is None else max_rows
+    columns = _csv_columns(path)
+    xs, ys, fs = np.zeros(0), np.zeros(0), np.zeros(0)
+    total = 0
+    for first_line, x, y, flux in _csv_chunks(path, columns):
+        if flux is None:  # listed brightest first: rank by position in the file
+            flux = -np.arange(first_line, first_line + len(x), dtype=float)
+        xs, ys, fs = np.concatenate([xs, x]), np.concatenate([ys, y]), np.concatenate([fs, flux])
+        total += len(x)
+        if len(fs) > limit:
+            keep = np.sort(np.argsort(-fs, kind="stable")[:limit])
+            xs, ys, fs = xs[keep], ys[keep], fs[keep]
+    if total > limit:
+        warnings.warn(f"{path}: kept the brightest {limit} of {total} centroids "
+                      "(the documented bound, MAX_CENTROIDS)", StartrackWarning, stacklevel=2)
+    if "flux" not in columns:
+        return Centroids(xs, ys, np.arange(len(xs), 0, -1.0), photometric=False)
+    return Centroids(xs, ys, fs)
 
 
 def write_centroid_csv(path: str | Path, centroids: Centroids) -> None:

@@ -7,11 +7,20 @@ class InputError(Exception):
     """Bad usage or bad input: says what is wrong and where (exit code 2)."""
 
 
+class StartrackWarning(UserWarning):
+    """Something the user should know, the run going on (the command line prints it as
+    one ``startrack: warning:`` line)."""
+
+
 def check_number(value, where: str, *, integer: bool = False, low: float | None = None,
                  high: float | None = None) -> float | int:
     """``value`` if it is a finite number (an integer if asked) within [low, high]."""
     ok = isinstance(value, int) if integer else isinstance(value, int | float)
-    if isinstance(value, bool) or not ok or not math.isfinite(value):
+    try:  # a 400-digit JSON integer overflows a float
+        ok = ok and not isinstance(value, bool) and math.isfinite(value)
+    except OverflowError:
+        ok = False
+    if not ok:
         raise InputError(f"{where} must be {'an integer' if integer else 'a number'}, "
                          f"got {value!r}")
     if low is not None and value < low:

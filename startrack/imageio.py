@@ -8,6 +8,7 @@ in its stored array order (row 0 = first row in the file), so a frame written wi
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
@@ -15,6 +16,7 @@ import numpy as np
 
 from startrack.cache import atomic_path
 from startrack.errors import InputError
+from startrack.image_header import check_image_size, check_pixels
 
 PNG_SUFFIXES = (".png",)
 TIFF_SUFFIXES = (".tif", ".tiff")
@@ -56,6 +58,8 @@ def read_image(path: str | Path) -> np.ndarray:
     if path.is_dir():
         raise InputError(f"{path}: is a directory, not an image")
     try:
+        if suffix not in FITS_SUFFIXES:
+            check_image_size(path)  # from the header: a huge frame is refused undecoded
         raw = _read_fits(path) if suffix in FITS_SUFFIXES else _read_raster(path, suffix)
     except OSError as exc:
         raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from None
@@ -115,6 +119,8 @@ def _read_fits(path: Path) -> np.ndarray:
     try:
         with fits.open(path, memmap=False) as hdus:
             for hdu in hdus:
+                if getattr(hdu, "is_image", False) and hdu.header.get("NAXIS", 0) >= 2:
+                    _check_fits_size(path, hdu.header)
                 if hdu.data is not None and getattr(hdu, "is_image", False):
                     data = np.asarray(hdu.data)
                     if data.ndim == 2 or data.size == 0:
@@ -129,6 +135,13 @@ def _read_fits(path: Path) -> np.ndarray:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"{path}: not a readable FITS file ({first})") from None
     raise InputError(f"{path}: FITS file has no image data")
+
+
+def _check_fits_size(path: Path, header) -> None:
+    """The pixel limit from NAXISn, before astropy reads the data."""
+    axes = [int(header.get(f"NAXIS{i}", 1) or 1) for i in range(1, int(header["NAXIS"]) + 1)]
+    pixels = math.prod(axes)
+    check_pixels(axes[0], pixels // max(axes[0], 1), str(path))
 
 
 def _as_grey_2d(image: np.ndarray, path: Path) -> np.ndarray:

@@ -36,6 +36,10 @@ def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timi
     if not solution.solved:
         record["reason"] = solution.reason or "no_match"
     record["method"] = solution.method
+    if solution.solved:
+        record["mode"] = solution.mode
+    if solution.lock is not None:
+        record["lock"] = solution.lock
     record["attitude"] = None
     record["stars"] = []
     if solution.solved and solution.rotation is not None:
@@ -87,13 +91,16 @@ def format_table(record: dict) -> str:
               f"total {t['total']:.1f} ms")
     n_cent = record.get("diagnostics", {}).get("centroids", "?")
     if record["status"] != "solved":
+        lock = f", lock {record['lock']}" if "lock" in record else ""
         lines += [f"status: not solved: {record.get('reason', 'no_match')} (method "
-                  f"{record['method']}, {n_cent} centroids)", timing]
+                  f"{record['method']}, {n_cent} centroids{lock})", timing]
         return "\n".join(lines) + "\n"
     att = record["attitude"]
     res = np.array([s["residual_arcsec"] for s in record["stars"]])
     lines += [
-        f"status: solved (method {record['method']}, {len(res)} of {n_cent} centroids "
+        f"status: solved (method {record['method']}, {record.get('mode', 'lost_in_space')}"
+        + (f", lock {record['lock']}" if "lock" in record else "")
+        + f", {len(res)} of {n_cent} centroids "
         f"identified, rms residual {math.sqrt(float(np.mean(res**2))):.2f} arcsec)",
         "quaternion [w, x, y, z]: [" + ", ".join(f"{c:+.9f}" for c in att["quaternion"]) + "]",
         f"boresight: RA {att['ra_deg']:.5f} deg, Dec {att['dec_deg']:+.5f} deg, "

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,8 +28,15 @@ from startrack.fov import DEFAULT_FOV_TOLERANCE, BlindSolver, solve_approximate
 from startrack.identify import identify
 from startrack.matchers import MatcherConfig, get_matcher
 from startrack.output import solution_record
-from startrack.sidecar import read_sidecar
-from startrack.sky import Catalog, SkySpec, default_sky_kind, load_sky, resolve_sky
+from startrack.sidecar import find_sidecar, read_sidecar
+from startrack.sky import (
+    Catalog,
+    SkySpec,
+    check_pair_budget,
+    default_sky_kind,
+    load_sky,
+    resolve_sky,
+)
 from startrack.types import Observation, Solution, Timing
 from startrack.verify import VerifyConfig
 
@@ -113,15 +121,19 @@ class Identifier:
 
     def __init__(self, camera: Camera, catalog: Catalog, method: str, *,
                  max_stars: int | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
-                 verify_config: VerifyConfig | None = None) -> None:
+                 verify_config: VerifyConfig | None = None,
+                 timeout_ms: float | None = None) -> None:
         if not (sigma_px > 0 and math.isfinite(sigma_px)):
             raise InputError(f"--sigma-px must be a positive number, got {sigma_px}")
         self.camera = camera
         self.catalog = catalog
         self.sigma_px = float(sigma_px)
+        self.timeout_ms = timeout_ms
         self.verify_config = verify_config or VerifyConfig()
         config = MatcherConfig() if max_stars is None else dataclasses.replace(
             MatcherConfig(), max_stars=int(max_stars))
+        if get_matcher(method).tables:  # the quad matcher and the peers build no pairs
+            check_pair_budget(catalog, camera)  # before a database that would not fit memory
         self.database = StarDatabase(catalog, camera)
         self.matcher = get_matcher(method)(self.database, config)
         t0 = time.perf_counter()
@@ -129,19 +141,23 @@ class Identifier:
         self.load_seconds = time.perf_counter() - t0
 
     def observation(self, centroids: Centroids) -> Observation:
-        return Observation.from_pixels(centroids.x, centroids.y, self.camera, self.sigma_px)
+        flux = centroids.flux if centroids.photometric else None
+        return Observation.from_pixels(centroids.x, centroids.y, self.camera, self.sigma_px,
+                                       flux=flux)
 
     def identify(self, obs: Observation) -> Solution:
         """Identify the stars of an observation made elsewhere (the bench's frames)."""
-        return identify(obs, self.matcher, self.verify_config)
+        return identify(obs, self.matcher, self.verify_config, timeout_ms=self.timeout_ms)
 
-    def solve(self, frame: FrameInput) -> FrameResult:
-        """Identify the stars of one input read by :func:`read_input`."""
+    def solve(self, frame: FrameInput,
+              identify: Callable[[Observation], Solution] | None = None) -> FrameResult:
+        """Identify the stars of one input read by :func:`read_input` (by ``identify``
+        when given: a tracking step of :mod:`startrack.sequence`)."""
         if frame.size is not None and frame.size != (self.camera.width, self.camera.height):
             raise InputError(f"{frame.name}: image is {frame.size[0]} x {frame.size[1]} px "
                              f"but the camera is {self.camera.width} x {self.camera.height}")
         obs = self.observation(frame.centroids)
-        solution = self.identify(obs)
+        solution = (identify or self.identify)(obs)
         timing = Timing(frame.centroid_ms, solution.identify_ms,
                         frame.read_ms + frame.centroid_ms + solution.identify_ms)
         return FrameResult(frame.name, solution, obs, frame.centroids, timing, self.camera,
@@ -164,12 +180,16 @@ class Options:
     sigma_px: float = DEFAULT_SIGMA_PX
     #: how far the true FOV may be from the given one (a fraction); 0: exactly as given
     fov_tolerance: float = DEFAULT_FOV_TOLERANCE
+    timeout_ms: float | None = None  # wall-clock limit per input (reason "timeout")
 
 
 class Pipeline:
     """Solve many inputs, each with its own camera and sky, sharing loaded databases."""
 
     def __init__(self, options: Options) -> None:
+        if options.camera is not None and options.fov_deg is not None:
+            raise InputError("give a camera or a field of view, not both (the camera sets "
+                             "the field of view)")
         self.options = options
         get_matcher(options.method)  # an unknown method fails before any work
         self._identifiers: dict[tuple[Camera, SkySpec, str], Identifier] = {}
@@ -181,15 +201,13 @@ class Pipeline:
         camera at all (None) means an unknown field of view: a blind search."""
         opt = self.options
         side_camera, side_sky = None, None
-        if frame.path is not None:
-            from startrack.sidecar import sidecar_path_for
-
-            sidecar = sidecar_path_for(frame.path)
-            if sidecar.is_file() and sidecar != frame.path:
-                side_camera, side_sky, _ = read_sidecar(sidecar)
-        camera = opt.camera or side_camera
-        if camera is None and opt.fov_deg is not None:
-            size = opt.size or frame.size
+        sidecar = find_sidecar(frame.path) if frame.path is not None else None
+        if sidecar is not None:
+            side_camera, side_sky, _ = read_sidecar(sidecar)
+        camera = opt.camera or (side_camera if opt.fov_deg is None else None)
+        if camera is None and opt.fov_deg is not None:  # --fov overrides the sidecar's
+            side_size = (side_camera.width, side_camera.height) if side_camera else None
+            size = opt.size or frame.size or side_size
             if size is None:
                 raise InputError(f"{frame.name}: a centroid list with --fov needs the image "
                                  "size (--size WxH) or use --camera FILE")
@@ -210,7 +228,8 @@ class Pipeline:
             if sky not in self._catalogs:
                 self._catalogs[sky] = load_sky(sky, camera)
             self._identifiers[key] = Identifier(camera, self._catalogs[sky], method,
-                                                max_stars=opt.max_stars, sigma_px=opt.sigma_px)
+                                                max_stars=opt.max_stars, sigma_px=opt.sigma_px,
+                                                timeout_ms=opt.timeout_ms)
         return self._identifiers[key]
 
     def solve(self, frame: FrameInput) -> FrameResult:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +12,7 @@ from scipy.spatial.transform import Rotation
 from startrack.attitude import from_quaternion
 from startrack.camera import Camera
 from startrack.camera_file import camera_from_dict
-from startrack.errors import InputError
+from startrack.errors import InputError, StartrackWarning
 from startrack.sky import SkySpec
 
 
@@ -20,14 +21,44 @@ def sidecar_path_for(image_path: str | Path) -> Path:
     return Path(image_path).with_suffix(".json")
 
 
+def with_sidecars(inputs) -> list[Path]:
+    """The inputs and the JSON beside each (what an output must never overwrite)."""
+    paths = [Path(p) for p in inputs]
+    return paths + [sidecar_path_for(p) for p in paths]
+
+
+def is_sidecar_data(data) -> bool:
+    """Whether parsed JSON is a startrack frame sidecar: an object with a ``camera`` and a
+    ``sky`` object (what ``simulate`` writes), not any JSON that happens to share a stem."""
+    return (isinstance(data, dict) and isinstance(data.get("camera"), dict)
+            and isinstance(data.get("sky"), dict))
+
+
+def find_sidecar(input_path: str | Path) -> Path | None:
+    """The sidecar beside ``input_path``, or None; another JSON there is ignored with a
+    warning rather than taken for the frame's camera and sky."""
+    path = sidecar_path_for(input_path)
+    if path == Path(input_path) or not path.is_file():
+        return None
+    try:
+        data = json.loads(path.read_bytes())
+    except (OSError, ValueError):  # unreadable or not JSON (ValueError covers bad UTF-8)
+        data = None
+    if is_sidecar_data(data):
+        return path
+    warnings.warn(f"{path}: not a startrack sidecar (no 'camera' and 'sky' objects); "
+                  f"ignored for {Path(input_path).name}", StartrackWarning, stacklevel=2)
+    return None
+
+
 def read_sidecar(path: str | Path) -> tuple[Camera, SkySpec, Rotation | None]:
     """Camera, sky and (if recorded) the true attitude from a frame's sidecar JSON."""
     path = Path(path)
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(path.read_bytes())
     except OSError as exc:
         raise InputError(f"{path}: cannot read sidecar ({exc.strerror or exc})") from None
-    except json.JSONDecodeError as exc:
+    except ValueError as exc:  # JSONDecodeError, or bytes that are not UTF-8
         raise InputError(f"{path}: not valid JSON ({exc})") from None
     if not isinstance(data, dict) or "camera" not in data or "sky" not in data:
         raise InputError(f"{path}: a sidecar needs 'camera' and 'sky' entries")

@@ -21,7 +21,8 @@ class Observation:
 
     ``vectors`` are camera-frame unit vectors (N x 3) of the pixel positions ``x``, ``y``;
     ``sigma_rad`` is the 1-sigma angular error of one centroid along one axis, from which
-    matchers derive their tolerances.
+    matchers derive their tolerances. ``flux`` (optional, linear, larger is brighter) lets
+    the final labelling check brightness.
     """
 
     vectors: np.ndarray
@@ -29,13 +30,16 @@ class Observation:
     y: np.ndarray
     camera: Camera
     sigma_rad: float
+    flux: np.ndarray | None = None
 
     @classmethod
     def from_pixels(cls, x: np.ndarray, y: np.ndarray, camera: Camera,
-                    sigma_px: float) -> Observation:
+                    sigma_px: float, flux: np.ndarray | None = None) -> Observation:
         x = np.asarray(x, dtype=np.float64)
         y = np.asarray(y, dtype=np.float64)
-        return cls(camera.pixel_to_vector(x, y), x, y, camera, float(sigma_px) / camera.f_px)
+        flux = None if flux is None else np.asarray(flux, dtype=np.float64)
+        return cls(camera.pixel_to_vector(x, y), x, y, camera, float(sigma_px) / camera.f_px,
+                   flux)
 
     def __len__(self) -> int:
         return len(self.x)
@@ -78,6 +82,11 @@ class Solution:
     #: why an unsolved frame has no answer, in a word (interfaces.md): "too_few_stars",
     #: "no_match", "timeout"; None when solved
     reason: str | None = None
+    #: how it was solved (interfaces.md): "lost_in_space" or "tracking"
+    mode: str = "lost_in_space"
+    #: in a tracked sequence, the lock state after this frame (startrack.tracker.LOCK_STATES);
+    #: None outside a sequence
+    lock: str | None = None
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ from scipy.special import bdtrc
 from startrack.attitude import wahba_matrices
 from startrack.camera import Camera
 from startrack.database import StarDatabase
+from startrack.labelling import label_stars
 from startrack.matching.verify_kernels import nearest_matches
 from startrack.types import Hypothesis, Observation
 
@@ -56,7 +57,7 @@ class Verification:
 
     accepted: bool
     rotation: Rotation | None
-    obs_index: np.ndarray  # every observed star matched to the catalog
+    obs_index: np.ndarray  # matched stars; once accepted, the reported identities
     cat_index: np.ndarray
     false_probability: float
     confirmed: int  # matched stars outside the hypothesis
@@ -131,8 +132,12 @@ def false_match_probability(n_other: int, n_confirmed: int, n_catalog_in_image: 
 
 
 def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
-           config: VerifyConfig) -> Verification:
-    """Solve the attitude from ``hypothesis`` and accept it only on independent evidence."""
+           config: VerifyConfig, project: _Projector | None = None) -> Verification:
+    """Solve the attitude from ``hypothesis`` and accept it only on independent evidence.
+
+    ``project`` replaces the default catalog projector with one of the same interface
+    (``match`` and calling it): tracking passes one restricted to the stars around its
+    prediction, so that a tracked frame is held to exactly this test and labelling."""
     rejected = Verification(False, None, np.zeros(0, np.int64), np.zeros(0, np.int64), 1.0, 0)
     obs_h = np.asarray(hypothesis.obs_index, dtype=np.int64)
     cat_h = np.asarray(hypothesis.cat_index, dtype=np.int64)
@@ -145,7 +150,7 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
     cos_err = np.einsum("ij,ij->i", cam_h @ matrix.T, cat_v)
     if np.any(cos_err < math.cos(radius_rad)):
         return rejected
-    project = _Projector(obs, database, radius_px)
+    project = project or _Projector(obs, database, radius_px)
     obs_m, cat_m, n_cat = project.match(matrix)
     # Evidence comes only from stars the matcher did not choose.
     chosen = np.zeros(len(obs), bool)
@@ -157,8 +162,22 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
     accepted = confirmed >= config.min_confirmed and prob <= config.max_false_probability
     if not accepted:
         return Verification(False, Rotation.from_matrix(matrix), obs_m, cat_m, prob, confirmed)
-    obs_m, cat_m, matrix = _refine(project, obs_m, cat_m)
+    obs_m, cat_m, matrix = _final_labels(project, _refine(project, obs_m, cat_m)[2])
     return Verification(True, Rotation.from_matrix(matrix), obs_m, cat_m, prob, confirmed)
+
+
+def _final_labels(project: _Projector,
+                  matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The identities to report at the accepted attitude (startrack.labelling: one-to-one,
+    ambiguous stars left unidentified), and the attitude refitted to them."""
+    rows, cx, cy = project(matrix, project.radius_px)
+    mag = project.database.catalog.mag[rows]
+    labels = label_stars(project.obs, rows, cx, cy, mag, project.radius_px)
+    if len(labels.obs_index) < 3:  # the attitude stands on verification's evidence
+        return labels.obs_index, labels.cat_index, matrix
+    vectors, cat = project.obs.vectors, project.database.vectors
+    return (labels.obs_index, labels.cat_index,
+            wahba_matrices(vectors[labels.obs_index], cat[labels.cat_index]))
 
 
 def _refine(project: _Projector, obs_m: np.ndarray,

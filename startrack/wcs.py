@@ -98,8 +98,9 @@ def _as_matrix(coeffs: np.ndarray, terms: list[tuple[int, int]], order: int) -> 
 def sip_order_for(n_stars: int) -> int:
     """The SIP order a fit to ``n_stars`` matched stars supports (0: TAN only): each
     axis of order n has (n+1)(n+2)/2 - 1 coefficients; ask for three stars per
-    coefficient so noise is averaged, not fitted."""
-    for order in (3, 2):
+    coefficient so noise is averaged, not fitted (order 4 from 42 stars: ground frames
+    carry differential refraction as well as lens distortion)."""
+    for order in (4, 3, 2):
         if n_stars >= 3 * ((order + 1) * (order + 2) // 2 - 1):
             return order
     return 0

@@ -249,3 +249,13 @@ def test_real_sky_test_frame_solves_within_30_arcsec():
     assert np.degrees(np.arccos(min(1.0, got @ want))) * 3600 < 30.0
     assert len(record["stars"]) >= 30
     assert max(s["residual_arcsec"] for s in record["stars"]) < 40.0
+
+
+def test_timeout_gives_not_solved_with_reason_timeout(setup):
+    """A limit far below one hypothesis's cost trips on every frame: reason "timeout"."""
+    tmp, cam, _, frames = setup
+    proc = run(frames[0][0], "--camera", cam, "--sky", "random", "--format", "json",
+               "--timeout-ms", "1e-6")
+    assert proc.returncode == 1, proc.stderr
+    record = json.loads(proc.stdout)
+    assert record["status"] == "not_solved" and record["reason"] == "timeout"

@@ -110,7 +110,8 @@ def _from_centroids(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
     y[real] += condition.noise_px * normals[where, 1]
     order = np.argsort(scene.mag, kind="stable")
     sigma = max(condition.noise_px, SIGMA_FLOOR_PX)
-    obs = Observation.from_pixels(x[order], y[order], camera, sigma)
+    flux = 10.0 ** (-0.4 * scene.mag[order])
+    obs = Observation.from_pixels(x[order], y[order], camera, sigma, flux)
     return BenchFrame(obs, scene.catalog_row[order], scene.rotation, len(rows_in_view))
 
 
@@ -129,5 +130,5 @@ def _from_image(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
             np.column_stack([found.x, found.y]), distance_upper_bound=TRUTH_RADIUS_PX)
         hit = np.isfinite(dist)
         truth[hit] = scene.catalog_row[nearest[hit]]
-    obs = Observation.from_pixels(found.x, found.y, camera, DEFAULT_SIGMA_PX)
+    obs = Observation.from_pixels(found.x, found.y, camera, DEFAULT_SIGMA_PX, found.flux)
     return BenchFrame(obs, truth, scene.rotation, len(rows_in_view), centroid_ms)

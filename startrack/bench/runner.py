@@ -9,6 +9,7 @@ interrupted-and-resumed run ends with the same files as an uninterrupted one.
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import threading
 import time
@@ -144,7 +145,34 @@ def run_chunk(spec: RunSpec, units: list[tuple[int, int]]) -> list[tuple[tuple, 
     return [((c, f), run_unit(spec, c, f)) for c, f in units]
 
 
-def _init_worker(spec: RunSpec) -> None:
+def _die_with_parent(parent_pid: int) -> None:
+    """Make this worker end when the process that started it does, even by SIGKILL
+    (which runs no clean-up): the kernel's parent-death signal on Linux, and a thread
+    watching for re-parenting everywhere."""
+    import ctypes
+    import os
+    import signal
+
+    if sys.platform.startswith("linux"):  # PR_SET_PDEATHSIG = 1; else the thread watches
+        with contextlib.suppress(OSError, AttributeError):
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(0.5)
+        os._exit(1)
+
+    if os.getppid() != parent_pid:  # the parent died before the signal was armed
+        os._exit(1)
+    threading.Thread(target=watch, daemon=True, name="parent-watch").start()
+
+
+def _init_worker(spec: RunSpec, parent_pid: int) -> None:
+    import signal
+
+    # The parent handles SIGTERM (and stops the pool); a worker just ends on it.
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _die_with_parent(parent_pid)
     load_bench(spec)
 
 
@@ -163,17 +191,26 @@ def execute(spec: RunSpec, units: list[tuple[int, int]], *, jobs: int = 1,
         for c, f in units:
             yield (c, f), run_unit(spec, c, f)
     else:
-        from concurrent.futures import ProcessPoolExecutor, as_completed
+        yield from _execute_local(spec, units, jobs)
 
-        with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
-                                 initargs=(spec,)) as pool:
-            futures = [pool.submit(run_chunk, spec, chunk) for chunk in _chunks(units, jobs)]
-            try:
-                for fut in as_completed(futures):
-                    yield from fut.result()
-            finally:
-                for fut in futures:
-                    fut.cancel()
+
+def _execute_local(spec: RunSpec, units: list, jobs: int) -> Iterator:
+    import os
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    pool = ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
+                               initargs=(spec, os.getpid()))
+    finished = False
+    try:
+        futures = [pool.submit(run_chunk, spec, chunk) for chunk in _chunks(units, jobs)]
+        for fut in as_completed(futures):
+            yield from fut.result()
+        finished = True
+    finally:
+        if not finished:  # stopped early (SIGTERM, an error): end the workers at once
+            for process in list(getattr(pool, "_processes", {}).values()):
+                process.terminate()
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def connect(address: str):

@@ -3,8 +3,12 @@ the canonical frames.csv, summary.csv, db.csv and the plots."""
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import os
+import re
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,8 +32,12 @@ from startrack.bench.store import (
 )
 from startrack.cache import atomic_text
 from startrack.errors import InputError
+from startrack.outputs import check_out_folder
 
 SUMMARY_FILE = "summary.csv"
+LOCK_FILE = ".lock"
+# mkstemp names of atomic writes: .<file>.<8 random chars><suffix>
+TEMP_NAME = re.compile(r"^\.[^.].*\.[A-Za-z0-9_]{8}(\.[A-Za-z0-9]+)?$")
 DB_FILE = "db.csv"
 GROUP_COLUMNS = ["condition", *VARIABLES, "method"]
 
@@ -72,18 +80,19 @@ def _clear_outputs(out: Path) -> None:
 def _run_pending(spec: RunSpec, out: Path, done: dict, jobs: int, client,
                  progress: bool) -> tuple[int, int]:
     """Run the units not yet in frames.csv, appending each as it finishes."""
-    out.mkdir(parents=True, exist_ok=True)
     if not done:
         _clear_outputs(out)
     write_run(out, run_identity(spec.to_json()))
     writer = FramesWriter(out / FRAMES_FILE, COLUMNS, done)
     pending = [u for u in spec.units() if u not in done]
     bar = progress_bar(len(spec.units()), len(done), progress)
+    units = execute(spec, pending, jobs=jobs, client=client)
     try:
-        for _unit, rows in execute(spec, pending, jobs=jobs, client=client):
+        for _unit, rows in units:
             writer.add(rows)
             bar.update(1)
     finally:
+        units.close()  # on SIGTERM or an error: stop the workers now, not at GC
         writer.close()
         bar.close()
     return len(pending), len(done)
@@ -91,26 +100,66 @@ def _run_pending(spec: RunSpec, out: Path, done: dict, jobs: int, client,
 
 def run_comparison(spec: RunSpec, out: str | Path, *, jobs: int = 1,
                    scheduler: str | None = None, resume: bool | None = None,
-                   progress: bool = False) -> RunOutputs:
+                   progress: bool = False, announce=None) -> RunOutputs:
     """Run (or finish) the comparison ``spec`` into the folder ``out``.
 
     ``resume``: None resumes when ``out`` holds the same run and refuses a different one;
-    True the same; False starts over.
+    True the same; False starts over. ``announce()`` is called once the run holds the
+    folder's lock (a second run on one folder fails before it says anything).
     """
     t0 = time.perf_counter()
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out: {out} exists and is not a folder")
-    done = _resumable(spec, out, resume)
+    check_out_folder(out, overwrite=True)
     # Load in this process first: a bad method or sky fails before anything is written,
     # and the database load times are measured once, here.
     bench = load_bench(spec)
     client = connect(scheduler) if scheduler is not None else None
     try:
-        units_run, units_done = _run_pending(spec, out, done, jobs, client, progress)
+        with exclusive_lock(out):
+            return _locked_run(spec, out, bench, jobs, client, resume, progress, t0,
+                               announce)
     finally:
         if client is not None:
             client.close()
+
+
+@contextlib.contextmanager
+def exclusive_lock(out: Path) -> Iterator[Path]:
+    """Hold ``out/.lock`` (flock) for the whole run: a second run on one folder would
+    interleave its rows with this one's."""
+    import fcntl
+
+    out.mkdir(parents=True, exist_ok=True)
+    lock = out / LOCK_FILE
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(f"--out {out}: another compare is running there (it holds "
+                             f"the lock {lock}); wait for it or choose another --out") \
+                from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        yield lock
+    finally:
+        os.close(fd)  # releases the lock; the file stays (unlinking it would race)
+
+
+def _remove_stale_temporaries(out: Path) -> None:
+    """Temporary files a killed run left (SIGKILL runs no clean-up); safe under the lock."""
+    for path in out.iterdir():
+        if TEMP_NAME.match(path.name) and path.is_file():
+            path.unlink(missing_ok=True)
+
+
+def _locked_run(spec: RunSpec, out: Path, bench, jobs: int, client, resume: bool | None,
+                progress: bool, t0: float, announce) -> RunOutputs:
+    _remove_stale_temporaries(out)
+    done = _resumable(spec, out, resume)
+    if announce is not None:
+        announce()
+    units_run, units_done = _run_pending(spec, out, done, jobs, client, progress)
     frames_csv = out / FRAMES_FILE
     write_canonical(frames_csv, COLUMNS, list(spec.methods))
 

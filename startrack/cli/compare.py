@@ -26,6 +26,7 @@ DEFAULT_METHODS = "angle,triangle,hybrid"
 # measured, its 7000 units cost ~70 s of CPU, i.e. ~40 s on 2 idle cores (more on a
 # loaded machine). 1000 frames put a 95% rate within about +-1.4%.
 DEFAULT_FRAMES = 1000
+MAX_UNITS = 10_000_000  # frames x conditions of one run (docs/limits.md)
 DEFAULT_LEVELS = {"noise_px": "0,0.5,1,2", "false_stars": "0,1,3,5", "missing": "0",
                   "mag_noise": "0"}
 
@@ -61,6 +62,35 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str) -> dict[str,
         "missing": parse_values(text["missing"], "--missing", high=1.0),
         "mag_noise": parse_values(text["mag_noise"], "--mag-noise"),
     }
+
+
+def _sky(cfg, sky: str | None, mag_limit: float | None):
+    """The config's sky with the options applied and its defaults resolved."""
+    spec_sky = cfg.sky if sky is None else dataclasses.replace(cfg.sky, kind=sky)
+    if mag_limit is not None:
+        if not math.isfinite(mag_limit):
+            raise InputError(f"--mag-limit must be finite, got {mag_limit}")
+        spec_sky = dataclasses.replace(spec_sky, mag_limit=mag_limit)
+    return resolve_sky(spec_sky, cfg.camera)
+
+
+def _check_image_size(cfg, config_path) -> None:
+    from startrack.image_header import check_pixels
+
+    check_pixels(cfg.camera.width, cfg.camera.height, f"{config_path or 'config'} [camera]")
+
+
+def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
+    if frames < 1:
+        raise InputError(f"--frames must be >= 1, got {frames}")
+    if max_stars < 3:
+        raise InputError(f"--max-stars must be >= 3, got {max_stars}")
+    if jobs is not None and jobs < 1:
+        raise InputError(f"--jobs must be >= 1, got {jobs}")
+    if seed is not None and seed < 0:
+        raise InputError(f"--seed must be >= 0, got {seed}")
+    if not (math.isfinite(threshold_arcsec) and threshold_arcsec > 0):
+        raise InputError(f"--threshold-arcsec must be > 0, got {threshold_arcsec}")
 
 
 @main.command()
@@ -99,12 +129,22 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str) -> dict[str,
 @click.option("--resume/--no-resume", default=None,
               help="Continue a matching run in --out (default when there is one) or start "
               "over.")
+@click.option("--mode", type=click.Choice(["lost_in_space", "tracking"]),
+              default="lost_in_space", show_default=True,
+              help="tracking: frame sequences solved frame after frame (each matcher "
+              "tracked and alone, tetra3rs's attitude_hint where installed); --frames is "
+              "then the frames per sequence [default 100], --methods the fallback matchers "
+              "[default pyramid].")
+@click.option("--rates", help="Tracking mode: rate magnitudes in deg/s along (1, 0.5, 2) "
+              "(first = base) [default: 2.2913,0,1,5,10].")
+@click.option("--fps", type=float, default=10.0, show_default=True,
+              help="Tracking mode: frames per second.")
 @click.option("--replay", metavar="CONDITION,FRAME",
               help="Rerun one frame of this run through every method and print each answer "
               "(report.md lists the command for every failed frame); writes nothing.")
 def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars, missing,
             mag_noise, grid, max_stars, source, threshold_arcsec, jobs, scheduler, out_dir,
-            seed, resume, replay) -> None:
+            seed, resume, mode, rates, fps, replay) -> None:
     """Compare methods on the same random frames under noise, false and missing stars.
     Writes frames.csv, summary.csv, plots and report.md into --out. Conventions
     (pixels, attitude, quaternions): docs/conventions.md."""
@@ -114,24 +154,15 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
 
     names = parse_methods(methods)
-    if frames < 1:
-        raise InputError(f"--frames must be >= 1, got {frames}")
-    if max_stars < 3:
-        raise InputError(f"--max-stars must be >= 3, got {max_stars}")
-    if jobs is not None and jobs < 1:
-        raise InputError(f"--jobs must be >= 1, got {jobs}")
-    if seed is not None and seed < 0:
-        raise InputError(f"--seed must be >= 0, got {seed}")
-    if not (math.isfinite(threshold_arcsec) and threshold_arcsec > 0):
-        raise InputError(f"--threshold-arcsec must be > 0, got {threshold_arcsec}")
+    _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec)
     cfg = (load_config(config_path) if config_path
            else config_from_dict(DEFAULT_CONFIG, "default config"))
-    spec_sky = cfg.sky if sky is None else dataclasses.replace(cfg.sky, kind=sky)
-    if mag_limit is not None:
-        if not math.isfinite(mag_limit):
-            raise InputError(f"--mag-limit must be finite, got {mag_limit}")
-        spec_sky = dataclasses.replace(spec_sky, mag_limit=mag_limit)
-    spec_sky = resolve_sky(spec_sky, cfg.camera)
+    spec_sky = _sky(cfg, sky, mag_limit)
+    if source == "images":  # frames are rendered at the camera's size
+        _check_image_size(cfg, config_path)
+    if mode == "tracking":  # frame sequences (startrack.bench.tracking_report)
+        return _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars,
+                         missing, fps, seed, out_dir, threshold_arcsec)
     levels = _levels(noise_px, false_stars, missing, mag_noise, source)
     spec = RunSpec(
         methods=names, conditions=tuple(build_conditions(levels, grid)), frames=frames,
@@ -143,11 +174,20 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
         return
     jobs = jobs or os.cpu_count() or 1
     n_units = len(spec.conditions) * frames
+    if n_units > MAX_UNITS:  # the run's unit list alone would not fit in memory
+        raise InputError(f"--frames {frames} x {len(spec.conditions)} condition(s) is "
+                         f"{n_units:,} units, above the limit of {MAX_UNITS:,}")
     where = f"Dask at {scheduler}" if scheduler else f"{jobs} process(es)"
-    click.echo(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
-               f"{frames} frame(s) from {source} ({n_units} units, {where})", err=True)
-    result = run_comparison(spec, out_dir, jobs=jobs, scheduler=scheduler, resume=resume,
-                            progress=sys.stderr.isatty())
+
+    def announce() -> None:
+        click.echo(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
+                   f"{frames} frame(s) from {source} ({n_units} units, {where})", err=True)
+
+    try:
+        result = run_comparison(spec, out_dir, jobs=jobs, scheduler=scheduler, resume=resume,
+                                progress=sys.stderr.isatty(), announce=announce)
+    except OSError as exc:  # every file is atomic or resumable: nothing is left torn
+        raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
     if result.units_resumed:
         click.echo(f"resumed: {result.units_resumed} unit(s) were already done", err=True)
     click.echo(format_table(result.summary))
@@ -162,6 +202,31 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
                f"{result.db_csv}, plots: "
                f"{', '.join(p.name for p in result.plots) or 'none (nothing swept)'} "
                f"in {result.out}/ ({result.wall_seconds:.1f} s)")
+
+
+def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, missing, fps,
+              seed, out_dir, threshold_arcsec) -> None:
+    """``--mode tracking``: the options as given (unset ones take the tracking defaults)."""
+    from click.core import ParameterSource
+
+    from startrack.bench import tracking_report as tr
+    from startrack.pipeline import DEFAULT_METHOD
+
+    ctx = click.get_current_context()
+    given = {n: ctx.get_parameter_source(n) == ParameterSource.COMMANDLINE
+             for n in ("methods", "frames")}
+    names = parse_methods(methods) if given["methods"] else (DEFAULT_METHOD,)
+    levels = tr.parse_levels({"rate_dps": rates, "noise_px": noise_px,
+                              "false_stars": false_stars, "missing": missing})
+    summary, _ = tr.compare_tracking(
+        cfg.camera, spec_sky, methods=names, levels=levels,
+        frames=frames if given["frames"] else tr.DEFAULT_FRAMES, fps=fps,
+        seed=cfg.frames.seed if seed is None else seed, out=Path(out_dir),
+        threshold_arcsec=threshold_arcsec,
+        progress=lambda m: click.echo(m, err=True) if sys.stderr.isatty() else None)
+    click.echo(tr.markdown_table(summary))
+    click.echo(f"wrote frames.csv, summary.csv, time_ratio.csv, report.md and plots in "
+               f"{out_dir}/")
 
 
 def _replay(spec, text: str) -> None:

@@ -11,7 +11,6 @@ from pathlib import Path
 
 import click
 
-from startrack.cache import atomic_text
 from startrack.camera_file import load_camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
@@ -19,8 +18,11 @@ from startrack.errors import InputError
 from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.matchers import available_methods
 from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
+from startrack.outputs import check_output, guarded_stdout, open_output, refuse_inputs
 from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
+from startrack.sequence import DEFAULT_PRIOR_SIGMA_DEG, SequenceSolver, prior_from_radec_roll
 from startrack.side_outputs import SideOutputs
+from startrack.sidecar import with_sidecars
 from startrack.sky import GAIA_BELOW_FOV_DEG, SKY_KINDS
 
 #: a batch of at least this many inputs shows a progress bar (when stderr is a terminal)
@@ -38,6 +40,18 @@ def _size(ctx, param, value):
     if w < 1 or h < 1:
         raise click.BadParameter(f"width and height must be positive, got {value!r}")
     return w, h
+
+
+def _prior_triple(ctx, param, value):
+    if value is None:
+        return None
+    try:
+        parts = tuple(float(p) for p in value.split(","))
+    except ValueError:
+        parts = ()
+    if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
+        raise click.BadParameter(f"expected three numbers RA,DEC,ROLL, got {value!r}")
+    return parts
 
 
 def _finite(ctx, param, value):
@@ -78,6 +92,9 @@ def _finite(ctx, param, value):
 @click.option("--sigma-px", type=click.FloatRange(0, min_open=True), callback=_finite,
               default=DEFAULT_SIGMA_PX, show_default=True,
               help="1-sigma centroid error in pixels; sets match tolerances.")
+@click.option("--timeout-ms", type=click.FloatRange(0, min_open=True), callback=_finite,
+              help="Wall-clock limit per input; past it the input is not solved, with "
+                   "reason timeout (the work is bounded without it too).")
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="json: one JSON line per input, in input order.")
 @click.option("--output", type=click.Path(dir_okay=False),
@@ -92,35 +109,56 @@ def _finite(ctx, param, value):
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or notes on stderr.")
 @click.option("-v", "--verbose", is_flag=True,
               help="One line per input and per file written on stderr.")
+@click.option("--track", is_flag=True,
+              help="The inputs, in order, are one sequence: the first is solved "
+                   "lost-in-space, each later one by tracking from those before it (falling "
+                   "back to lost-in-space); each record says its mode and lock.")
+@click.option("--prior", callback=_prior_triple,
+              help="Prior attitude RA,DEC,ROLL in degrees: each input (with --track, the "
+                   "first) is solved near it first.")
+@click.option("--prior-sigma-deg", type=click.FloatRange(0, 90, min_open=True),
+              default=DEFAULT_PRIOR_SIGMA_DEG, show_default=True,
+              help="1-sigma uncertainty of --prior, degrees.")
 def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, epoch, method,
-             max_stars, sigma_px, fmt, output, annotate_path, wcs_path, corr_path, quiet,
-             verbose) -> None:
+             max_stars, sigma_px, timeout_ms, fmt, output, annotate_path, wcs_path, corr_path,
+             quiet, verbose, track, prior, prior_sigma_deg) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
     usage or an unreadable input (the other inputs are still answered).
     Conventions (pixels, attitude, JSON record, exit codes): docs/conventions.md."""
+    if camera_path and fov_deg is not None:
+        raise click.UsageError("give --camera FILE or --fov DEG, not both (the camera file "
+                               "sets the field of view)")
+    _check_output_paths(inputs, output, annotate_path, wcs_path, corr_path)
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
-                      fov_tolerance=fov_tolerance)
+                      timeout_ms=timeout_ms, fov_tolerance=fov_tolerance)
     pipeline = Pipeline(options)
+    if track or prior is not None:
+        pipeline = SequenceSolver(pipeline, track=track, prior=None if prior is None
+                                  else prior_from_radec_roll(*prior, prior_sigma_deg))
     side = SideOutputs(annotate_path, wcs_path, corr_path, several=len(inputs) > 1)
     note = _notes(quiet, verbose)
     worst = 0
     pending: list[dict] = []  # error records held back until an input is answered
     try:
         with contextlib.ExitStack() as stack:
-            fh = stack.enter_context(atomic_text(output)) if output else sys.stdout
+            fh = (stack.enter_context(open_output(output, with_sidecars(inputs))) if output
+                  else guarded_stdout())
             emit = _writer(fh, fmt, several=len(inputs) > 1)
             todo = _progress(inputs, quiet, stack)
-            if todo is not inputs and fh is sys.stdout:
+            if todo is not inputs and not output:
                 emit = _around_bar(emit)
             for name in todo:
+                result = None
                 try:
                     result = pipeline.run(Path(name))
                     side.add(result)
                 except InputError as exc:  # a batch answers every input it can
+                    if result is None:  # unread: in a sequence, a frame with no answer
+                        getattr(pipeline, "skip", lambda: None)()
                     click.echo(f"error: {exc}", err=True)
                     pending.append(error_record(name, str(exc)))
                     worst = 2
@@ -179,13 +217,23 @@ def _progress(inputs, quiet: bool, stack: contextlib.ExitStack):
                                     leave=False, dynamic_ncols=True))
 
 
+def _check_output_paths(inputs, output, annotate_path, wcs_path, corr_path) -> None:
+    """Refuse, before any work, an output that is one of the inputs (or their sidecars)."""
+    if output:
+        check_output(output, with_sidecars(inputs))
+    for what, path in (("--annotate", annotate_path), ("--wcs", wcs_path),
+                       ("--corr", corr_path)):
+        if path:
+            refuse_inputs(path, with_sidecars(inputs), what)
+
+
 class _NothingAnswered(Exception):
     """Every input was bad: the atomic output is discarded rather than written."""
 
 
 def _writer(fh, fmt: str, several: bool):
     """A function writing one record to ``fh`` in ``fmt`` (the CSV header first)."""
-    writer = csv.writer(fh) if fmt == "csv" else None
+    writer = csv.writer(fh, lineterminator="\n") if fmt == "csv" else None
     if writer is not None:
         writer.writerow(CSV_HEADER)
 

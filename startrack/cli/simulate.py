@@ -18,11 +18,14 @@ from startrack.camera_file import load_camera
 from startrack.cli import main
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
+from startrack.image_header import check_pixels
+from startrack.outputs import check_out_folder, remove_own
 from startrack.sensor import SensorModel
 from startrack.sidecar import sidecar_path_for
 from startrack.sky import SKY_KINDS, SkySpec, resolve_sky
 
 DEFAULT_OUT = Path("out/simulate")
+OWN_FILES = ("frame_*.png", "frame_*.json", "frame_*.fits", "truth.csv", "stars.csv")
 
 
 def _triple(names: str):
@@ -55,17 +58,32 @@ def _triple(names: str):
 @click.option("--missing", type=click.FloatRange(0, 1), help="Star dropout probability.")
 @click.option("--mag-noise", type=click.FloatRange(min=0), help="Magnitude noise sigma.")
 @click.option("--rate", callback=_triple("WX,WY,WZ"),
-              help="Angular rate in the camera frame, deg/s, for motion blur.")
+              help="Angular rate in the camera frame, deg/s: motion blur, and with --fps "
+                   "the frames form one trajectory (frame k at R0 exp(w k / fps)).")
+@click.option("--fps", type=click.FloatRange(0, min_open=True),
+              help="Frames per second: the frames are one sequence (from --attitude, else "
+                   "a random start), turning at --rate or following --profile.")
+@click.option("--profile", "profile_path", type=click.Path(dir_okay=False),
+              help="Attitude profile CSV (t,qw,qx,qy,qz; seconds, camera-to-ICRS "
+                   "quaternion), SLERP-interpolated at --fps; frames: as many as it covers.")
 @click.option("--fits", "write_fits_too", is_flag=True, help="Also write FITS with a WCS.")
 @click.option("--camera", "camera_path", type=click.Path(dir_okay=False),
               help="Camera file (JSON or TOML), overrides the config's [camera].")
+@click.option("--overwrite", is_flag=True,
+              help="Write into a non-empty --out, first removing the frames, sidecars and "
+                   "CSVs an earlier simulate left there.")
 def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_stars,
-             missing, mag_noise, rate, write_fits_too, camera_path) -> None:
+             missing, mag_noise, rate, fps, profile_path, write_fits_too, camera_path,
+             overwrite) -> None:
     """Render frames of a sky, with truth.csv, stars.csv and a JSON sidecar per frame.
+    --out must be empty or new (or give --overwrite); frames are at most
+    STARTRACK_MAX_IMAGE_PIXELS (default 8192 x 8192).
     Conventions (pixels, attitude, sidecar units): docs/conventions.md."""
     cfg = load_config(config_path) if config_path else config_from_dict(DEFAULT_CONFIG,
                                                                         "default config")
     camera = load_camera(camera_path) if camera_path else cfg.camera
+    check_pixels(camera.width, camera.height,
+                 camera_path or (f"{config_path} [camera]" if config_path else "camera"))
     spec = cfg.sky
     if sky is not None:
         spec = dataclasses.replace(spec, kind=sky)
@@ -80,17 +98,22 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     if attitude is not None and not -90.0 <= attitude[1] <= 90.0:
         raise click.BadParameter(f"Dec must be in [-90, 90], got {attitude[1]}",
                                  param_hint="--attitude")
+    trajectory = _trajectory(attitude, opts, fps, profile_path, count)
+    if trajectory is not None:
+        opts = dataclasses.replace(opts, count=len(trajectory))
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise click.BadParameter(f"{out} exists and is not a folder", param_hint="--out")
+    check_out_folder(out, overwrite)
     try:
-        _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too)
+        _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too, trajectory)
     except OSError as exc:  # every file is atomic, so nothing half-written is left behind
         raise InputError(f"{out}: cannot write output ({exc.strerror or exc})") from None
+    click.echo(f"wrote {opts.count} frame(s) to {out}/ (truth.csv, stars.csv, "
+               f"frame_*.png{', frame_*.fits' if write_fits_too else ''}, frame_*.json)")
 
 
 def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions, out: Path,
-         attitude: tuple[float, float, float] | None, with_fits: bool) -> None:
+         attitude: tuple[float, float, float] | None, with_fits: bool,
+         trajectory=None) -> None:
     from tqdm import tqdm
 
     from startrack.attitude import from_radec_roll, to_quaternion, to_radec_roll
@@ -101,17 +124,18 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
     from startrack.wcs import wcs_header
 
     catalog = load_sky(spec, camera)  # before any output: a bad sky leaves no files
+    remove_own(out, OWN_FILES)  # an earlier run's frames must not outlive it (--overwrite)
     fixed = from_radec_roll(*attitude) if attitude is not None else None
     truth_rows, star_rows = [], []
     bar = tqdm(range(opts.count), file=sys.stderr, unit="frame", desc="simulate",
                disable=not sys.stderr.isatty())
     for i in bar:
         rng = np.random.default_rng([opts.seed, i])  # each frame reproducible on its own
-        rotation = fixed if fixed is not None else _random_rotation(rng)
+        rotation, rate_dps = _attitude_and_rate(i, rng, fixed, trajectory, opts)
         scene = observe(catalog, camera, rotation, rng, missing=opts.missing,
                         false_stars=opts.false_stars, mag_noise=opts.mag_noise,
                         hot_pixel_fraction=opts.hot_pixel_fraction)
-        image = render_frame(scene, camera, sensor, rng, angular_rate_dps=opts.rate_dps)
+        image = render_frame(scene, camera, sensor, rng, angular_rate_dps=rate_dps)
         name = f"frame_{i:04d}"
         png = out / f"{name}.png"
         write_png16(png, image)
@@ -127,8 +151,10 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
             "attitude": {"quaternion": q, "ra_deg": ra, "dec_deg": dec, "roll_deg": roll},
             "sensor": sensor.to_dict(),
             "frames": {"missing": opts.missing, "false_stars": opts.false_stars,
-                       "mag_noise": opts.mag_noise, "rate_dps": opts.rate_dps},
+                       "mag_noise": opts.mag_noise, "rate_dps": rate_dps},
         }
+        if trajectory is not None:
+            sidecar["time_s"] = float(trajectory.times[i])
         with atomic_text(sidecar_path_for(png)) as fh:
             json.dump(sidecar, fh, indent=2)
             fh.write("\n")
@@ -142,8 +168,23 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
                                    "dec_deg", "roll_deg"], truth_rows)
     _write_csv(out / "stars.csv", ["frame", "x", "y", "flux", "magnitude", "catalog_id",
                                    "is_false"], star_rows)
-    click.echo(f"wrote {opts.count} frame(s) to {out}/ (truth.csv, stars.csv, "
-               f"frame_*.png{', frame_*.fits' if with_fits else ''}, frame_*.json)")
+
+
+def _attitude_and_rate(i: int, rng, fixed, trajectory, opts: FrameOptions):
+    """Frame i's attitude and rate: the sequence's (--fps), else fixed or random."""
+    if trajectory is not None:
+        return trajectory.rotations[i], tuple(float(w) for w in trajectory.rates_dps[i])
+    return (fixed if fixed is not None else _random_rotation(rng)), opts.rate_dps
+
+
+def _trajectory(attitude, opts: FrameOptions, fps, profile_path, count):
+    """The sequence's attitudes (startrack.trajectory), None for independent frames."""
+    from startrack.attitude import from_radec_roll
+    from startrack.trajectory import simulation_trajectory
+
+    start = (from_radec_roll(*attitude) if attitude is not None
+             else _random_rotation(np.random.default_rng([opts.seed, 1 << 20])))
+    return simulation_trajectory(start, opts.rate_dps, fps, profile_path, count)
 
 
 #: what the numbers in a sidecar are measured in (docs/conventions.md)
@@ -181,6 +222,6 @@ def _random_rotation(rng: np.random.Generator):
 
 def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
     with atomic_text(path) as fh:
-        writer = csv.writer(fh)
+        writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(header)
         writer.writerows(rows)

@@ -120,6 +120,52 @@ def resolve_sky(spec: SkySpec, camera: Camera | None) -> SkySpec:
     return spec
 
 
+# Memory bounds (documented in docs/conventions.md). Every catalog pair closer than the
+# image diagonal is tabled; building the table peaks near 60 bytes per pair (measured:
+# 408 million pairs took 23 GB), so DEFAULT_MAX_PAIRS is about 1.5 GB.
+DEFAULT_MAX_PAIRS = 25_000_000
+MAX_RANDOM_STARS = 5_000_000
+
+
+def max_pairs() -> int:
+    """The pair budget: ``$STARTRACK_MAX_PAIRS``, else :data:`DEFAULT_MAX_PAIRS`."""
+    import os
+
+    try:
+        return max(1, int(float(os.environ.get("STARTRACK_MAX_PAIRS", ""))))
+    except ValueError:
+        return DEFAULT_MAX_PAIRS
+
+
+def estimated_pairs(n_stars: int, max_angle_rad: float) -> float:
+    """Expected catalog pairs closer than ``max_angle_rad`` for stars spread over the sky:
+    each of n(n-1)/2 pairs is that close with probability (1 - cos a) / 2."""
+    return n_stars * (n_stars - 1) / 2.0 * (1.0 - math.cos(max_angle_rad)) / 2.0
+
+
+def check_pair_budget(catalog: Catalog, camera: Camera) -> None:
+    """Refuse a catalog whose pair table for ``camera`` would exceed the budget."""
+    angle = math.radians(camera.diagonal_fov_deg)
+    pairs = estimated_pairs(len(catalog), angle)
+    budget = max_pairs()
+    if pairs > budget:
+        mag = float(np.max(catalog.mag)) if len(catalog) else float("nan")
+        raise InputError(
+            f"sky: {len(catalog)} stars (to magnitude {mag:.1f}) make ~{pairs / 1e6:.0f} "
+            f"million pairs across a {math.degrees(angle):.1f} deg frame, above the budget "
+            f"of {budget / 1e6:.0f} million (STARTRACK_MAX_PAIRS); lower --mag-limit")
+
+
+def _check_spec(spec: SkySpec) -> None:
+    if spec.kind == "random":
+        if spec.mag_limit is not None and not spec.mag_limit > 0.0:
+            raise InputError(f"sky: a random sky's magnitudes start at 0, so --mag-limit must "
+                             f"be > 0, got {spec.mag_limit}")
+        if spec.n_stars > MAX_RANDOM_STARS:
+            raise InputError(f"sky: n_stars {spec.n_stars} is above the limit of "
+                             f"{MAX_RANDOM_STARS}")
+
+
 def load_sky(spec: SkySpec, camera: Camera | None = None) -> Catalog:
     """The catalog that ``spec`` describes, magnitude-cut and with close stars merged.
 
@@ -127,6 +173,7 @@ def load_sky(spec: SkySpec, camera: Camera | None = None) -> Catalog:
     (see :func:`merge_separation_deg`); simulate, identify and compare all do, so the
     same spec and camera always give the same catalog rows.
     """
+    _check_spec(spec)
     if spec.kind == "random":
         mag_max = 6.5 if spec.mag_limit is None else spec.mag_limit
         catalog = random_sky(n_stars=spec.n_stars, seed=spec.seed, mag_max=mag_max)
@@ -140,6 +187,9 @@ def load_sky(spec: SkySpec, camera: Camera | None = None) -> Catalog:
         catalog = cut_magnitude(load_gaia(epoch=spec.epoch), spec.mag_limit)
     else:
         raise InputError(f"sky: kind must be one of {SKY_KINDS}, got {spec.kind!r}")
+    if len(catalog) == 0:
+        raise InputError(f"sky: no {spec.kind} star is brighter than magnitude "
+                         f"{spec.mag_limit}; raise --mag-limit")
     catalog = merge_close_stars(catalog, merge_separation_deg(spec, camera))
     object.__setattr__(catalog, "source", spec.to_dict())
     return catalog
@@ -154,6 +204,8 @@ __all__ = [
     "GAIA_BELOW_FOV_DEG",
     "default_mag_limit",
     "merge_separation_deg",
+    "check_pair_budget",
+    "estimated_pairs",
     "UNRESOLVED_PIXELS",
     "random_sky",
     "cut_magnitude",

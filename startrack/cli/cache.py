@@ -1,0 +1,49 @@
+"""`startrack cache info|clear`: where the on-disk cache is, how big, and emptying it."""
+
+from __future__ import annotations
+
+import click
+
+from startrack.cli import main
+
+
+def _mb(n: int) -> str:
+    return f"{n / (1024 * 1024):.1f} MB"
+
+
+@main.group()
+def cache() -> None:
+    """The on-disk cache of catalogs and star databases (rebuilt when missing).
+
+    Its folder is $STARTRACK_CACHE_DIR, else the user cache folder; its size is capped at
+    $STARTRACK_CACHE_MAX_MB megabytes (default 1024), least recently used entries first
+    out."""
+
+
+@cache.command()
+def info() -> None:
+    """Print the cache folder, its entries, total size and cap."""
+    from startrack.cache import cache_dir, cache_entries, cache_max_bytes
+
+    entries = cache_entries()
+    total = sum(size for _, size, _ in entries)
+    click.echo(f"folder:  {cache_dir()}")
+    click.echo(f"entries: {len(entries)}")
+    click.echo(f"size:    {_mb(total)} (cap {_mb(cache_max_bytes())}, STARTRACK_CACHE_MAX_MB)")
+    kinds: dict[str, list[int]] = {}
+    for path, size, _ in entries:
+        count_size = kinds.setdefault(path.name.split("-", 1)[0], [0, 0])
+        count_size[0] += 1
+        count_size[1] += size
+    for kind, (count, size) in sorted(kinds.items()):
+        click.echo(f"  {kind:<16} {count:>4} entr{'y' if count == 1 else 'ies'}  {_mb(size)}")
+
+
+@cache.command()
+def clear() -> None:
+    """Remove every cache entry (they are rebuilt when next needed)."""
+    from startrack.cache import cache_dir, clear_cache
+
+    count, freed = clear_cache()
+    click.echo(f"removed {count} entr{'y' if count == 1 else 'ies'} ({_mb(freed)}) "
+               f"from {cache_dir()}")

@@ -1,0 +1,117 @@
+"""The state of a frame sequence: attitude prediction and lock.
+
+:class:`Tracker` predicts each frame's attitude from the attitudes before it (the
+per-frame rotation estimated from the last two solved frames, carried over any unsolved
+ones) with an uncertainty that grows with the frames since the last solution, solves the
+frame by :func:`startrack.tracking.track` near the prediction, and falls back to
+lost-in-space when that fails.
+
+Lock states (the record's ``lock``): ``acquired`` (first solution of the sequence, by
+lost-in-space), ``tracking`` (solved by tracking), ``reacquired`` (solved by lost-in-space
+after a lock had been held: the lock was lost on this frame or earlier), ``lost`` (not
+solved, the frame before was: lock lost here), ``none`` (not solved, no lock before).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from startrack.database import StarDatabase
+from startrack.tracking import Prior, TrackConfig, track
+from startrack.tracking_kernels import rotation_exp as _exp
+from startrack.tracking_kernels import rotation_log as _log
+from startrack.tracking_kernels import warm_up
+from startrack.types import Observation, Solution
+from startrack.verify import VerifyConfig
+
+LOCK_STATES = ("acquired", "tracking", "reacquired", "lost", "none")
+
+
+def attitude_sigma_rad(solution: Solution, obs: Observation) -> float:
+    """The 1-sigma error of a solved attitude, as an angle seen in the image: the centroid
+    error averaged down over the matched stars (doubled, for unmodelled error)."""
+    n = max(len(solution.obs_index), 1)
+    return 2.0 * obs.sigma_rad / math.sqrt(n)
+
+
+class Tracker:
+    """The state of one frame sequence: its solved attitudes and its lock.
+
+    :meth:`step` solves the next frame: by tracking when a prediction exists, else (or
+    when tracking fails) by the ``lost_in_space`` callable it is given. ``initial`` is a
+    prior for the first frame; without it the first frame is solved lost-in-space.
+    """
+
+    def __init__(self, config: TrackConfig | None = None, initial: Prior | None = None) -> None:
+        self.config = config or TrackConfig()
+        self.initial = initial  # a prior attitude for the first frame (``--prior``)
+        warm_up()
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the sequence: the next frame is solved lost-in-space."""
+        self.frame = 0
+        self.history: list[tuple[int, np.ndarray, float]] = []
+        self.locked = False
+        self.ever_locked = False
+
+    def predict(self, frame: int | None = None) -> Prior | None:
+        """The predicted attitude of ``frame`` (default: the next), None when there is no
+        recent solution to predict from."""
+        k = self.frame if frame is None else frame
+        if not self.history:
+            return self.initial if k == 0 else None
+        b, rot_b, sig_b = self.history[-1]
+        n = k - b
+        cfg = self.config
+        if n > cfg.max_coast_frames + 1:
+            return None
+        rate, sig_w = np.zeros(3), cfg.unknown_rate_rad
+        if len(self.history) >= 2 and b - self.history[-2][0] <= cfg.max_coast_frames + 1:
+            a, rot_a, sig_a = self.history[-2]
+            # The per-frame rotation in the camera frame: R_b = R_a exp(w (b - a)).
+            rate = _log(rot_a.T @ rot_b) / (b - a)
+            sig_w = (math.hypot(sig_a, sig_b) / (b - a) + cfg.accel_fraction
+                     * float(np.linalg.norm(rate)) + cfg.rate_floor_rad)
+        return Prior(rot_b @ _exp(rate * n), sig_b + n * sig_w)
+
+    def step(self, obs: Observation, database: StarDatabase, verify_config: VerifyConfig,
+             lost_in_space: Callable[[Observation], Solution], method: str) -> Solution:
+        """Solve the next frame of the sequence; the Solution carries ``mode`` and
+        ``lock``, and ``identify_ms`` covers the tracking attempt and any fallback."""
+        t0 = time.perf_counter()
+        prior = self.predict()
+        solution = None
+        if prior is not None and len(obs) >= 3:
+            solution = track(obs, database, prior, verify_config, self.config, method)
+        if solution is None or not solution.solved:
+            solution = dataclasses.replace(lost_in_space(obs), mode="lost_in_space")
+        elapsed = (time.perf_counter() - t0) * 1000.0
+        lock = self._advance(solution, obs)
+        return dataclasses.replace(solution, identify_ms=elapsed, lock=lock)
+
+    def skip(self) -> None:
+        """A frame of the sequence that could not be read: time passes, nothing solved."""
+        self._advance(None, None)
+
+    def _advance(self, solution: Solution | None, obs: Observation | None) -> str:
+        solved = solution is not None and solution.solved
+        if solved:
+            lock = ("tracking" if solution.mode == "tracking"
+                    else "reacquired" if self.ever_locked else "acquired")
+            # A lost-in-space solution starts a new lock: the attitudes before it (before a
+            # jump, say) say nothing about the rate now.
+            kept = self.history[-1:] if lock == "tracking" else []
+            self.history = [*kept, (self.frame, solution.rotation.as_matrix(),
+                                    attitude_sigma_rad(solution, obs))]
+        else:
+            lock = "lost" if self.locked else "none"
+        self.locked = solved
+        self.ever_locked |= solved
+        self.frame += 1
+        return lock
