@@ -259,6 +259,9 @@ class Pipeline:
             if found is None:
                 ident = self.identifier(camera, sky, "quad")
                 found = solve_approximate(ident, x, y, self.options.fov_tolerance)
+                spent = first.solution.identify_ms  # the first try is part of the answer
+                found = dataclasses.replace(found, solution=dataclasses.replace(
+                    found.solution, identify_ms=found.solution.identify_ms + spent))
         else:
             return self.identifier(camera, sky).solve(frame)
         sol = found.solution
