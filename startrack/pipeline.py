@@ -272,23 +272,14 @@ class Pipeline:
                            frame.image)
 
     def correct_aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
-        """``result`` with its attitude corrected for annual aberration when the time of
-        observation is known (``Options.time``, else a FITS input's DATE-OBS)."""
-        from startrack.aberration import correct_solution, fits_time
+        """``result`` corrected for annual aberration when the time of observation is known
+        (``Options.time``, else a FITS input's DATE-OBS): startrack.aberration."""
+        from startrack.aberration import correct_result, fits_time
 
         when = self.options.time
         if when is None and frame.path is not None:
             when = fits_time(frame.path)
-        if when is None or not result.solution.solved:
-            return result
-        t0 = time.perf_counter()
-        solution = correct_solution(result.solution, result.obs, result.catalog.vectors, when)
-        ms = (time.perf_counter() - t0) * 1000.0
-        timing = Timing(result.timing.centroid, result.timing.identify + ms,
-                        result.timing.total + ms)
-        solution = dataclasses.replace(solution, identify_ms=solution.identify_ms + ms)
-        return dataclasses.replace(result, solution=solution, timing=timing,
-                                   time_utc=when.utc.isot)
+        return result if when is None else correct_result(result, when)
 
     def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
         size = self.options.size or frame.size
