@@ -14,6 +14,7 @@ import click
 from startrack.camera_file import load_camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
+from startrack.cli.options import triple
 from startrack.errors import InputError
 from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.matchers import available_methods
@@ -48,18 +49,6 @@ def _time(ctx, param, value):
     from startrack.aberration import parse_time
 
     return parse_time(value)
-
-
-def _prior_triple(ctx, param, value):
-    if value is None:
-        return None
-    try:
-        parts = tuple(float(p) for p in value.split(","))
-    except ValueError:
-        parts = ()
-    if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
-        raise click.BadParameter(f"expected three numbers RA,DEC,ROLL, got {value!r}")
-    return parts
 
 
 def _finite(ctx, param, value):
@@ -125,7 +114,7 @@ def _finite(ctx, param, value):
               help="The inputs, in order, are one sequence: the first is solved "
                    "lost-in-space, each later one by tracking from those before it (falling "
                    "back to lost-in-space); each record says its mode and lock.")
-@click.option("--prior", callback=_prior_triple,
+@click.option("--prior", callback=triple("RA,DEC,ROLL"),
               help="Prior attitude RA,DEC,ROLL in degrees: each input (with --track, the "
                    "first) is solved near it first.")
 @click.option("--prior-sigma-deg", type=click.FloatRange(0, 90, min_open=True),

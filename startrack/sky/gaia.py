@@ -105,17 +105,12 @@ def load_gaia(epoch: float | None = None) -> Catalog:
     """Every star of the merged catalog; ids are Gaia DR3 source ids (-HIP for the
     Hipparcos entries). Positions are ICRS at J2016.0, or at ``epoch`` (Julian year) when
     given, moved by the proper motions described in the module docstring."""
-    from startrack.sky.hipparcos import propagate
+    from startrack.sky.hipparcos import julian_year, propagate
 
     arrays = gaia_arrays()
     ra, dec = arrays["ra_deg"], arrays["dec_deg"]
     if epoch is not None:
-        try:
-            epoch = float(epoch)
-        except (TypeError, ValueError) as exc:
-            raise InputError(f"sky: epoch must be a Julian year, got {epoch!r}") from exc
-        if not math.isfinite(epoch):
-            raise InputError(f"sky: epoch must be a finite Julian year, got {epoch!r}")
+        epoch = julian_year(epoch)
         ra, dec = propagate(ra, dec, arrays["pm_ra"], arrays["pm_dec"], epoch - GAIA_EPOCH)
     return Catalog(ids=arrays["ids"], ra_deg=ra, dec_deg=dec, mag=arrays["mag"],
                    source={"sky": "gaia", "epoch": epoch})
