@@ -46,7 +46,8 @@ def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndar
               iterations: int = 12) -> float:
     """The focal length (px) that, with its best attitude, fits the pixels ``x``, ``y`` to
     the catalog directions: alternate Wahba's problem and the linear least squares of
-    ``pixel - centre = f * tangent-plane position`` until the focal length settles."""
+    ``pixel - centre = f * D(tangent-plane position)`` (D the camera's lens distortion, if
+    any) until the focal length settles."""
     f = camera.f_px
     d = np.stack([np.asarray(x, float) - camera.cx, np.asarray(y, float) - camera.cy], 1)
     for _ in range(iterations):
@@ -54,6 +55,8 @@ def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndar
         matrix = wahba_matrices(cam, cat_vectors)
         c = cat_vectors @ matrix  # rows R^T v: catalog directions in the camera frame
         t = c[:, :2] / c[:, 2:3]
+        if camera.distortion is not None:  # the lens acts on the normalised plane: d = f D(t)
+            t = np.stack(camera.distortion.distort(t[:, 0], t[:, 1]), 1)
         denom = float(np.sum(t * t))
         if denom <= 0:
             break
