@@ -94,3 +94,24 @@ def correct_solution(solution, obs, catalog_vectors: np.ndarray, time):
     return dataclasses.replace(
         solution, rotation=rotation,
         residual_arcsec=residuals_arcsec(rotation, obs, solution.obs_index, apparent))
+
+
+def correct_result(result, when):
+    """A solved :class:`startrack.pipeline.FrameResult` with its attitude corrected for the
+    aberration at time ``when`` (an astropy Time), the correction's time counted in
+    ``identify``; an unsolved one as it is."""
+    import dataclasses
+    import time as clock
+
+    from startrack.types import Timing
+
+    if not result.solution.solved:
+        return result
+    t0 = clock.perf_counter()
+    solution = correct_solution(result.solution, result.obs, result.catalog.vectors, when)
+    ms = (clock.perf_counter() - t0) * 1000.0
+    timing = Timing(result.timing.centroid, result.timing.identify + ms,
+                    result.timing.total + ms)
+    solution = dataclasses.replace(solution, identify_ms=solution.identify_ms + ms)
+    return dataclasses.replace(result, solution=solution, timing=timing,
+                               time_utc=when.utc.isot)

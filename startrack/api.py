@@ -17,6 +17,7 @@ from startrack.attitude import to_quaternion, to_radec_roll
 from startrack.camera import Camera
 from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
 from startrack.errors import InputError
+from startrack.fov import DEFAULT_FOV_TOLERANCE
 from startrack.pipeline import (
     DEFAULT_METHOD,
     FrameInput,
@@ -97,7 +98,9 @@ class Solver:
     """Loads catalog and database once; :meth:`solve` answers one frame at a time.
 
     Give the camera as ``fov_deg`` (with ``size=(width, height)`` for centroid arrays;
-    images give their own size) or ``camera`` (a :class:`Camera` or a camera file path).
+    images give their own size) or ``camera`` (a :class:`Camera` or a camera file path);
+    either is nominal, good to ``fov_tolerance`` (a fraction; 0: exact). With neither, the
+    field of view is searched (:data:`startrack.fov.BLIND_FOV_RANGE`).
     The other keywords are ``startrack identify``'s options (``time``: ISO 8601 text or an
     astropy Time, for the aberration correction).
 
@@ -115,7 +118,8 @@ class Solver:
                  epoch: float | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
                  max_stars: int | None = None, timeout_ms: float | None = None,
                  track: bool = False, prior: tuple[float, float, float] | None = None,
-                 prior_sigma_deg: float = 1.0, time: str | None = None) -> None:
+                 prior_sigma_deg: float = 1.0, time: str | None = None,
+                 fov_tolerance: float = DEFAULT_FOV_TOLERANCE) -> None:
         if time is not None and isinstance(time, str):
             from startrack.aberration import parse_time
 
@@ -127,7 +131,8 @@ class Solver:
         self._pipeline = Pipeline(Options(method=method, camera=camera, fov_deg=fov_deg,
                                           size=size, sky=sky, mag_limit=mag_limit,
                                           epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
-                                          timeout_ms=timeout_ms, time=time))
+                                          timeout_ms=timeout_ms, time=time,
+                                          fov_tolerance=fov_tolerance))
         self._sequence = None
         if track or prior is not None:
             from startrack.sequence import SequenceSolver, prior_from_radec_roll

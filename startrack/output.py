@@ -25,8 +25,10 @@ def _finite_or_none(value: float) -> float | None:
 
 
 def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timing: Timing,
-                    input_name: str | None = None, extra: dict | None = None) -> dict:
-    """The interfaces.md solution dict; ``input`` and ``extra`` add fields, never rename."""
+                    input_name: str | None = None, extra: dict | None = None,
+                    fov_deg: float | None = None) -> dict:
+    """The interfaces.md solution dict; ``input`` and ``extra`` add fields, never rename.
+    ``fov_deg``: the (fitted) horizontal FOV, written for a solved frame."""
     record: dict = {}
     if input_name is not None:
         record["input"] = input_name
@@ -45,6 +47,8 @@ def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timi
         ra, dec, roll = to_radec_roll(solution.rotation)
         record["attitude"] = {"quaternion": [float(c) for c in q], "ra_deg": ra,
                               "dec_deg": dec, "roll_deg": roll}
+        if fov_deg is not None:
+            record["fov_deg"] = float(fov_deg)
         rows = solution.cat_index
         record["stars"] = [
             {"x": float(obs.x[k]), "y": float(obs.y[k]), "catalog_id": int(cid),

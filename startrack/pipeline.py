@@ -24,11 +24,19 @@ from startrack.camera import Camera
 from startrack.centroids import DEFAULT_SIGMA_PX, Centroids, read_centroid_csv
 from startrack.database import StarDatabase
 from startrack.errors import InputError
+from startrack.fov import DEFAULT_FOV_TOLERANCE, BlindSolver, refit_fov, solve_approximate
 from startrack.identify import identify
 from startrack.matchers import MatcherConfig, get_matcher
 from startrack.output import solution_record
 from startrack.sidecar import find_sidecar, read_sidecar
-from startrack.sky import Catalog, SkySpec, check_pair_budget, load_sky, resolve_sky
+from startrack.sky import (
+    Catalog,
+    SkySpec,
+    check_pair_budget,
+    default_sky_kind,
+    load_sky,
+    resolve_sky,
+)
 from startrack.types import Observation, Solution, Timing
 from startrack.verify import VerifyConfig
 
@@ -107,7 +115,8 @@ class FrameResult:
         if self.time_utc is not None:
             extra["time_utc"] = self.time_utc
         return solution_record(self.solution, self.obs, self.catalog, self.timing,
-                               input_name=self.input if with_input else None, extra=extra)
+                               input_name=self.input if with_input else None, extra=extra,
+                               fov_deg=self.camera.fov_deg)
 
 
 class Identifier:
@@ -126,7 +135,8 @@ class Identifier:
         self.verify_config = verify_config or VerifyConfig()
         config = MatcherConfig() if max_stars is None else dataclasses.replace(
             MatcherConfig(), max_stars=int(max_stars))
-        check_pair_budget(catalog, camera)  # before a database that would not fit memory
+        if get_matcher(method).tables:  # the quad matcher and the peers build no pairs
+            check_pair_budget(catalog, camera)  # before a database that would not fit memory
         self.database = StarDatabase(catalog, camera)
         self.matcher = get_matcher(method)(self.database, config)
         t0 = time.perf_counter()
@@ -171,6 +181,8 @@ class Options:
     epoch: float | None = None
     max_stars: int | None = None
     sigma_px: float = DEFAULT_SIGMA_PX
+    #: how far the true FOV may be from the given one (a fraction); 0: exactly as given
+    fov_tolerance: float = DEFAULT_FOV_TOLERANCE
     timeout_ms: float | None = None  # wall-clock limit per input (reason "timeout")
     #: observation time (astropy Time) for the aberration correction; None: a FITS
     #: input's DATE-OBS, else no correction
@@ -186,11 +198,13 @@ class Pipeline:
                              "the field of view)")
         self.options = options
         get_matcher(options.method)  # an unknown method fails before any work
-        self._identifiers: dict[tuple[Camera, SkySpec], Identifier] = {}
+        self._identifiers: dict[tuple[Camera, SkySpec, str], Identifier] = {}
         self._catalogs: dict[SkySpec, Catalog] = {}
+        self._blind: dict[SkySpec, BlindSolver] = {}
 
-    def setup_for(self, frame: FrameInput) -> tuple[Camera, SkySpec]:
-        """The camera and sky for one input: options, else sidecar, else defaults."""
+    def setup_for(self, frame: FrameInput) -> tuple[Camera | None, SkySpec]:
+        """The camera and sky for one input: options, else sidecar, else defaults. No
+        camera at all (None) means an unknown field of view: a blind search."""
         opt = self.options
         side_camera, side_sky = None, None
         sidecar = find_sidecar(frame.path) if frame.path is not None else None
@@ -204,10 +218,7 @@ class Pipeline:
                 raise InputError(f"{frame.name}: a centroid list with --fov needs the image "
                                  "size (--size WxH) or use --camera FILE")
             camera = Camera.from_fov(size[0], size[1], opt.fov_deg)
-        if camera is None:
-            raise InputError(f"{frame.name}: no camera (no sidecar beside it); give "
-                             "--camera FILE or --fov DEG")
-        kind = opt.sky or (side_sky.kind if side_sky else "hipparcos")
+        kind = opt.sky or (side_sky.kind if side_sky else default_sky_kind(camera))
         sky = side_sky if side_sky is not None and side_sky.kind == kind else SkySpec(kind=kind)
         if opt.epoch is not None:
             sky = dataclasses.replace(sky, epoch=opt.epoch)
@@ -215,41 +226,74 @@ class Pipeline:
             sky = dataclasses.replace(sky, mag_limit=opt.mag_limit)
         return camera, resolve_sky(sky, camera)
 
-    def identifier(self, camera: Camera, sky: SkySpec) -> Identifier:
-        key = (camera, sky)
+    def identifier(self, camera: Camera, sky: SkySpec, method: str | None = None) -> Identifier:
+        opt = self.options
+        method = method or opt.method
+        key = (camera, sky, method)
         if key not in self._identifiers:
             if sky not in self._catalogs:
                 self._catalogs[sky] = load_sky(sky, camera)
-            opt = self.options
-            self._identifiers[key] = Identifier(camera, self._catalogs[sky], opt.method,
+            self._identifiers[key] = Identifier(camera, self._catalogs[sky], method,
                                                 max_stars=opt.max_stars, sigma_px=opt.sigma_px,
                                                 timeout_ms=opt.timeout_ms)
         return self._identifiers[key]
 
     def solve(self, frame: FrameInput) -> FrameResult:
-        """Identify one input that is already read (attitude corrected for aberration
-        when the time of observation is known)."""
-        return self.correct_aberration(frame,
-                                       self.identifier(*self.setup_for(frame)).solve(frame))
+        """Identify one input that is already read (startrack.fov: a nominal or unknown
+        field of view), its attitude corrected for aberration when the time is known."""
+        return self.correct_aberration(frame, self._identify(frame))
+
+    def _identify(self, frame: FrameInput) -> FrameResult:
+        camera, sky = self.setup_for(frame)
+        x, y = frame.centroids.x, frame.centroids.y
+        if camera is None:
+            found = self.blind_solver(sky).solve(x, y, self._blind_size(frame))
+        elif self.options.fov_tolerance > 0:
+            # The configured method at the nominal FOV first: when the FOV is right (the
+            # usual case) it answers in milliseconds; the FOV is then fitted and the
+            # pointing verified again through the fitted camera.
+            nominal = self.identifier(camera, sky)
+            first = nominal.solve(frame)
+            found = (refit_fov(first, nominal.database, nominal.verify_config)
+                     if first.solution.solved else None)
+            if found is None:
+                ident = self.identifier(camera, sky, "quad")
+                found = solve_approximate(ident, x, y, self.options.fov_tolerance)
+                spent = first.solution.identify_ms  # the first try is part of the answer
+                found = dataclasses.replace(found, solution=dataclasses.replace(
+                    found.solution, identify_ms=found.solution.identify_ms + spent))
+        else:
+            return self.identifier(camera, sky).solve(frame)
+        sol = found.solution
+        timing = Timing(frame.centroid_ms, sol.identify_ms,
+                        frame.read_ms + frame.centroid_ms + sol.identify_ms)
+        return FrameResult(frame.name, sol, found.obs, frame.centroids, timing, found.camera,
+                           found.catalog, self.options.sigma_px, found.match_radius_px,
+                           frame.image)
 
     def correct_aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
-        """``result`` with its attitude corrected for annual aberration when the time of
-        observation is known (``Options.time``, else a FITS input's DATE-OBS)."""
-        from startrack.aberration import correct_solution, fits_time
+        """``result`` corrected for annual aberration when the time of observation is known
+        (``Options.time``, else a FITS input's DATE-OBS): startrack.aberration."""
+        from startrack.aberration import correct_result, fits_time
 
         when = self.options.time
         if when is None and frame.path is not None:
             when = fits_time(frame.path)
-        if when is None:
-            return result
-        t0 = time.perf_counter()
-        solution = correct_solution(result.solution, result.obs, result.catalog.vectors, when)
-        ms = (time.perf_counter() - t0) * 1000.0
-        timing = Timing(result.timing.centroid, result.timing.identify + ms,
-                        result.timing.total + ms)
-        solution = dataclasses.replace(solution, identify_ms=solution.identify_ms + ms)
-        return dataclasses.replace(result, solution=solution, timing=timing,
-                                   time_utc=when.utc.isot)
+        return result if when is None else correct_result(result, when)
+
+    def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
+        size = self.options.size or frame.size
+        if size is None:
+            raise InputError(f"{frame.name}: a centroid list with no camera needs the image "
+                             "size (--size WxH), or give --camera FILE or --fov DEG")
+        return size
+
+    def blind_solver(self, sky: SkySpec) -> BlindSolver:
+        if sky not in self._blind:
+            if sky not in self._catalogs:
+                self._catalogs[sky] = load_sky(sky, None)
+            self._blind[sky] = BlindSolver(self._catalogs[sky], sky, self.options.sigma_px)
+        return self._blind[sky]
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` (image or centroid CSV) once and identify its stars."""

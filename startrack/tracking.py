@@ -28,7 +28,7 @@ from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.tracking_kernels import consistent, project_match, window_pairs
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
-from startrack.verify import CAPTURE, VerifyConfig, verify
+from startrack.verify import CAPTURE, CONE_LOOKUP_MARGIN, CONE_MARGIN, VerifyConfig, verify
 
 # The vote looks for the densest spot of displacements within this many match radii: the
 # true pairs crowd there while chance pairs spread over the whole window.
@@ -135,7 +135,8 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
     window = _window_px(obs, prior, config, radius_px)
     if len(obs) >= 3 and window <= config.max_window_px:
         cam = obs.camera
-        reach = _half_diagonal_rad(cam) * 1.0302 + (window + CAPTURE * radius_px) / cam.f_px
+        reach = (_half_diagonal_rad(cam) * CONE_MARGIN * CONE_LOOKUP_MARGIN
+                 + (window + CAPTURE * radius_px) / cam.f_px)
         project = _Projector(obs, database, radius_px, database.cone(prior.matrix[:, 2], reach))
         oi, ci, dx, dy = project.pairs(prior.matrix, window, config.max_stars)
         diag.candidates = len(oi)

@@ -27,6 +27,14 @@ from startrack.matching.verify_kernels import nearest_matches
 from startrack.types import Hypothesis, Observation
 
 MAX_REFINEMENTS = 5
+# The catalog cone around a boresight: 2% beyond the farthest image corner, so that a star
+# just outside the frame edge whose match radius reaches into the image is still projected.
+CONE_MARGIN = 1.02
+# A cached cone is reused while the boresight moves less than this fraction of its radius
+# (refinement moves it by arcseconds) ...
+CONE_REUSE_FRACTION = 0.01
+# ... and is looked up this much wider, so that such a move keeps every image star in it.
+CONE_LOOKUP_MARGIN = 1.01
 CAPTURE = 3.0  # the wider capture of a refinement, in match radii (see _refine)
 
 
@@ -65,7 +73,7 @@ class Verification:
 
 @lru_cache(maxsize=64)
 def _cone_radius(camera: Camera) -> float:
-    return math.radians(camera.half_diagonal_deg) * 1.02
+    return math.radians(camera.half_diagonal_deg) * CONE_MARGIN
 
 
 class _Projector:
@@ -80,7 +88,7 @@ class _Projector:
     def __init__(self, obs: Observation, database: StarDatabase, radius_px: float) -> None:
         self.obs, self.database, self.radius_px = obs, database, radius_px
         self.cone_rad = _cone_radius(obs.camera)
-        self.margin_cos = math.cos(0.01 * self.cone_rad)
+        self.margin_cos = math.cos(CONE_REUSE_FRACTION * self.cone_rad)
         self.boresight = np.zeros(3)
         self.rows = np.zeros(0, np.int64)
         self.vectors = np.zeros((0, 3))
@@ -91,8 +99,7 @@ class _Projector:
         cam = self.obs.camera
         boresight = matrix[:, 2]
         if float(boresight @ self.boresight) < self.margin_cos:
-            # 1% wider than needed, so that a small move keeps every star in the image.
-            self.rows = self.database.cone(boresight, self.cone_rad * 1.01)
+            self.rows = self.database.cone(boresight, self.cone_rad * CONE_LOOKUP_MARGIN)
             self.vectors = self.database.vectors[self.rows]
             self.boresight = boresight
         if len(self.rows) == 0:
@@ -103,7 +110,9 @@ class _Projector:
 
     def match(self, matrix: np.ndarray,
               radius_px: float | None = None) -> tuple[np.ndarray, np.ndarray, int]:
-        """As :func:`match_catalog`, at the attitude ``matrix`` (camera to sky)."""
+        """Observed stars paired with the projected catalog stars within ``radius_px``
+        at the attitude ``matrix`` (camera to sky), each catalog star at most once (nearest
+        wins): (obs_index, cat_index, n_catalog_in_image)."""
         radius_px = self.radius_px if radius_px is None else radius_px
         rows, cx, cy = self(matrix, radius_px)
         obs = self.obs
@@ -112,13 +121,6 @@ class _Projector:
         # Tens of stars on each side: a direct distance table (compiled) beats a k-d tree.
         obs_idx, cat_pos = nearest_matches(obs.x, obs.y, cx, cy, float(radius_px))
         return obs_idx, rows[cat_pos], len(rows)
-
-
-def match_catalog(rotation: Rotation, obs: Observation, database: StarDatabase,
-                  radius_px: float) -> tuple[np.ndarray, np.ndarray, int]:
-    """Pair observed stars with projected catalog stars within ``radius_px``, each catalog
-    star at most once (nearest wins). Returns (obs_index, cat_index, n_catalog_in_image)."""
-    return _Projector(obs, database, radius_px).match(rotation.as_matrix())
 
 
 def false_match_probability(n_other: int, n_confirmed: int, n_catalog_in_image: int,

@@ -257,7 +257,7 @@ def test_timeout_gives_not_solved_with_reason_timeout(setup):
     """A limit far below one hypothesis's cost trips on every frame: reason "timeout"."""
     tmp, cam, _, frames = setup
     proc = run(frames[0][0], "--camera", cam, "--sky", "random", "--format", "json",
-               "--timeout-ms", "1e-6")
+               "--timeout-ms", "1e-6", "--fov-tolerance", "0")
     assert proc.returncode == 1, proc.stderr
     record = json.loads(proc.stdout)
     assert record["status"] == "not_solved" and record["reason"] == "timeout"

@@ -26,11 +26,13 @@ from startrack.types import MatchDiagnostics, Observation
 
 def _registered() -> list:
     """Every registered method; a peer only when its package is installed, and slow (its
-    own database build takes seconds). The paper-literal variants (``variant_of``) are
-    tested in tests/test_matcher_variants.py: weaker by design, they are not held to it."""
+    own database build takes seconds). Not "quad": it searches the focal length
+    (startrack.fov, tests/test_fov.py) and needs four stars, where this contract is for a
+    known camera and three. Not the paper-literal variants (``variant_of``): weaker by
+    design, they are tested in tests/test_matcher_variants.py."""
     methods = []
     for name in available_methods():
-        if getattr(get_matcher(name), "variant_of", None):
+        if name == "quad" or getattr(get_matcher(name), "variant_of", None):
             continue
         if not issubclass(get_matcher(name), PeerMatcher):
             methods.append(name)

@@ -14,7 +14,9 @@ import click
 from startrack.camera_file import load_camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
+from startrack.cli.options import triple
 from startrack.errors import InputError
+from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.matchers import available_methods
 from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
 from startrack.outputs import check_output, guarded_stdout, open_output, refuse_inputs
@@ -22,7 +24,7 @@ from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
 from startrack.sequence import DEFAULT_PRIOR_SIGMA_DEG, SequenceSolver, prior_from_radec_roll
 from startrack.side_outputs import SideOutputs
 from startrack.sidecar import with_sidecars
-from startrack.sky import SKY_KINDS
+from startrack.sky import GAIA_BELOW_FOV_DEG, SKY_KINDS
 
 #: a batch of at least this many inputs shows a progress bar (when stderr is a terminal)
 PROGRESS_MIN_INPUTS = 3
@@ -49,18 +51,6 @@ def _time(ctx, param, value):
     return parse_time(value)
 
 
-def _prior_triple(ctx, param, value):
-    if value is None:
-        return None
-    try:
-        parts = tuple(float(p) for p in value.split(","))
-    except ValueError:
-        parts = ()
-    if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
-        raise click.BadParameter(f"expected three numbers RA,DEC,ROLL, got {value!r}")
-    return parts
-
-
 def _finite(ctx, param, value):
     if value is not None and not math.isfinite(value):
         raise click.BadParameter(f"must be a finite number, got {value}")
@@ -74,9 +64,16 @@ def _finite(ctx, param, value):
 @click.option("--fov", "fov_deg", type=click.FloatRange(0, 180, min_open=True, max_open=True),
               help="Horizontal field of view in degrees (image size from the image, or "
                    "--size for a CSV).")
+@click.option("--fov-tolerance", type=click.FloatRange(0, 0.5), default=DEFAULT_FOV_TOLERANCE,
+              show_default=True,
+              help="The true FOV may be this fraction above or below --fov (or the camera "
+                   "file's); it is fitted and reported as fov_deg. 0: exactly as given. "
+                   "With no FOV at all (no --fov, camera file or sidecar) a blind search "
+                   f"covers {BLIND_FOV_RANGE[0]:g} to {BLIND_FOV_RANGE[1]:g} deg.")
 @click.option("--size", callback=_size, help="Image size WxH for a centroid CSV with --fov.")
 @click.option("--sky", type=click.Choice(SKY_KINDS),
-              help="Catalog: the frame sidecar's sky, else hipparcos.")
+              help="Catalog: the frame sidecar's sky, else gaia below "
+                   f"{GAIA_BELOW_FOV_DEG:g} deg or with no FOV, hipparcos otherwise.")
 @click.option("--mag-limit", type=float, callback=_finite,
               help="Faintest catalog magnitude. Default for hipparcos: the faintest half "
                    "magnitude with <= 80 catalog stars in an average frame (20 deg -> 6.5, "
@@ -117,15 +114,15 @@ def _finite(ctx, param, value):
               help="The inputs, in order, are one sequence: the first is solved "
                    "lost-in-space, each later one by tracking from those before it (falling "
                    "back to lost-in-space); each record says its mode and lock.")
-@click.option("--prior", callback=_prior_triple,
+@click.option("--prior", callback=triple("RA,DEC,ROLL"),
               help="Prior attitude RA,DEC,ROLL in degrees: each input (with --track, the "
                    "first) is solved near it first.")
 @click.option("--prior-sigma-deg", type=click.FloatRange(0, 90, min_open=True),
               default=DEFAULT_PRIOR_SIGMA_DEG, show_default=True,
               help="1-sigma uncertainty of --prior, degrees.")
-def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, obs_time, method,
-             max_stars, sigma_px, timeout_ms, fmt, output, annotate_path, wcs_path, corr_path,
-             quiet, verbose, track, prior, prior_sigma_deg) -> None:
+def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, epoch,
+             obs_time, method, max_stars, sigma_px, timeout_ms, fmt, output, annotate_path,
+             wcs_path, corr_path, quiet, verbose, track, prior, prior_sigma_deg) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
@@ -138,7 +135,7 @@ def identify(inputs, camera_path, fov_deg, size, sky, mag_limit, epoch, obs_time
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
-                      timeout_ms=timeout_ms, time=obs_time)
+                      timeout_ms=timeout_ms, time=obs_time, fov_tolerance=fov_tolerance)
     pipeline = Pipeline(options)
     if track or prior is not None:
         pipeline = SequenceSolver(pipeline, track=track, prior=None if prior is None

@@ -16,6 +16,7 @@ from startrack.cache import atomic_text
 from startrack.camera import Camera
 from startrack.camera_file import load_camera
 from startrack.cli import main
+from startrack.cli.options import triple
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
 from startrack.image_header import check_pixels
@@ -28,20 +29,6 @@ DEFAULT_OUT = Path("out/simulate")
 OWN_FILES = ("frame_*.png", "frame_*.json", "frame_*.fits", "truth.csv", "stars.csv")
 
 
-def _triple(names: str):
-    def parse(ctx, param, value):
-        if value is None:
-            return None
-        try:
-            parts = tuple(float(p) for p in value.split(","))
-        except ValueError:
-            parts = ()
-        if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
-            raise click.BadParameter(f"expected three numbers {names}, got {value!r}")
-        return parts
-    return parse
-
-
 @main.command()
 @click.option("--config", "config_path", type=click.Path(dir_okay=False),
               help="TOML preset: a file, or a shipped preset by name (hipparcos20, "
@@ -52,12 +39,12 @@ def _triple(names: str):
 @click.option("--seed", type=click.IntRange(min=0), help="Seed of attitudes and noise.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default=str(DEFAULT_OUT),
               show_default=True, help="Output folder.")
-@click.option("--attitude", callback=_triple("RA,DEC,ROLL"),
+@click.option("--attitude", callback=triple("RA,DEC,ROLL"),
               help="Fixed attitude RA,DEC,ROLL in degrees (default: random per frame).")
 @click.option("--false-stars", type=click.IntRange(min=0), help="False stars per frame.")
 @click.option("--missing", type=click.FloatRange(0, 1), help="Star dropout probability.")
 @click.option("--mag-noise", type=click.FloatRange(min=0), help="Magnitude noise sigma.")
-@click.option("--rate", callback=_triple("WX,WY,WZ"),
+@click.option("--rate", callback=triple("WX,WY,WZ"),
               help="Angular rate in the camera frame, deg/s: motion blur, and with --fps "
                    "the frames form one trajectory (frame k at R0 exp(w k / fps)).")
 @click.option("--fps", type=click.FloatRange(0, min_open=True),

@@ -19,7 +19,7 @@ from startrack.sky.catalog import (
 )
 from startrack.sky.random_sky import random_sky
 
-SKY_KINDS = ("random", "hipparcos")
+SKY_KINDS = ("random", "hipparcos", "gaia")
 
 
 @dataclass(frozen=True)
@@ -30,7 +30,7 @@ class SkySpec:
     n_stars: int = 2000
     seed: int = 0
     mag_limit: float | None = None
-    epoch: float | None = None  # Julian year for proper motion (Hipparcos only)
+    epoch: float | None = None  # Julian year for proper motion (Hipparcos and Gaia)
     # Closer stars are merged into the brighter one. None: two pixels of the camera the
     # sky is loaded for (the optics cannot split them), or no merging without a camera.
     min_separation_deg: float | None = None
@@ -84,14 +84,39 @@ def default_mag_limit(camera: Camera, mags: np.ndarray, target: float = TARGET_S
     return float(fitting.max()) if len(fitting) else float(lo)
 
 
-def resolve_sky(spec: SkySpec, camera: Camera) -> SkySpec:
+#: Below this horizontal FOV the default sky is Gaia: Hipparcos (complete to about
+#: V = 8) leaves fewer than about 50 stars in an average frame.
+GAIA_BELOW_FOV_DEG = 8.0
+#: The faintest magnitude of the bundled Gaia catalog (G = 10).
+GAIA_MAG_MAX = 10.0
+
+
+def default_sky_kind(camera: Camera | None) -> str:
+    """The sky when none is given: Gaia for narrow fields and for an unknown field of
+    view (``camera`` None: the blind search needs faint stars for its narrow end),
+    Hipparcos otherwise."""
+    if camera is None or camera.fov_deg < GAIA_BELOW_FOV_DEG:
+        return "gaia"
+    return "hipparcos"
+
+
+def resolve_sky(spec: SkySpec, camera: Camera | None) -> SkySpec:
     """``spec`` with its defaults made explicit for ``camera``: the one home of the
-    Hipparcos default magnitude rule (simulate, identify and compare all apply it)."""
-    if spec.kind == "hipparcos" and spec.mag_limit is None:
+    default magnitude rule (simulate, identify and compare all apply it). With no camera
+    (an unknown field of view) a Gaia sky keeps every star; the blind search cuts it per
+    field of view (:mod:`startrack.fov`)."""
+    if spec.mag_limit is not None or camera is None:
+        return spec
+    if spec.kind == "hipparcos":
         from startrack.sky.hipparcos import hipparcos_arrays
 
         return dataclasses.replace(spec, mag_limit=default_mag_limit(
             camera, hipparcos_arrays()["mag"]))
+    if spec.kind == "gaia":
+        from startrack.sky.gaia import gaia_arrays
+
+        return dataclasses.replace(spec, mag_limit=default_mag_limit(
+            camera, gaia_arrays()["mag"], hi=GAIA_MAG_MAX))
     return spec
 
 
@@ -156,6 +181,10 @@ def load_sky(spec: SkySpec, camera: Camera | None = None) -> Catalog:
         from startrack.sky.hipparcos import load_hipparcos
 
         catalog = cut_magnitude(load_hipparcos(epoch=spec.epoch), spec.mag_limit)
+    elif spec.kind == "gaia":
+        from startrack.sky.gaia import load_gaia
+
+        catalog = cut_magnitude(load_gaia(epoch=spec.epoch), spec.mag_limit)
     else:
         raise InputError(f"sky: kind must be one of {SKY_KINDS}, got {spec.kind!r}")
     if len(catalog) == 0:
@@ -171,6 +200,8 @@ __all__ = [
     "SkySpec",
     "load_sky",
     "resolve_sky",
+    "default_sky_kind",
+    "GAIA_BELOW_FOV_DEG",
     "default_mag_limit",
     "merge_separation_deg",
     "check_pair_budget",

@@ -112,6 +112,17 @@ def propagate(ra_deg: np.ndarray, dec_deg: np.ndarray, pm_ra: np.ndarray, pm_dec
     return vectors_to_radec(v)
 
 
+def julian_year(epoch) -> float:
+    """``epoch`` as a finite Julian year, or an InputError naming the sky's epoch."""
+    try:
+        epoch = float(epoch)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"sky: epoch must be a Julian year, got {epoch!r}") from exc
+    if not math.isfinite(epoch):
+        raise InputError(f"sky: epoch must be a finite Julian year, got {epoch!r}")
+    return epoch
+
+
 def load_hipparcos(epoch: float | None = None) -> Catalog:
     """Every Hipparcos-2 star with its Hp magnitude; ids are HIP numbers.
 
@@ -121,12 +132,7 @@ def load_hipparcos(epoch: float | None = None) -> Catalog:
     arrays = hipparcos_arrays()
     ra, dec = arrays["ra_deg"], arrays["dec_deg"]
     if epoch is not None:
-        try:
-            epoch = float(epoch)
-        except (TypeError, ValueError) as exc:
-            raise InputError(f"sky: epoch must be a Julian year, got {epoch!r}") from exc
-        if not math.isfinite(epoch):
-            raise InputError(f"sky: epoch must be a finite Julian year, got {epoch!r}")
+        epoch = julian_year(epoch)
         ra, dec = propagate(ra, dec, arrays["pm_ra"], arrays["pm_dec"], epoch - CATALOG_EPOCH)
     return Catalog(ids=arrays["ids"], ra_deg=ra, dec_deg=dec, mag=arrays["mag"],
                    source={"sky": "hipparcos", "epoch": epoch})

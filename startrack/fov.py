@@ -1,0 +1,265 @@
+"""An approximate or unknown field of view: search the focal length, fit it, verify again.
+
+``--fov`` (or a camera file) is a nominal value: :func:`solve_approximate` searches the
+focal lengths within ``--fov-tolerance`` of it with the scale-free ``quad`` matcher (the
+configured ``--method`` runs as before with ``--fov-tolerance 0``, an exact FOV). With
+no field of view at all, :class:`BlindSolver` sweeps the quad matcher over
+:data:`BLIND_FOV_RANGE` in windows a factor :data:`WINDOW_STEP` wide, each verified
+against the catalog cut for that field (the magnitude rule of
+:func:`startrack.sky.resolve_sky`). A solution is kept only if the camera fitted to its
+matched stars (least squares on the focal length with the attitude) passes the same
+verification (:func:`startrack.verify.verify`, its binomial bound) again; the record
+reports that camera's ``fov_deg``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from startrack.attitude import wahba_matrices
+from startrack.camera import Camera
+from startrack.database import StarDatabase
+from startrack.identify import residuals_arcsec
+from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
+from startrack.sky import Catalog, resolve_sky
+from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
+from startrack.verify import Verification, VerifyConfig, verify
+
+#: default ``--fov-tolerance``: the true FOV may be this fraction above or below nominal
+DEFAULT_FOV_TOLERANCE = 0.10
+#: the horizontal FOVs (degrees) searched when none is given
+BLIND_FOV_RANGE = (1.0, 40.0)
+WINDOW_STEP = 2.0 ** 0.25  # ratio of the focal lengths at a search window's two ends
+MARGIN = 0.02  # searched beyond the tolerance, as a fraction
+#: a candidate is verified only when this many other bright stars already fall near
+#: catalog stars at its attitude (verification needs two, at a tighter radius)
+MIN_CONFIRMED = 2
+MAX_VERIFY = 25  # hypotheses verified per window: bounded work on a junk frame
+
+
+def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
+              iterations: int = 12) -> float:
+    """The focal length (px) that, with its best attitude, fits the pixels ``x``, ``y`` to
+    the catalog directions: alternate Wahba's problem and the linear least squares of
+    ``pixel - centre = f * D(tangent-plane position)`` (D the camera's lens distortion, if
+    any) until the focal length settles."""
+    f = camera.f_px
+    d = np.stack([np.asarray(x, float) - camera.cx, np.asarray(y, float) - camera.cy], 1)
+    for _ in range(iterations):
+        cam = dataclasses.replace(camera, f_px=f).pixel_to_vector(x, y)
+        matrix = wahba_matrices(cam, cat_vectors)
+        c = cat_vectors @ matrix  # rows R^T v: catalog directions in the camera frame
+        t = c[:, :2] / c[:, 2:3]
+        if camera.distortion is not None:  # the lens acts on the normalised plane: d = f D(t)
+            t = np.stack(camera.distortion.distort(t[:, 0], t[:, 1]), 1)
+        denom = float(np.sum(t * t))
+        if denom <= 0:
+            break
+        f_new = float(np.sum(d * t) / denom)
+        done = abs(f_new - f) <= 1e-10 * abs(f)
+        f = f_new
+        if done:
+            break
+    return f
+
+
+def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
+                  sigma_px: float, database: StarDatabase, config: VerifyConfig,
+                  ) -> tuple[Verification, Camera, Observation] | None:
+    """Verify ``hyp`` with ``camera``, fit the focal length to every matched star and
+    verify again with the fitted camera; None unless both pass."""
+    cat = database.vectors
+    obs = Observation.from_pixels(x, y, camera, sigma_px)
+    check = verify(hyp, obs, database, config)
+    for _ in range(2):
+        if not check.accepted:
+            return None
+        f = fit_focal(camera, x[check.obs_index], y[check.obs_index], cat[check.cat_index])
+        if not (f > 0 and math.isfinite(f)):
+            return None
+        camera = dataclasses.replace(camera, f_px=f)
+        obs = Observation.from_pixels(x, y, camera, sigma_px)
+        check = verify(hyp, obs, database, config)
+    return (check, camera, obs) if check.accepted else None
+
+
+def _solution(check: Verification, obs: Observation, database: StarDatabase, method: str,
+              diag: MatchDiagnostics, t0: float) -> Solution:
+    order = np.argsort(check.obs_index)
+    obs_index, cat_index = check.obs_index[order], check.cat_index[order]
+    return Solution(True, method, check.rotation, obs_index, cat_index,
+                    residuals_arcsec(check.rotation, obs, obs_index,
+                                     database.vectors[cat_index]),
+                    check.false_probability, diag, (time.perf_counter() - t0) * 1000.0)
+
+
+def search_window(matcher: QuadMatcher, x, y, camera: Camera, f_lo: float, f_hi: float,
+                  sigma_px: float, database: StarDatabase, config: VerifyConfig,
+                  diag: MatchDiagnostics, seen: set):
+    """The first quad hypothesis with a focal length in [f_lo, f_hi] that passes
+    :func:`verify_fitted` against ``database``: (verification, camera, obs) or None."""
+    n_cat = len(database.vectors)
+    tried = 0
+    for sh in matcher.scaled(x, y, camera, f_lo, f_hi, diag, database):
+        hyp = sh.hypothesis
+        key = tuple(sorted(zip(hyp.obs_index.tolist(), hyp.cat_index.tolist(), strict=True)))
+        if sh.confirmed < MIN_CONFIRMED:
+            break  # best first: no later candidate has more support
+        if key in seen or hyp.cat_index.max() >= n_cat:
+            continue
+        seen.add(key)
+        diag.hypotheses += 1
+        tried += 1
+        guess = _fitted_guess(sh, x, y, camera, database)
+        found = verify_fitted(hyp, x, y, guess, sigma_px, database, config)
+        if found is not None:
+            return found
+        if tried >= MAX_VERIFY:
+            break
+    return None
+
+
+def _fitted_guess(sh: ScaledHypothesis, x, y, camera: Camera,
+                  database: StarDatabase) -> Camera:
+    """The camera with the focal length fitted to the hypothesis' own four stars."""
+    cam = dataclasses.replace(camera, f_px=sh.f_px)
+    h = sh.hypothesis
+    f = fit_focal(cam, x[h.obs_index], y[h.obs_index], database.vectors[h.cat_index])
+    return dataclasses.replace(camera, f_px=f) if f > 0 and math.isfinite(f) else cam
+
+
+def windows(f_lo: float, f_hi: float, step: float = WINDOW_STEP) -> list[tuple[float, float]]:
+    """[f_lo, f_hi] cut into geometric windows at most ``step`` wide (ratio)."""
+    n = max(1, math.ceil(math.log(f_hi / f_lo) / math.log(step) - 1e-9))
+    edges = f_lo * (f_hi / f_lo) ** (np.arange(n + 1) / n)
+    return [(float(a), float(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+
+
+def focal_range(camera: Camera, tolerance: float) -> tuple[float, float]:
+    """The focal lengths of the FOVs within ``tolerance`` (a fraction) of ``camera``'s,
+    widened by ``MARGIN``: a true FOV at the very edge must still be found."""
+    fov = camera.fov_deg
+    hi_fov = min(fov * (1.0 + tolerance) * (1.0 + MARGIN), 179.0)
+    return (f_of_fov(camera.width, hi_fov),
+            f_of_fov(camera.width, fov * (1.0 - tolerance) / (1.0 + MARGIN)))
+
+
+def f_of_fov(width: int, fov_deg: float) -> float:
+    return (width / 2.0) / math.tan(math.radians(fov_deg) / 2.0)
+
+
+
+
+@dataclass(frozen=True)
+class FovResult:
+    """What a search found (or not): the solution, the fitted camera it holds for, the
+    observation through that camera, and the catalog its rows index."""
+
+    solution: Solution
+    camera: Camera
+    obs: Observation
+    catalog: Catalog
+    match_radius_px: float
+
+
+def _result(found, catalog: Catalog, method: str, diag: MatchDiagnostics, t0: float,
+            config: VerifyConfig, database: StarDatabase, reason: str = "no_match"):
+    """The :class:`FovResult` of a verified find (or of nothing: ``found[0]`` None)."""
+    check, camera, obs = found
+    if check is None:
+        sol = Solution(False, method, diagnostics=diag, reason=reason,
+                       identify_ms=(time.perf_counter() - t0) * 1000.0)
+    else:
+        sol = _solution(check, obs, database, method, diag, t0)
+    return FovResult(sol, camera, obs, catalog, config.radius_px(obs))
+
+
+def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float) -> FovResult:
+    """Solve the stars at pixels ``x``, ``y`` with ``ident`` (an
+    :class:`startrack.pipeline.Identifier` of the quad matcher) whose camera's focal
+    length is nominal: the true FOV may be ``tolerance`` off either way."""
+    t0 = time.perf_counter()
+    cam, db, config, quad = ident.camera, ident.database, ident.verify_config, ident.matcher
+    obs = Observation.from_pixels(x, y, cam, ident.sigma_px)
+    diag, seen = MatchDiagnostics(), set()
+    if len(x) < 3:
+        return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db,
+                       reason="too_few_stars")
+    for lo, hi in windows(*focal_range(cam, tolerance)):
+        found = search_window(quad, x, y, cam, lo, hi, ident.sigma_px, db, config, diag, seen)
+        if found is not None:
+            return _result(found, ident.catalog, quad.name, diag, t0, config, db)
+    return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db)
+
+
+class BlindSolver:
+    """The blind search over :data:`BLIND_FOV_RANGE` for one (uncut) catalog."""
+
+    def __init__(self, catalog: Catalog, sky, sigma_px: float,
+                 verify_config: VerifyConfig | None = None,
+                 fov_range: tuple[float, float] = BLIND_FOV_RANGE) -> None:
+        self.catalog, self.sky, self.sigma_px = catalog, sky, float(sigma_px)
+        self.config = verify_config or VerifyConfig()
+        self.fov_range = fov_range
+        self.matcher = QuadMatcher(StarDatabase(catalog, Camera.from_fov(1024, 1024, 10.0)))
+        self._databases: dict[int, StarDatabase] = {}
+        self._limits: dict[float, float | None] = {}
+
+    def database_for(self, camera: Camera) -> StarDatabase:
+        """The catalog cut by the default magnitude rule for ``camera``; rows are a prefix
+        of the whole catalog (brightest first), so row numbers agree."""
+        if camera.f_px not in self._limits:
+            spec = resolve_sky(dataclasses.replace(self.sky, mag_limit=None), camera)
+            self._limits[camera.f_px] = spec.mag_limit
+        limit = self._limits[camera.f_px]
+        n = len(self.catalog) if limit is None else int(
+            np.searchsorted(self.catalog.mag, limit, side="right"))
+        if n not in self._databases:
+            self._databases[n] = StarDatabase(self.catalog.subset(np.arange(n)), camera)
+        return self._databases[n]
+
+    def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int]) -> FovResult:
+        """Search every window, widest field first; the first verified find wins."""
+        t0 = time.perf_counter()
+        base = Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
+        diag, seen = MatchDiagnostics(), set()
+        f_lo, f_hi = (f_of_fov(size[0], fov) for fov in sorted(self.fov_range, reverse=True))
+        db = self.database_for(base)
+        for lo, hi in windows(f_lo, f_hi) if len(x) >= 3 else []:
+            db = self.database_for(dataclasses.replace(base, f_px=math.sqrt(lo * hi)))
+            found = search_window(self.matcher, x, y, base, lo, hi, self.sigma_px, db,
+                                  self.config, diag, seen)
+            if found is not None:
+                return _result(found, self.catalog, self.matcher.name, diag, t0,
+                               self.config, db)
+        obs = Observation.from_pixels(x, y, base, self.sigma_px)
+        return _result((None, base, obs), self.catalog, self.matcher.name, diag, t0,
+                       self.config, db, reason="no_match" if len(x) >= 3 else "too_few_stars")
+
+
+#: stars of an accepted answer used as the hypothesis when its FOV is refitted: the rest
+#: of the frame is the independent evidence verification counts
+REFIT_HYPOTHESIS_STARS = 4
+
+
+def refit_fov(result, database: StarDatabase, config: VerifyConfig) -> FovResult | None:
+    """A solved :class:`startrack.pipeline.FrameResult` made at a nominal FOV, with the
+    focal length fitted to its identified stars and the pointing verified again through
+    the fitted camera (:func:`verify_fitted`); None when that verification fails."""
+    t0 = time.perf_counter()
+    sol = result.solution
+    k = min(REFIT_HYPOTHESIS_STARS, len(sol.obs_index))
+    brightest = np.argsort(sol.obs_index)[:k]
+    hyp = Hypothesis(sol.obs_index[brightest], sol.cat_index[brightest])
+    found = verify_fitted(hyp, result.obs.x, result.obs.y, result.camera, result.sigma_px,
+                          database, config)
+    if found is None:
+        return None
+    fitted = _result(found, result.catalog, sol.method, sol.diagnostics, t0, config, database)
+    return dataclasses.replace(fitted, solution=dataclasses.replace(
+        fitted.solution, identify_ms=sol.identify_ms + fitted.solution.identify_ms))

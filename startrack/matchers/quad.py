@@ -1,0 +1,186 @@
+"""Scale-free four-star patterns: the matcher for an approximate or unknown field of view.
+
+Every four of the brightest observed stars that fit a level of
+:mod:`startrack.database.quads` make a pattern; each pattern's key (its edge
+ratios) is looked up with a tolerance in the level nearest the assumed field of view,
+and every catalog pattern whose six edges agree (in the best of the 24 star orders)
+becomes a hypothesis with the focal length that its size implies. The focal length is
+only assumed to within a window, so :meth:`QuadMatcher.scaled` serves an approximate
+FOV (a window about the nominal value) and a blind search (:mod:`startrack.fov` sweeps
+the window over the whole range). Work is bounded: at most ``IMAGE_STARS`` stars and
+``MAX_CANDIDATES`` candidates per window.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from startrack.attitude import wahba_matrices
+from startrack.camera import Camera
+from startrack.database import StarDatabase
+from startrack.database import quads as Q
+from startrack.matchers.base import Matcher, register
+from startrack.types import Hypothesis, MatchDiagnostics, Observation
+
+IMAGE_STARS = 16  # brightest observed stars whose every four make a pattern
+RATIO_TOLERANCE = 0.012  # largest error of one edge ratio (key lookup and edge test)
+MAX_CANDIDATES = 4000  # best by edge agreement, before the confirmation count
+CHECK_STARS = 24  # brightest observed stars counted against the catalog per candidate
+CHECK_RADIUS_PX = 6.0  # generous: the focal length is known only from the pattern
+#: for each of the 24 star orders, the catalog edge that each image edge corresponds to
+_EDGE_INDEX = {tuple(e): k for k, e in enumerate(Q.EDGES.tolist())}
+PERM_EDGES = np.array([[_EDGE_INDEX[tuple(sorted((p[a], p[b])))] for a, b in Q.EDGES]
+                       for p in itertools.permutations(range(4))])
+PERMS = np.array(list(itertools.permutations(range(4))))
+
+
+@dataclass(frozen=True)
+class ScaledHypothesis:
+    """A hypothesis with the focal length (pixels) its pattern's size implies."""
+
+    hypothesis: Hypothesis
+    f_px: float
+    error: float  # largest edge-ratio disagreement
+    confirmed: int = 0  # other bright stars near a catalog star (:func:`confirmations`)
+
+
+def _query_keys(r: np.ndarray) -> np.ndarray:
+    """The (M x 32) keys of every bin combination within the ratio tolerance (a window
+    of +-RATIO_TOLERANCE meets at most two bins, as ``Q.BIN >= 2 * RATIO_TOLERANCE``)."""
+    lo = np.clip(((r - RATIO_TOLERANCE) / Q.BIN).astype(np.int64), 0, Q.NBINS - 1)
+    hi = np.clip(((r + RATIO_TOLERANCE) / Q.BIN).astype(np.int64), 0, Q.NBINS - 1)
+    pick = np.array(list(itertools.product((0, 1), repeat=5)))  # 32 x 5
+    q = np.where(pick[None, :, :] == 0, lo[:, None, :], hi[:, None, :])
+    return (q * (Q.NBINS ** np.arange(5))).sum(axis=2)
+
+
+def image_patterns(vectors: np.ndarray, level_deg: float,
+                   slack: float) -> tuple[np.ndarray, np.ndarray]:
+    """Observed patterns (M x 4 observation rows) and their six edges, for one level:
+    every four of the ``IMAGE_STARS`` brightest stars whose edges fit the level.
+    ``slack``: how much larger than assumed the scale may be."""
+    top = np.arange(min(len(vectors), IMAGE_STARS))
+    quads = Q.all_quads(vectors[top], Q.PATTERN_SIZE * math.radians(level_deg) * slack)
+    return quads, Q.edge_angles(vectors, quads)
+
+
+def match_patterns(vectors: np.ndarray, table: Q.QuadLevel, cat_vectors: np.ndarray,
+                   slack: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Observed and catalog patterns that agree: (obs rows M x 4, catalog rows M x 4 in
+    matching order, scale = observed / catalog size, error), best first."""
+    quads, edges = image_patterns(vectors, table.level_deg, slack)
+    empty = (np.zeros((0, 4), np.int64), np.zeros((0, 4), np.int64), np.zeros(0), np.zeros(0))
+    if len(quads) == 0 or len(table) == 0:
+        return empty
+    r, largest = Q.ratios(edges)
+    qi, rows = table.lookup(_query_keys(r).ravel())
+    if len(qi) == 0:
+        return empty
+    pair = np.unique((qi // 32) * len(table) + rows)  # one per (pattern, table row)
+    qi, rows = pair // len(table), pair % len(table)
+    img = edges[qi] / largest[qi, None]  # (P, 6)
+    cat_quads = table.quads[rows].astype(np.int64)
+    cat_edges = Q.edge_angles(cat_vectors, cat_quads)
+    cat = cat_edges / cat_edges.max(axis=1, keepdims=True)
+    err = np.abs(img[:, None, :] - cat[:, PERM_EDGES]).max(axis=2)  # (P, 24)
+    best = np.argmin(err, axis=1)
+    error = err[np.arange(len(qi)), best]
+    good = np.flatnonzero(error <= RATIO_TOLERANCE)
+    good = good[np.argsort(error[good], kind="stable")][:MAX_CANDIDATES]
+    perm = PERMS[best[good]]
+    cat_ordered = np.take_along_axis(cat_quads[good], perm, axis=1)
+    scale = edges[qi[good]].sum(axis=1) / np.take_along_axis(
+        cat_edges[good], PERM_EDGES[best[good]], axis=1).sum(axis=1)
+    return quads[qi[good]], cat_ordered, scale, error[good]
+
+
+def _pinhole(x: np.ndarray, y: np.ndarray, camera: Camera, f: np.ndarray) -> np.ndarray:
+    """Unit vectors (P x N x 3) of pixels ``x``, ``y`` (P x N) at focal lengths ``f`` (P)."""
+    v = np.stack([(x - camera.cx) / f[:, None], (y - camera.cy) / f[:, None],
+                  np.ones_like(x)], axis=-1)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def confirmations(x: np.ndarray, y: np.ndarray, camera: Camera, obs_q: np.ndarray,
+                  cat_q: np.ndarray, f: np.ndarray, check: StarDatabase) -> np.ndarray:
+    """For each candidate, how many of the ``CHECK_STARS`` brightest stars outside its
+    pattern lie within ``CHECK_RADIUS_PX`` of a catalog star at the attitude the pattern
+    gives: a cheap, batched first look that ranks candidates for verification."""
+    n = min(CHECK_STARS, len(x))
+    cat_v = check.vectors
+    if cat_q.max() >= len(cat_v):
+        ok = np.all(cat_q < len(cat_v), axis=1)
+        out = np.full(len(cat_q), -1, np.int64)
+        if ok.any():
+            out[ok] = confirmations(x, y, camera, obs_q[ok], cat_q[ok], f[ok], check)
+        return out
+    quad_v = _pinhole(x[obs_q], y[obs_q], camera, f)
+    matrices = wahba_matrices(quad_v, cat_v[cat_q])
+    others = _pinhole(np.broadcast_to(x[:n], (len(f), n)), np.broadcast_to(y[:n], (len(f), n)),
+                      camera, f)
+    sky = np.einsum("pij,pkj->pki", matrices, others)
+    radius = CHECK_RADIUS_PX / f
+    rows = check.nearest(sky, float(radius.max()), k=1)[..., 0]
+    hit = rows >= 0
+    cos = np.einsum("pkj,pkj->pk", sky, cat_v[np.where(hit, rows, 0)])
+    hit &= cos >= np.cos(radius)[:, None]
+    in_quad = (np.arange(n)[None, :, None] == obs_q[:, None, :]).any(axis=2)
+    return np.count_nonzero(hit & ~in_quad, axis=1)
+
+
+@register
+class QuadMatcher(Matcher):
+    """Four-star patterns keyed on edge ratios; the scale follows from the match."""
+
+    name = "quad"
+    description = "scale-free 4-star patterns keyed on sorted edge ratios (tetra3's idea)"
+    tables = ()
+    #: the focal-length window of :meth:`hypotheses` (a known camera): +-2%
+    tolerance = 0.02
+
+    def prepare(self) -> None:
+        self.level(self.database.camera.fov_deg)
+
+    def level(self, fov_deg: float) -> Q.QuadLevel:
+        """The pattern table of the level nearest ``fov_deg`` (built once)."""
+        levels = self.__dict__.setdefault("_levels", {})
+        key = Q.level_for(fov_deg)
+        if key not in levels:
+            levels[key] = Q.quad_level(self.database.catalog, key)
+        return levels[key]
+
+    def scaled(self, x: np.ndarray, y: np.ndarray, camera: Camera, f_lo: float, f_hi: float,
+               diag: MatchDiagnostics, check: StarDatabase | None = None,
+               ) -> list[ScaledHypothesis]:
+        """Hypotheses for the stars at pixels ``x``, ``y`` (brightest first) seen through
+        ``camera`` with its focal length anywhere in [f_lo, f_hi]; best first: most of
+        the brightest other stars confirmed against ``check`` (default: this matcher's
+        database) at each pattern's own attitude and scale, then closest edges."""
+        f_mid = math.sqrt(f_lo * f_hi)
+        guess = dataclasses.replace(camera, f_px=f_mid)
+        vectors = guess.pixel_to_vector(x, y)
+        slack = math.sqrt(f_hi / f_lo) * 1.02
+        obs_q, cat_q, scale, error = match_patterns(
+            vectors, self.level(guess.fov_deg), self.database.vectors, slack)
+        f = f_mid * scale
+        keep = (f >= f_lo) & (f <= f_hi)
+        obs_q, cat_q, f, error = obs_q[keep], cat_q[keep], f[keep], error[keep]
+        diag.candidates += len(obs_q)
+        if len(obs_q) == 0:
+            return []
+        count = confirmations(x, y, camera, obs_q, cat_q, f, check or self.database)
+        order = np.lexsort((error, -count))
+        return [ScaledHypothesis(Hypothesis(obs_q[k], cat_q[k]), float(f[k]), float(error[k]),
+                                 int(count[k])) for k in order]
+
+    def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+        f = obs.camera.f_px
+        for h in self.scaled(obs.x, obs.y, obs.camera, f / (1 + self.tolerance),
+                             f * (1 + self.tolerance), diag):
+            yield h.hypothesis
