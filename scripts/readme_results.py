@@ -58,6 +58,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     from startrack.bench.report import _git_commit, provenance
 
+    commit = _git_commit() or "?"  # the code the numbers come from, before anything changes
     cli = compare_args(args.methods, args.frames, args.jobs, args.out)
     run = subprocess.run([sys.executable, "-m", "startrack", *cli], cwd=ROOT)
     if run.returncode != 0:
@@ -71,8 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     head, rest = text.split(START, 1)
     tail = rest.split(END, 1)[1]
     when = provenance(command)["date (UTC)"] + " UTC"
-    (ROOT / "README.md").write_text(head + section(summary, command, _git_commit() or "?",
-                                                   when) + tail)
+    (ROOT / "README.md").write_text(head + section(summary, command, commit, when) + tail)
     print(table(summary))
     return 0
 

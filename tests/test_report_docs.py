@@ -154,3 +154,22 @@ def test_a_non_editable_install_finds_data_and_configs(tmp_path):
     out = subprocess.run([str(py), "-c", code], check=True, cwd=tmp_path,
                          capture_output=True, text=True).stdout.split()
     assert int(out[0]) > 400 and out[1] == "1024"
+
+
+def test_rate_error_bars_never_negative_at_full_rates(tmp_path):
+    """A 100% rate's Wilson upper end can round a hair below 1; the plot must not fail."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    import pandas as pd
+
+    from startrack.bench.plots import _rate_panel
+
+    # n = 6 and 21 round the upper end below 1 at k = n; n = 11 the lower above 0 at k = 0
+    rows = pd.DataFrame({"solved_rate": [1.0, 1.0, 0.0], "solved": [6, 21, 0],
+                         "frames": [6, 21, 11]})
+    fig, ax = plt.subplots()
+    _rate_panel(ax, rows, np.arange(3.0), "solved_rate", "solved", {})
+    plt.close(fig)

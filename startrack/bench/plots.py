@@ -61,7 +61,9 @@ def _rate_panel(ax, rows: pd.DataFrame, x: np.ndarray, column: str, count: str, 
     n = rows["frames"].to_numpy(dtype=float)
     low, high = wilson(k, n)
     y = rows[column].to_numpy(dtype=float)
-    ax.errorbar(x, y, yerr=np.clip([y - low, high - y], 0, None), capsize=3, **style)
+    # the interval holds the rate, but rounding can put an end a hair inside it at 0 or 1
+    ax.errorbar(x, y, yerr=[np.maximum(y - low, 0.0), np.maximum(high - y, 0.0)], capsize=3,
+                **style)
 
 
 def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str]):
