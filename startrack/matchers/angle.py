@@ -24,7 +24,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from startrack.database import StarDatabase
-from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
 from startrack.matching.pairs import PairLookup, join_close, join_extend, pair_index
 from startrack.matching.triples import smart_triples
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
@@ -121,27 +121,7 @@ class AngleMatcher(Matcher):
         return None
 
 
-@register
-class AngleClosedMatcher(AngleMatcher):
-    """The angle method with every closing angle looked up before a chain stops."""
-
-    name = "angle_closed"
-    variant_of = "angle"  # a paper-literal variant: not held to the contract
-    description = "angle method, every closing angle checked (variant)"
-
-    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
-                 **kwargs) -> None:
-        super().__init__(database, config, **{"closing": "all", **kwargs})
-
-
-@register
-class AngleOpenMatcher(AngleMatcher):
-    """The paper's literal angle chain: pivots share one star, no closing angle."""
-
-    name = "angle_open"
-    variant_of = "angle"  # a paper-literal variant: not held to the contract
-    description = "angle method, no closing angle (seed 000 literal, variant)"
-
-    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
-                 **kwargs) -> None:
-        super().__init__(database, config, **{"closing": "none", **kwargs})
+register_variant(AngleMatcher, "angle_closed",
+                 "angle method, every closing angle checked (variant)", closing="all")
+register_variant(AngleMatcher, "angle_open",
+                 "angle method, no closing angle (seed 000 literal, variant)", closing="none")

@@ -77,3 +77,18 @@ def register(cls: type[Matcher]) -> type[Matcher]:
 
 def registry() -> dict[str, type[Matcher]]:
     return dict(_REGISTRY)
+
+
+def register_variant(base: type[Matcher], name: str, description: str,
+                     **preset) -> type[Matcher]:
+    """Register ``base`` under ``name`` with other constructor defaults (any keyword still
+    overrides them): a paper-literal variant, run side by side with the method it varies
+    (``variant_of``) and, being weaker by design, not held to the matcher contract."""
+    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
+                 **kwargs) -> None:
+        base.__init__(self, database, config, **{**preset, **kwargs})
+
+    cls = type(f"{base.__name__}_{name}", (base,), {
+        "name": name, "description": description, "__init__": __init__,
+        "variant_of": base.name, "__doc__": f"{description}: {base.__name__} with {preset}."})
+    return register(cls)

@@ -30,7 +30,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from startrack.database import StarDatabase
-from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
 from startrack.matching import hybrid_kernels
 from startrack.matching.features import feature_sigma, observed_features
 from startrack.matching.geometry import angle_table, handedness
@@ -149,14 +149,6 @@ class HybridMatcher(Matcher):
             yield hyp
 
 
-@register
-class HybridNoFourthMatcher(HybridMatcher):
-    """The hybrid as the paper states it: a passing triangle is the answer, no fourth star."""
-
-    name = "hybrid_nofourth"
-    variant_of = "hybrid"  # a paper-literal variant: not held to the contract
-    description = "hybrid without the fourth-star check (seed 000 literal, variant)"
-
-    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
-                 **kwargs) -> None:
-        super().__init__(database, config, **{"fourth_star": False, **kwargs})
+register_variant(HybridMatcher, "hybrid_nofourth",
+                 "hybrid without the fourth-star check (seed 000 literal, variant)",
+                 fourth_star=False)

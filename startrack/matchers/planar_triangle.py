@@ -17,7 +17,7 @@ from functools import cache
 import numpy as np
 
 from startrack.database import StarDatabase
-from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
 from startrack.matching.features import feature_sigma, observed_features
 from startrack.matching.geometry import handedness
 from startrack.matching.pairs import join_sorted
@@ -127,14 +127,5 @@ class PlanarTriangleMatcher(Matcher):
                 yield Hypothesis(np.array(stars), row)
 
 
-@register
-class PlanarTriangleNoPivotMatcher(PlanarTriangleMatcher):
-    """The triangle method without the forced pivot: a unique triangle is the answer."""
-
-    name = "triangle_nopivot"
-    variant_of = "triangle"  # a paper-literal variant: not held to the contract
-    description = "planar triangles, no forced pivot on a unique triangle (variant)"
-
-    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
-                 **kwargs) -> None:
-        super().__init__(database, config, **{"min_stars": 3, **kwargs})
+register_variant(PlanarTriangleMatcher, "triangle_nopivot",
+                 "planar triangles, no forced pivot on a unique triangle (variant)", min_stars=3)

@@ -33,7 +33,7 @@ from startrack.database.radial import (
     observed_masks,
     radial_table_from_arrays,
 )
-from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
 from startrack.matching.geometry import angle_table, handedness, triple_products
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
@@ -246,23 +246,12 @@ class RadialMatcher(Matcher):
         return None
 
 
-def _variant(name: str, description: str, **preset):
-    """A registered RadialMatcher with other defaults (any keyword still overrides)."""
-    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None,
-                 **kwargs) -> None:
-        RadialMatcher.__init__(self, database, config, **{**preset, **kwargs})
-
-    cls = type(f"Radial_{name}", (RadialMatcher,), {
-        "name": name, "description": description, "__init__": __init__,
-        "variant_of": "radial",
-        "__doc__": f"{description}: RadialMatcher with {preset}."})
-    return register(cls)
-
-
-_variant("radial_noise", "radial, ring width from the frame's stated noise (variant)",
-         rings="noise")
-_variant("radial_paper", "radial, the paper's R and dr per frame (variant)", rings="paper")
-_variant("radial_patch", "radial, paper rings within a known sky patch (variant)",
-         rings="paper", patch_deg=4.0)
-_variant("sss", "side-side-side over every catalog star, no radial prefilter (seed 002's "
-         "baseline, variant)", prefilter=False)
+register_variant(RadialMatcher, "radial_noise",
+                 "radial, ring width from the frame's stated noise (variant)", rings="noise")
+register_variant(RadialMatcher, "radial_paper",
+                 "radial, the paper's R and dr per frame (variant)", rings="paper")
+register_variant(RadialMatcher, "radial_patch",
+                 "radial, paper rings within a known sky patch (variant)", rings="paper",
+                 patch_deg=4.0)
+register_variant(RadialMatcher, "sss", "side-side-side over every catalog star, no radial "
+                 "prefilter (seed 002's baseline, variant)", prefilter=False)
