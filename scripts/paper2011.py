@@ -30,17 +30,10 @@ import sys
 import time
 from pathlib import Path
 
+import _results_doc as results_doc
 import numpy as np
 import pandas as pd
 from _doc_seed000 import COLUMNS, FOV_COLUMNS
-from _results_doc import (
-    add_run_args,
-    fmt_table,
-    plot_sweeps,
-    render,
-    run_record,
-    save_run,
-)
 
 from startrack.bench.conditions import build_conditions
 from startrack.bench.raw import raw_unit, summarise_raw
@@ -144,13 +137,13 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                     help="field widths (deg) of the FOV sensitivity run ('' to skip)")
     ap.add_argument("--fov-frames", type=int, default=200,
                     help="bench frames per condition of the FOV sensitivity run")
-    add_run_args(ap, "paper2011")
+    results_doc.add_run_args(ap, "paper2011")
     return ap.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    record = run_record(argv, "scripts/paper2011.py")
+    record = results_doc.run_record(argv, "scripts/paper2011.py")
     t_start = time.perf_counter()
     spec = make_spec(args.frames, methods=tuple(args.methods.split(",")))
     result = run_comparison(spec, args.out / "bench", jobs=args.jobs,
@@ -163,16 +156,16 @@ def main(argv: list[str] | None = None) -> int:
     table.to_csv(args.out / "table.csv", index=False, float_format="%.6g")
     print(f"\nsequential pass: {min(args.timing_frames, args.frames)} frames per condition, "
           f"best of {args.repeats} runs, {time.perf_counter() - t0:.0f} s\n")
-    print(fmt_table(table, COLUMNS))
+    print(results_doc.fmt_table(table, COLUMNS))
     view = pd.read_csv(result.frames_csv).query("condition == 0")["n_true_in_view"]
     fovs = [float(x) for x in args.fov.split(",") if x.strip()]
     if fovs:
         fov = fov_sensitivity(fovs, args.fov_frames, args.jobs, args.out)
         fov.to_csv(args.out / "fov.csv", index=False, float_format="%.6g")
-        print(fmt_table(fov, FOV_COLUMNS))
+        print(results_doc.fmt_table(fov, FOV_COLUMNS))
     reading = patch_reading(spec.sky.n_stars, 0.025, float(view.mean()))
     print(f"\n0.025 rad read as the field: {reading}")
-    plot_sweeps(table, spec.conditions, spec.methods,
+    results_doc.plot_sweeps(table, spec.conditions, spec.methods,
                 [("correct rate", [("correct_rate", "o-", "verified"),
                                    ("first_right_rate", "x--", "raw 1st hyp."),
                                    ("top5_rate", "s:", "verified, 5 stars")]),
@@ -182,11 +175,11 @@ def main(argv: list[str] | None = None) -> int:
                 f"Seed 000 setup: random 2000-star sky, 17.5 deg, 5 brightest stars. "
                 f"Verified: {spec.frames} frames per point; raw, 5-star and times: first "
                 f"{min(args.timing_frames, args.frames)}")
-    save_run(args.out, record, wall_s=time.perf_counter() - t_start, frames=args.frames,
+    results_doc.save_run(args.out, record, wall_s=time.perf_counter() - t_start, frames=args.frames,
              timing_frames=min(args.timing_frames, args.frames), repeats=args.repeats,
              fov_frames=args.fov_frames, jobs=args.jobs, view_mean=float(view.mean()),
              view_min=int(view.min()), view_max=int(view.max()), reading=reading)
-    print(f"\nwrote {args.out}/ and {render()}")
+    print(f"\nwrote {args.out}/ and {results_doc.render()}")
     return 0
 
 

@@ -25,16 +25,9 @@ import sys
 import time
 from pathlib import Path
 
+import _results_doc as results_doc
 import pandas as pd
 from _doc_seed002 import COLUMNS
-from _results_doc import (
-    add_run_args,
-    fmt_table,
-    plot_sweeps,
-    render,
-    run_record,
-    save_run,
-)
 
 from startrack.bench.conditions import build_conditions
 from startrack.bench.raw import raw_pass, summarise_raw
@@ -90,10 +83,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--limit", type=int, default=20, help="hypotheses looked at per frame")
     ap.add_argument("--methods", default=",".join(METHODS + VARIANTS),
                     help="comma-separated matcher names (variants included)")
-    add_run_args(ap, "seed002_radial")
+    results_doc.add_run_args(ap, "seed002_radial")
     args = ap.parse_args(argv)
 
-    record = run_record(argv, "scripts/seed002_radial.py")
+    record = results_doc.run_record(argv, "scripts/seed002_radial.py")
     t_start = time.perf_counter()
     spec = make_spec(args.frames, args.max_stars, tuple(args.methods.split(",")))
     result = run_comparison(spec, args.out / "bench", jobs=args.jobs,
@@ -107,18 +100,18 @@ def main(argv: list[str] | None = None) -> int:
     table.to_csv(args.out / "table.csv", index=False, float_format="%.6g")
     print(f"\nraw pass: {min(args.raw_frames, args.frames)} frames per condition, first "
           f"{args.limit} hypotheses, {time.perf_counter() - t0:.0f} s\n")
-    print(fmt_table(table, COLUMNS))
-    plot_sweeps(table, spec.conditions, spec.methods,
+    print(results_doc.fmt_table(table, COLUMNS))
+    results_doc.plot_sweeps(table, spec.conditions, spec.methods,
                 [("fraction of frames", [("first_wrong_rate", "x--", "raw 1st hyp. wrong"),
                                          ("wrong_rate", "o-", "verified wrong")])],
                 args.figures / "seed002_radial_misid.png",
                 "Seed 002 setup: 4 x 4 deg, 4096 px, Hipparcos: misidentifications")
     view = pd.read_csv(result.frames_csv).query("condition == 0")["n_true_in_view"]
-    save_run(args.out, record, wall_s=time.perf_counter() - t_start, frames=args.frames,
+    results_doc.save_run(args.out, record, wall_s=time.perf_counter() - t_start, frames=args.frames,
              raw_frames=min(args.raw_frames, args.frames), limit=args.limit,
              max_stars=args.max_stars, jobs=args.jobs, view_mean=float(view.mean()),
              view_min=int(view.min()), view_max=int(view.max()))
-    print(f"\nwrote {args.out}/ and {render()}")
+    print(f"\nwrote {args.out}/ and {results_doc.render()}")
     return 0
 
 
