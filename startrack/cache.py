@@ -207,3 +207,13 @@ def clear_cache() -> tuple[int, int]:
                     if time.time() - entry.stat(follow_symlinks=False).st_mtime > 3600:
                         os.unlink(entry.path)
     return len(entries), freed
+
+
+def cached_parse(kind: str, source: Path, version: int,
+                 parse: Callable[[Path], dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """``parse(source)`` cached under the file's path, size and modification time (and the
+    parser's ``version``), so an updated catalog file is parsed again."""
+    stat = source.stat()
+    key = {"path": str(source.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns,
+           "format": version}
+    return cached_arrays(kind, key, lambda: parse(source))

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from startrack.cache import cached_arrays
+from startrack.cache import cached_parse
 from startrack.errors import InputError
 from startrack.sky.catalog import Catalog, radec_to_vectors
 
@@ -95,10 +95,7 @@ def gaia_arrays(path: Path | None = None) -> dict[str, np.ndarray]:
     source = catalog_file() if path is None else Path(path)
     if not source.is_file():
         raise InputError(f"{source}: Gaia catalog file not found")
-    stat = source.stat()
-    key = {"path": str(source.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns,
-           "format": FORMAT_VERSION}
-    return cached_arrays("gaia", key, lambda: _parse(source))
+    return cached_parse("gaia", source, FORMAT_VERSION, _parse)
 
 
 def load_gaia(epoch: float | None = None) -> Catalog:

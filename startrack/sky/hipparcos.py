@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.cache import cache_dir, cached_arrays
+from startrack.cache import cache_dir, cached_parse
 from startrack.errors import InputError
 from startrack.sky.catalog import Catalog, vectors_to_radec
 
@@ -83,10 +83,7 @@ def hipparcos_arrays(path: Path | None = None) -> dict[str, np.ndarray]:
     source = catalog_file() if path is None else Path(path)
     if not source.is_file():
         raise InputError(f"{source}: Hipparcos catalog file not found")
-    stat = source.stat()
-    key = {"path": str(source.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns,
-           "format": FORMAT_VERSION}
-    arrays = cached_arrays("hipparcos", key, lambda: parse_hip2(source))
+    arrays = cached_parse("hipparcos", source, FORMAT_VERSION, parse_hip2)
     n = len(arrays.get("ids", ()))
     if n == 0 or any(name not in arrays or arrays[name].shape != (n,) for name in _FIELDS):
         raise InputError(f"{source}: cached Hipparcos arrays are inconsistent; "
