@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from startrack.bench.report import summary_table
+
 ROOT = Path(__file__).resolve().parents[1]
 START, END = "<!-- results:start -->", "<!-- results:end -->"
 DEFAULT_METHODS = "angle,triangle,hybrid,radial,pyramid"
@@ -31,22 +33,12 @@ def compare_args(methods: str, frames: int, jobs: int, out: Path) -> list[str]:
             "--jobs", str(jobs), "--out", str(out), "--no-resume"]
 
 
-def table(summary: pd.DataFrame) -> str:
-    """The summary as a markdown table, one row per condition and method."""
-    rows = ["| noise px | false | missing | method | solved | wrong | median ms | p95 ms | "
-            "boresight median (arcsec) |", "|---|---|---|---|---|---|---|---|---|"]
-    for _, r in summary.iterrows():
-        rows.append(f"| {r.noise_px:g} | {int(r.false_stars)} | {r.missing:.0%} | {r.method} "
-                    f"| {r.solved_rate:.0%} | {int(r.wrong)} | {r.time_median_ms:.2f} "
-                    f"| {r.time_p95_ms:.1f} | {r.boresight_median_arcsec:.1f} |")
-    return "\n".join(rows)
-
-
 def section(summary: pd.DataFrame, command: str, commit: str, date: str) -> str:
     return (f"{START}\nMeasured {date} at commit `{commit}` on this project's 2-core machine "
             f"with\n`{command}`\n(written by `scripts/readme_results.py`). Times are our "
             "identify call (matching, verification, attitude); for the peers, their solve "
-            "call alone.\n\n" + table(summary) + f"\n{END}")
+            "call alone; rates with their 95% Wilson intervals.\n\n"
+            + summary_table(summary) + f"\n{END}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -73,7 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     tail = rest.split(END, 1)[1]
     when = provenance(command)["date (UTC)"] + " UTC"
     (ROOT / "README.md").write_text(head + section(summary, command, commit, when) + tail)
-    print(table(summary))
+    print(summary_table(summary))
     return 0
 
 
