@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from _results_doc import ROOT, fmt_table, run_block, variant_lines
+from _results_doc import fmt_table, run_block, saved_run, variant_lines
 
 COLUMNS = [("noise", "noise_px", "{:g}"), ("false", "false_stars", None),
            ("method", "method", None), ("n", "frames", None),
@@ -188,13 +188,11 @@ def _fov(out: Path, run: dict) -> str:
 def section(out: Path, run: dict | None) -> str:
     """The markdown of section 1, or a note when the run has not been made."""
     head = "## 1. Seed 000 on the bench: angle vs triangle vs hybrid\n\n"
-    if run is None or not (out / "table.csv").exists():
+    saved = saved_run(out, run, "paper2011.toml")
+    if saved is None:
         return head + run_block(None, "scripts/paper2011.py")
-    t = pd.read_csv(out / "table.csv")
-    from startrack.config import load_config
-
-    cam = load_config(ROOT / "configs" / "paper2011.toml").camera
-    px = float(np.degrees(1.0 / cam.f_px) * 3600.0)
+    t, cfg, px = saved
+    cam = cfg.camera
     fov = float(np.degrees(2 * np.arctan(cam.width / 2 / cam.f_px)))
     noise = _join(sorted(t["noise_px"].unique()), "{:g}")
     false = _join(sorted(t.loc[t["false_stars"] > 0, "false_stars"].unique()), "{:g}")

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from _results_doc import ROOT, fmt_table, run_block, variant_lines
+from _results_doc import fmt_table, run_block, saved_run, variant_lines
 
 COLUMNS = [("noise", "noise_px", "{:g}"), ("false", "false_stars", None),
            ("miss", "missing", "{:g}"), ("method", "method", None), ("n", "frames", None),
@@ -125,14 +125,11 @@ def _cost(t: pd.DataFrame) -> str:
 def section(out: Path, run: dict | None) -> str:
     """The markdown of section 2, or a note when the run has not been made."""
     head = "## 2. Seed 002 on the bench: triangles with and without radial features\n\n"
-    if run is None or not (out / "table.csv").exists():
+    saved = saved_run(out, run, "radial_triangles.toml")
+    if saved is None:
         return head + run_block(None, "scripts/seed002_radial.py")
-    t = pd.read_csv(out / "table.csv")
-    from startrack.config import load_config
-
-    cfg = load_config(ROOT / "configs" / "radial_triangles.toml")
+    t, cfg, px = saved
     cam = cfg.camera
-    px = float(np.degrees(1.0 / cam.f_px) * 3600.0)
     intro = (f"configs/radial_triangles.toml ({cam.width} x {cam.height} px of "
              f"{px:.1f}\", Hipparcos Hp <= {cfg.sky.mag_limit:g}; {run['view_mean']:.1f} "
              f"stars in view on average, {run['view_min']} to {run['view_max']} over the "

@@ -56,6 +56,17 @@ def load_run(out: Path) -> dict | None:
     return json.loads(path.read_text()) if path.exists() else None
 
 
+def saved_run(out: Path, run: dict | None, preset: str):
+    """(table, config, arcsec per pixel) of a run saved under ``out`` with the preset
+    ``configs/<preset>``; None when the run has not been made."""
+    if run is None or not (out / "table.csv").exists():
+        return None
+    from startrack.config import load_config
+
+    cfg = load_config(ROOT / "configs" / preset)
+    return pd.read_csv(out / "table.csv"), cfg, float(np.degrees(1.0 / cfg.camera.f_px) * 3600.0)
+
+
 def fmt_table(table: pd.DataFrame, columns: list[tuple[str, str, str | None]]) -> str:
     """A fixed-width text table of (header, column, format) triples; a missing column
     prints as '-', format None prints the value as it is."""
