@@ -102,12 +102,6 @@ def load_gaia(epoch: float | None = None) -> Catalog:
     """Every star of the merged catalog; ids are Gaia DR3 source ids (-HIP for the
     Hipparcos entries). Positions are ICRS at J2016.0, or at ``epoch`` (Julian year) when
     given, moved by the proper motions described in the module docstring."""
-    from startrack.sky.hipparcos import julian_year, propagate
+    from startrack.sky.hipparcos import catalog_at_epoch
 
-    arrays = gaia_arrays()
-    ra, dec = arrays["ra_deg"], arrays["dec_deg"]
-    if epoch is not None:
-        epoch = julian_year(epoch)
-        ra, dec = propagate(ra, dec, arrays["pm_ra"], arrays["pm_dec"], epoch - GAIA_EPOCH)
-    return Catalog(ids=arrays["ids"], ra_deg=ra, dec_deg=dec, mag=arrays["mag"],
-                   source={"sky": "gaia", "epoch": epoch})
+    return catalog_at_epoch(gaia_arrays(), GAIA_EPOCH, epoch, "gaia")

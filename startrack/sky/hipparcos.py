@@ -126,10 +126,16 @@ def load_hipparcos(epoch: float | None = None) -> Catalog:
     Positions are ICRS at J1991.25, or at ``epoch`` (Julian year) when given, moved by
     proper motion (parallax and radial velocity are ignored).
     """
-    arrays = hipparcos_arrays()
+    return catalog_at_epoch(hipparcos_arrays(), CATALOG_EPOCH, epoch, "hipparcos")
+
+
+def catalog_at_epoch(arrays: dict[str, np.ndarray], catalog_epoch: float,
+                     epoch: float | None, sky: str) -> Catalog:
+    """A :class:`Catalog` of parsed arrays (ids, ra/dec, pm, mag), its positions moved by
+    proper motion from ``catalog_epoch`` to ``epoch`` (Julian years; None: not moved)."""
     ra, dec = arrays["ra_deg"], arrays["dec_deg"]
     if epoch is not None:
         epoch = julian_year(epoch)
-        ra, dec = propagate(ra, dec, arrays["pm_ra"], arrays["pm_dec"], epoch - CATALOG_EPOCH)
+        ra, dec = propagate(ra, dec, arrays["pm_ra"], arrays["pm_dec"], epoch - catalog_epoch)
     return Catalog(ids=arrays["ids"], ra_deg=ra, dec_deg=dec, mag=arrays["mag"],
-                   source={"sky": "hipparcos", "epoch": epoch})
+                   source={"sky": sky, "epoch": epoch})
