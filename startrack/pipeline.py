@@ -4,9 +4,8 @@
 :class:`Identifier` holds one loaded catalog, database and matcher and turns centroids
 into a :class:`FrameResult`, the one complete record of an input. :class:`Pipeline`
 decides each input's camera and sky (options, else the JSON sidecar beside the input,
-else defaults) and keeps one ``Identifier`` per distinct (camera, sky), so a batch from
-one camera loads everything once. ``startrack identify``, the Python API and
-``startrack compare`` all build on this.
+else defaults) and keeps one ``Identifier`` per (camera, sky), so a batch from one camera
+loads everything once; ``startrack identify``, the Python API and compare build on this.
 """
 
 from __future__ import annotations
@@ -249,11 +248,12 @@ class Pipeline:
         if camera is None:
             found = self.blind_solver(sky).solve(x, y, self._blind_size(frame))
         elif self.options.fov_tolerance > 0:
-            # The configured method at the nominal FOV first: when the FOV is right (the
-            # usual case) it answers in milliseconds; the FOV is then fitted and the
-            # pointing verified again through the fitted camera.
+            # The configured method at the nominal FOV first (milliseconds when it is right),
+            # then the FOV fitted and the pointing verified through the fitted camera.
             nominal = self.identifier(camera, sky)
             first = nominal.solve(frame)
+            if first.solution.reason == "too_few_stars":
+                return first
             found = (refit_fov(first, nominal.database, nominal.verify_config)
                      if first.solution.solved else None)
             if found is None:

@@ -177,6 +177,7 @@ def test_too_few_stars_is_not_solved_exit_1(setup, n_stars):
     record = json.loads(proc.stdout)
     assert record["status"] == "not_solved" and record["reason"] == "too_few_stars"
     assert record["attitude"] is None and record["stars"] == []
+    assert record["method"] == "pyramid"  # no FOV search is run for two stars
 
 
 def test_batch_answers_every_input_around_a_bad_one(setup):
