@@ -118,7 +118,7 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
     geometries, weights = _tile_geometry(image.shape, config.background_size)
     step = max(1, round(math.sqrt(image.size / 100_000)))  # ~1e5 pixels: plenty for a MAD
 
-    model = _sky_model(image, fill, geometries, weights, None, False)
+    model, first = _sky_model(image, fill, geometries, weights, None, False)
     if not config.fast:
         # Twice: the second sky model ignores what the first showed to be sources, so
         # bright stars and glows do not leak into it (nor, extrapolated, to the border).
@@ -127,7 +127,7 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
         sources = kern.detection_mask(image, model, _MASK_SIGMA * _mad_sigma(det, image.dtype),
                                       config.smooth)
         sources = cv2.dilate(sources, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))
-        model = _sky_model(image, fill, geometries, weights, sources, True)
+        model, _ = _sky_model(image, fill, geometries, weights, sources, True, first)
         del sources
     res, det = kern.samples(image, model, step, config.smooth)
     sigma, sigma_det = _mad_sigma(res, image.dtype), _mad_sigma(det, image.dtype)
@@ -163,12 +163,15 @@ def estimate_background(frame: np.ndarray, tile: int,
         frame = frame.astype(np.float64)
     geometries, weights = _tile_geometry(frame.shape, tile)
     mask = None if ignore is None else np.ascontiguousarray(ignore, dtype=np.uint8)
-    model = _sky_model(frame, _dead_pixel_fill(frame), geometries, weights, mask, True)
+    model, _ = _sky_model(frame, _dead_pixel_fill(frame), geometries, weights, mask, True)
     return kern.background_image(model, *frame.shape)
 
 
-def _sky_model(image, fill, geometries, weights, ignore, fine: bool) -> tuple:
-    """The two-pass block-median sky model as a kernel tuple.
+def _sky_model(image, fill, geometries, weights, ignore, fine: bool,
+               first: tuple | None = None) -> tuple:
+    """The two-pass block-median sky model as a kernel tuple, and its first pass's raw
+    tile medians and fallback (``first``: those of an earlier call without ``ignore``,
+    whose tiles free of ignored pixels need no new median).
 
     The first pass (tile medians, smoothed) samples every fourth pixel of a tile: the
     second pass measures what it left in each tile, its errors included. The second
@@ -176,13 +179,17 @@ def _sky_model(image, fill, geometries, weights, ignore, fine: bool) -> tuple:
     """
     coarse, dense = geometries
     skip = np.zeros((0, 0), np.uint8) if ignore is None else ignore
-    zero = (np.zeros((coarse[0], coarse[1])),) + weights
-    grid = sky.block_medians(image, fill, zero, False, skip, coarse)
-    grid = sky.clean_grid(grid, True, _sample_median(image, fill))
-    model = (grid,) + weights
-    extra = sky.block_medians(image, fill, model, True, skip, dense if fine else coarse)
+    zero = (np.zeros((coarse[0], coarse[1])),) + weights + (np.zeros((1, 1)),)
+    known, fallback = first if first is not None else (np.zeros((0, 0)), None)
+    raw = sky.block_medians(image, fill, zero, False, skip, coarse, known)
+    fallback = _sample_median(image, fill) if fallback is None else fallback
+    grid = sky.clean_grid(raw, True, fallback)
+    model = (grid,) + weights + (kern.column_rows(grid, *weights[3:]),)
+    extra = sky.block_medians(image, fill, model, True, skip, dense if fine else coarse,
+                              np.zeros((0, 0)))
     grid = grid + sky.clean_grid(extra, False, 0.0)
-    return (grid,) + weights + (kern.column_rows(grid, weights[3], weights[4], weights[5]),)
+    model = (grid,) + weights + (kern.column_rows(grid, *weights[3:]),)
+    return model, (raw, fallback)
 
 
 def _tile_geometry(shape: tuple[int, int], tile: int) -> tuple[tuple, tuple]:

@@ -199,6 +199,11 @@ def _merge(acc, parent, n_runs):
 @njit(cache=True)
 def _row_runs(det, threshold, out):
     """Runs of ``det > threshold`` as (start, end) pairs in ``out``; returns their count."""
+    top = -np.inf
+    for x in det:  # most rows hold no detection: a vectorised test skips them
+        top = max(top, x)
+    if not top > threshold:
+        return 0
     n, inside = 0, False
     for c in range(det.shape[0]):
         if det[c] > threshold:
