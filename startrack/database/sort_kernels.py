@@ -1,0 +1,91 @@
+"""Compiled (numba) sorting of the database builds: a stable bucket argsort, the gathers
+that apply it, and the k-vector's merge, each one pass over millions of entries."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def stable_argsort(values, lo, hi):
+    """The stable ascending argsort of ``values`` (all in [lo, hi]) by a bucket sort:
+    counting sort into about one bucket per value, then insertion sort inside each,
+    O(n) for spread-out values where a comparison sort of millions takes seconds.
+
+    The keys travel with the indices, so the insertion sort compares neighbours in
+    memory rather than values scattered across the input.
+    """
+    n = len(values)
+    nb = max(n, 1)
+    scale = nb / (hi - lo) if hi > lo else 0.0
+    start = np.zeros(nb + 1, np.int64)
+    for e in range(n):
+        start[min(int((values[e] - lo) * scale), nb - 1) + 1] += 1
+    for b in range(nb):
+        start[b + 1] += start[b]
+    fill = start[:-1].copy()
+    order = np.empty(n, np.int64)
+    key = np.empty(n, values.dtype)
+    for e in range(n):  # the same bucket arithmetic as above, so the counts match
+        b = min(int((values[e] - lo) * scale), nb - 1)
+        order[fill[b]] = e
+        key[fill[b]] = values[e]
+        fill[b] += 1
+    for b in range(nb):  # insertion sort; strict comparison keeps equal values in order
+        for p in range(start[b] + 1, start[b + 1]):
+            e, x = order[p], key[p]
+            q = p - 1
+            while q >= start[b] and key[q] > x:
+                order[q + 1], key[q + 1] = order[q], key[q]
+                q -= 1
+            order[q + 1], key[q + 1] = e, x
+    return order
+
+
+@njit(cache=True)
+def take_pairs(order, i, j, angle):
+    """(i, j, angle)[order], the rows as int32: the pair table's arrays in angle order."""
+    n = len(order)
+    ti, tj, ta = np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, angle.dtype)
+    for p in range(n):
+        e = order[p]
+        ti[p], tj[p], ta[p] = i[e], j[e], angle[e]
+    return ti, tj, ta
+
+
+@njit(cache=True)
+def take_triangles(order, rows, area, polar):
+    """(rows, area, polar)[order], the rows as int32: the triangle table in area order."""
+    n = len(order)
+    tr = np.empty((n, 3), np.int32)
+    ta, tp = np.empty(n, area.dtype), np.empty(n, polar.dtype)
+    for p in range(n):
+        e = order[p]
+        tr[p, 0], tr[p, 1], tr[p, 2] = rows[e, 0], rows[e, 1], rows[e, 2]
+        ta[p], tp[p] = area[e], polar[e]
+    return tr, ta, tp
+
+
+@njit(cache=True)
+def is_sorted(values):
+    """Whether ``values`` ascend (NaNs compare as np.diff(values) < 0 does: never)."""
+    ascending = True
+    for e in range(1, len(values)):
+        if values[e] < values[e - 1]:
+            ascending = False
+            break
+    return ascending
+
+
+@njit(cache=True)
+def count_at_most(values, z):
+    """``np.searchsorted(values, z, side="right")`` for ascending ``values`` and ``z``,
+    by one merge: O(n + m) where the binary searches cost O(m log n) in cache misses."""
+    k = np.empty(len(z), np.int64)
+    p = 0
+    for e in range(len(z)):
+        while p < len(values) and values[p] <= z[e]:
+            p += 1
+        k[e] = p
+    return k
