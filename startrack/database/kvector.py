@@ -38,9 +38,8 @@ class KVector:
         lo, hi = s[0] - eps, s[-1] + eps
         m = (hi - lo) / max(n - 1, 1)
         q = lo
-        z = m * np.arange(n, dtype=np.float64) + q
-        # np.searchsorted(s, z, side="right"), by one merge of the two sorted arrays.
-        k = sort_kernels.count_at_most(s, z)
+        # np.searchsorted(s, m * np.arange(n) + q, side="right"), by one merge.
+        k = sort_kernels.count_at_most(s, float(m), float(q))
         return cls(s, k, float(m), float(q))
 
     def __len__(self) -> int:

@@ -79,13 +79,16 @@ def is_sorted(values):
 
 
 @njit(cache=True)
-def count_at_most(values, z):
-    """``np.searchsorted(values, z, side="right")`` for ascending ``values`` and ``z``,
-    by one merge: O(n + m) where the binary searches cost O(m log n) in cache misses."""
-    k = np.empty(len(z), np.int64)
+def count_at_most(values, m, q):
+    """``np.searchsorted(values, m * np.arange(len(values)) + q, side="right")`` for
+    ascending ``values`` and m > 0: one merge, where the binary searches cost
+    O(n log n) cache misses, and no array of the n line points."""
+    n = len(values)
+    k = np.empty(n, np.int64)
     p = 0
-    for e in range(len(z)):
-        while p < len(values) and values[p] <= z[e]:
+    for e in range(n):
+        z = m * e + q  # e is exact as a float (n < 2**53): the same z as numpy's
+        while p < n and values[p] <= z:
             p += 1
         k[e] = p
     return k
