@@ -6,18 +6,22 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+PER_BUCKET = 8  # values per bucket on average
+CROWDED = 32  # more in one bucket: merge sort, as insertion sort is quadratic
+
 
 @njit(cache=True)
 def stable_argsort(values, lo, hi):
     """The stable ascending argsort of ``values`` (all in [lo, hi]) by a bucket sort:
-    counting sort into about one bucket per value, then insertion sort inside each,
-    O(n) for spread-out values where a comparison sort of millions takes seconds.
+    counting sort into about one bucket per ``PER_BUCKET`` values, then insertion sort
+    inside each (a stable merge sort for crowded ones), O(n) for spread-out values
+    where a comparison sort of millions takes seconds.
 
-    The keys travel with the indices, so the insertion sort compares neighbours in
-    memory rather than values scattered across the input.
+    The keys travel with the indices, so each bucket is sorted in contiguous memory;
+    fewer buckets than values keep the counts in cache while the values are scattered.
     """
     n = len(values)
-    nb = max(n, 1)
+    nb = max(n // PER_BUCKET, 1)
     scale = nb / (hi - lo) if hi > lo else 0.0
     start = np.zeros(nb + 1, np.int64)
     for e in range(n):
@@ -33,6 +37,11 @@ def stable_argsort(values, lo, hi):
         key[fill[b]] = values[e]
         fill[b] += 1
     for b in range(nb):  # insertion sort; strict comparison keeps equal values in order
+        if start[b + 1] - start[b] > CROWDED:
+            seg = np.argsort(key[start[b]:start[b + 1]], kind="mergesort")  # stable
+            order[start[b]:start[b + 1]] = order[start[b]:start[b + 1]][seg]
+            key[start[b]:start[b + 1]] = key[start[b]:start[b + 1]][seg]
+            continue
         for p in range(start[b] + 1, start[b + 1]):
             e, x = order[p], key[p]
             q = p - 1
