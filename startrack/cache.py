@@ -13,6 +13,7 @@ at most ``$STARTRACK_CACHE_MAX_MB`` (default :data:`DEFAULT_CACHE_MAX_MB`).
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import hashlib
 import json
@@ -167,6 +168,32 @@ def _load_checked(path: Path) -> dict[str, np.ndarray] | None:
     return arrays
 
 
+def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """What ``np.savez(path, **arrays, __sha256__=checksum)`` writes, without its chunked
+    copies, and with the checksum hashed in a thread while the arrays are written (both
+    hashlib and the zip's CRC release the GIL)."""
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        checksum = pool.submit(arrays_checksum, arrays)
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+            for name, arr in arrays.items():
+                with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
+                    _write_member(fh, np.asanyarray(arr))
+            with zf.open(f"{CHECKSUM_KEY}.npy", "w", force_zip64=True) as fh:
+                _write_member(fh, np.array(checksum.result()))
+
+
+def _write_member(fh, arr: np.ndarray) -> None:
+    if not arr.flags.c_contiguous or arr.dtype.hasobject:
+        np.lib.format.write_array(fh, arr, allow_pickle=False)
+        return
+    header = np.lib.format.header_data_from_array_1_0(arr)
+    try:
+        np.lib.format.write_array_header_1_0(fh, header)
+    except ValueError:  # too long a header for format 1.0, as np.save would find
+        np.lib.format.write_array_header_2_0(fh, header)
+    fh.write(arr.reshape(-1).view(np.uint8))
+
+
 def _touch(path: Path) -> None:
     """Mark an entry as just used (the eviction order); atime is unreliable on most mounts."""
     with contextlib.suppress(OSError):
@@ -187,9 +214,8 @@ def cached_arrays(kind: str, params: dict,
             _touch(path)
             return arrays
     arrays = build()
-    stored = {**arrays, CHECKSUM_KEY: np.array(arrays_checksum(arrays))}
-    with contextlib.suppress(OSError), atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        np.savez(fh, **stored)
+    with contextlib.suppress(OSError), atomic_path(path) as tmp:
+        _write_npz(tmp, arrays)
     evict(keep=path)
     return arrays
 
