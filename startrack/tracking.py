@@ -26,6 +26,7 @@ from scipy.spatial.transform import Rotation
 
 from startrack.camera import Camera
 from startrack.database import StarDatabase
+from startrack.identify import residuals_arcsec
 from startrack.matching.projector import CAPTURE, CONE_LOOKUP_MARGIN, CONE_MARGIN, CatalogProjector
 from startrack.tracking_kernels import consistent, window_pairs
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
@@ -130,10 +131,9 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
                         mode="tracking")
     order = np.argsort(result.obs_index)
     obs_index, cat_index = result.obs_index[order], result.cat_index[order]
-    sky = result.rotation.apply(obs.vectors[obs_index])
-    cos = np.clip(np.einsum("ij,ij->i", sky, database.vectors[cat_index]), -1.0, 1.0)
+    residuals = residuals_arcsec(result.matrix, obs, obs_index, database.vectors[cat_index])
     return Solution(True, method, rotation=result.rotation, obs_index=obs_index,
-                    cat_index=cat_index, residual_arcsec=np.degrees(np.arccos(cos)) * 3600.0,
+                    cat_index=cat_index, residual_arcsec=residuals,
                     false_probability=result.false_probability, diagnostics=diag,
                     identify_ms=(time.perf_counter() - t0) * 1000.0, mode="tracking")
 

@@ -61,7 +61,7 @@ class Verification:
     def rotation(self) -> Rotation | None:
         if self.matrix is None:
             return None
-        return Rotation.from_quat(kern.matrix_to_quaternion(self.matrix), scalar_first=True)
+        return Rotation.from_quat(kern.matrix_to_quaternion(self.matrix))
 
 
 def false_match_probability(n_other: int, n_confirmed: int, n_catalog_in_image: int,
@@ -90,15 +90,11 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
         return rejected
     radius_px = config.radius_px(obs)
     project = project or CatalogProjector(obs, database, radius_px)
-    cam_h, cat_v = project.obs_vectors[obs_h], database.vectors[cat_h]
-    matrix = kern.wahba(cam_h, cat_v)
-    if not kern.fits_within(cam_h, cat_v, matrix, math.cos(radius_px / obs.camera.f_px)):
+    # Evidence comes only from stars the matcher did not choose (``confirmed``).
+    matrix, obs_m, cat_m, n_cat, confirmed = project.first_match(
+        obs_h, database.vectors[cat_h], math.cos(radius_px / obs.camera.f_px))
+    if matrix is None:
         return rejected
-    obs_m, cat_m, n_cat = project.match(matrix)
-    # Evidence comes only from stars the matcher did not choose.
-    chosen = np.zeros(len(obs), bool)
-    chosen[obs_h] = True
-    confirmed = int(np.count_nonzero(~chosen[obs_m]))
     n_other = len(obs) - len(obs_h)
     prob = false_match_probability(n_other, confirmed, n_cat, radius_px,
                                    obs.camera.width, obs.camera.height)

@@ -207,11 +207,11 @@ def test_compiled_wahba_and_quaternion_agree_with_scipy():
         m = wahba(cam, sky)
         np.testing.assert_allclose(m, wahba_matrices(cam, sky), atol=1e-9)
         q = matrix_to_quaternion(m)
-        want = Rotation.from_matrix(m).as_quat(scalar_first=True)
-        want = -want if want[0] < 0 else want
+        want = Rotation.from_matrix(m).as_quat()
+        want = -want if want[3] < 0 else want
         np.testing.assert_allclose(q, want, atol=1e-12)
     # Every branch of the quaternion (trace or one diagonal element largest).
     for angle_axis in ([np.pi * 0.9, 0, 0], [0, np.pi * 0.9, 0], [0, 0, np.pi * 0.9], [0.1, 0, 0]):
         r = Rotation.from_rotvec(angle_axis)
         q = matrix_to_quaternion(r.as_matrix())
-        assert Rotation.from_quat(q, scalar_first=True).approx_equal(r, atol=1e-12)
+        assert Rotation.from_quat(q).approx_equal(r, atol=1e-12)

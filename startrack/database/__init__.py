@@ -106,12 +106,13 @@ class StarDatabase:
         return cKDTree(self.vectors)
 
     @cached_property
-    def _cone_index(self) -> ConeIndex:
+    def cone_index(self) -> ConeIndex:
+        """The z-sorted index behind :meth:`cone` (its arrays feed compiled lookups)."""
         return ConeIndex.build(self.vectors)
 
     def cone(self, direction: np.ndarray, radius_rad: float) -> np.ndarray:
         """Catalog rows within ``radius_rad`` of a unit vector, brightest first."""
-        return self._cone_index.rows(direction, radius_rad)
+        return self.cone_index.rows(direction, radius_rad)
 
     def nearest(self, directions: np.ndarray, radius_rad: float, k: int = 1) -> np.ndarray:
         """The ``k`` catalog rows nearest each unit vector of ``directions`` (..., 3) within

@@ -16,7 +16,9 @@ from numba import njit
 
 
 @njit(cache=True)
-def _cone_rows(vectors, order, z_sorted, direction, radius):
+def cone_rows(vectors, order, z_sorted, direction, radius):
+    """Rows of ``vectors`` within ``radius`` of ``direction``, ascending (``order`` sorts
+    the rows by z, ``z_sorted`` is their z)."""
     dx, dy, dz = direction[0], direction[1], direction[2]
     dec = math.asin(max(-1.0, min(1.0, dz)))
     # A hair wider than the band, so that rounding never drops a star on its edge.
@@ -50,5 +52,5 @@ class ConeIndex:
     def rows(self, direction: np.ndarray, radius_rad: float) -> np.ndarray:
         """Rows within ``radius_rad`` of the unit vector ``direction``, ascending."""
         direction = np.ascontiguousarray(direction, dtype=np.float64)
-        return _cone_rows(self.vectors, self.order, self.z_sorted, direction,
+        return cone_rows(self.vectors, self.order, self.z_sorted, direction,
                           min(float(radius_rad), math.pi))

@@ -72,6 +72,29 @@ class CatalogProjector:
             self._use(self.database.cone(boresight, self.cone_rad * CONE_LOOKUP_MARGIN))
             self.boresight = boresight.copy()
 
+    def first_match(self, obs_h: np.ndarray, sky_h: np.ndarray, cos_radius: float,
+                    ) -> tuple[np.ndarray | None, np.ndarray, np.ndarray, int, int]:
+        """A hypothesis's first test: the attitude fitted to its stars (observed ``obs_h``,
+        catalog vectors ``sky_h``), None unless each pair lies within ``cos_radius`` of
+        the other; then the frame matched at it. Returns (matrix, obs_index, cat_index,
+        catalog stars in the image, matches outside the hypothesis)."""
+        none = np.zeros(0, np.int64)
+        if self.fixed:
+            matrix = kern.wahba(self.obs_vectors[obs_h], sky_h)
+            if not kern.fits_within(self.obs_vectors[obs_h], sky_h, matrix, cos_radius):
+                return None, none, none, 0, 0
+            obs_m, cat_m, n_in = self.match(matrix)
+            return matrix, obs_m, cat_m, n_in, int(np.count_nonzero(~np.isin(obs_m, obs_h)))
+        index = self.database.cone_index
+        fits, matrix, rows, vectors, obs_m, pos, n_in, confirmed = kern.first_match(
+            self.obs_vectors, self.ox, self.oy, obs_h, sky_h, index.vectors, index.order,
+            index.z_sorted, self.cone_rad * CONE_LOOKUP_MARGIN, self.geometry,
+            self.radius_px, cos_radius)
+        if not fits:
+            return None, none, none, 0, 0
+        self.rows, self.vectors, self.boresight = rows, vectors, matrix[:, 2].copy()
+        return matrix, obs_m, rows[pos], int(n_in), int(confirmed)
+
     def __call__(self, matrix: np.ndarray,
                  radius_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rows and pixel positions of the catalog stars in the image widened by

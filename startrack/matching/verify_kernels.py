@@ -15,6 +15,8 @@ import math
 import numpy as np
 from numba import njit
 
+from startrack.database.cone import cone_rows
+
 
 @njit(cache=True)
 def _rotate(a, v, p, q):
@@ -172,6 +174,31 @@ def match(vectors, matrix, ox, oy, geometry, radius):
 
 
 @njit(cache=True)
+def first_match(obs_vectors, ox, oy, hyp_obs, hyp_sky, catalog, cone_order, cone_z,
+                cone_radius, geometry, radius, cos_radius):
+    """The first test of a hypothesis, in one call: its attitude (Wahba), each of its
+    stars within the match radius, then the catalog cone around that attitude matched to
+    the frame. Returns (fits, matrix, cone rows, cone vectors, observed index, cone
+    position, catalog stars in the image, matches outside the hypothesis)."""
+    matrix = wahba(obs_vectors[hyp_obs], hyp_sky)
+    rows = np.zeros(0, np.int64)
+    vectors = np.zeros((0, 3))
+    if not fits_within(obs_vectors[hyp_obs], hyp_sky, matrix, cos_radius):
+        return False, matrix, rows, vectors, rows, rows, 0, 0
+    rows = cone_rows(catalog, cone_order, cone_z, matrix[:, 2].copy(), cone_radius)
+    vectors = np.empty((rows.shape[0], 3))
+    for i in range(rows.shape[0]):
+        vectors[i] = catalog[rows[i]]
+    obs_idx, pos, n_in = match(vectors, matrix, ox, oy, geometry, radius)
+    chosen = np.zeros(ox.shape[0], np.bool_)
+    chosen[hyp_obs] = True
+    confirmed = 0
+    for i in obs_idx:
+        confirmed += not chosen[i]
+    return True, matrix, rows, vectors, obs_idx, pos, n_in, confirmed
+
+
+@njit(cache=True)
 def refine(obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m,
            max_rounds):
     """Refit on every matched star and match again until the matched set stops changing;
@@ -199,7 +226,8 @@ def refine(obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m
 
 @njit(cache=True)
 def matrix_to_quaternion(m):
-    """Scalar-first unit quaternion of a rotation matrix, w >= 0 (Shepperd's method)."""
+    """Unit quaternion of a rotation matrix, scalar LAST ``[x, y, z, w]`` as scipy's
+    ``Rotation.from_quat`` takes it fastest, w >= 0 (Shepperd's method)."""
     q = np.empty(4)
     tr = m[0, 0] + m[1, 1] + m[2, 2]
     if tr >= m[0, 0] and tr >= m[1, 1] and tr >= m[2, 2]:
@@ -215,7 +243,9 @@ def matrix_to_quaternion(m):
         q[0], q[1] = m[1, 0] - m[0, 1], m[0, 2] + m[2, 0]
         q[2], q[3] = m[1, 2] + m[2, 1], 1.0 + 2.0 * m[2, 2] - tr
     q /= np.sqrt((q * q).sum())
-    return -q if q[0] < 0.0 else q
+    if q[0] < 0.0:
+        q = -q
+    return np.array([q[1], q[2], q[3], q[0]])
 
 
 def warm_up() -> None:
