@@ -151,19 +151,28 @@ def test_timeout_gives_a_not_solved_with_its_reason(random_db):
     assert few.reason == "too_few_stars"
 
 
-def test_nearest_matches_keep_the_nearest_claim():
+@pytest.mark.parametrize("radius, spread", [(4.0, 50.0), (1.0, 1000.0), (30.0, 1000.0),
+                                            (3000.0, 1000.0), (4.0, 0.0)])
+def test_nearest_matches_keep_the_nearest_claim(radius, spread):
+    """The grid search gives the brute-force answer: each observed star its nearest
+    catalog star within the radius (the lower index on a tie), each catalog star kept by
+    its nearest claimant (the lower observed index on a tie)."""
     from startrack.matching.verify_kernels import nearest_matches
 
-    rng = np.random.default_rng(9)
-    ox, oy = rng.uniform(0, 50, 40), rng.uniform(0, 50, 40)
-    cx, cy = rng.uniform(0, 50, 30), rng.uniform(0, 50, 30)
-    rows, pos = nearest_matches(ox, oy, cx, cy, 4.0)
+    rng = np.random.default_rng(int(radius + spread))
+    ox, oy = rng.uniform(0, spread, 40), rng.uniform(0, spread, 40)
+    cx, cy = rng.uniform(0, spread, 30), rng.uniform(0, spread, 30)
+    cx[5], cy[5] = cx[4], cy[4]  # a catalog star twice: ties on the observed side
+    ox[7], oy[7] = ox[6], oy[6]  # an observed star twice: ties on the catalog side
+    ox[:3], oy[:3] = cx[:3] + 0.5, cy[:3] - 0.25
+    rows, pos = nearest_matches(ox, oy, cx, cy, radius)
     d2 = (ox[:, None] - cx[None, :]) ** 2 + (oy[:, None] - cy[None, :]) ** 2
+    near = np.argmin(d2, axis=1)  # argmin: the first on a tie
     want = []
     for i in range(len(ox)):
-        j = int(np.argmin(d2[i]))
-        rivals = [k for k in range(len(ox)) if int(np.argmin(d2[k])) == j]
-        if d2[i, j] <= 16.0 and all(d2[i, j] <= d2[k, j] for k in rivals):
+        j = int(near[i])
+        rivals = [k for k in range(len(ox)) if near[k] == j and d2[k, j] <= radius**2]
+        if d2[i, j] <= radius**2 and min(rivals, key=lambda k: (d2[k, j], k)) == i:
             want.append((i, j))
     assert list(zip(rows.tolist(), pos.tolist(), strict=True)) == want and want
     assert len(set(pos.tolist())) == len(pos)

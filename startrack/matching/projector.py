@@ -80,11 +80,12 @@ class CatalogProjector:
         catalog stars in the image, matches outside the hypothesis)."""
         none = np.zeros(0, np.int64)
         if self.fixed:
-            matrix = kern.wahba(self.obs_vectors[obs_h], sky_h)
-            if not kern.fits_within(self.obs_vectors[obs_h], sky_h, matrix, cos_radius):
+            fits, matrix, obs_m, pos, n_in, confirmed = kern.first_match_fixed(
+                self.obs_vectors, self.ox, self.oy, obs_h, sky_h, self.vectors, self.geometry,
+                self.radius_px, cos_radius)
+            if not fits:
                 return None, none, none, 0, 0
-            obs_m, cat_m, n_in = self.match(matrix)
-            return matrix, obs_m, cat_m, n_in, int(np.count_nonzero(~np.isin(obs_m, obs_h)))
+            return matrix, obs_m, self.rows[pos], int(n_in), int(confirmed)
         index = self.database.cone_index
         fits, matrix, rows, vectors, obs_m, pos, n_in, confirmed = kern.first_match(
             self.obs_vectors, self.ox, self.oy, obs_h, sky_h, index.vectors, index.order,
