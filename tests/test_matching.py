@@ -157,7 +157,7 @@ def test_nearest_matches_keep_the_nearest_claim(radius, spread):
     """The grid search gives the brute-force answer: each observed star its nearest
     catalog star within the radius (the lower index on a tie), each catalog star kept by
     its nearest claimant (the lower observed index on a tie)."""
-    from startrack.matching.verify_kernels import nearest_matches
+    from startrack.matching.nearest_kernels import nearest_matches
 
     rng = np.random.default_rng(int(radius + spread))
     ox, oy = rng.uniform(0, spread, 40), rng.uniform(0, spread, 40)
@@ -205,7 +205,7 @@ def test_compiled_projection_is_the_cameras(k1):
 
 def test_compiled_wahba_and_quaternion_agree_with_scipy():
     from startrack.attitude import wahba_matrices
-    from startrack.matching.verify_kernels import matrix_to_quaternion, wahba
+    from startrack.matching.wahba_kernels import matrix_to_quaternion, wahba
 
     rng = np.random.default_rng(17)
     for _ in range(50):
