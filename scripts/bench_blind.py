@@ -27,7 +27,7 @@ from startrack.bench.frames import make_frame
 from startrack.camera import Camera
 from startrack.centroids import Centroids
 from startrack.pipeline import FrameInput, Options, Pipeline
-from startrack.sky import SkySpec, default_sky_kind, load_sky, resolve_sky
+from startrack.sky import UNRESOLVED_PIXELS, SkySpec, default_sky_kind, load_sky, resolve_sky
 
 CONDITION = Condition(noise_px=0.3, false_stars=3, missing=0.05, mag_noise=0.3)
 WRONG_ARCSEC = 60.0
@@ -42,6 +42,34 @@ def frames_for(fov: float, n: int, seed: int, with_catalog: bool = False):
     catalog = load_sky(spec, camera)
     frames = [make_frame(catalog, camera, CONDITION, seed, i) for i in range(n)]
     return (camera, frames, catalog) if with_catalog else (camera, frames)
+
+
+def wrong_stars(frame, catalog, obs_index: np.ndarray, cat_vectors: np.ndarray,
+                camera: Camera) -> int:
+    """How many of a solution's named stars are not the frame's true star there: a false
+    star given a name, or a catalog direction farther from the true star's than the camera
+    can split (the merge separation, 2 px: the catalogs of a solver may differ from the
+    frames', e.g. Gaia for a blind search on Hipparcos frames)."""
+    truth = frame.truth_rows[np.asarray(obs_index, dtype=np.int64)]
+    real = truth >= 0
+    true_v = catalog.vectors[np.where(real, truth, 0)]
+    cos = np.clip(np.einsum("ij,ij->i", true_v, np.asarray(cat_vectors, float)), -1.0, 1.0)
+    far = np.degrees(np.arccos(cos)) > math.degrees(UNRESOLVED_PIXELS / camera.f_px)
+    return int(np.count_nonzero(~real | far))
+
+
+def boresight_arcsec(rotation, frame) -> float:
+    b, t = rotation.apply([0.0, 0.0, 1.0]), frame.rotation.apply([0.0, 0.0, 1.0])
+    return math.degrees(math.acos(min(1.0, float(b @ t)))) * 3600.0
+
+
+def junk_input(size: tuple[int, int], n: int = 40, seed: int = 0) -> FrameInput:
+    """Random points: a frame that no search solves, so solving it once loads every table
+    a search may need (outside the timed solves)."""
+    rng = np.random.default_rng(seed)
+    return FrameInput("junk", Centroids(rng.uniform(0, size[0] - 1, n),
+                                        rng.uniform(0, size[1] - 1, n),
+                                        np.arange(n, 0, -1.0)))
 
 
 def solve_ours(pipeline: Pipeline, frame, camera: Camera):
