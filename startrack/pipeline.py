@@ -193,9 +193,7 @@ class Pipeline:
         method = method or opt.method
         key = (camera, sky, method)
         if key not in self._identifiers:
-            if sky not in self._catalogs:
-                self._catalogs[sky] = load_sky(sky, camera)
-            self._identifiers[key] = Identifier(camera, self._catalogs[sky], method,
+            self._identifiers[key] = Identifier(camera, self.catalog(sky, camera), method,
                                                 max_stars=opt.max_stars, sigma_px=opt.sigma_px,
                                                 timeout_ms=opt.timeout_ms)
         return self._identifiers[key]
@@ -214,21 +212,9 @@ class Pipeline:
             blind, size = self.blind_solver(sky), self._blind_size(frame)
             found = blind.solve(x, y, size, Deadline.after_ms(self.options.timeout_ms))
         elif self.options.fov_tolerance > 0:
-            # The configured method at the nominal FOV first (milliseconds when it is right),
-            # then the FOV fitted and the pointing verified through the fitted camera.
-            nominal = self.identifier(camera, sky)
-            deadline = Deadline.after_ms(self.options.timeout_ms)
-            first = nominal.solve(frame, identify=lambda obs: nominal.identify(obs, deadline))
-            if first.solution.reason in ("too_few_stars", "timeout"):
-                return first
-            found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
-                     if first.solution.solved else None)
-            if found is None:
-                ident = self.identifier(camera, sky, "quad")
-                found = solve_approximate(ident, x, y, self.options.fov_tolerance, deadline)
-                spent = first.solution.identify_ms  # the first try is part of the answer
-                found = dataclasses.replace(found, solution=dataclasses.replace(
-                    found.solution, identify_ms=found.solution.identify_ms + spent))
+            found = self._approximate(frame, camera, sky)
+            if isinstance(found, FrameResult):
+                return found
         else:
             return self.identifier(camera, sky).solve(frame)
         sol = found.solution
@@ -237,6 +223,48 @@ class Pipeline:
         return FrameResult(frame.name, sol, found.obs, frame.centroids, timing, found.camera,
                            found.catalog, self.options.sigma_px, found.match_radius_px,
                            frame.image)
+
+    def _approximate(self, frame: FrameInput, camera: Camera, sky: SkySpec):
+        """A nominal FOV: the configured method first (milliseconds when the FOV is right),
+        its FOV refitted and the pointing verified through the fitted camera; else the quad
+        search within the tolerance. A :class:`FrameResult` when the configured method's
+        answer stands (too few stars, a timeout), else the search's ``FovResult``."""
+        x, y = frame.centroids.x, frame.centroids.y
+        deadline, spent, found = Deadline.after_ms(self.options.timeout_ms), 0.0, None
+        if self._tables_fit(camera, sky):  # else (a deep narrow-field sky) the search alone
+            nominal = self.identifier(camera, sky)
+            deadline = Deadline.after_ms(self.options.timeout_ms)
+            first = nominal.solve(frame, identify=lambda obs: nominal.identify(obs, deadline))
+            if first.solution.reason in ("too_few_stars", "timeout"):
+                return first
+            found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
+                     if first.solution.solved else None)
+            spent = first.solution.identify_ms  # the first try is part of the answer
+        if found is None:
+            ident = self.identifier(camera, sky, "quad")
+            found = solve_approximate(ident, x, y, self.options.fov_tolerance, deadline)
+            found = dataclasses.replace(found, solution=dataclasses.replace(
+                found.solution, identify_ms=found.solution.identify_ms + spent))
+        return found
+
+    def _tables_fit(self, camera: Camera, sky: SkySpec) -> bool:
+        """Whether the configured method's pair table for ``camera`` fits the pair budget
+        (:func:`startrack.sky.check_pair_budget`); a Gaia sky for a 1.5 to 4 deg field
+        does not, and the quad search, which tables no pairs, then answers alone."""
+        if not get_matcher(self.options.method).tables or (camera, sky, self.options.method) \
+                in self._identifiers:
+            return True
+        try:
+            check_pair_budget(self.catalog(sky, camera), camera)
+        except InputError:
+            return False
+        return True
+
+    def catalog(self, sky: SkySpec, camera: Camera | None) -> Catalog:
+        """The catalog of ``sky`` (for ``camera``: its close stars merged), loaded once."""
+        if sky not in self._catalogs:
+            self._catalogs[sky] = load_sky(sky, camera)
+        return self._catalogs[sky]
 
     def correct_aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
         """``result`` corrected for annual aberration when the time of observation is known
@@ -257,9 +285,7 @@ class Pipeline:
 
     def blind_solver(self, sky: SkySpec) -> BlindSolver:
         if sky not in self._blind:
-            if sky not in self._catalogs:
-                self._catalogs[sky] = load_sky(sky, None)
-            self._blind[sky] = BlindSolver(self._catalogs[sky], sky, self.options.sigma_px)
+            self._blind[sky] = BlindSolver(self.catalog(sky, None), sky, self.options.sigma_px)
         return self._blind[sky]
 
     def run(self, path: str | Path) -> FrameResult:

@@ -123,3 +123,17 @@ def test_the_deadline_is_shared_by_the_nominal_method_and_the_fov_search(monkeyp
     limited = Pipeline(Options(**options, timeout_ms=1000.0)).solve(_frame(xy))
     assert not limited.solution.solved and limited.solution.reason == "timeout"
     assert limited.record()["reason"] == "timeout"
+
+
+def test_a_pair_table_over_budget_leaves_the_fov_search_to_answer(monkeypatch):
+    """A deep sky for a narrow field (Gaia at 1.5 to 4 deg) has more catalog pairs than
+    the budget: a nominal FOV is then searched by the quad matcher alone (no pair table),
+    where an exact FOV (tolerance 0) with a pair-table method stays a one-line error."""
+    monkeypatch.setenv("STARTRACK_MAX_PAIRS", "1000")
+    xy = _centroids()
+    options = dict(fov_deg=20.0 * 1.04, size=(1024, 1024), sky="random", method="pyramid")
+    result = Pipeline(Options(**options, fov_tolerance=0.1)).solve(_frame(xy))
+    assert result.solution.solved and result.solution.method == "quad"
+    assert result.camera.fov_deg == pytest.approx(20.0, abs=0.02)
+    with pytest.raises(InputError, match="pairs"):
+        Pipeline(Options(**options, fov_tolerance=0.0)).solve(_frame(xy))
