@@ -30,7 +30,6 @@ import argparse
 import dataclasses
 import datetime as dt
 import os
-import shlex
 import sys
 import time
 from pathlib import Path
@@ -43,11 +42,12 @@ from bench_blind import (  # noqa: E402
     boresight_arcsec,
     frames_for,
     junk_input,
+    provenance_line,
+    write_between,
     wrong_stars,
 )
 from bench_blind_peer_solvers import PEERS  # noqa: E402
 
-from startrack.bench.report import _git_commit  # noqa: E402
 from startrack.centroids import Centroids  # noqa: E402
 from startrack.fov import MARGIN  # noqa: E402
 from startrack.pipeline import FrameInput, Options, Pipeline  # noqa: E402
@@ -160,25 +160,6 @@ def _ms(value: float) -> str:
     return f"{value:.1f}" if value < 10 else f"{value:.0f}"
 
 
-def write_doc(doc: Path, rows: list[dict], command: str, commit: str, started: str,
-              minutes: float, load: tuple[float, float]) -> None:
-    text = doc.read_text()
-    if START not in text or END not in text:
-        raise SystemExit(f"{doc} has no {START} ... {END} markers")
-    head, rest = text.split(START, 1)
-    tail = rest.split(END, 1)[1]
-    body = (f"{START}\n<!-- written by scripts/bench_blind_peers.py: do not edit by hand -->\n"
-            f"`{command}`\nat commit `{commit}`, started {started} UTC, {minutes:.1f} min; "
-            f"load average {load[0]:.1f} at the start, {load[1]:.1f} at the end (2 cores).\n"
-            "wrong: frames with a wrong pointing or a wrong star; (pointing): of them, "
-            "those whose boresight is more than 60\" off.\n"
-            f"FOV search half-width given to the peers: {SEARCH:.3f} of the estimate.\n\n"
-            f"{table(rows)}\n{END}")
-    tmp = doc.with_name(doc.name + ".tmp")
-    tmp.write_text(head + body + tail)
-    tmp.replace(doc)
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=8)
@@ -191,18 +172,19 @@ def main() -> None:
                     help="the peers' no-FOV database covers [FOV / span, FOV x span]")
     ap.add_argument("--doc", type=Path, help="write the table between this doc's markers")
     args = ap.parse_args()
-    full = _git_commit() or "?"
-    commit = full[:10] + ("+dirty" if full.endswith("+dirty") else "")
     started = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M")
     load0, t0 = os.getloadavg()[0], time.perf_counter()
     rows = run(args)
-    minutes = (time.perf_counter() - t0) / 60.0
     print(table(rows))
     if args.doc:
-        command = ("PYTHONPATH=. /work/peers-venv/bin/python scripts/bench_blind_peers.py "
-                   + shlex.join(sys.argv[1:]))
-        write_doc(args.doc, rows, command, commit, started, minutes,
-                  (load0, os.getloadavg()[0]))
+        line = provenance_line("bench_blind_peers.py", started,
+                               (time.perf_counter() - t0) / 60.0, (load0, os.getloadavg()[0]))
+        write_between(args.doc, START, END, (
+            f"{line} Run with the peers' venv (`PYTHONPATH=. /work/peers-venv/bin/python`).\n"
+            "wrong: frames with a wrong pointing or a wrong star; (pointing): of them, "
+            "those whose boresight is more than 60\" off. FOV search half-width given to "
+            f"the peers: {SEARCH:.3f} of the estimate; per-frame limit {args.timeout_ms:g} ms."
+            f"\n\n{table(rows)}"))
 
 
 if __name__ == "__main__":
