@@ -13,10 +13,12 @@ from startrack.types import MatchDiagnostics, Observation, Solution
 from startrack.verify import VerifyConfig, verify
 
 
-def residuals_arcsec(rotation: Rotation, obs: Observation, obs_index: np.ndarray,
+def residuals_arcsec(rotation: Rotation | np.ndarray, obs: Observation, obs_index: np.ndarray,
                      cat_vectors: np.ndarray) -> np.ndarray:
-    """Angle between each observed star, rotated to the sky, and its catalog star."""
-    sky = rotation.apply(obs.vectors[obs_index])
+    """Angle between each observed star, rotated to the sky (by a Rotation or its 3 x 3
+    matrix, camera to sky), and its catalog star."""
+    matrix = rotation if isinstance(rotation, np.ndarray) else rotation.as_matrix()
+    sky = obs.vectors[obs_index] @ matrix.T
     cos = np.clip(np.einsum("ij,ij->i", sky, cat_vectors), -1.0, 1.0)
     return np.degrees(np.arccos(cos)) * 3600.0
 
@@ -73,7 +75,7 @@ def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = N
         rotation=result.rotation,
         obs_index=obs_index,
         cat_index=cat_index,
-        residual_arcsec=residuals_arcsec(result.rotation, obs, obs_index, vectors[order]),
+        residual_arcsec=residuals_arcsec(result.matrix, obs, obs_index, vectors[order]),
         false_probability=result.false_probability,
         diagnostics=diag,
         identify_ms=elapsed,
