@@ -38,9 +38,7 @@ def stable_argsort(values, lo, hi):
         fill[b] += 1
     for b in range(nb):  # insertion sort; strict comparison keeps equal values in order
         if start[b + 1] - start[b] > CROWDED:
-            seg = np.argsort(key[start[b]:start[b + 1]], kind="mergesort")  # stable
-            order[start[b]:start[b + 1]] = order[start[b]:start[b + 1]][seg]
-            key[start[b]:start[b + 1]] = key[start[b]:start[b + 1]][seg]
+            _merge_sort(order, key, start[b], start[b + 1])
             continue
         for p in range(start[b] + 1, start[b + 1]):
             e, x = order[p], key[p]
@@ -50,6 +48,32 @@ def stable_argsort(values, lo, hi):
                 q -= 1
             order[q + 1], key[q + 1] = e, x
     return order
+
+
+@njit(cache=True)
+def _merge_sort(order, key, a, b):
+    """Stable bottom-up merge sort of key[a:b], order[a:b] alongside (numba's own
+    np.argsort(kind="mergesort") would do, but takes seconds to compile)."""
+    tmp_o = np.empty(b - a, np.int64)
+    tmp_k = np.empty(b - a, key.dtype)
+    width = 1
+    while width < b - a:
+        for lo in range(a, b, 2 * width):
+            mid, hi = min(lo + width, b), min(lo + 2 * width, b)
+            i, j = lo, mid
+            for t in range(lo - a, hi - a):
+                if j >= hi or (i < mid and key[i] <= key[j]):  # ties: left first
+                    tmp_o[t] = order[i]
+                    tmp_k[t] = key[i]
+                    i += 1
+                else:
+                    tmp_o[t] = order[j]
+                    tmp_k[t] = key[j]
+                    j += 1
+        for t in range(b - a):
+            order[a + t] = tmp_o[t]
+            key[a + t] = tmp_k[t]
+        width *= 2
 
 
 @njit(cache=True)
