@@ -16,6 +16,7 @@ warm are the median of ``--repeat`` runs. Then, per sky, each table's in-process
 
     .venv/bin/python scripts/bench_database.py
     .venv/bin/python scripts/bench_database.py --repeat 5 --skies none
+    .venv/bin/python scripts/bench_database.py --skies none --compare-with /tmp/old-checkout
 """
 
 from __future__ import annotations
@@ -67,29 +68,37 @@ def child() -> None:
                       "triangles": len(db.triangles)}))
 
 
-def run_child(cache: Path, numba_cache: Path) -> dict:
+def run_child(cache: Path, numba_cache: Path, code: str | None) -> dict:
     env = {**os.environ, "STARTRACK_CACHE_DIR": str(cache), "NUMBA_CACHE_DIR": str(numba_cache)}
+    if code:
+        env["PYTHONPATH"] = code
     out = subprocess.run([sys.executable, __file__, "--child"], env=env, check=True,
                          capture_output=True, text=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def end_to_end(repeat: int, root: Path) -> None:
-    numba_cache = Path(os.environ["NUMBA_CACHE_DIR"])
-    runs = {"first ever": [run_child(root / "first", numba_cache)]}
-    runs["cold"] = [run_child(root / f"cold{k}", numba_cache) for k in range(repeat)]
-    runs["warm"] = [run_child(root / "cold0", numba_cache) for _ in range(repeat)]
-    info = runs["first ever"][0]
-    print(f"end to end, Hipparcos Hp <= {info['mag']:.1f} ({info['stars']} stars), "
-          f"{FOV_DEG:g} deg, {SIZE}x{SIZE}, method {info['method']}: {info['pairs']:,d} "
-          f"pairs, {info['triangles']:,d} triangles (seconds; cold and warm: median of "
-          f"{repeat})")
-    print(f"  {'case':<11}" + "".join(f"{s:>12}" for s in STAGES) + f"{'total':>10}")
-    for case, results in runs.items():
-        med = {s: sorted(r["times"][s] for r in results)[len(results) // 2] for s in STAGES}
-        totals = sorted(sum(r["times"][s] for s in STAGES[1:]) for r in results)
-        print(f"  {case:<11}" + "".join(f"{med[s]:>12.3f}" for s in STAGES)
-              + f"{totals[len(totals) // 2]:>10.3f}")
+def end_to_end(repeat: int, root: Path, codes: dict[str, str | None]) -> None:
+    """The three cases for each checkout in ``codes`` (label: its folder, None for this
+    one), their runs interleaved so that a change of load hits all alike."""
+    runs: dict[str, dict[str, list]] = {label: {} for label in codes}
+    for case, caches in (("first ever", ["first"]), ("cold", [f"cold{k}" for k in range(repeat)]),
+                         ("warm", ["cold0"] * repeat)):
+        for name in caches:
+            for k, (label, code) in enumerate(codes.items()):
+                got = run_child(root / f"code{k}" / name, root / f"code{k}" / "numba", code)
+                runs[label].setdefault(case, []).append(got)
+    for label, by_case in runs.items():
+        info = by_case["first ever"][0]
+        print(f"{label}end to end, Hipparcos Hp <= {info['mag']:.1f} ({info['stars']} stars)"
+              f", {FOV_DEG:g} deg, {SIZE}x{SIZE}, method {info['method']}: "
+              f"{info['pairs']:,d} pairs, {info['triangles']:,d} triangles (seconds; cold "
+              f"and warm: median of {repeat})")
+        print(f"  {'case':<11}" + "".join(f"{s:>12}" for s in STAGES) + f"{'total':>10}")
+        for case, results in by_case.items():
+            med = {s: sorted(r["times"][s] for r in results)[len(results) // 2] for s in STAGES}
+            totals = sorted(sum(r["times"][s] for s in STAGES[1:]) for r in results)
+            print(f"  {case:<11}" + "".join(f"{med[s]:>12.3f}" for s in STAGES)
+                  + f"{totals[len(totals) // 2]:>10.3f}")
 
 
 def nbytes(table) -> int:
@@ -188,16 +197,21 @@ def main() -> None:
                     help="tables of: comma-separated hipparcos, random; or none")
     ap.add_argument("--repeat", type=int, default=3, help="cold and warm runs (median)")
     ap.add_argument("--no-end-to-end", action="store_true", help="only the tables")
+    ap.add_argument("--compare-with", metavar="DIR", help="also time the startrack package "
+                    "under DIR (an older checkout), runs interleaved with this one's")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
         child()
         return
     root = Path(tempfile.mkdtemp(prefix="startrack-dbbench-"))
+    codes: dict[str, str | None] = {"": None}
+    if args.compare_with:  # another checkout's startrack, e.g. `git archive` of main
+        codes = {f"[{args.compare_with}] ": args.compare_with, "[this checkout] ": None}
     # The tables below are timed without compiling: on the kernels the runs above cached.
-    os.environ["NUMBA_CACHE_DIR"] = str(root / "numba")
+    os.environ["NUMBA_CACHE_DIR"] = str(root / f"code{len(codes) - 1}" / "numba")
     if not args.no_end_to_end:
-        end_to_end(max(1, args.repeat), root)
+        end_to_end(max(1, args.repeat), root, codes)
     for name in args.skies.split(","):
         if name.strip() in ("hipparcos", "random"):
             bench_tables(name.strip())
