@@ -95,13 +95,14 @@ def _isolated(near):
     return oi[:k], ci[:k]
 
 
-@njit(cache=True)
-def _brightness(flux, has_flux, n_obs, mag, oi, ci, mag_sigmas, min_mag_sigma, min_fit):
+@njit(cache=True, error_model="numpy")  # x / 0 is inf or NaN, as numpy's
+def _brightness(flux, has_flux, near, mag, oi, ci, mag_sigmas, min_mag_sigma, min_fit):
     """Per pair, whether it is consistent in brightness and the log-likelihood ratio of
     its brightness (true star against false star; 0 without a usable flux); the fitted
     scatter and whether brightness is used (not without flux, nor with too few isolated
-    pairs with a usable one)."""
-    n_cat = len(mag)
+    pairs with a usable one). Only the ``near`` pairs are evaluated: no other is a
+    candidate."""
+    n_obs, n_cat = near.shape
     ok = np.ones((n_obs, n_cat), np.bool_)
     log_b = np.zeros((n_obs, n_cat))
     if not has_flux:
@@ -125,11 +126,15 @@ def _brightness(flux, has_flux, n_obs, mag, oi, ci, mag_sigmas, min_mag_sigma, m
     span = np.nan if np.isnan(mag).any() else mag.max() - mag.min()
     if 2.0 * mag_sigmas * sigma > span:
         span = 2.0 * mag_sigmas * sigma
+    if span == 0.0:  # as Python's float division
+        raise ZeroDivisionError("float division by zero")
     norm = _log(sigma * math.sqrt(2.0 * math.pi) / span)
     limit = mag_sigmas * sigma
     for i in range(n_obs):
         if usable[i]:
             for j in range(n_cat):
+                if not near[i, j]:
+                    continue
                 off = abs(inst[i] - mag[j] - zero)
                 ok[i, j] = off <= limit
                 t = off / sigma
@@ -200,17 +205,13 @@ def _coincidence_log(near, area):
 
 
 @njit(cache=True)
-def _unresolved(x, y, resolve2):
-    """Catalog stars with another catalog star within ``sqrt(resolve2)``."""
-    n = len(x)
-    out = np.zeros(n, np.bool_)
-    for j in range(n):
-        for k in range(n):
-            dx, dy = x[j] - x[k], y[j] - y[k]
-            if k != j and dx * dx + dy * dy < resolve2:
-                out[j] = True
-                break
-    return out
+def _unresolved(x, y, j, resolve2):
+    """Whether another catalog star lies within ``sqrt(resolve2)`` of catalog star j."""
+    for k in range(len(x)):
+        dx, dy = x[j] - x[k], y[j] - y[k]
+        if k != j and dx * dx + dy * dy < resolve2:
+            return True
+    return False
 
 
 @njit(cache=True)
@@ -230,7 +231,7 @@ def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area,
     d2, near = _tables(ox, oy, x, y, radius2)
     oi, ci = _isolated(near)
     sigma = _residual_sigma(d2, oi, ci, sigma0, min_sigma_px, min_fit)
-    bright, log_b, mag_sigma, used = _brightness(flux, has_flux, n_obs, mag, oi, ci,
+    bright, log_b, mag_sigma, used = _brightness(flux, has_flux, near, mag, oi, ci,
                                                  mag_sigmas, min_mag_sigma, min_fit)
     cand = near & bright
     log_false, log_seen = _coincidence_log(near, area)
@@ -241,7 +242,6 @@ def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area,
             if cand[i, j]:
                 log_g[i, j] = -d2[i, j] / (2.0 * (sigma * sigma))
     best_c, top, clear = _rivals(cand, log_g, gap)
-    unresolved = _unresolved(x, y, resolve2)
     withheld = np.zeros(N_REASONS, np.int64)
     ok = np.zeros(n_obs, np.bool_)
     for i in range(n_obs):
@@ -252,7 +252,7 @@ def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area,
             log_true = log_true + log_b[i, best_c[i]]
         if not cand[i].any():
             withheld[0] += 1
-        elif n_cat and unresolved[best_c[i]]:
+        elif n_cat and _unresolved(x, y, best_c[i], resolve2):
             withheld[1] += 1
         elif not clear[i]:
             withheld[2] += 1
@@ -262,3 +262,11 @@ def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area,
             ok[i] = True
     obs_index = np.flatnonzero(ok)
     return obs_index, rows[best_c[obs_index]], withheld, sigma, mag_sigma, used
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) :func:`label_kernel` with the argument types
+    :func:`startrack.labelling.label_stars` passes, so that no timed frame compiles it."""
+    v = np.array([10.0, 40.0, 70.0, 100.0, 130.0, 160.0])
+    label_kernel(v, v, v, v, v / 30.0, np.arange(len(v), dtype=np.int64), v, True, 16.0, 1.0,
+                 1e4, math.log(1e-3), math.log(1e-3), 4.0, 5.0, 0.03, 0.02, 5)

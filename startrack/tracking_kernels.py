@@ -17,6 +17,8 @@ import math
 import numpy as np
 from numba import njit
 
+from startrack.labelling_kernels import warm_up as _warm_up_labelling
+
 
 @njit(cache=True)
 def _project(vectors, matrix, f, cx, cy, width, height, margin):
@@ -185,3 +187,4 @@ def warm_up() -> None:
     oi, cj, dx, dy = window_pairs(v, m, xy, xy, 100.0, 1.0, 1.0, 4.0, 4.0, 50.0)
     consistent(oi, cj, dx, dy, 1.0, 2.0)
     rotation_log(rotation_exp(np.array([0.0, 0.0, 0.1])))
+    _warm_up_labelling()  # a tracked frame's labelling
