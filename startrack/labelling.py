@@ -90,19 +90,30 @@ def label_stars(obs: Observation, rows: np.ndarray, x: np.ndarray, y: np.ndarray
         (``brightness``, ``unresolved``, ``ambiguous``, ``coincidence``).
     """
     config = config or LabelConfig()
-    has_flux = obs.flux is not None
-    flux = np.ascontiguousarray(obs.flux if has_flux else obs.x, dtype=np.float64)
-    ox, oy, x, y, mag = (np.ascontiguousarray(a, dtype=np.float64)
-                         for a in (obs.x, obs.y, x, y, mag))
+    x, y, mag = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, mag))
     rows = np.ascontiguousarray(rows, dtype=np.int64)
+    params = kernel_params(obs, radius_px, config)
     # The kernel does not check bounds: unequal lengths must not reach it.
-    if not (len(ox) == len(oy) == len(flux) and len(x) == len(y) == len(mag) == len(rows)):
+    if not (len(obs.x) == len(obs.y) == len(params[0]) and len(x) == len(y) == len(mag)
+            == len(rows)):
         raise ValueError("label_stars: observed or catalog arrays of unequal lengths")
     obs_index, cat_index, withheld, sigma, mag_sigma, used = label_kernel(
-        ox, oy, x, y, mag, rows, flux, has_flux,
-        float(radius_px) ** 2, float(obs.sigma_rad * obs.camera.f_px),
-        float(obs.camera.width * obs.camera.height), math.log(config.ambiguity),
-        math.log(config.false_odds), float(config.resolve_px) ** 2, float(config.mag_sigmas),
-        float(config.min_mag_sigma), float(config.min_sigma_px), int(config.min_fit))
+        np.ascontiguousarray(obs.x, dtype=np.float64),
+        np.ascontiguousarray(obs.y, dtype=np.float64), x, y, mag, rows, *params)
     return Labelling(obs_index, cat_index, dict(zip(REASONS, withheld.tolist(), strict=True)),
                      sigma, mag_sigma if used else None)
+
+
+def kernel_params(obs: Observation, radius_px: float, config: LabelConfig | None = None,
+                  ) -> tuple:
+    """The frame's fluxes and the thresholds as :func:`startrack.labelling_kernels.
+    label_kernel` takes them after its positions (``flux`` ... ``min_fit``): for compiled
+    callers that label inside a larger kernel."""
+    config = config or LabelConfig()
+    has_flux = obs.flux is not None
+    flux = np.ascontiguousarray(obs.flux if has_flux else obs.x, dtype=np.float64)
+    return (flux, has_flux, float(radius_px) ** 2, float(obs.sigma_rad * obs.camera.f_px),
+            float(obs.camera.width * obs.camera.height), math.log(config.ambiguity),
+            math.log(config.false_odds), float(config.resolve_px) ** 2,
+            float(config.mag_sigmas), float(config.min_mag_sigma), float(config.min_sigma_px),
+            int(config.min_fit))
