@@ -138,7 +138,8 @@ class Camera:
     @property
     def geometry(self) -> np.ndarray:
         """The camera as the compiled kernels take it (startrack.matching.verify_kernels):
-        ``[f_px, cx, cy, width, height, k1, k2, k3, max_r2]``, read-only."""
+        ``[f_px, cx, cy, width, height, k1, k2, k3, max_r2]``; shared, not to be written
+        (a read-only array would be a second type to the kernels, compiled twice)."""
         return _geometry(self)
 
     def in_image(self, x: np.ndarray, y: np.ndarray, margin: float = 0.0) -> np.ndarray:
@@ -162,5 +163,4 @@ def _geometry(camera: Camera) -> np.ndarray:
                                                                         d.max_r2)
     out = np.array([camera.f_px, camera.cx, camera.cy, camera.width, camera.height,
                     k1, k2, k3, max_r2], dtype=np.float64)
-    out.flags.writeable = False
     return out

@@ -12,6 +12,7 @@ import math
 import numpy as np
 from numba import njit
 
+from startrack.labelling_kernels import warm_up as _warm_up_labelling
 from startrack.matching import verify_kernels
 from startrack.matching.verify_kernels import project
 
@@ -126,3 +127,4 @@ def warm_up() -> None:
     oi, cj, dx, dy = window_pairs(v, m, xy, xy, geometry, 50.0)
     consistent(oi, cj, dx, dy, 1.0, 2.0)
     rotation_log(rotation_exp(np.array([0.0, 0.0, 0.1])))
+    _warm_up_labelling()  # a tracked frame's labelling

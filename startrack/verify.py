@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 from scipy.special import bdtrc
 
 from startrack.database import StarDatabase
-from startrack.labelling import label_stars
+from startrack.labelling import kernel_params, label_stars
 from startrack.matching import verify_kernels as kern
 from startrack.matching.projector import CatalogProjector
 from startrack.types import Hypothesis, Observation
@@ -101,7 +101,10 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
     accepted = confirmed >= config.min_confirmed and prob <= config.max_false_probability
     if not accepted:
         return Verification(False, matrix, obs_m, cat_m, prob, confirmed)
-    obs_m, cat_m, matrix = _final_labels(project, project.refine(obs_m, cat_m)[2])
+    labelled = project.accept(obs_m, cat_m, kernel_params(obs, radius_px))
+    if labelled is None:  # refined beyond the cone: step by step on a fresh one
+        labelled = _final_labels(project, project.refine(obs_m, cat_m)[2])
+    obs_m, cat_m, matrix = labelled
     return Verification(True, matrix, obs_m, cat_m, prob, confirmed)
 
 

@@ -145,3 +145,20 @@ class CatalogProjector:
                                              pos, MAX_REFINEMENTS)
             cat_m = self.rows[pos]
         return obs_m, cat_m, matrix
+
+    def accept(self, obs_m: np.ndarray, cat_m: np.ndarray, label_params: tuple,
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """:meth:`refine`, the final labelling at the refined attitude and the attitude
+        refitted to the labels, in one compiled call (``label_params``:
+        :func:`startrack.labelling.kernel_params`). Returns (obs_index, cat_index, matrix),
+        or None when the refinement moved the boresight beyond the cone's margin (never by
+        arcseconds): the caller then takes the steps one by one on a fresh cone."""
+        pos = np.searchsorted(self.rows, cat_m)
+        mags = np.ascontiguousarray(self.database.catalog.mag[self.rows], dtype=np.float64)
+        obs_i, pos_i, refined, final = kern.refine_and_label(
+            self.obs_vectors, self.ox, self.oy, self.vectors, mags, self.geometry,
+            self.radius_px, CAPTURE, np.asarray(obs_m, np.int64), pos, MAX_REFINEMENTS,
+            *label_params)
+        if not self.fixed and float(refined[:, 2] @ self.boresight) < self.margin_cos:
+            return None
+        return obs_i, self.rows[pos_i], final

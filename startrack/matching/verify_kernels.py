@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from startrack.database.cone import cone_rows
+from startrack.labelling_kernels import label_kernel
 from startrack.matching.nearest_kernels import nearest_matches
 from startrack.matching.wahba_kernels import matrix_to_quaternion, wahba
 
@@ -142,6 +143,28 @@ def refine(obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m
     return obs_m, pos_m, matrix
 
 
+@njit(cache=True)
+def refine_and_label(obs_vectors, ox, oy, vectors, mags, geometry, radius, capture, obs_m,
+                     pos_m, max_rounds, flux, has_flux, radius2, sigma0, area, gap,
+                     log_false_odds, resolve2, mag_sigmas, min_mag_sigma, min_sigma_px,
+                     min_fit):
+    """An accepted hypothesis's matches refined (:func:`refine`), the stars labelled at the
+    refined attitude (:func:`startrack.labelling_kernels.label_kernel`, whose parameters
+    follow ``max_rounds``) and the attitude refitted to the labels when there are three or
+    more. Returns (observed index, vector position, refined matrix, final matrix)."""
+    obs_m, pos_m, matrix = refine(obs_vectors, ox, oy, vectors, geometry, radius, capture,
+                                  obs_m, pos_m, max_rounds)
+    px, py, inside = project(vectors, matrix, geometry, radius)
+    sel = np.flatnonzero(inside)
+    obs_index, cat_pos, _, _, _, _ = label_kernel(
+        ox, oy, px[sel], py[sel], mags[sel], sel, flux, has_flux, radius2, sigma0, area, gap,
+        log_false_odds, resolve2, mag_sigmas, min_mag_sigma, min_sigma_px, min_fit)
+    final = matrix
+    if obs_index.shape[0] >= 3:
+        final = wahba(obs_vectors[obs_index], vectors[cat_pos])
+    return obs_index, cat_pos, matrix, final
+
+
 def warm_up() -> None:
     """Compile (or load from numba's cache) every kernel on a tiny input, so that the
     first frame is not timed with the compilation."""
@@ -153,4 +176,6 @@ def warm_up() -> None:
     fits_within(v, v, m, 0.5)
     idx = np.arange(3)
     refine(v, xy, xy, v, geometry, 1.0, 3.0, idx, idx, 2)
+    refine_and_label(v, xy, xy, v, xy, geometry, 1.0, 3.0, idx, idx, 2, xy, True, 1.0, 1.0,
+                     1e4, -6.9, -6.9, 4.0, 5.0, 0.03, 0.02, 5)
     matrix_to_quaternion(m)
