@@ -181,7 +181,8 @@ def _sky_model(image, fill, geometries, weights, ignore, fine: bool) -> tuple:
     grid = sky.clean_grid(grid, True, _sample_median(image, fill))
     model = (grid,) + weights
     extra = sky.block_medians(image, fill, model, True, skip, dense if fine else coarse)
-    return (grid + sky.clean_grid(extra, False, 0.0),) + weights
+    grid = grid + sky.clean_grid(extra, False, 0.0)
+    return (grid,) + weights + (kern.column_rows(grid, weights[3], weights[4], weights[5]),)
 
 
 def _tile_geometry(shape: tuple[int, int], tile: int) -> tuple[tuple, tuple]:

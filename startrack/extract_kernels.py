@@ -3,9 +3,10 @@
 Every kernel reads the raw frame (any numeric dtype) and evaluates the sky model on the
 fly, so no full-size float copy of the frame, background or residual is ever made: the
 memory of an extraction is the frame itself plus a byte mask. The sky model is a tuple
-``(grid, r0, r1, fr, c0, c1, fc)``: tile values and, per row and per column, the two tiles
-to interpolate between and the weight of the second (bilinear, linear extrapolation at the
-border). A residual is the pixel minus the model; a non-finite pixel's residual is 0.
+``(grid, r0, r1, fr, c0, c1, fc, rows)``: tile values and, per row and per column, the two
+tiles to interpolate between and the weight of the second (bilinear, linear extrapolation
+at the border), and the tile rows interpolated along the columns (``column_rows``). A
+residual is the pixel minus the model; a non-finite pixel's residual is 0.
 """
 
 from __future__ import annotations
@@ -21,26 +22,33 @@ _N_ACC = 8
 
 
 @njit(cache=True)
-def background_row(model, r, tmp, out):
-    """The sky model along row ``r`` (``tmp``: scratch of one value per tile column)."""
-    grid, r0, r1, fr, c0, c1, fc = model
-    a, b, t = r0[r], r1[r], fr[r]
-    for j in range(grid.shape[1]):
-        tmp[j] = grid[a, j] * (1.0 - t) + grid[b, j] * t
-    for c in range(out.shape[0]):
-        out[c] = tmp[c0[c]] * (1.0 - fc[c]) + tmp[c1[c]] * fc[c]
+def column_rows(grid, c0, c1, fc):
+    """Each tile row of the sky model interpolated along the columns (tile rows x W).
+
+    A model row is then the blend of two of these: a residual row needs no gather.
+    """
+    out = np.empty((grid.shape[0], c0.shape[0]))
+    for i in range(grid.shape[0]):
+        for c in range(c0.shape[0]):
+            out[i, c] = grid[i, c0[c]] * (1.0 - fc[c]) + grid[i, c1[c]] * fc[c]
+    return out
 
 
 @njit(cache=True)
-def residual_row(image, model, r, tmp, out):
+def background_row(model, r, out):
+    """The sky model along row ``r``."""
+    g, a, b, t = model[7], model[1][r], model[2][r], model[3][r]
+    for c in range(out.shape[0]):
+        out[c] = g[a, c] * (1.0 - t) + g[b, c] * t
+
+
+@njit(cache=True)
+def residual_row(image, model, r, out):
     """Row ``r`` of the frame minus the sky model into ``out``."""
-    grid, r0, r1, fr, c0, c1, fc = model
-    a, b, t = r0[r], r1[r], fr[r]
-    for j in range(grid.shape[1]):
-        tmp[j] = grid[a, j] * (1.0 - t) + grid[b, j] * t
+    g, a, b, t = model[7], model[1][r], model[2][r], model[3][r]
     for c in range(out.shape[0]):
         v = float(image[r, c])
-        bg = tmp[c0[c]] * (1.0 - fc[c]) + tmp[c1[c]] * fc[c]
+        bg = g[a, c] * (1.0 - t) + g[b, c] * t
         out[c] = v - bg if math.isfinite(v) else 0.0
 
 
@@ -71,7 +79,7 @@ def _reflect101(i, n):
 
 
 @njit(cache=True)
-def _detection_row(image, model, r, ring, tmp, vbuf, out, smooth):
+def _detection_row(image, model, r, ring, vbuf, out, smooth):
     """The detection image's row ``r`` (smoothed residual, or the residual itself).
 
     ``ring`` (3 x W) holds residual rows r - 1, r and r + 1 at index row % 3, and is
@@ -79,11 +87,11 @@ def _detection_row(image, model, r, ring, tmp, vbuf, out, smooth):
     """
     h = image.shape[0]
     if r == 0:
-        residual_row(image, model, 0, tmp, ring[0])
+        residual_row(image, model, 0, ring[0])
         if h > 1:
-            residual_row(image, model, 1, tmp, ring[1])
+            residual_row(image, model, 1, ring[1])
     elif r + 1 < h:
-        residual_row(image, model, r + 1, tmp, ring[(r + 1) % 3])
+        residual_row(image, model, r + 1, ring[(r + 1) % 3])
     mid = ring[r % 3]
     if not smooth:
         out[:] = mid
@@ -99,7 +107,6 @@ def samples(image, model, step, smooth):
     """Residual and detection-image values on the grid [::step, ::step], for noise stats."""
     h, w = image.shape
     rows = np.empty((3, w))
-    tmp = np.empty(model[0].shape[1])
     cols = np.arange(0, w, step)
     n_rows = (h + step - 1) // step
     res = np.empty(n_rows * len(cols))
@@ -107,7 +114,7 @@ def samples(image, model, step, smooth):
     k = 0
     for r in range(0, h, step):
         for d in range(3):
-            residual_row(image, model, _reflect101(r + d - 1, h), tmp, rows[d])
+            residual_row(image, model, _reflect101(r + d - 1, h), rows[d])
         for c in cols:
             res[k] = rows[1, c]
             if smooth:
@@ -127,10 +134,10 @@ def detection_mask(image, model, threshold, smooth):
     """Byte mask of the pixels whose detection-image value exceeds ``threshold``."""
     h, w = image.shape
     mask = np.zeros((h, w), np.uint8)
-    ring, tmp = np.empty((3, w)), np.empty(model[0].shape[1])
+    ring = np.empty((3, w))
     vbuf, det = np.empty(w), np.empty(w)
     for r in range(h):
-        _detection_row(image, model, r, ring, tmp, vbuf, det, smooth)
+        _detection_row(image, model, r, ring, vbuf, det, smooth)
         for c in range(w):
             mask[r, c] = det[c] > threshold
     return mask
@@ -217,14 +224,14 @@ def components(image, model, threshold, smooth, sat_level):
     Returns one row per component: columns SW .. PEAK_AT (PEAK_AT a raster index).
     """
     h, w = image.shape
-    ring, tmp = np.empty((3, w)), np.empty(model[0].shape[1])
+    ring = np.empty((3, w))
     vbuf, det = np.empty(w), np.empty(w)
     acc = np.empty((1024, _N_ACC))
     parent = np.empty(1024, np.int64)
     runs = np.empty((2, 3, w // 2 + 1), np.int64)  # (previous, current) x (start, end, id)
     n_runs = n_prev = 0
     for r in range(h):
-        res = _detection_row(image, model, r, ring, tmp, vbuf, det, smooth)
+        res = _detection_row(image, model, r, ring, vbuf, det, smooth)
         prev, cur = runs[(r + 1) % 2], runs[r % 2]
         n_cur = _row_runs(det, threshold, cur)
         if n_runs + n_cur > len(parent):
@@ -253,21 +260,18 @@ def components(image, model, threshold, smooth, sat_level):
 def peak_boxes(image, model, peak_at):
     """Residual summed over the 3 x 3 box around each peak (reflected at the border)."""
     h, w = image.shape
-    grid, r0, r1, fr, c0, c1, fc = model
+    g, r0, r1, fr = model[7], model[1], model[2], model[3]
     out = np.zeros(len(peak_at))
     for i in range(len(peak_at)):
         pr, pc = divmod(int(peak_at[i]), w)
         for dr in range(-1, 2):
             r = min(max(pr + dr, 0), h - 1)  # one pixel past the border reflects onto it
-            t = fr[r]
+            a, b, t = r0[r], r1[r], fr[r]
             for dc in range(-1, 2):
                 c = min(max(pc + dc, 0), w - 1)
                 v = float(image[r, c])
                 if math.isfinite(v):
-                    u = fc[c]
-                    left = grid[r0[r], c0[c]] * (1.0 - t) + grid[r1[r], c0[c]] * t
-                    right = grid[r0[r], c1[c]] * (1.0 - t) + grid[r1[r], c1[c]] * t
-                    out[i] += v - (left * (1.0 - u) + right * u)
+                    out[i] += v - (g[a, c] * (1.0 - t) + g[b, c] * t)
     return out
 
 
@@ -275,8 +279,8 @@ def peak_boxes(image, model, peak_at):
 def background_image(model, h, w):
     """The sky model as a float32 image (for inspection and tests)."""
     out = np.empty((h, w), np.float32)
-    tmp, row = np.empty(model[0].shape[1]), np.empty(w)
+    row = np.empty(w)
     for r in range(h):
-        background_row(model, r, tmp, row)
+        background_row(model, r, row)
         out[r] = row
     return out

@@ -50,11 +50,9 @@ def median(a, counts, sub):
     """
     n = len(a)
     lo = hi = a[0]
-    for x in a:
-        if x < lo:
-            lo = x
-        elif x > hi:
-            hi = x
+    for x in a:  # min and max without branches: the loop vectorises
+        lo = min(lo, x)
+        hi = max(hi, x)
     if lo == hi:
         return lo
     nb = min(len(counts), max(16, n // 2))  # ~2 values a bin: cheap to clear and scan
@@ -73,13 +71,17 @@ def median(a, counts, sub):
             break
         cum = nxt
     m = 0
-    for x in a:
+    for x in a:  # bins b1 .. b2 (any between them are empty); stores without branches
         b = min(int((x - lo) * scale), nb - 1)
-        if b in (b1, b2):
-            sub[m] = x
-            m += 1
+        sub[m] = x
+        m += (b >= b1) & (b <= b2)
     v1 = _select(sub[:m], k1 - below)
-    return v1 if k2 == k1 else 0.5 * (v1 + _select(sub[:m], k2 - below))
+    if k2 == k1:
+        return v1
+    v2 = np.inf  # the select leaves every value after rank k1 at or above it
+    for x in sub[k1 - below + 1:m]:
+        v2 = min(v2, x)
+    return 0.5 * (v1 + v2)
 
 
 @njit(cache=True)
@@ -157,6 +159,26 @@ def _nanmedian(values):
 
 
 @njit(cache=True)
+def _window_median(p, i, j, buf):
+    """NaN-aware median of the 3 x 3 window ``p[i:i+3, j:j+3]`` (insertion sort in
+    ``buf``): as ``_nanmedian`` without an allocation per tile."""
+    n = 0
+    for di in range(3):
+        for dj in range(3):
+            v = p[i + di, j + dj]
+            if not np.isnan(v):
+                k = n
+                while k > 0 and buf[k - 1] > v:
+                    buf[k] = buf[k - 1]
+                    k -= 1
+                buf[k] = v
+                n += 1
+    if n == 0:
+        return np.nan
+    return buf[n // 2] if n % 2 else 0.5 * (buf[n // 2 - 1] + buf[n // 2])
+
+
+@njit(cache=True)
 def _despike(grid):
     """Replace tiles that stand out from their 3x3 neighbourhood (or are NaN) by its median.
 
@@ -165,10 +187,10 @@ def _despike(grid):
     """
     n_r, n_c = grid.shape
     p = _pad_odd(grid)
-    local = np.empty_like(grid)
+    local, buf = np.empty_like(grid), np.empty(9)
     for i in range(n_r):
         for j in range(n_c):
-            local[i, j] = _nanmedian(p[i:i + 3, j:j + 3].copy().ravel())
+            local[i, j] = _window_median(p, i, j, buf)
     deviation = np.abs(grid - local)
     if np.isnan(deviation).all():
         return local

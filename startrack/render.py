@@ -113,27 +113,60 @@ def render_expected(scene: Scene, camera: Camera, sensor: SensorModel, *,
 def digitise(expected: np.ndarray, sensor: SensorModel, rng: np.random.Generator) -> np.ndarray:
     """Shot noise, full-well clip, read noise, gain, bias and ADC: electrons to counts.
 
-    Shot noise is exact Poisson up to ``render_kernels.GAUSS_ABOVE`` expected electrons
-    and Gaussian (same mean and variance) above; every draw comes from ``rng``.
+    Pixels at the frame's common sky value draw their count from its exact distribution
+    (``render_noise.adu_table``, one compiled uniform draw each); for the others shot noise is exact
+    Poisson up to ``render_kernels.GAUSS_ABOVE`` expected electrons and Gaussian (same
+    mean and variance) above, plus Gaussian read noise. Every draw comes from ``rng``.
     """
-    from startrack import render_kernels as rk
+    from startrack import render_noise
 
     expected = np.asarray(expected)
     if expected.dtype not in (np.float32, np.float64):
         expected = expected.astype(np.float64)
-    electrons = np.empty(expected.shape, np.float32)
-    rk.shot_noise(expected, rng.random(expected.shape, dtype=np.float32), electrons)
+    flat = np.ascontiguousarray(expected).ravel()
+    out = np.empty(flat.shape, np.uint16)
+    chain = (float(sensor.full_well), float(sensor.read_noise), float(sensor.gain),
+             float(sensor.bias_adu), float(sensor.adc_max))
+    lam = render_noise.flat_value(flat)
+    table = None if lam is None else render_noise.adu_table(lam, *chain)
+    others = np.arange(flat.size) if table is None else _sky_pixels(flat, lam, table, rng, out)
+    _pixel_chain(flat[others], others, chain, rng, out)
+    return out.reshape(expected.shape)
+
+
+_CHUNK = 1 << 18  # pixels per call: the index scratch stays small whatever the frame
+
+
+def _sky_pixels(flat, lam, table, rng, out) -> np.ndarray:
+    """Counts of the pixels that expect ``lam``; returns the indices of the others."""
+    from startrack import render_kernels as rk
+
+    cdf, guide, a0 = table
+    lam = flat.dtype.type(lam)
+    # a compiled generator seeded from ``rng`` (never all zero): no array of uniforms
+    state = rng.integers(1, 2**63, size=4, dtype=np.int64).astype(np.uint64)
+    scratch, parts = np.empty(min(_CHUNK, flat.size), np.int64), []
+    for start in range(0, flat.size, _CHUNK):
+        stop = min(start + _CHUNK, flat.size)
+        n = rk.sky_pixels(flat, start, stop, lam, state, cdf, guide, a0, out, scratch)
+        parts.append(scratch[:n].copy())
+    return np.concatenate(parts)
+
+
+def _pixel_chain(lam, where, chain, rng, out) -> None:
+    """Counts of the pixels ``where`` (expecting ``lam``) into ``out``, pixel by pixel."""
+    from startrack import render_kernels as rk
+
+    electrons = np.empty(lam.shape, np.float32)
+    rk.shot_noise(lam, rng.random(lam.shape), electrons)
     for mark, draw in ((-1.0, rng.poisson),
-                       (-2.0, lambda lam: np.rint(lam + np.sqrt(lam) * rng.standard_normal(
-                           lam.shape)).clip(0, None))):
-        where = np.flatnonzero(electrons.ravel() == mark)
-        if len(where):
-            electrons.ravel()[where] = draw(expected.ravel()[where])
-    out = np.empty(expected.shape, np.uint16)
-    rk.readout(electrons, rng.standard_normal(expected.shape, dtype=np.float32),
-               float(sensor.full_well), float(sensor.read_noise), float(sensor.gain),
-               float(sensor.bias_adu), float(sensor.adc_max), out)
-    return out
+                       (-2.0, lambda m: np.rint(m + np.sqrt(m) * rng.standard_normal(
+                           m.shape)).clip(0, None))):
+        sel = np.flatnonzero(electrons == mark)
+        if len(sel):
+            electrons[sel] = draw(lam[sel])
+    rk.readout(electrons, rng.standard_normal(lam.shape, dtype=np.float32), *chain, out,
+               where)
 
 
 def render_frame(scene: Scene, camera: Camera, sensor: SensorModel, rng: np.random.Generator,

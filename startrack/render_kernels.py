@@ -1,5 +1,9 @@
 """Compiled per-pixel noise of the renderer: shot noise, full well, read noise and the ADC.
 
+Pixels that expect the frame's common sky value are drawn in one step from the exact
+distribution of their read-out value (``sky_pixels``, tables from ``render_noise``);
+the others go through the chain below.
+
 Shot noise is exact Poisson below ``GAUSS_ABOVE`` electrons (inverse CDF of a uniform
 draw, the recursion p(k + 1) = p(k) * lam / (k + 1)), and a Gaussian of the same mean and
 variance above it, where the Poisson skewness 1 / sqrt(lam) is below 0.03 and the
@@ -33,56 +37,60 @@ def _poisson_inverse(lam, p0, u):
 
 
 @njit(cache=True)
-def _cdf_table(lam, table):
-    """Poisson(lam) CDF at k = 0 .. len(table) - 1 into ``table``."""
-    p = math.exp(-lam)
-    cdf = p
-    for k in range(len(table)):
-        table[k] = cdf
-        p *= lam / (k + 1)
-        cdf += p
-
-
-@njit(cache=True)
 def shot_noise(expected, uniform, out):
-    """Electrons per pixel into ``out`` (float32), from one uniform draw per pixel.
+    """Electrons per pixel into ``out`` (1-D, float32), from one uniform draw per pixel.
 
     Pixels that numpy must draw are marked: -1 for exact Poisson (mid range, few: star
     cores), -2 for the Gaussian (above ``GAUSS_ABOVE``).
     """
-    h, w = expected.shape
-    table = np.empty(256)
-    last_lam, n_tab = -1.0, 0
-    for r in range(h):
-        for c in range(w):
-            lam = max(float(expected[r, c]), 0.0)
-            if lam < _EXACT_BELOW:
-                if lam != last_lam:  # flat backgrounds repeat one mean: one table
-                    last_lam = lam
-                    _cdf_table(lam, table)
-                    n_tab = 0  # entries that a float32 uniform (< 1 - 2^-25) can exceed
-                    while n_tab < 255 and table[n_tab] < 1.0 - 2.0**-25:
-                        n_tab += 1
-                u, k = uniform[r, c], 0
-                if n_tab <= 32:  # count, without branches: the table is increasing
-                    for i in range(n_tab):
-                        k += table[i] < u
-                else:
-                    while k < 255 and table[k] < u:
-                        k += 1
-                if k == 255:  # beyond the table (u within ~1e-16 of 1): walk on
-                    k = _poisson_inverse(lam, math.exp(-lam), u)
-                out[r, c] = k
-            else:
-                out[r, c] = -2.0 if lam >= GAUSS_ABOVE else -1.0
+    for i in range(expected.shape[0]):
+        lam = max(float(expected[i]), 0.0)
+        if lam < _EXACT_BELOW:  # the walk takes about lam steps
+            out[i] = _poisson_inverse(lam, math.exp(-lam), uniform[i])
+        else:
+            out[i] = -2.0 if lam >= GAUSS_ABOVE else -1.0
 
 
 @njit(cache=True)
-def readout(electrons, normal, full_well, read_noise, gain, bias, adc_max, out):
-    """Full-well clip, read noise, gain, bias, rounding and ADC clip into ``out`` (uint16)."""
-    h, w = electrons.shape
-    for r in range(h):
-        for c in range(w):
-            e = min(electrons[r, c], full_well) + read_noise * normal[r, c]
-            adu = np.rint(e / gain + bias)
-            out[r, c] = min(max(adu, 0.0), adc_max)
+def readout(electrons, normal, full_well, read_noise, gain, bias, adc_max, out, where):
+    """Full-well clip, read noise, gain, bias, rounding and ADC clip into ``out[where]``."""
+    for i in range(electrons.shape[0]):
+        e = min(electrons[i], full_well) + read_noise * normal[i]
+        adu = np.rint(e / gain + bias)
+        out[where[i]] = min(max(adu, 0.0), adc_max)
+
+
+_U11, _U17, _U45, _U19 = np.uint64(11), np.uint64(17), np.uint64(45), np.uint64(19)
+_TO_UNIT = 2.0**-53
+
+
+@njit(cache=True)
+def sky_pixels(expected, start, stop, lam, state, cdf, guide, a0, out, others):
+    """Read-out values of the pixels ``start .. stop - 1`` that expect ``lam`` electrons.
+
+    Each takes the ADU value at which the distribution's CDF (``adu_table``) first
+    exceeds its uniform draw, from xoshiro256+ (``state``: 4 uint64 seeded by the
+    caller's numpy Generator, carried on in place); the indices of the other pixels go
+    to ``others``, and their count is returned.
+    """
+    m, n = len(guide), 0
+    s0, s1, s2, s3 = state[0], state[1], state[2], state[3]
+    for i in range(start, stop):
+        if expected[i] == lam:
+            u = float((s0 + s3) >> _U11) * _TO_UNIT
+            t = s1 << _U17  # xoshiro256+ step, in registers
+            s2 ^= s0
+            s3 ^= s1
+            s1 ^= s2
+            s0 ^= s3
+            s2 ^= t
+            s3 = (s3 << _U45) | (s3 >> _U19)
+            a = guide[int(u * m)]
+            while cdf[a] <= u:
+                a += 1
+            out[i] = a0 + a
+        else:
+            others[n] = i
+            n += 1
+    state[0], state[1], state[2], state[3] = s0, s1, s2, s3
+    return n
