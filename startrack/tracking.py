@@ -3,7 +3,7 @@
 A star tracker runs lost-in-space once and then tracks. :class:`startrack.tracker.Tracker`
 predicts each frame's attitude and its uncertainty from the frames before it;
 :func:`track` projects the catalog stars around
-the predicted boresight (one k-d tree cone query), pairs the brightest observed stars with
+the predicted boresight (one cone lookup), pairs the brightest observed stars with
 projected stars inside a window sized from that uncertainty, keeps the pairs that agree on
 one image displacement (a vectorised vote, so a false star or a neighbour inside the
 window cannot pull the match), and hands three-star hypotheses from them to the shared
