@@ -1,93 +1,163 @@
-"""tetra3 and tetra3rs on bench_blind.py's frames, given the same information as startrack:
-a FOV estimate off by 0, 2, 5 or 10 % with a maximum error of 10 % (their database built
-for that range), and no FOV (estimate None; database over ``NO_FOV_SPAN`` about the true
-FOV, narrower than startrack's 1-40 deg search, which they take too long to build here).
-Their own answers are scored (solved, boresight > 60 arcsec off = wrong, solve time).
+"""Blind-solve bench beside the peers: startrack, tetra3 and tetra3rs on bench_blind.py's
+frames, given the same information: a FOV estimate off by 0, 2, 5 or 10 % (half the frames
+above, half below) with the same range searched about it, or no FOV at all.
 
-    PYTHONPATH=. /work/peers-venv/bin/python scripts/bench_blind_peers.py [--fovs 11.4,20]
+* startrack: ``Options(fov_deg=estimate, fov_tolerance=0.10)`` (it searches
+  estimate x (1 +- 10 %) widened by startrack.fov.MARGIN), or no FOV (its blind search of
+  startrack.fov.BLIND_FOV_RANGE on the Gaia sky, the default with no camera).
+* tetra3 and tetra3rs: the same estimate with ``fov_max_error`` the half-width startrack
+  searches, on one database per FOV spanning every estimate's range; no FOV: their own
+  unknown-FOV mode (tetra3: ``fov_estimate=None``; tetra3rs has none, so the centre of its
+  database range with the whole range as the error) on a database over
+  [FOV / ``--peer-span``, FOV x ``--peer-span``], narrower than startrack's 1 to 40 deg,
+  which here takes too long to build: more information than startrack gets.
+* Every solver has the same wall-clock limit per frame (``--timeout-ms``); each frame is
+  solved by the three in turn, so the machine's load falls on all alike. Loading (their
+  databases, our tables: one junk frame is solved untimed first) is not timed.
+* wrong: boresight more than 60" from the truth, or a named star that is not the true
+  star there (bench_blind.wrong_stars). Times: the solve call; median and p95.
+
+    PYTHONPATH=. /work/peers-venv/bin/python scripts/bench_blind_peers.py \
+        [--frames 8] [--fovs 11.4,20] [--doc docs/blind.md]
+
+With ``--doc`` the table, the command, commit, date and load average replace what is
+between the doc's ``<!-- bench_blind_peers:start -->`` and ``:end -->`` markers.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
+import dataclasses
+import datetime as dt
+import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from bench_blind import WRONG_ARCSEC, frames_for  # noqa: E402
+from bench_blind import (  # noqa: E402
+    WRONG_ARCSEC,
+    boresight_arcsec,
+    frames_for,
+    junk_input,
+    provenance_line,
+    write_between,
+    wrong_stars,
+)
+from bench_blind_peer_solvers import PEERS  # noqa: E402
 
-from startrack.cache import cached_file  # noqa: E402
-from startrack.matchers._peer import write_gaia_binary, write_hip_main  # noqa: E402
-from startrack.matchers.tetra3 import attitude_from_tetra3, tetra3_centroids  # noqa: E402
-from startrack.matchers.tetra3rs import attitude_from_tetra3rs, tetra3rs_centroids  # noqa: E402
+from startrack.centroids import Centroids  # noqa: E402
+from startrack.fov import MARGIN  # noqa: E402
+from startrack.pipeline import FrameInput, Options, Pipeline  # noqa: E402
+from startrack.sky.hipparcos import CATALOG_EPOCH  # noqa: E402
 
 TOLERANCE = 0.10
-NO_FOV_SPAN = 2.0  # the peers' no-FOV database covers [fov / span, fov * span]
+#: the half-width (a fraction of the estimate) of the FOVs startrack searches: the peers'
+#: fov_max_error
+SEARCH = (1.0 + TOLERANCE) * (1.0 + MARGIN) - 1.0
+START, END = "<!-- bench_blind_peers:start -->", "<!-- bench_blind_peers:end -->"
+SOLVERS = ("startrack", "tetra3", "tetra3rs")
 
 
-def tetra3_solver(catalog, lo: float, hi: float):
-    import tetra3
-
-    def build(path: Path) -> None:
-        with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
-            star_file = Path(tmp) / "hip_main.dat"
-            write_hip_main(catalog, star_file)
-            t3 = tetra3.Tetra3(load_database=None)
-            t3.generate_database(max_fov=hi, min_fov=lo, star_catalog=str(star_file),
-                                 star_max_magnitude=float(catalog.mag.max()) + 1e-3,
-                                 epoch_proper_motion=None)
-            t3.save_database(path)
-
-    params = {"catalog": catalog.fingerprint(), "lo": round(lo, 6), "hi": round(hi, 6)}
-    return tetra3.Tetra3(load_database=cached_file("tetra3-range", params, ".npz", build))
+def estimate(fov: float, err: float | None, i: int) -> float | None:
+    return None if err is None else fov * (1.0 + (1.0 if i % 2 == 0 else -1.0) * err / 100.0)
 
 
-def tetra3rs_solver(catalog, lo: float, hi: float):
-    import tetra3rs
+class Ours:
+    """startrack through its pipeline, one per estimate (loaded once, warmed on junk)."""
 
-    def build(path: Path) -> None:
-        star_file = path.with_name(path.name + "-catalog.bin")
-        try:
-            write_gaia_binary(catalog, star_file)
-            db = tetra3rs.SolverDatabase.generate_from_gaia(
-                str(star_file), max_fov_deg=hi, min_fov_deg=lo,
-                star_max_magnitude=float(catalog.mag.max()) + 1e-3,
-                epoch_proper_motion_year=None)
-            db.save_to_file(str(path))
-        finally:
-            star_file.unlink(missing_ok=True)
+    def __init__(self, camera, sky_kind: str, timeout_ms: float) -> None:
+        self.camera, self.timeout_ms = camera, timeout_ms
+        # a blind search uses Gaia: carried to the epoch of the (Hipparcos) frames
+        self.epoch = CATALOG_EPOCH if sky_kind == "hipparcos" else None
+        self._pipelines: dict[float | None, Pipeline] = {}
 
-    params = {"catalog": catalog.fingerprint(), "lo": round(lo, 6), "hi": round(hi, 6)}
-    path = cached_file("tetra3rs-range", params, ".bin", build)
-    return tetra3rs.SolverDatabase.load_from_file(str(path))
+    def pipeline(self, est: float | None) -> Pipeline:
+        if est not in self._pipelines:
+            size = (self.camera.width, self.camera.height)
+            options = Options(fov_deg=est, size=size, fov_tolerance=TOLERANCE,
+                              epoch=None if est is not None else self.epoch)
+            pipeline = Pipeline(options)
+            pipeline.solve(junk_input(size))  # every table loaded, untimed, no limit
+            pipeline.options = dataclasses.replace(options, timeout_ms=self.timeout_ms)
+            self._pipelines[est] = pipeline
+        return self._pipelines[est]
 
-
-def solve(peer: str, solver, frame, camera, estimate: float | None, max_error: float | None):
-    obs = frame.obs
-    t0 = time.perf_counter()
-    if peer == "tetra3":
-        r = solver.solve_from_centroids(tetra3_centroids(obs), (camera.height, camera.width),
-                                        fov_estimate=estimate, fov_max_error=max_error,
-                                        distortion=None)
+    def solve(self, frame, est: float | None):
+        pipeline = self.pipeline(est)
+        flux = np.arange(len(frame.obs), 0, -1, dtype=float)  # brightest first, as observed
+        inp = FrameInput("sim", Centroids(frame.obs.x, frame.obs.y, flux))
+        t0 = time.perf_counter()
+        result = pipeline.solve(inp)
         ms = (time.perf_counter() - t0) * 1000.0
-        if r.get("RA") is None:
-            return False, None, ms
-        rot = attitude_from_tetra3(r["RA"], r["Dec"], r["Roll"])
-    else:
-        r = solver.solve_from_centroids(tetra3rs_centroids(obs), fov_estimate_deg=estimate,
-                                        fov_max_error_deg=max_error, image_width=camera.width,
-                                        image_height=camera.height)
-        ms = (time.perf_counter() - t0) * 1000.0
-        if not r or r.parity_flip:
-            return False, None, ms
-        rot = attitude_from_tetra3rs(r.rotation_matrix_icrs_to_camera)
-    b, t = rot.apply([0.0, 0.0, 1.0]), frame.rotation.apply([0.0, 0.0, 1.0])
-    return True, math.degrees(math.acos(min(1.0, float(b @ t)))) * 3600.0, ms
+        sol = result.solution
+        if not sol.solved:
+            return None, ms
+        return (sol.rotation, sol.obs_index, result.catalog.vectors[sol.cat_index]), ms
+
+
+def run(args) -> list[dict]:
+    errors = [float(e) for e in args.errors.split(",")]
+    settings = [(f"{e:g}%", e) for e in errors] + [("no FOV", None)]
+    rows = []
+    for fov in (float(v) for v in args.fovs.split(",")):
+        camera, frames, catalog = frames_for(fov, args.frames, args.seed, with_catalog=True)
+        kind = catalog.source["kind"]
+        solvers = {"startrack": Ours(camera, kind, args.timeout_ms)}
+        for name, make in PEERS.items():
+            solvers[name] = make(catalog, camera, fov, SEARCH, TOLERANCE, args.peer_span,
+                                 args.timeout_ms)
+        for label, err in settings:
+            stats = {name: {"solved": 0, "wrong": 0, "pointing": 0, "ms": []}
+                     for name in SOLVERS}
+            for i, frame in enumerate(frames):
+                est = estimate(fov, err, i)
+                for name in SOLVERS:
+                    answer, ms = solvers[name].solve(frame, est)
+                    s = stats[name]
+                    s["ms"].append(ms)
+                    if answer is not None:
+                        rotation, obs_index, cat_vectors = answer
+                        pointing = boresight_arcsec(rotation, frame) > WRONG_ARCSEC
+                        s["solved"] += 1
+                        s["pointing"] += pointing
+                        s["wrong"] += bool(pointing or wrong_stars(frame, catalog, obs_index,
+                                                                   cat_vectors, camera))
+            row = {"fov": fov, "given": label, "frames": len(frames)}
+            for name in SOLVERS:
+                s = stats[name]
+                row |= {f"{name}_solved": s["solved"], f"{name}_wrong": s["wrong"],
+                        f"{name}_pointing": s["pointing"],
+                        f"{name}_median_ms": float(np.median(s["ms"])),
+                        f"{name}_p95_ms": float(np.percentile(s["ms"], 95))}
+            rows.append(row)
+            print("  ".join([f"fov {fov:5.1f} given {label:7s}"] + [
+                f"{n} {row[n + '_solved']}/{len(frames)} wrong {row[n + '_wrong']} "
+                f"({row[n + '_pointing']}) "
+                f"{row[n + '_median_ms']:.0f}/{row[n + '_p95_ms']:.0f} ms" for n in SOLVERS]),
+                flush=True)
+    return rows
+
+
+def table(rows: list[dict]) -> str:
+    head = "| FOV (deg) | FOV given | " + " | ".join(
+        f"{n} solved | {n} wrong (pointing) | {n} median ms | {n} p95 ms" for n in SOLVERS) \
+        + " |"
+    lines = [head, "|" + "---|" * (2 + 4 * len(SOLVERS))]
+    for r in rows:
+        cells = [f"{r['fov']:g}", r["given"]]
+        for n in SOLVERS:
+            cells += [f"{r[n + '_solved']}/{r['frames']}",
+                      f"{r[n + '_wrong']} ({r[n + '_pointing']})",
+                      _ms(r[n + "_median_ms"]), _ms(r[n + "_p95_ms"])]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _ms(value: float) -> str:
+    return f"{value:.1f}" if value < 10 else f"{value:.0f}"
 
 
 def main() -> None:
@@ -96,30 +166,25 @@ def main() -> None:
     ap.add_argument("--fovs", default="11.4,20")
     ap.add_argument("--errors", default="0,2,5,10")
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--timeout-ms", type=float, default=5000.0,
+                    help="wall-clock limit per frame, the same for every solver")
+    ap.add_argument("--peer-span", type=float, default=2.0,
+                    help="the peers' no-FOV database covers [FOV / span, FOV x span]")
+    ap.add_argument("--doc", type=Path, help="write the table between this doc's markers")
     args = ap.parse_args()
-    for fov in (float(v) for v in args.fovs.split(",")):
-        camera, frames, catalog = frames_for(fov, args.frames, args.seed, with_catalog=True)
-        errors = [float(e) for e in args.errors.split(",")]
-        settings = [(f"{e:g}%", e) for e in errors] + [("no FOV", None)]
-        for peer, make in (("tetra3", tetra3_solver), ("tetra3rs", tetra3rs_solver)):
-            for label, err in settings:
-                if err is None:
-                    solver = make(catalog, fov / NO_FOV_SPAN, fov * NO_FOV_SPAN)
-                else:
-                    solver = make(catalog, fov * (1 - TOLERANCE), fov * (1 + TOLERANCE))
-                solved = wrong = 0
-                times = []
-                for i, frame in enumerate(frames):
-                    sign = 1.0 if i % 2 == 0 else -1.0
-                    est = None if err is None else fov * (1 + sign * err / 100.0)
-                    ok, off, ms = solve(peer, solver, frame, camera, est,
-                                        None if err is None else TOLERANCE * est)
-                    times.append(ms)
-                    solved += ok
-                    wrong += bool(ok and off > WRONG_ARCSEC)
-                print(f"{peer:8s} fov {fov:5.1f}  given {label:7s}  solved {solved}/"
-                      f"{len(frames)}  wrong {wrong}  median {np.median(times):7.0f} ms  "
-                      f"max {np.max(times):7.0f} ms", flush=True)
+    started = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M")
+    load0, t0 = os.getloadavg()[0], time.perf_counter()
+    rows = run(args)
+    print(table(rows))
+    if args.doc:
+        line = provenance_line("bench_blind_peers.py", started,
+                               (time.perf_counter() - t0) / 60.0, (load0, os.getloadavg()[0]))
+        write_between(args.doc, START, END, (
+            f"{line} Run with the peers' venv (`PYTHONPATH=. /work/peers-venv/bin/python`).\n"
+            "wrong: frames with a wrong pointing or a wrong star; (pointing): of them, "
+            "those whose boresight is more than 60\" off. FOV search half-width given to "
+            f"the peers: {SEARCH:.3f} of the estimate; per-frame limit {args.timeout_ms:g} ms."
+            f"\n\n{table(rows)}"))
 
 
 if __name__ == "__main__":

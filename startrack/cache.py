@@ -13,14 +13,18 @@ at most ``$STARTRACK_CACHE_MAX_MB`` (default :data:`DEFAULT_CACHE_MAX_MB`).
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import hashlib
 import json
+import math
 import os
 import re
+import struct
 import tempfile
 import threading
 import time
+import zipfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -108,17 +112,86 @@ def arrays_checksum(arrays: dict[str, np.ndarray]) -> str:
     return digest.hexdigest()
 
 
+def _read_member(fh, info: zipfile.ZipInfo) -> np.ndarray | None:
+    """One stored .npy member, read straight into an array of its own (aligned and
+    writable, one copy from the page cache); None when it is not a plain .npy."""
+    fh.seek(info.header_offset)
+    local = fh.read(30)
+    if local[:4] != b"PK\x03\x04":
+        raise ValueError("bad local header")
+    name_len, extra_len = struct.unpack("<HH", local[26:30])
+    start = info.header_offset + 30 + name_len + extra_len
+    fh.seek(start)
+    version = np.lib.format.read_magic(fh)
+    if version not in ((1, 0), (2, 0)):
+        return None
+    read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                   else np.lib.format.read_array_header_2_0)
+    shape, fortran, dtype = read_header(fh)
+    if dtype.hasobject:
+        raise ValueError("object arrays are never cached")
+    nbytes = math.prod(shape) * dtype.itemsize
+    if fh.tell() - start + nbytes != info.file_size:
+        raise ValueError("member size does not match its header")
+    raw = np.empty(nbytes, np.uint8)
+    if fh.readinto(raw) != nbytes:
+        raise ValueError("truncated member")
+    return raw.view(dtype).reshape(shape, order="F" if fortran else "C")
+
+
+def _read_npz(path: Path) -> dict[str, np.ndarray]:
+    """The arrays of a .npz: its stored members read directly (np.load decompresses and
+    CRCs through a stream, several times slower; the caller checks the SHA-256 anyway),
+    anything else by np.load."""
+    with zipfile.ZipFile(path) as zf, open(path, "rb") as fh:
+        arrays: dict[str, np.ndarray] = {}
+        for info in zf.infolist():
+            arr = None
+            if info.compress_type == zipfile.ZIP_STORED and info.filename.endswith(".npy"):
+                arr = _read_member(fh, info)
+            if arr is None:
+                with np.load(path, allow_pickle=False) as data:
+                    return {name: data[name] for name in data.files}
+            arrays[info.filename[:-4]] = arr
+    return arrays
+
+
 def _load_checked(path: Path) -> dict[str, np.ndarray] | None:
     """The arrays of a cache entry, or None when it is damaged or altered."""
     try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {name: data[name] for name in data.files}
-    except Exception:  # any damage (truncation, bad zip, bad CRC) means a rebuild
+        arrays = _read_npz(path)
+    except Exception:  # any damage (truncation, bad zip, bad header) means a rebuild
         return None
     stored = arrays.pop(CHECKSUM_KEY, None)
     if not arrays or stored is None or str(stored) != arrays_checksum(arrays):
         return None
     return arrays
+
+
+def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """What ``np.savez(path, **arrays, __sha256__=checksum)`` writes, without its chunked
+    copies, and with the checksum hashed in a thread while the arrays are written (both
+    hashlib and the zip's CRC release the GIL)."""
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        checksum = pool.submit(arrays_checksum, arrays)
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+            for name, arr in arrays.items():
+                with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
+                    _write_member(fh, np.asanyarray(arr))
+            with zf.open(f"{CHECKSUM_KEY}.npy", "w", force_zip64=True) as fh:
+                _write_member(fh, np.array(checksum.result()))
+
+
+def _write_member(fh, arr: np.ndarray) -> None:
+    if not arr.flags.c_contiguous or arr.dtype.hasobject:
+        np.lib.format.write_array(fh, arr, allow_pickle=False)
+        return
+    header = np.lib.format.header_data_from_array_1_0(arr)
+    try:
+        np.lib.format.write_array_header_1_0(fh, header)
+    except ValueError:  # too long a header for format 1.0, as np.save would find
+        np.lib.format.write_array_header_2_0(fh, header)
+    fh.write(arr.reshape(-1).view(np.uint8))
 
 
 def _touch(path: Path) -> None:
@@ -141,9 +214,8 @@ def cached_arrays(kind: str, params: dict,
             _touch(path)
             return arrays
     arrays = build()
-    stored = {**arrays, CHECKSUM_KEY: np.array(arrays_checksum(arrays))}
-    with contextlib.suppress(OSError), atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        np.savez(fh, **stored)
+    with contextlib.suppress(OSError), atomic_path(path) as tmp:
+        _write_npz(tmp, arrays)
     evict(keep=path)
     return arrays
 

@@ -9,7 +9,9 @@ against the catalog cut for that field (the magnitude rule of
 :func:`startrack.sky.resolve_sky`). A solution is kept only if the camera fitted to its
 matched stars (least squares on the focal length with the attitude) passes the same
 verification (:func:`startrack.verify.verify`, its binomial bound) again; the record
-reports that camera's ``fov_deg``.
+reports that camera's ``fov_deg``. Every search takes the input's one
+:class:`~startrack.deadline.Deadline` (``--timeout-ms``), checked before each window and
+each verification: past it the input is not solved, with reason ``"timeout"``.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import numpy as np
 from startrack.attitude import wahba_matrices
 from startrack.camera import Camera
 from startrack.database import StarDatabase
+from startrack.deadline import NO_DEADLINE, Deadline
 from startrack.identify import residuals_arcsec
 from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
@@ -40,6 +43,15 @@ MARGIN = 0.02  # searched beyond the tolerance, as a fraction
 #: catalog stars at its attitude (verification needs two, at a tighter radius)
 MIN_CONFIRMED = 2
 MAX_VERIFY = 25  # hypotheses verified per window: bounded work on a junk frame
+
+
+class SearchTimeout(Exception):
+    """The input's deadline passed before a search was complete."""
+
+
+def _check(deadline: Deadline) -> None:
+    if deadline.passed():
+        raise SearchTimeout
 
 
 def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
@@ -100,10 +112,12 @@ def _solution(check: Verification, obs: Observation, database: StarDatabase, met
 
 def search_window(matcher: QuadMatcher, x, y, camera: Camera, f_lo: float, f_hi: float,
                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
-                  diag: MatchDiagnostics, seen: set):
+                  diag: MatchDiagnostics, seen: set, deadline: Deadline = NO_DEADLINE):
     """The first quad hypothesis with a focal length in [f_lo, f_hi] that passes
-    :func:`verify_fitted` against ``database``: (verification, camera, obs) or None."""
+    :func:`verify_fitted` against ``database``: (verification, camera, obs) or None.
+    Raises :class:`SearchTimeout` when ``deadline`` passes first."""
     n_cat = len(database.vectors)
+    _check(deadline)
     tried = 0
     for sh in matcher.scaled(x, y, camera, f_lo, f_hi, diag, database):
         hyp = sh.hypothesis
@@ -112,6 +126,7 @@ def search_window(matcher: QuadMatcher, x, y, camera: Camera, f_lo: float, f_hi:
             break  # best first: no later candidate has more support
         if key in seen or hyp.cat_index.max() >= n_cat:
             continue
+        _check(deadline)
         seen.add(key)
         diag.hypotheses += 1
         tried += 1
@@ -153,8 +168,6 @@ def f_of_fov(width: int, fov_deg: float) -> float:
     return (width / 2.0) / math.tan(math.radians(fov_deg) / 2.0)
 
 
-
-
 @dataclass(frozen=True)
 class FovResult:
     """What a search found (or not): the solution, the fitted camera it holds for, the
@@ -179,10 +192,12 @@ def _result(found, catalog: Catalog, method: str, diag: MatchDiagnostics, t0: fl
     return FovResult(sol, camera, obs, catalog, config.radius_px(obs))
 
 
-def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float) -> FovResult:
+def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
+                      deadline: Deadline = NO_DEADLINE) -> FovResult:
     """Solve the stars at pixels ``x``, ``y`` with ``ident`` (an
     :class:`startrack.pipeline.Identifier` of the quad matcher) whose camera's focal
-    length is nominal: the true FOV may be ``tolerance`` off either way."""
+    length is nominal: the true FOV may be ``tolerance`` off either way; not solved with
+    reason "timeout" if ``deadline`` passes first."""
     t0 = time.perf_counter()
     cam, db, config, quad = ident.camera, ident.database, ident.verify_config, ident.matcher
     obs = Observation.from_pixels(x, y, cam, ident.sigma_px)
@@ -190,10 +205,15 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float) -> 
     if len(x) < 3:
         return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db,
                        reason="too_few_stars")
-    for lo, hi in windows(*focal_range(cam, tolerance)):
-        found = search_window(quad, x, y, cam, lo, hi, ident.sigma_px, db, config, diag, seen)
-        if found is not None:
-            return _result(found, ident.catalog, quad.name, diag, t0, config, db)
+    try:
+        for lo, hi in windows(*focal_range(cam, tolerance)):
+            found = search_window(quad, x, y, cam, lo, hi, ident.sigma_px, db, config, diag,
+                                  seen, deadline)
+            if found is not None:
+                return _result(found, ident.catalog, quad.name, diag, t0, config, db)
+    except SearchTimeout:
+        return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db,
+                       reason="timeout")
     return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db)
 
 
@@ -223,23 +243,30 @@ class BlindSolver:
             self._databases[n] = StarDatabase(self.catalog.subset(np.arange(n)), camera)
         return self._databases[n]
 
-    def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int]) -> FovResult:
-        """Search every window, widest field first; the first verified find wins."""
+    def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int],
+              deadline: Deadline = NO_DEADLINE) -> FovResult:
+        """Search every window, widest field first; the first verified find wins. Not
+        solved, with reason "timeout", if ``deadline`` passes first."""
         t0 = time.perf_counter()
         base = Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
         diag, seen = MatchDiagnostics(), set()
         f_lo, f_hi = (f_of_fov(size[0], fov) for fov in sorted(self.fov_range, reverse=True))
         db = self.database_for(base)
-        for lo, hi in windows(f_lo, f_hi) if len(x) >= 3 else []:
-            db = self.database_for(dataclasses.replace(base, f_px=math.sqrt(lo * hi)))
-            found = search_window(self.matcher, x, y, base, lo, hi, self.sigma_px, db,
-                                  self.config, diag, seen)
-            if found is not None:
-                return _result(found, self.catalog, self.matcher.name, diag, t0,
-                               self.config, db)
+        reason = "no_match" if len(x) >= 3 else "too_few_stars"
+        try:
+            for lo, hi in windows(f_lo, f_hi) if len(x) >= 3 else []:
+                _check(deadline)  # before the window's tables are built
+                db = self.database_for(dataclasses.replace(base, f_px=math.sqrt(lo * hi)))
+                found = search_window(self.matcher, x, y, base, lo, hi, self.sigma_px, db,
+                                      self.config, diag, seen, deadline)
+                if found is not None:
+                    return _result(found, self.catalog, self.matcher.name, diag, t0,
+                                   self.config, db)
+        except SearchTimeout:
+            reason = "timeout"
         obs = Observation.from_pixels(x, y, base, self.sigma_px)
         return _result((None, base, obs), self.catalog, self.matcher.name, diag, t0,
-                       self.config, db, reason="no_match" if len(x) >= 3 else "too_few_stars")
+                       self.config, db, reason=reason)
 
 
 #: stars of an accepted answer used as the hypothesis when its FOV is refitted: the rest
@@ -247,11 +274,15 @@ class BlindSolver:
 REFIT_HYPOTHESIS_STARS = 4
 
 
-def refit_fov(result, database: StarDatabase, config: VerifyConfig) -> FovResult | None:
+def refit_fov(result, database: StarDatabase, config: VerifyConfig,
+              deadline: Deadline = NO_DEADLINE) -> FovResult | None:
     """A solved :class:`startrack.pipeline.FrameResult` made at a nominal FOV, with the
     focal length fitted to its identified stars and the pointing verified again through
-    the fitted camera (:func:`verify_fitted`); None when that verification fails."""
+    the fitted camera (:func:`verify_fitted`); None when that verification fails or
+    ``deadline`` has already passed (the search after it then says "timeout")."""
     t0 = time.perf_counter()
+    if deadline.passed():
+        return None
     sol = result.solution
     k = min(REFIT_HYPOTHESIS_STARS, len(sol.obs_index))
     brightest = np.argsort(sol.obs_index)[:k]

@@ -7,38 +7,44 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from startrack.deadline import Deadline
 from startrack.matchers.base import Matcher
 from startrack.types import MatchDiagnostics, Observation, Solution
 from startrack.verify import VerifyConfig, verify
 
 
-def residuals_arcsec(rotation: Rotation, obs: Observation, obs_index: np.ndarray,
+def residuals_arcsec(rotation: Rotation | np.ndarray, obs: Observation, obs_index: np.ndarray,
                      cat_vectors: np.ndarray) -> np.ndarray:
-    """Angle between each observed star, rotated to the sky, and its catalog star."""
-    sky = rotation.apply(obs.vectors[obs_index])
+    """Angle between each observed star, rotated to the sky (by a Rotation or its 3 x 3
+    matrix, camera to sky), and its catalog star."""
+    matrix = rotation if isinstance(rotation, np.ndarray) else rotation.as_matrix()
+    sky = obs.vectors[obs_index] @ matrix.T
     cos = np.clip(np.einsum("ij,ij->i", sky, cat_vectors), -1.0, 1.0)
     return np.degrees(np.arccos(cos)) * 3600.0
 
 
 def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = None,
-             timeout_ms: float | None = None) -> Solution:
+             timeout_ms: float | None = None, deadline: Deadline | None = None) -> Solution:
     """Try the matcher's hypotheses in order; return the first one verification accepts.
 
     The work is bounded on every machine alike by the matcher's own budgets (patterns
     tried) and ``config.max_hypotheses``; ``timeout_ms`` adds a wall-clock limit, checked
     between hypotheses: when it trips the frame is not solved, with reason "timeout".
+    ``deadline`` is the input's one limit shared with the stages before and after this one
+    (:mod:`startrack.deadline`); the sooner of the two applies.
     The time covers matching, verification and the attitude, with the database loaded.
     """
     config = config or VerifyConfig()
     diag = MatchDiagnostics()
     t0 = time.perf_counter()
-    deadline = None if timeout_ms is None else t0 + float(timeout_ms) / 1000.0
+    deadline = Deadline.after_ms(timeout_ms).earliest(deadline)
     seen: set[tuple] = set()
     result = None
     timed_out = False
     if len(obs) >= 3:
-        for hyp in matcher.hypotheses(obs, diag):
-            if deadline is not None and time.perf_counter() > deadline:
+        timed_out = deadline.passed()  # spent by the stages before this one
+        for hyp in [] if timed_out else matcher.hypotheses(obs, diag):
+            if deadline.passed():
                 timed_out = True
                 break
             key = tuple(sorted(zip(np.asarray(hyp.obs_index).tolist(),
@@ -69,7 +75,7 @@ def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = N
         rotation=result.rotation,
         obs_index=obs_index,
         cat_index=cat_index,
-        residual_arcsec=residuals_arcsec(result.rotation, obs, obs_index, vectors[order]),
+        residual_arcsec=residuals_arcsec(result.matrix, obs, obs_index, vectors[order]),
         false_probability=result.false_probability,
         diagnostics=diag,
         identify_ms=elapsed,

@@ -1,11 +1,14 @@
 """Input to solution: each input read once, its camera and sky decided, its stars identified.
 
-:func:`read_input` turns a path (image or centroid CSV) into a :class:`FrameInput`;
+:func:`read_input` (:mod:`startrack.frame_input`) turns a path (image or centroid CSV)
+into a :class:`FrameInput`;
 :class:`Identifier` holds one loaded catalog, database and matcher and turns centroids
 into a :class:`FrameResult`, the one complete record of an input. :class:`Pipeline`
 decides each input's camera and sky (options, else the JSON sidecar beside the input,
 else defaults) and keeps one ``Identifier`` per (camera, sky), so a batch from one camera
 loads everything once; ``startrack identify``, the Python API and compare build on this.
+``Options.timeout_ms`` is one :class:`~startrack.deadline.Deadline` per input, shared by
+every stage of its identification (the configured method, the FOV refit, the FOV search).
 """
 
 from __future__ import annotations
@@ -20,10 +23,12 @@ from pathlib import Path
 import numpy as np
 
 from startrack.camera import Camera
-from startrack.centroids import DEFAULT_SIGMA_PX, Centroids, read_centroid_csv
+from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
 from startrack.database import StarDatabase
+from startrack.deadline import Deadline
 from startrack.errors import InputError
 from startrack.fov import DEFAULT_FOV_TOLERANCE, BlindSolver, refit_fov, solve_approximate
+from startrack.frame_input import FrameInput, read_input
 from startrack.identify import identify
 from startrack.matchers import MatcherConfig, get_matcher
 from startrack.output import solution_record
@@ -42,55 +47,6 @@ from startrack.verify import VerifyConfig
 # The most reliable method measured (scripts/bench_identify.py, the real-sky frames and
 # scripts/false_positives.py; docs/results.md has the figures).
 DEFAULT_METHOD = "pyramid"
-CSV_SUFFIXES = (".csv",)
-
-
-@dataclass(frozen=True)
-class FrameInput:
-    """One input, read once: its centroids, the image they came from (None for a centroid
-    list) and the centroiding time in ms."""
-
-    name: str
-    centroids: Centroids
-    image: np.ndarray | None = None
-    centroid_ms: float = 0.0
-    path: Path | None = None
-    read_ms: float = 0.0  # reading the file, before centroiding
-
-    @property
-    def size(self) -> tuple[int, int] | None:
-        """(width, height) of the image, None for a centroid list."""
-        return None if self.image is None else (self.image.shape[1], self.image.shape[0])
-
-
-def read_input(path: str | Path, centroid_config=None) -> FrameInput:
-    """Read an image (and extract its centroids) or a centroid CSV."""
-    path = Path(path)
-    if not path.exists():
-        raise InputError(f"{path}: no such file")
-    t0 = time.perf_counter()
-    if path.suffix.lower() in CSV_SUFFIXES:
-        centroids = read_centroid_csv(path)
-        return FrameInput(str(path), centroids, path=path,
-                          read_ms=(time.perf_counter() - t0) * 1000.0)
-    from startrack.imageio import read_image
-
-    image = read_image(path)
-    read_ms = (time.perf_counter() - t0) * 1000.0
-    return dataclasses.replace(image_input(image, str(path), centroid_config, path=path),
-                               read_ms=read_ms)
-
-
-def image_input(image: np.ndarray, name: str, centroid_config=None,
-                path: Path | None = None) -> FrameInput:
-    """A :class:`FrameInput` from a 2-D image array: its centroids extracted and timed."""
-    from startrack.extract import extract_centroids
-
-    t0 = time.perf_counter()
-    centroids = extract_centroids(image, centroid_config)
-    return FrameInput(name, centroids, image, (time.perf_counter() - t0) * 1000.0, path)
-
-
 @dataclass(frozen=True)
 class FrameResult:
     """One input's answer with everything that produced it."""
@@ -147,8 +103,12 @@ class Identifier:
         return Observation.from_pixels(centroids.x, centroids.y, self.camera, self.sigma_px,
                                        flux=flux)
 
-    def identify(self, obs: Observation) -> Solution:
-        """Identify the stars of an observation made elsewhere (the bench's frames)."""
+    def identify(self, obs: Observation, deadline: Deadline | None = None) -> Solution:
+        """Identify the stars of an observation made elsewhere (the bench's frames), by
+        ``deadline`` (the input's, shared with other stages) if given, else within this
+        identifier's ``timeout_ms``."""
+        if deadline is not None:
+            return identify(obs, self.matcher, self.verify_config, deadline=deadline)
         return identify(obs, self.matcher, self.verify_config, timeout_ms=self.timeout_ms)
 
     def solve(self, frame: FrameInput,
@@ -182,7 +142,8 @@ class Options:
     sigma_px: float = DEFAULT_SIGMA_PX
     #: how far the true FOV may be from the given one (a fraction); 0: exactly as given
     fov_tolerance: float = DEFAULT_FOV_TOLERANCE
-    timeout_ms: float | None = None  # wall-clock limit per input (reason "timeout")
+    #: wall-clock limit per input, over all its stages (reason "timeout")
+    timeout_ms: float | None = None
     #: observation time (astropy Time) for the aberration correction; None: a FITS
     #: input's DATE-OBS, else no correction
     time: object | None = None
@@ -195,6 +156,8 @@ class Pipeline:
         if options.camera is not None and options.fov_deg is not None:
             raise InputError("give a camera or a field of view, not both (the camera sets "
                              "the field of view)")
+        if options.timeout_ms is not None and not options.timeout_ms >= 0:
+            raise InputError(f"timeout_ms must be a number >= 0, got {options.timeout_ms}")
         self.options = options
         get_matcher(options.method)  # an unknown method fails before any work
         self._identifiers: dict[tuple[Camera, SkySpec, str], Identifier] = {}
@@ -230,9 +193,7 @@ class Pipeline:
         method = method or opt.method
         key = (camera, sky, method)
         if key not in self._identifiers:
-            if sky not in self._catalogs:
-                self._catalogs[sky] = load_sky(sky, camera)
-            self._identifiers[key] = Identifier(camera, self._catalogs[sky], method,
+            self._identifiers[key] = Identifier(camera, self.catalog(sky, camera), method,
                                                 max_stars=opt.max_stars, sigma_px=opt.sigma_px,
                                                 timeout_ms=opt.timeout_ms)
         return self._identifiers[key]
@@ -245,23 +206,15 @@ class Pipeline:
     def _identify(self, frame: FrameInput) -> FrameResult:
         camera, sky = self.setup_for(frame)
         x, y = frame.centroids.x, frame.centroids.y
+        # One deadline for every stage below; it starts with the configured stage loaded
+        # (tables loaded later, for the FOV search, count against it).
         if camera is None:
-            found = self.blind_solver(sky).solve(x, y, self._blind_size(frame))
+            blind, size = self.blind_solver(sky), self._blind_size(frame)
+            found = blind.solve(x, y, size, Deadline.after_ms(self.options.timeout_ms))
         elif self.options.fov_tolerance > 0:
-            # The configured method at the nominal FOV first (milliseconds when it is right),
-            # then the FOV fitted and the pointing verified through the fitted camera.
-            nominal = self.identifier(camera, sky)
-            first = nominal.solve(frame)
-            if first.solution.reason == "too_few_stars":
-                return first
-            found = (refit_fov(first, nominal.database, nominal.verify_config)
-                     if first.solution.solved else None)
-            if found is None:
-                ident = self.identifier(camera, sky, "quad")
-                found = solve_approximate(ident, x, y, self.options.fov_tolerance)
-                spent = first.solution.identify_ms  # the first try is part of the answer
-                found = dataclasses.replace(found, solution=dataclasses.replace(
-                    found.solution, identify_ms=found.solution.identify_ms + spent))
+            found = self._approximate(frame, camera, sky)
+            if isinstance(found, FrameResult):
+                return found
         else:
             return self.identifier(camera, sky).solve(frame)
         sol = found.solution
@@ -270,6 +223,48 @@ class Pipeline:
         return FrameResult(frame.name, sol, found.obs, frame.centroids, timing, found.camera,
                            found.catalog, self.options.sigma_px, found.match_radius_px,
                            frame.image)
+
+    def _approximate(self, frame: FrameInput, camera: Camera, sky: SkySpec):
+        """A nominal FOV: the configured method first (milliseconds when the FOV is right),
+        its FOV refitted and the pointing verified through the fitted camera; else the quad
+        search within the tolerance. A :class:`FrameResult` when the configured method's
+        answer stands (too few stars, a timeout), else the search's ``FovResult``."""
+        x, y = frame.centroids.x, frame.centroids.y
+        deadline, spent, found = Deadline.after_ms(self.options.timeout_ms), 0.0, None
+        if self._tables_fit(camera, sky):  # else (a deep narrow-field sky) the search alone
+            nominal = self.identifier(camera, sky)
+            deadline = Deadline.after_ms(self.options.timeout_ms)
+            first = nominal.solve(frame, identify=lambda obs: nominal.identify(obs, deadline))
+            if first.solution.reason in ("too_few_stars", "timeout"):
+                return first
+            found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
+                     if first.solution.solved else None)
+            spent = first.solution.identify_ms  # the first try is part of the answer
+        if found is None:
+            ident = self.identifier(camera, sky, "quad")
+            found = solve_approximate(ident, x, y, self.options.fov_tolerance, deadline)
+            found = dataclasses.replace(found, solution=dataclasses.replace(
+                found.solution, identify_ms=found.solution.identify_ms + spent))
+        return found
+
+    def _tables_fit(self, camera: Camera, sky: SkySpec) -> bool:
+        """Whether the configured method's pair table for ``camera`` fits the pair budget
+        (:func:`startrack.sky.check_pair_budget`); a Gaia sky for a 1.5 to 4 deg field
+        does not, and the quad search, which tables no pairs, then answers alone."""
+        if not get_matcher(self.options.method).tables or (camera, sky, self.options.method) \
+                in self._identifiers:
+            return True
+        try:
+            check_pair_budget(self.catalog(sky, camera), camera)
+        except InputError:
+            return False
+        return True
+
+    def catalog(self, sky: SkySpec, camera: Camera | None) -> Catalog:
+        """The catalog of ``sky`` (for ``camera``: its close stars merged), loaded once."""
+        if sky not in self._catalogs:
+            self._catalogs[sky] = load_sky(sky, camera)
+        return self._catalogs[sky]
 
     def correct_aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
         """``result`` corrected for annual aberration when the time of observation is known
@@ -290,9 +285,7 @@ class Pipeline:
 
     def blind_solver(self, sky: SkySpec) -> BlindSolver:
         if sky not in self._blind:
-            if sky not in self._catalogs:
-                self._catalogs[sky] = load_sky(sky, None)
-            self._blind[sky] = BlindSolver(self._catalogs[sky], sky, self.options.sigma_px)
+            self._blind[sky] = BlindSolver(self.catalog(sky, None), sky, self.options.sigma_px)
         return self._blind[sky]
 
     def run(self, path: str | Path) -> FrameResult:

@@ -89,20 +89,21 @@ class Tracker:
         solution = None
         if prior is not None and len(obs) >= 3:
             solution = track(obs, database, prior, verify_config, self.config, method)
+        mode = "tracking"
         if solution is None or not solution.solved:
-            solution = dataclasses.replace(lost_in_space(obs), mode="lost_in_space")
+            solution, mode = lost_in_space(obs), "lost_in_space"
         elapsed = (time.perf_counter() - t0) * 1000.0
-        lock = self._advance(solution, obs)
-        return dataclasses.replace(solution, identify_ms=elapsed, lock=lock)
+        lock = self._advance(solution, obs, mode)
+        return dataclasses.replace(solution, mode=mode, identify_ms=elapsed, lock=lock)
 
     def skip(self) -> None:
         """A frame of the sequence that could not be read: time passes, nothing solved."""
-        self._advance(None, None)
+        self._advance(None, None, "lost_in_space")
 
-    def _advance(self, solution: Solution | None, obs: Observation | None) -> str:
+    def _advance(self, solution: Solution | None, obs: Observation | None, mode: str) -> str:
         solved = solution is not None and solution.solved
         if solved:
-            lock = ("tracking" if solution.mode == "tracking"
+            lock = ("tracking" if mode == "tracking"
                     else "reacquired" if self.ever_locked else "acquired")
             # A lost-in-space solution starts a new lock: the attitudes before it (before a
             # jump, say) say nothing about the rate now.

@@ -3,7 +3,7 @@
 A star tracker runs lost-in-space once and then tracks. :class:`startrack.tracker.Tracker`
 predicts each frame's attitude and its uncertainty from the frames before it;
 :func:`track` projects the catalog stars around
-the predicted boresight (one k-d tree cone query), pairs the brightest observed stars with
+the predicted boresight (one cone lookup), pairs the brightest observed stars with
 projected stars inside a window sized from that uncertainty, keeps the pairs that agree on
 one image displacement (a vectorised vote, so a false star or a neighbour inside the
 window cannot pull the match), and hands three-star hypotheses from them to the shared
@@ -26,9 +26,11 @@ from scipy.spatial.transform import Rotation
 
 from startrack.camera import Camera
 from startrack.database import StarDatabase
-from startrack.tracking_kernels import consistent, project_match, window_pairs
+from startrack.identify import residuals_arcsec
+from startrack.matching.projector import CAPTURE, CONE_LOOKUP_MARGIN, CONE_MARGIN, CatalogProjector
+from startrack.tracking_kernels import consistent, window_pairs
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
-from startrack.verify import CAPTURE, CONE_LOOKUP_MARGIN, CONE_MARGIN, VerifyConfig, verify
+from startrack.verify import VerifyConfig, verify
 
 # The vote looks for the densest spot of displacements within this many match radii: the
 # true pairs crowd there while chance pairs spread over the whole window.
@@ -84,39 +86,15 @@ def _window_px(obs: Observation, prior: Prior, config: TrackConfig, radius_px: f
     return config.window_sigma * prior.sigma_rad * cam.f_px * stretch + radius_px
 
 
-class _Projector:
-    """The catalog stars around the prediction, projected and matched by the compiled
-    kernel (the interface of :class:`startrack.verify._Projector`)."""
-
-    def __init__(self, obs: Observation, database: StarDatabase, radius_px: float,
-                 rows: np.ndarray) -> None:
-        self.obs, self.database, self.radius_px, self.rows = obs, database, radius_px, rows
-        self.vectors = np.ascontiguousarray(database.vectors[rows])
-        cam = obs.camera
-        self._geometry = (float(cam.f_px), float(cam.cx), float(cam.cy), float(cam.width),
-                          float(cam.height))
-
-    def __call__(self, matrix: np.ndarray,
-                 radius_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rows and pixel positions of the catalog stars that fall in the image."""
-        cam = self.obs.camera
-        x, y, front = cam.vector_to_pixel(self.vectors @ matrix)
-        keep = front & cam.in_image(x, y, margin=-radius_px)
-        return self.rows[keep], x[keep], y[keep]
-
-    def match(self, matrix: np.ndarray,
-              radius_px: float | None = None) -> tuple[np.ndarray, np.ndarray, int]:
-        """As verify's: (observed index, catalog row, catalog stars in the image)."""
-        r = self.radius_px if radius_px is None else float(radius_px)
-        oi, pos, n_in = project_match(self.vectors, np.ascontiguousarray(matrix), self.obs.x,
-                                      self.obs.y, *self._geometry, r, r)
-        return oi, self.rows[pos], int(n_in)
+class _Projector(CatalogProjector):
+    """The catalog stars around the prediction (verify's projector over fixed rows), and
+    the pairs of observed stars with them inside the prediction's window."""
 
     def pairs(self, matrix: np.ndarray, window_px: float, max_stars: int):
         """Pairs of the brightest observed stars with catalog rows within the window."""
         m = min(len(self.obs), max_stars)
         oi, pos, dx, dy = window_pairs(self.vectors, np.ascontiguousarray(matrix),
-                                       self.obs.x[:m], self.obs.y[:m], *self._geometry,
+                                       self.ox[:m], self.oy[:m], self.geometry,
                                        float(window_px))
         return oi, self.rows[pos], dx, dy
 
@@ -153,10 +131,9 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
                         mode="tracking")
     order = np.argsort(result.obs_index)
     obs_index, cat_index = result.obs_index[order], result.cat_index[order]
-    sky = result.rotation.apply(obs.vectors[obs_index])
-    cos = np.clip(np.einsum("ij,ij->i", sky, database.vectors[cat_index]), -1.0, 1.0)
+    residuals = residuals_arcsec(result.matrix, obs, obs_index, database.vectors[cat_index])
     return Solution(True, method, rotation=result.rotation, obs_index=obs_index,
-                    cat_index=cat_index, residual_arcsec=np.degrees(np.arccos(cos)) * 3600.0,
+                    cat_index=cat_index, residual_arcsec=residuals,
                     false_probability=result.false_probability, diagnostics=diag,
                     identify_ms=(time.perf_counter() - t0) * 1000.0, mode="tracking")
 

@@ -1,13 +1,8 @@
-"""Compiled kernels of the tracking stage: project catalog stars through an attitude and
-pair them with observed stars, vote on their displacement, Wahba's problem, rotation
-matrix <-> quaternion / rotation vector (numba; a frame has tens of stars, and numpy or
-scipy on so few is dominated by per-call overhead).
-
-:func:`project_match` reproduces :meth:`startrack.verify._Projector.match` exactly: the
-catalog stars in front of the camera and inside the image widened by ``margin`` pixels
-count as "in the image"; each observed star takes its nearest such star within
-``radius``; a catalog star claimed by several keeps the nearest (ties: the lower observed
-index). ``tests/test_tracking.py`` checks the two agree.
+"""Compiled kernels of the tracking stage: pair observed stars with the catalog stars
+projected at a prediction, vote on their displacement, rotation matrix <-> rotation vector
+(numba; a frame has tens of stars, and numpy or scipy on so few is dominated by per-call
+overhead). The projection is verification's own
+(:func:`startrack.matching.verify_kernels.project`), lens included.
 """
 
 from __future__ import annotations
@@ -17,70 +12,16 @@ import math
 import numpy as np
 from numba import njit
 
-
-@njit(cache=True)
-def _project(vectors, matrix, f, cx, cy, width, height, margin):
-    n = vectors.shape[0]
-    px = np.empty(n)
-    py = np.empty(n)
-    inside = np.zeros(n, np.bool_)
-    lo_x, hi_x = -0.5 - margin, width - 0.5 + margin
-    lo_y, hi_y = -0.5 - margin, height - 0.5 + margin
-    for i in range(n):
-        # R^T v: the catalog vector in the camera frame.
-        a, b, c = vectors[i, 0], vectors[i, 1], vectors[i, 2]
-        vx = a * matrix[0, 0] + b * matrix[1, 0] + c * matrix[2, 0]
-        vy = a * matrix[0, 1] + b * matrix[1, 1] + c * matrix[2, 1]
-        vz = a * matrix[0, 2] + b * matrix[1, 2] + c * matrix[2, 2]
-        if vz > 1e-12:
-            px[i] = cx + f * vx / vz
-            py[i] = cy + f * vy / vz
-            inside[i] = lo_x <= px[i] <= hi_x and lo_y <= py[i] <= hi_y
-    return px, py, inside
+from startrack.labelling_kernels import warm_up as _warm_up_labelling
+from startrack.matching import verify_kernels
+from startrack.matching.verify_kernels import project
 
 
 @njit(cache=True)
-def project_match(vectors, matrix, ox, oy, f, cx, cy, width, height, margin, radius):
-    """(observed index, catalog position, number of catalog stars in the image)."""
-    px, py, inside = _project(vectors, matrix, f, cx, cy, width, height, margin)
-    n_obs, n_cat = ox.shape[0], vectors.shape[0]
-    n_in = 0
-    for j in range(n_cat):
-        n_in += inside[j]
-    owner = np.full(n_cat, -1, np.int64)
-    best = np.full(n_cat, np.inf)
-    r2 = radius * radius
-    for i in range(n_obs):
-        near, d_near = -1, np.inf
-        for j in range(n_cat):
-            if inside[j]:
-                d = (ox[i] - px[j]) ** 2 + (oy[i] - py[j]) ** 2
-                if d < d_near:
-                    near, d_near = j, d
-        if near >= 0 and d_near <= r2 and d_near < best[near]:
-            owner[near], best[near] = i, d_near
-    taken = np.full(n_obs, -1, np.int64)
-    for j in range(n_cat):
-        if owner[j] >= 0:
-            taken[owner[j]] = j
-    k = 0
-    for i in range(n_obs):
-        k += taken[i] >= 0
-    obs_idx = np.empty(k, np.int64)
-    cat_pos = np.empty(k, np.int64)
-    k = 0
-    for i in range(n_obs):
-        if taken[i] >= 0:
-            obs_idx[k], cat_pos[k] = i, taken[i]
-            k += 1
-    return obs_idx, cat_pos, n_in
-
-
-@njit(cache=True)
-def window_pairs(vectors, matrix, ox, oy, f, cx, cy, width, height, window):
+def window_pairs(vectors, matrix, ox, oy, geometry, window):
     """Every (observed, catalog position) pair within ``window`` pixels at ``matrix``,
     with the displacement catalog - observed."""
-    px, py, inside = _project(vectors, matrix, f, cx, cy, width, height, window)
+    px, py, inside = project(vectors, matrix, geometry, window)
     n_obs, n_cat = ox.shape[0], vectors.shape[0]
     w2 = window * window
     count = 0
@@ -181,7 +122,9 @@ def warm_up() -> None:
     v = np.array([[0.0, 0.0, 1.0], [0.01, 0.0, 1.0], [0.0, 0.01, 1.0]])
     v /= np.sqrt((v * v).sum(axis=1))[:, None]
     m, xy = np.eye(3), np.array([1.0, 2.0, 3.0])
-    project_match(v, m, xy, xy, 100.0, 1.0, 1.0, 4.0, 4.0, 1.0, 1.0)
-    oi, cj, dx, dy = window_pairs(v, m, xy, xy, 100.0, 1.0, 1.0, 4.0, 4.0, 50.0)
+    geometry = np.array([100.0, 1.0, 1.0, 4.0, 4.0, 0.0, 0.0, 0.0, np.inf])
+    verify_kernels.warm_up()
+    oi, cj, dx, dy = window_pairs(v, m, xy, xy, geometry, 50.0)
     consistent(oi, cj, dx, dy, 1.0, 2.0)
     rotation_log(rotation_exp(np.array([0.0, 0.0, 0.1])))
+    _warm_up_labelling()  # a tracked frame's labelling

@@ -185,3 +185,30 @@ def test_harsh_bench_frames_report_no_wrong_identity(hip_db):
         assert solution.solved
         assert np.array_equal(frame.truth_rows[solution.obs_index], solution.cat_index), index
         assert len(solution.obs_index) >= 0.9 * np.count_nonzero(frame.truth_rows >= 0)
+
+
+def test_unusable_fluxes_are_labelled_by_position_alone():
+    """NaN, zero and negative fluxes take no part in the brightness fit and veto nothing:
+    those stars are reported by position; a gross outlier among the rest is still caught."""
+    rows, x, y, mag = _sky()
+    obs = _observe(x, y, mag)
+    flux = obs.flux.copy()
+    flux[[0, 1, 2]] = [np.nan, 0.0, -1.0]
+    flux[5] *= 10.0 ** (0.4 * 2.0)  # 2 mag too bright
+    lab = _label(Observation.from_pixels(obs.x, obs.y, CAMERA, SIGMA, flux), rows, x, y, mag)
+    got = _reported(lab)
+    assert all(got[k] == rows[k] for k in (0, 1, 2))
+    assert 5 not in got and lab.withheld["brightness"] == 1
+    assert lab.mag_sigma is not None
+
+
+def test_no_observed_star_and_too_few_pairs_to_fit():
+    rows, x, y, mag = _sky()
+    empty = Observation.from_pixels(np.zeros(0), np.zeros(0), CAMERA, SIGMA, np.zeros(0))
+    lab = _label(empty, rows, x, y, mag)
+    assert len(lab.obs_index) == 0 and sum(lab.withheld.values()) == 0
+    assert lab.mag_sigma is None and lab.sigma_px == pytest.approx(SIGMA)  # as stated
+    # Three isolated pairs (< min_fit): no brightness fit, the stated sigma, all reported.
+    few = _label(_observe(x[:3], y[:3], mag[:3]), rows, x, y, mag)
+    assert _reported(few) == dict(enumerate(rows[:3].tolist()))
+    assert few.mag_sigma is None and few.sigma_px == pytest.approx(SIGMA)

@@ -6,6 +6,8 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
 
 from startrack.database.pairs import build_pair_arrays, pair_table_from_arrays
 from startrack.matching.geometry import handedness, triple_products
@@ -149,19 +151,76 @@ def test_timeout_gives_a_not_solved_with_its_reason(random_db):
     assert few.reason == "too_few_stars"
 
 
-def test_nearest_matches_keep_the_nearest_claim():
-    from startrack.matching.verify_kernels import nearest_matches
+@pytest.mark.parametrize("radius, spread", [(4.0, 50.0), (1.0, 1000.0), (30.0, 1000.0),
+                                            (3000.0, 1000.0), (4.0, 0.0)])
+def test_nearest_matches_keep_the_nearest_claim(radius, spread):
+    """The grid search gives the brute-force answer: each observed star its nearest
+    catalog star within the radius (the lower index on a tie), each catalog star kept by
+    its nearest claimant (the lower observed index on a tie)."""
+    from startrack.matching.nearest_kernels import nearest_matches
 
-    rng = np.random.default_rng(9)
-    ox, oy = rng.uniform(0, 50, 40), rng.uniform(0, 50, 40)
-    cx, cy = rng.uniform(0, 50, 30), rng.uniform(0, 50, 30)
-    rows, pos = nearest_matches(ox, oy, cx, cy, 4.0)
+    rng = np.random.default_rng(int(radius + spread))
+    ox, oy = rng.uniform(0, spread, 40), rng.uniform(0, spread, 40)
+    cx, cy = rng.uniform(0, spread, 30), rng.uniform(0, spread, 30)
+    cx[5], cy[5] = cx[4], cy[4]  # a catalog star twice: ties on the observed side
+    ox[7], oy[7] = ox[6], oy[6]  # an observed star twice: ties on the catalog side
+    ox[:3], oy[:3] = cx[:3] + 0.5, cy[:3] - 0.25
+    rows, pos = nearest_matches(ox, oy, cx, cy, radius)
     d2 = (ox[:, None] - cx[None, :]) ** 2 + (oy[:, None] - cy[None, :]) ** 2
+    near = np.argmin(d2, axis=1)  # argmin: the first on a tie
     want = []
     for i in range(len(ox)):
-        j = int(np.argmin(d2[i]))
-        rivals = [k for k in range(len(ox)) if int(np.argmin(d2[k])) == j]
-        if d2[i, j] <= 16.0 and all(d2[i, j] <= d2[k, j] for k in rivals):
+        j = int(near[i])
+        rivals = [k for k in range(len(ox)) if near[k] == j and d2[k, j] <= radius**2]
+        if d2[i, j] <= radius**2 and min(rivals, key=lambda k: (d2[k, j], k)) == i:
             want.append((i, j))
     assert list(zip(rows.tolist(), pos.tolist(), strict=True)) == want and want
     assert len(set(pos.tolist())) == len(pos)
+
+
+@pytest.mark.parametrize("k1", [0.0, -0.3, 0.2])
+def test_compiled_projection_is_the_cameras(k1):
+    """Verification projects through the compiled kernel; it must land every catalog
+    vector where Camera.vector_to_pixel and in_image put it, lens included."""
+    from startrack.camera import Camera
+    from startrack.distortion import RadialDistortion
+    from startrack.matching.verify_kernels import project
+
+    camera = Camera.from_fov(1024, 768, 20.0, distortion=RadialDistortion(k1=k1))
+    rng = np.random.default_rng(int(abs(k1) * 10) + 3)
+    vectors = rng.normal(size=(4000, 3))
+    vectors[:, 2] = np.abs(vectors[:, 2]) * 8.0 - 0.5  # most in front, some behind
+    vectors /= np.linalg.norm(vectors, axis=1, keepdims=True)
+    matrix = Rotation.random(random_state=rng).as_matrix()
+    sky = vectors @ matrix.T  # catalog vectors whose camera-frame directions are `vectors`
+    for margin in (-3.0, 0.0, 40.0):
+        px, py, inside = project(sky, matrix, camera.geometry, margin)
+        x, y, front = camera.vector_to_pixel(vectors)
+        want = front & camera.in_image(x, y, margin=-margin)
+        np.testing.assert_array_equal(inside, want)
+        np.testing.assert_allclose(px[want], x[want], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(py[want], y[want], rtol=0, atol=1e-9)
+        assert 100 < np.count_nonzero(inside) < len(vectors)
+
+
+def test_compiled_wahba_and_quaternion_agree_with_scipy():
+    from startrack.attitude import wahba_matrices
+    from startrack.matching.wahba_kernels import matrix_to_quaternion, wahba
+
+    rng = np.random.default_rng(17)
+    for _ in range(50):
+        truth = Rotation.random(random_state=rng)
+        cam = rng.normal(size=(int(rng.integers(2, 30)), 3))
+        cam /= np.linalg.norm(cam, axis=1, keepdims=True)
+        sky = truth.apply(cam) + rng.normal(scale=1e-4, size=cam.shape)
+        m = wahba(cam, sky)
+        np.testing.assert_allclose(m, wahba_matrices(cam, sky), atol=1e-9)
+        q = matrix_to_quaternion(m)
+        want = Rotation.from_matrix(m).as_quat()
+        want = -want if want[3] < 0 else want
+        np.testing.assert_allclose(q, want, atol=1e-12)
+    # Every branch of the quaternion (trace or one diagonal element largest).
+    for angle_axis in ([np.pi * 0.9, 0, 0], [0, np.pi * 0.9, 0], [0, 0, np.pi * 0.9], [0.1, 0, 0]):
+        r = Rotation.from_rotvec(angle_axis)
+        q = matrix_to_quaternion(r.as_matrix())
+        assert Rotation.from_quat(q).approx_equal(r, atol=1e-12)

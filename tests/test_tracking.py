@@ -76,7 +76,7 @@ def test_tracking_projector_matches_as_verify_does(hip_db):
     """Tracking hands its hypotheses to verify() with a projector of the stars around the
     prediction; it must project and match exactly as verify's own, so a tracked frame
     gets the same acceptance, refinement and labelling as a lost-in-space one."""
-    from startrack.verify import _Projector as FullProjector
+    from startrack.matching.projector import CatalogProjector as FullProjector
 
     rng = np.random.default_rng(5)
     camera = hip_db.camera

@@ -94,8 +94,9 @@ def _finite(ctx, param, value):
               default=DEFAULT_SIGMA_PX, show_default=True,
               help="1-sigma centroid error in pixels; sets match tolerances.")
 @click.option("--timeout-ms", type=click.FloatRange(0, min_open=True), callback=_finite,
-              help="Wall-clock limit per input; past it the input is not solved, with "
-                   "reason timeout (the work is bounded without it too).")
+              help="Wall-clock limit per input, over all its stages (the method, the FOV "
+                   "refit and search); past it the input is not solved, with reason "
+                   "timeout (the work is bounded without it too).")
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="json: one JSON line per input, in input order.")
 @click.option("--output", type=click.Path(dir_okay=False),

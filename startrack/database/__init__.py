@@ -15,6 +15,7 @@ from scipy.spatial import cKDTree
 
 from startrack.cache import cached_arrays
 from startrack.camera import Camera
+from startrack.database.cone import ConeIndex
 from startrack.database.kvector import KVector
 from startrack.database.pairs import PairTable, build_pair_arrays, pair_table_from_arrays
 from startrack.sky import Catalog
@@ -104,11 +105,14 @@ class StarDatabase:
     def _tree(self) -> cKDTree:
         return cKDTree(self.vectors)
 
+    @cached_property
+    def cone_index(self) -> ConeIndex:
+        """The z-sorted index behind :meth:`cone` (its arrays feed compiled lookups)."""
+        return ConeIndex.build(self.vectors)
+
     def cone(self, direction: np.ndarray, radius_rad: float) -> np.ndarray:
         """Catalog rows within ``radius_rad`` of a unit vector, brightest first."""
-        chord = 2.0 * math.sin(min(radius_rad, math.pi) / 2.0)
-        rows = np.asarray(self._tree.query_ball_point(direction, chord), dtype=np.int64)
-        return np.sort(rows)
+        return self.cone_index.rows(direction, radius_rad)
 
     def nearest(self, directions: np.ndarray, radius_rad: float, k: int = 1) -> np.ndarray:
         """The ``k`` catalog rows nearest each unit vector of ``directions`` (..., 3) within

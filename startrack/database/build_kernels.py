@@ -8,6 +8,8 @@ import math
 import numpy as np
 from numba import njit
 
+from startrack.database.sort_kernels import stable_argsort  # noqa: F401 (its old home)
+
 
 @njit(cache=True)
 def _forward_lists(n, lo, hi):
@@ -97,7 +99,10 @@ def close_pairs(vectors, max_angle):
     sorted by z, each compared only with those in the z band the angle allows."""
     n = len(vectors)
     order = np.argsort(vectors[:, 2])
-    z = vectors[order, 2]
+    # The sweep reads the stars in z order: copied so, the inner loop runs along memory.
+    x, y, z = np.empty(n), np.empty(n), np.empty(n)
+    for a in range(n):
+        x[a], y[a], z[a] = vectors[order[a], 0], vectors[order[a], 1], vectors[order[a], 2]
     band = 2.0 * math.sin(max_angle / 2.0)  # |dz| <= chord
     cos_max = math.cos(max_angle)
     cap = 1024
@@ -109,14 +114,13 @@ def close_pairs(vectors, max_angle):
         for b in range(a + 1, n):
             if z[b] - z[a] > band:
                 break
-            j = order[b]
-            d = (vectors[i, 0] * vectors[j, 0] + vectors[i, 1] * vectors[j, 1]
-                 + vectors[i, 2] * vectors[j, 2])
+            d = x[a] * x[b] + y[a] * y[b] + z[a] * z[b]
             if d < cos_max:
                 continue
             if m == cap:
                 cap *= 2
                 pi, pj, ang = _grow(pi, cap), _grow(pj, cap), _grow(ang, cap)
+            j = order[b]
             pi[m], pj[m] = min(i, j), max(i, j)
             ang[m] = math.acos(min(max(d, -1.0), 1.0))
             m += 1
@@ -128,35 +132,3 @@ def _grow(a, size):
     out = np.empty(size, a.dtype)
     out[:len(a)] = a
     return out
-
-
-@njit(cache=True)
-def stable_argsort(values, lo, hi):
-    """The stable ascending argsort of ``values`` (all in [lo, hi]) by a bucket sort:
-    counting sort into about one bucket per value, then insertion sort inside each,
-    O(n) for spread-out values where a comparison sort of millions takes seconds."""
-    n = len(values)
-    nb = max(n, 1)
-    scale = nb / (hi - lo) if hi > lo else 0.0
-    bucket = np.empty(n, np.int64)
-    start = np.zeros(nb + 1, np.int64)
-    for e in range(n):
-        b = min(int((values[e] - lo) * scale), nb - 1)
-        bucket[e] = b
-        start[b + 1] += 1
-    for b in range(nb):
-        start[b + 1] += start[b]
-    fill = start[:-1].copy()
-    order = np.empty(n, np.int64)
-    for e in range(n):
-        order[fill[bucket[e]]] = e
-        fill[bucket[e]] += 1
-    for b in range(nb):  # insertion sort; strict comparison keeps equal values in order
-        for p in range(start[b] + 1, start[b + 1]):
-            e = order[p]
-            q = p - 1
-            while q >= start[b] and values[order[q]] > values[e]:
-                order[q + 1] = order[q]
-                q -= 1
-            order[q + 1] = e
-    return order

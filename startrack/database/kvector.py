@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from startrack.database import sort_kernels
+
 
 @dataclass(frozen=True)
 class KVector:
@@ -27,17 +29,17 @@ class KVector:
         s = np.asarray(sorted_values, dtype=np.float64)
         if s.ndim != 1:
             raise ValueError("k-vector needs a 1-D array")
-        if len(s) > 1 and np.any(np.diff(s) < 0):
-            raise ValueError("k-vector needs sorted values")
         n = len(s)
         if n == 0:
             return cls(s, np.zeros(1, np.int64), 1.0, 0.0)
+        if not sort_kernels.is_sorted(s):
+            raise ValueError("k-vector needs sorted values")
         eps = max(np.finfo(np.float64).eps * max(abs(s[0]), abs(s[-1]), 1.0) * 4, 1e-15)
         lo, hi = s[0] - eps, s[-1] + eps
         m = (hi - lo) / max(n - 1, 1)
         q = lo
-        z = m * np.arange(n, dtype=np.float64) + q
-        k = np.searchsorted(s, z, side="right").astype(np.int64)
+        # np.searchsorted(s, m * np.arange(n) + q, side="right"), by one merge.
+        k = sort_kernels.count_at_most(s, float(m), float(q))
         return cls(s, k, float(m), float(q))
 
     def __len__(self) -> int:

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from startrack.database import build_kernels
+from startrack.database import build_kernels, sort_kernels
 from startrack.database.kvector import KVector
 
 
@@ -32,9 +32,9 @@ def build_pair_arrays(vectors: np.ndarray, max_angle_rad: float) -> dict[str, np
     """All pairs within ``max_angle_rad``, as arrays sorted by angle."""
     vectors = np.ascontiguousarray(vectors, dtype=np.float64).reshape(-1, 3)
     i, j, angle = build_kernels.close_pairs(vectors, float(max_angle_rad))
-    order = build_kernels.stable_argsort(angle, 0.0, float(max_angle_rad))
-    return {"i": i[order].astype(np.int32), "j": j[order].astype(np.int32),
-            "angle": angle[order]}
+    order = sort_kernels.stable_argsort(angle, 0.0, float(max_angle_rad))
+    i, j, angle = sort_kernels.take_pairs(order, i, j, angle)
+    return {"i": i, "j": j, "angle": angle}
 
 
 def pair_table_from_arrays(arrays: dict[str, np.ndarray]) -> PairTable:

@@ -27,6 +27,7 @@ hypotheses at a time, so that verification's first acceptance ends the search.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterator
 
 import numpy as np
@@ -83,6 +84,12 @@ class PyramidMatcher(Matcher):
         for table in self._tables():
             pair_index(table, len(self.database.vectors))
 
+    @functools.cached_property
+    def _scratch(self) -> np.ndarray:
+        # The search's grouping heads: all -1 between calls, so one per matcher serves
+        # every frame instead of a fresh fill over the catalog each time.
+        return np.full((2, len(self.database.vectors)), -1, np.int64)
+
     def _tables(self) -> list:
         tables = [self.database.pattern_pairs(self.pattern_per_region, self.region_radius_deg)]
         if self.pattern_per_region is not None and self.fallback:
@@ -110,7 +117,7 @@ class PyramidMatcher(Matcher):
                 start, cols, rows = pyramid_kernels.search(
                     triples, start, ang, vec, tol, CONFIRM_RADIUS * tol,
                     self.database.vectors, self.max_triangles, self.max_pyramids, tab,
-                    full, stats)
+                    full, stats, self._scratch)
                 self._count(stats, diag)
                 for row in rows:
                     yield Hypothesis(cols, row)

@@ -142,12 +142,12 @@ def confirm(tri, ijk, ang, vec, tol, radius, cat, max_pyramids, lists):
 
 @njit(cache=True)
 def search(triples, start, ang, vec, tol, radius, cat, max_triangles, max_pyramids, tab,
-           full, stats):
+           full, stats, heads):
     """Try ``triples`` from ``start`` until one gives hypotheses. Returns (next triple,
     observed stars (3 or 4), hypothesis rows); next = len(triples) when none did. ``stats``
-    accumulates (triples tried, triangles found, candidate pairs, pivots)."""
+    accumulates (triples tried, triangles found, candidate pairs, pivots). ``heads``:
+    (2, n_catalog) scratch of -1, left as it was found (see :func:`triangles`)."""
     pi, pj, angle = tab[0], tab[1], tab[2]
-    heads = np.full((2, len(cat)), -1, np.int64)
     n = len(vec)
     for s in range(start, len(triples)):
         i, j, k = triples[s, 0], triples[s, 1], triples[s, 2]

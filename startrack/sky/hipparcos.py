@@ -9,6 +9,7 @@ import numpy as np
 
 from startrack.cache import cache_dir, cached_parse
 from startrack.errors import InputError
+from startrack.sky import parse_kernels
 from startrack.sky.catalog import Catalog, vectors_to_radec
 
 # Bump when the parsed arrays change meaning, so stale caches are never reused.
@@ -48,6 +49,22 @@ def _fixed_width_column(raw: np.ndarray, start: int, stop: int) -> np.ndarray:
     return text.astype(np.float64)
 
 
+def _records(data: bytes) -> np.ndarray:
+    """The non-blank records of ``data`` as bytes (records x _RECORD_LEN), as one array
+    when the lines have one length (hip2.dat's are 276 bytes), else line by line."""
+    raw = parse_kernels.records(data, _RECORD_LEN)
+    if raw is not None:
+        return np.ascontiguousarray(raw[~parse_kernels.blank_rows(raw), :_RECORD_LEN])
+    lines = [line for line in data.splitlines() if line.strip()]
+    return np.array(lines, dtype=f"S{_RECORD_LEN}").view(np.uint8).reshape(len(lines), -1)
+
+
+def _column(raw: np.ndarray, start: int, stop: int) -> np.ndarray:
+    """:func:`_fixed_width_column`, compiled when every field is a plain decimal."""
+    values, ok = parse_kernels.decimal_column(raw, start - 1, stop)
+    return values if ok else _fixed_width_column(raw, start, stop)
+
+
 def parse_hip2(path: Path) -> dict[str, np.ndarray]:
     """HIP, J1991.25 position, proper motion and Hp of every usable record in ``path``.
 
@@ -55,15 +72,14 @@ def parse_hip2(path: Path) -> dict[str, np.ndarray]:
     is taken as zero so the star stays at its catalog position.
     """
     try:
-        lines = Path(path).read_bytes().splitlines()
+        data = Path(path).read_bytes()
     except OSError as exc:
         raise InputError(f"{path}: cannot read the Hipparcos catalog ({exc.strerror})") from exc
-    lines = [line for line in lines if line.strip()]
-    if not lines:
+    raw = _records(data)
+    if not len(raw):
         raise InputError(f"{path}: the Hipparcos catalog is empty")
-    raw = np.array(lines, dtype=f"S{_RECORD_LEN}").view(np.uint8).reshape(len(lines), -1)
     try:
-        cols = {name: _fixed_width_column(raw, *span) for name, span in _COLUMNS.items()}
+        cols = {name: _column(raw, *span) for name, span in _COLUMNS.items()}
     except ValueError as exc:
         raise InputError(f"{path}: not in the I/311 hip2.dat format ({exc})") from exc
     good = np.isfinite(cols["hip"]) & np.isfinite(cols["ra_rad"])

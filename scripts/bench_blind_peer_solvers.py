@@ -1,0 +1,134 @@
+"""tetra3 and tetra3rs for scripts/bench_blind_peers.py: databases over a range of FOVs
+built from the frames' catalog (cached on disk), and one solve call scored the same way as
+startrack's: (rotation, observed rows, catalog directions of the named stars) or None.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from startrack.cache import cached_file
+from startrack.matchers._peer import positions_to_indices, write_gaia_binary, write_hip_main
+from startrack.matchers.tetra3 import attitude_from_tetra3, tetra3_centroids
+from startrack.matchers.tetra3rs import attitude_from_tetra3rs, tetra3rs_centroids
+
+
+def ranges(fov: float, search: float, tolerance: float, span: float) -> dict:
+    """The databases' FOV ranges: "fov" spans every estimate's searched range, "blind"
+    the no-FOV span about the true FOV."""
+    return {"fov": (fov * (1 - tolerance) * (1 - search), fov * (1 + tolerance) * (1 + search)),
+            "blind": (fov / span, fov * span)}
+
+
+class _Peer:
+    def __init__(self, catalog, camera, fov, search, tolerance, span, timeout_ms) -> None:
+        self.catalog, self.camera, self.search = catalog, camera, search
+        self.timeout_ms = float(timeout_ms)
+        self.ranges = ranges(fov, search, tolerance, span)
+        self._db: dict[str, object] = {}
+
+    def db(self, mode: str):
+        if mode not in self._db:
+            lo, hi = self.ranges[mode]
+            self._db[mode] = self.build(lo, hi)
+        return self._db[mode]
+
+    def named(self, obs_index: np.ndarray, ids: np.ndarray):
+        """Observed rows and catalog directions of the peer's named stars (an id it names
+        that is not in the catalog is a wrong star: a direction no true star has)."""
+        rows = self.catalog.index_of(np.asarray(ids, dtype=np.int64))
+        vectors = np.where((rows >= 0)[:, None], self.catalog.vectors[np.maximum(rows, 0)],
+                           -self.catalog.vectors[np.maximum(rows, 0)])
+        keep = obs_index >= 0
+        return obs_index[keep], vectors[keep]
+
+
+class Tetra3(_Peer):
+    def build(self, lo: float, hi: float):
+        import tetra3
+
+        logger = logging.getLogger("tetra3.Tetra3")
+        if not logger.handlers:  # else tetra3 adds a console handler logging at INFO
+            logger.addHandler(logging.NullHandler())
+        logger.setLevel(logging.WARNING)
+        catalog = self.catalog
+
+        def make(path: Path) -> None:
+            with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+                star_file = Path(tmp) / "hip_main.dat"
+                write_hip_main(catalog, star_file)
+                t3 = tetra3.Tetra3(load_database=None)
+                t3.generate_database(max_fov=hi, min_fov=lo, star_catalog=str(star_file),
+                                     star_max_magnitude=float(catalog.mag.max()) + 1e-3,
+                                     epoch_proper_motion=None)
+                t3.save_database(path)
+
+        params = {"catalog": catalog.fingerprint(), "lo": round(lo, 6), "hi": round(hi, 6)}
+        return tetra3.Tetra3(load_database=cached_file("tetra3-range", params, ".npz", make))
+
+    def solve(self, frame, est: float | None):
+        solver = self.db("blind" if est is None else "fov")
+        centroids = tetra3_centroids(frame.obs)
+        t0 = time.perf_counter()
+        r = solver.solve_from_centroids(
+            centroids, (self.camera.height, self.camera.width), fov_estimate=est,
+            fov_max_error=None if est is None else self.search * est, distortion=None,
+            return_matches=True, solve_timeout=self.timeout_ms)
+        ms = (time.perf_counter() - t0) * 1000.0
+        if r.get("RA") is None:
+            return None, ms
+        rot = attitude_from_tetra3(r["RA"], r["Dec"], r["Roll"])
+        obs_index = positions_to_indices(centroids, np.asarray(r["matched_centroids"]))
+        return (rot, *self.named(obs_index, r["matched_catID"])), ms
+
+
+class Tetra3rs(_Peer):
+    def build(self, lo: float, hi: float):
+        import tetra3rs
+
+        catalog = self.catalog
+
+        def make(path: Path) -> None:
+            star_file = path.with_name(path.name + "-catalog.bin")
+            try:
+                write_gaia_binary(catalog, star_file)
+                db = tetra3rs.SolverDatabase.generate_from_gaia(
+                    str(star_file), max_fov_deg=hi, min_fov_deg=lo,
+                    star_max_magnitude=float(catalog.mag.max()) + 1e-3,
+                    epoch_proper_motion_year=None)
+                db.save_to_file(str(path))
+            finally:
+                star_file.unlink(missing_ok=True)
+
+        params = {"catalog": catalog.fingerprint(), "lo": round(lo, 6), "hi": round(hi, 6)}
+        path = cached_file("tetra3rs-range", params, ".bin", make)
+        return tetra3rs.SolverDatabase.load_from_file(str(path))
+
+    def solve(self, frame, est: float | None):
+        solver = self.db("blind" if est is None else "fov")
+        if est is None:  # no unknown-FOV mode: the centre of its range, the range as error
+            lo, hi = self.ranges["blind"]
+            est = math.sqrt(lo * hi)
+            max_error = max(hi - est, est - lo)
+        else:
+            max_error = self.search * est
+        t0 = time.perf_counter()
+        r = solver.solve_from_centroids(
+            tetra3rs_centroids(frame.obs), fov_estimate_deg=est, fov_max_error_deg=max_error,
+            image_width=self.camera.width, image_height=self.camera.height,
+            solve_timeout_ms=int(self.timeout_ms))
+        ms = (time.perf_counter() - t0) * 1000.0
+        if not r or r.parity_flip:
+            return None, ms
+        rot = attitude_from_tetra3rs(r.rotation_matrix_icrs_to_camera)
+        obs_index = np.asarray(r.matched_centroids, dtype=np.int64)
+        return (rot, *self.named(obs_index, r.matched_catalog_ids)), ms
+
+
+PEERS = {"tetra3": Tetra3, "tetra3rs": Tetra3rs}

@@ -1,0 +1,272 @@
+"""Compiled kernel of the final labelling (startrack.labelling): one call per accepted
+attitude (numba; a frame has tens of stars, and numpy over the dense observed x catalog
+tables spent most of its time in per-call overhead).
+
+:func:`label_kernel` is the implementation of :func:`startrack.labelling.label_stars`; the
+rules are described there. It follows numpy's semantics where they decide a result: a
+median is NaN when any value is NaN and the mean of the middle two for an even count, the
+best score is the first maximum with NaN counted as the maximum, a runner-up is NaN when
+any other score is NaN, and a comparison with NaN is False. Where the numpy version raised
+(a log of zero for a zero fitted scatter, the magnitude span of no catalog star), this
+raises the same ``ValueError``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+_MAD_TO_SIGMA = 1.4826
+_MEDIAN_R2_TO_SIGMA2 = 1.0 / (2.0 * math.log(2.0))  # Rayleigh: median d^2 = 2 ln2 sigma^2
+#: The order of :data:`withheld`'s counts: brightness, unresolved, ambiguous, coincidence.
+N_REASONS = 4
+
+
+@njit(cache=True)
+def _median(values):
+    """numpy's median: NaN for no value or any NaN, the middle two averaged."""
+    n = len(values)
+    if n == 0:
+        return np.nan
+    s = np.sort(values)  # NaN sorts last
+    if np.isnan(s[n - 1]):
+        return np.nan
+    if n % 2:
+        return s[n // 2]
+    return (s[n // 2 - 1] + s[n // 2]) / 2.0
+
+
+@njit(cache=True)
+def _log(value):
+    """math.log, raising where Python's does (numba's gives -inf or NaN)."""
+    if value <= 0.0:
+        raise ValueError("math domain error")
+    return math.log(value)
+
+
+@njit(cache=True)
+def _best_two(score):
+    """Per row: the index of the best score (numpy's argmax), the best and the runner-up
+    (numpy's max of the rest: NaN if any is NaN; -inf if none)."""
+    n, m = score.shape
+    best = np.zeros(n, np.int64)
+    top = np.full(n, -np.inf)
+    nxt = np.full(n, -np.inf)
+    for i in range(n):
+        if m == 0:
+            continue
+        b, t = 0, score[i, 0]
+        for j in range(1, m):
+            if np.isnan(t):
+                break
+            v = score[i, j]
+            if np.isnan(v) or v > t:
+                b, t = j, v
+        r = -np.inf
+        for j in range(m):
+            v = score[i, j]
+            if j != b and (np.isnan(v) or v > r):
+                r = v
+        best[i], top[i], nxt[i] = b, t, r
+    return best, top, nxt
+
+
+@njit(cache=True)
+def _isolated(near):
+    """Pairs that are each other's only candidate, in row-major order."""
+    n_obs, n_cat = near.shape
+    per_obs = np.zeros(n_obs, np.int64)
+    per_cat = np.zeros(n_cat, np.int64)
+    for i in range(n_obs):
+        for j in range(n_cat):
+            if near[i, j]:
+                per_obs[i] += 1
+                per_cat[j] += 1
+    oi = np.empty(n_obs, np.int64)
+    ci = np.empty(n_obs, np.int64)
+    k = 0
+    for i in range(n_obs):
+        for j in range(n_cat):
+            if near[i, j] and per_obs[i] == 1 and per_cat[j] == 1:
+                oi[k], ci[k] = i, j
+                k += 1
+    return oi[:k], ci[:k]
+
+
+@njit(cache=True, error_model="numpy")  # x / 0 is inf or NaN, as numpy's
+def _brightness(flux, has_flux, near, mag, oi, ci, mag_sigmas, min_mag_sigma, min_fit):
+    """Per pair, whether it is consistent in brightness and the log-likelihood ratio of
+    its brightness (true star against false star; 0 without a usable flux); the fitted
+    scatter and whether brightness is used (not without flux, nor with too few isolated
+    pairs with a usable one). Only the ``near`` pairs are evaluated: no other is a
+    candidate."""
+    n_obs, n_cat = near.shape
+    ok = np.ones((n_obs, n_cat), np.bool_)
+    log_b = np.zeros((n_obs, n_cat))
+    if not has_flux:
+        return ok, log_b, np.nan, False
+    usable = np.zeros(n_obs, np.bool_)
+    inst = np.full(n_obs, np.nan)
+    for i in range(n_obs):
+        usable[i] = np.isfinite(flux[i]) and flux[i] > 0.0
+        if usable[i]:
+            inst[i] = -2.5 * math.log10(flux[i])
+    keep = np.flatnonzero(usable[oi])
+    if len(keep) < min_fit:
+        return ok, log_b, np.nan, False
+    offset = inst[oi[keep]] - mag[ci[keep]]
+    zero = _median(offset)
+    sigma = _MAD_TO_SIGMA * _median(np.abs(offset - zero))
+    if min_mag_sigma > sigma:
+        sigma = min_mag_sigma
+    if n_cat == 0:  # as numpy's ptp of nothing
+        raise ValueError("zero-size array to reduction operation maximum which has no identity")
+    span = np.nan if np.isnan(mag).any() else mag.max() - mag.min()
+    if 2.0 * mag_sigmas * sigma > span:
+        span = 2.0 * mag_sigmas * sigma
+    if span == 0.0:  # as Python's float division
+        raise ZeroDivisionError("float division by zero")
+    norm = _log(sigma * math.sqrt(2.0 * math.pi) / span)
+    limit = mag_sigmas * sigma
+    for i in range(n_obs):
+        if usable[i]:
+            for j in range(n_cat):
+                if not near[i, j]:
+                    continue
+                off = abs(inst[i] - mag[j] - zero)
+                ok[i, j] = off <= limit
+                t = off / sigma
+                log_b[i, j] = -0.5 * (t * t) - norm
+    return ok, log_b, sigma, True
+
+
+@njit(cache=True)
+def _rivals(cand, log_g, gap):
+    """Each observed star's best catalog candidate and its score, and whether that pair
+    has no rival on either side within the likelihood ``gap``."""
+    n_obs, n_cat = cand.shape
+    best_c, top_o, next_o = _best_two(log_g)
+    # -inf - -inf (no candidate at all) is NaN, and NaN > gap is False.
+    clear_o = np.isfinite(top_o) & ~(next_o - top_o > gap)
+    score = np.full((n_cat, n_obs), -np.inf)  # per catalog star: its rival observed stars
+    for i in range(n_obs):
+        for j in range(n_cat):
+            # An observed star clearly matched to another catalog star is no rival here.
+            if cand[i, j] and not (clear_o[i] and best_c[i] != j):
+                score[j, i] = log_g[i, j]
+    best_i, top_c, next_c = _best_two(score)
+    clear_c = np.isfinite(top_c) & ~(next_c - top_c > gap)
+    clear = np.zeros(n_obs, np.bool_)
+    if n_cat:
+        for i in range(n_obs):
+            j = best_c[i]
+            clear[i] = clear_o[i] and clear_c[j] and best_i[j] == i
+    return best_c, top_o, clear
+
+
+@njit(cache=True)
+def _tables(ox, oy, x, y, radius2):
+    """Squared distances observed x catalog, and which are within the match radius."""
+    d2 = np.empty((len(ox), len(x)))
+    for i in range(len(ox)):
+        for j in range(len(x)):
+            dx, dy = ox[i] - x[j], oy[i] - y[j]
+            d2[i, j] = dx * dx + dy * dy
+    return d2, d2 <= radius2
+
+
+@njit(cache=True)
+def _residual_sigma(d2, oi, ci, sigma0, min_sigma_px, min_fit):
+    """The residual scatter per axis: fitted over the isolated pairs when there are enough
+    (``sigma0`` otherwise), floored at ``min_sigma_px``."""
+    sigma = sigma0
+    if len(oi) >= min_fit:
+        pair_d2 = np.empty(len(oi))
+        for k in range(len(oi)):
+            pair_d2[k] = d2[oi[k], ci[k]]
+        sigma = math.sqrt(_median(pair_d2) * _MEDIAN_R2_TO_SIGMA2)
+    if min_sigma_px > sigma:
+        sigma = min_sigma_px
+    return sigma
+
+
+@njit(cache=True)
+def _coincidence_log(near, area):
+    """Log density (per px^2) of a false star on an unobserved catalog star, and the log
+    probability that a catalog star is observed, from this frame's own counts (plus one,
+    so that a clean frame still allows for one)."""
+    n_obs, n_cat = near.shape
+    n_false = n_obs - int(np.count_nonzero(near.sum(axis=1)))
+    n_unobserved = n_cat - int(np.count_nonzero(near.sum(axis=0)))
+    unobserved = (n_unobserved + 1.0) / (n_cat + 2.0)
+    return _log((n_false + 1.0) / area * unobserved), _log(1.0 - unobserved)
+
+
+@njit(cache=True)
+def _unresolved(x, y, j, resolve2):
+    """Whether another catalog star lies within ``sqrt(resolve2)`` of catalog star j."""
+    for k in range(len(x)):
+        dx, dy = x[j] - x[k], y[j] - y[k]
+        if k != j and dx * dx + dy * dy < resolve2:
+            return True
+    return False
+
+
+@njit(cache=True)
+def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area, gap,
+                 log_false_odds, resolve2, mag_sigmas, min_mag_sigma, min_sigma_px, min_fit):
+    """The final labelling (:func:`startrack.labelling.label_stars`, whose parameters
+    these are, the logs and squares taken).
+
+    Returns
+    -------
+    tuple
+        ``obs_index`` (ascending) and ``cat_index`` (from ``rows``) of the reported pairs;
+        the withheld counts (:data:`N_REASONS`, in order); the fitted residual scatter;
+        the fitted brightness scatter and whether brightness was used.
+    """
+    n_obs, n_cat = len(ox), len(x)
+    d2, near = _tables(ox, oy, x, y, radius2)
+    oi, ci = _isolated(near)
+    sigma = _residual_sigma(d2, oi, ci, sigma0, min_sigma_px, min_fit)
+    bright, log_b, mag_sigma, used = _brightness(flux, has_flux, near, mag, oi, ci,
+                                                 mag_sigmas, min_mag_sigma, min_fit)
+    cand = near & bright
+    log_false, log_seen = _coincidence_log(near, area)
+    log_norm = _log(2.0 * math.pi * (sigma * sigma))  # before dividing by sigma^2
+    log_g = np.full((n_obs, n_cat), -np.inf)  # residual log-likelihood of the candidates
+    for i in range(n_obs):
+        for j in range(n_cat):
+            if cand[i, j]:
+                log_g[i, j] = -d2[i, j] / (2.0 * (sigma * sigma))
+    best_c, top, clear = _rivals(cand, log_g, gap)
+    withheld = np.zeros(N_REASONS, np.int64)
+    ok = np.zeros(n_obs, np.bool_)
+    for i in range(n_obs):
+        if not near[i].any():
+            continue
+        log_true = log_seen + top[i] - log_norm
+        if n_cat:
+            log_true = log_true + log_b[i, best_c[i]]
+        if not cand[i].any():
+            withheld[0] += 1
+        elif n_cat and _unresolved(x, y, best_c[i], resolve2):
+            withheld[1] += 1
+        elif not clear[i]:
+            withheld[2] += 1
+        elif not log_false - log_true <= log_false_odds:  # NaN: withheld
+            withheld[3] += 1
+        else:
+            ok[i] = True
+    obs_index = np.flatnonzero(ok)
+    return obs_index, rows[best_c[obs_index]], withheld, sigma, mag_sigma, used
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) :func:`label_kernel` with the argument types
+    :func:`startrack.labelling.label_stars` passes, so that no timed frame compiles it."""
+    v = np.array([10.0, 40.0, 70.0, 100.0, 130.0, 160.0])
+    label_kernel(v, v, v, v, v / 30.0, np.arange(len(v), dtype=np.int64), v, True, 16.0, 1.0,
+                 1e4, math.log(1e-3), math.log(1e-3), 4.0, 5.0, 0.03, 0.02, 5)

@@ -1,0 +1,77 @@
+"""Compiled nearest-star pairing of observed and projected catalog positions on a grid of
+cells, so that a frame of hundreds of stars costs O(n + m) and not O(n m)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+GRID_CELLS = 64  # cells per axis at most: a frame's hundreds of stars spread thin
+
+
+@njit(cache=True)
+def _grid(cx, cy, x0, y0, size, nx, ny):
+    """Catalog positions bucketed in square cells: (cell start offsets, rows by cell)."""
+    start = np.zeros(nx * ny + 1, np.int64)
+    cell = np.empty(cx.shape[0], np.int64)
+    for j in range(cx.shape[0]):
+        cell[j] = int((cy[j] - y0) / size) * nx + int((cx[j] - x0) / size)
+        start[cell[j] + 1] += 1
+    for c in range(nx * ny):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    order = np.empty(cx.shape[0], np.int64)
+    for j in range(cx.shape[0]):
+        order[fill[cell[j]]] = j
+        fill[cell[j]] += 1
+    return start, order
+
+
+@njit(cache=True)
+def _nearest(ox, oy, cx, cy, radius_px):
+    """Per observed star, its nearest catalog star if within ``radius_px`` (else -1; on a
+    tie the lower index) and the squared distance: a grid of cells no smaller than the
+    radius, so that only the 3 x 3 cells around a star can hold its match."""
+    n, m = ox.shape[0], cx.shape[0]
+    nearest = np.full(n, -1, np.int64)
+    dist2 = np.full(n, np.inf)
+    if n == 0 or m == 0:
+        return nearest, dist2
+    x0, y0 = min(ox.min(), cx.min()), min(oy.min(), cy.min())
+    x1, y1 = max(ox.max(), cx.max()), max(oy.max(), cy.max())
+    size = max(radius_px, (x1 - x0) / GRID_CELLS, (y1 - y0) / GRID_CELLS, 1e-9)
+    nx, ny = int((x1 - x0) / size) + 1, int((y1 - y0) / size) + 1
+    start, order = _grid(cx, cy, x0, y0, size, nx, ny)
+    r2 = radius_px * radius_px
+    for i in range(n):
+        gx, gy = int((ox[i] - x0) / size), int((oy[i] - y0) / size)
+        best, best_d = -1, np.inf
+        for yy in range(max(gy - 1, 0), min(gy + 2, ny)):
+            for xx in range(max(gx - 1, 0), min(gx + 2, nx)):
+                c = yy * nx + xx
+                for q in range(start[c], start[c + 1]):
+                    j = order[q]
+                    d = (ox[i] - cx[j]) ** 2 + (oy[i] - cy[j]) ** 2
+                    if d < best_d or (d == best_d and j < best):
+                        best, best_d = j, d
+        if best >= 0 and best_d <= r2:
+            nearest[i], dist2[i] = best, best_d
+    return nearest, dist2
+
+
+@njit(cache=True)
+def nearest_matches(ox, oy, cx, cy, radius_px):
+    """Pair each observed star (ox, oy) with its nearest catalog star (cx, cy) within
+    ``radius_px``; a catalog star claimed by several keeps the nearest (on a tie, the
+    first). Returns (observed rows ascending, catalog positions)."""
+    nearest, dist2 = _nearest(ox, oy, cx, cy, radius_px)
+    owner = np.full(cx.shape[0], -1, np.int64)
+    for i in range(ox.shape[0]):
+        j = nearest[i]
+        if j >= 0 and (owner[j] < 0 or dist2[i] < dist2[owner[j]]):
+            owner[j] = i
+    keep = np.zeros(ox.shape[0], np.bool_)
+    for i in range(ox.shape[0]):
+        keep[i] = nearest[i] >= 0 and owner[nearest[i]] == i
+    rows = np.flatnonzero(keep)
+    return rows, nearest[rows]

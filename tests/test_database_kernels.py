@@ -1,0 +1,96 @@
+"""The compiled build and parse kernels give exactly numpy's answers, bit for bit."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from startrack.database import build_kernels, sort_kernels
+from startrack.database.kvector import KVector
+from startrack.database.pairs import build_pair_arrays
+from startrack.sky import parse_kernels, random_sky
+
+
+def test_merge_counts_are_searchsorted():
+    rng = np.random.default_rng(5)
+    for s in (np.sort(rng.uniform(0, 1, 5000)), np.repeat(np.linspace(0, 1, 9), 30),
+              np.full(40, 0.5), np.array([0.3])):
+        table = KVector.build(s)
+        z = table.m * np.arange(len(s), dtype=np.float64) + table.q
+        np.testing.assert_array_equal(table.k, np.searchsorted(s, z, side="right"))
+    assert sort_kernels.is_sorted(np.array([0.0, 0.0, 1.0]))
+    assert not sort_kernels.is_sorted(np.array([0.0, 1.0, 0.5]))
+    with pytest.raises(ValueError):
+        KVector.build(np.array([0.2, 0.1]))
+
+
+def test_keyed_bucket_sort_on_ties_and_clusters():
+    rng = np.random.default_rng(9)
+    values = np.concatenate([rng.normal(0.2, 1e-7, 2000), np.full(300, 0.7),
+                             rng.uniform(0, 1, 3000)]).clip(0, 1)
+    rng.shuffle(values)
+    np.testing.assert_array_equal(sort_kernels.stable_argsort(values, 0.0, 1.0),
+                                  np.argsort(values, kind="stable"))
+
+
+def test_pair_build_equals_brute_force():
+    sky = random_sky(600, seed=4)
+    arrays = build_pair_arrays(sky.vectors, math.radians(15.0))
+    cos = np.clip(sky.vectors @ sky.vectors.T, -1, 1)
+    i, j = np.triu_indices(len(sky), 1)
+    close = cos[i, j] >= math.cos(math.radians(15.0))
+    assert arrays["i"].dtype == arrays["j"].dtype == np.int32
+    assert len(arrays["angle"]) == close.sum()
+    assert np.all(np.diff(arrays["angle"]) >= 0) and np.all(arrays["i"] < arrays["j"])
+    got = set(zip(arrays["i"].tolist(), arrays["j"].tolist(), strict=True))
+    assert got == set(zip(i[close].tolist(), j[close].tolist(), strict=True))
+    np.testing.assert_allclose(arrays["angle"], np.arccos(cos[arrays["i"], arrays["j"]]),
+                               atol=1e-12)
+
+
+def test_take_applies_the_order():
+    rng = np.random.default_rng(2)
+    order = rng.permutation(500)
+    rows, area, polar = rng.integers(0, 99, (500, 3)), rng.random(500), rng.random(500)
+    tr, ta, tp = sort_kernels.take_triangles(order, rows, area, polar)
+    np.testing.assert_array_equal(tr, rows[order].astype(np.int32))
+    assert tr.dtype == np.int32
+    np.testing.assert_array_equal(ta, area[order])
+    np.testing.assert_array_equal(tp, polar[order])
+    assert build_kernels.stable_argsort is sort_kernels.stable_argsort
+
+
+def _field_bytes(texts: list[str], width: int) -> np.ndarray:
+    return np.array([t.rjust(width).encode() for t in texts],
+                    dtype=f"S{width}").view(np.uint8).reshape(len(texts), width)
+
+
+def test_decimal_fields_are_parsed_as_numpy_parses_them():
+    rng = np.random.default_rng(11)
+    texts = [f"{x:.{d}f}" for x, d in zip(rng.normal(0, 300, 3000), rng.integers(0, 11, 3000),
+                                          strict=True)]
+    texts += ["-0.00", "0", "+1.5", "123456789012345", "0.0000159148", "-.5", "7."]
+    raw = _field_bytes(texts, 16)
+    values, ok = parse_kernels.decimal_column(raw, 0, 16)
+    assert ok
+    want = np.array(texts, dtype="S16").astype(np.float64)
+    assert values.tobytes() == want.tobytes()  # bit for bit, signed zero included
+    blank, _ = parse_kernels.decimal_column(_field_bytes(["", "1.0"], 6), 0, 6)
+    assert np.isnan(blank[0]) and blank[1] == 1.0
+
+
+@pytest.mark.parametrize("text", ["1e5", "nan", "1.2.3", "12345678901234567", "-", "1\t"])
+def test_other_fields_are_left_to_the_general_parser(text):
+    _, ok = parse_kernels.decimal_column(_field_bytes([text, "2.0"], 20), 0, 20)
+    assert not ok
+
+
+def test_records_need_one_line_length():
+    assert parse_kernels.records(b"abcd\nefgh\n", 3).shape == (2, 4)
+    assert parse_kernels.records(b"abcd\nefgh", 3).shape == (2, 4)  # no final newline
+    assert parse_kernels.records(b"abcd\nefg\n", 3) is None
+    assert parse_kernels.records(b"ab\ncd\n", 3) is None  # shorter than a record
+    raw = parse_kernels.records(b"abcd\n    \nefgh\n", 3)
+    assert parse_kernels.blank_rows(raw).tolist() == [False, True, False]
