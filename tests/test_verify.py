@@ -172,3 +172,32 @@ def test_random_centroids_never_solved_by_default_method(hip_db):
     for _ in range(60):  # scripts/false_positives.py runs 1,000
         obs = _random_obs(hip_db.camera, rng, int(rng.integers(10, 41)))
         assert not identify(obs, matcher, CONFIG).solved
+
+
+def test_refinement_beyond_the_cone_margin_gives_the_same_answer(random_db, monkeypatch):
+    """When refinement moves the boresight beyond the cached cone's margin, verify()
+    leaves the one-call path and refines again on a fresh cone; forcing that on every
+    frame (no margin at all) must give the same identities and attitude."""
+    from startrack.matching import projector
+
+    cases = [(Hypothesis(np.arange(3), f.truth_rows[:3]), f.obs)
+             for f, _ in _frames(random_db, 6, seed=4, noise_px=0.5, false_stars=2)
+             if np.all(f.truth_rows[:3] >= 0)]
+    plain = [verify(h, obs, random_db, CONFIG) for h, obs in cases]
+    calls = []
+    original = projector.CatalogProjector._refine_on_cone
+
+    def counted(self, obs_m, cat_m):
+        calls.append(1)
+        return original(self, obs_m, cat_m)
+
+    monkeypatch.setattr(projector, "CONE_REUSE_FRACTION", 0.0)
+    monkeypatch.setattr(projector.CatalogProjector, "_refine_on_cone", counted)
+    forced = [verify(h, obs, random_db, CONFIG) for h, obs in cases]
+    assert len(calls) >= sum(p.accepted for p in plain) > 0  # the fallback really ran
+    for a, b in zip(plain, forced, strict=True):
+        assert a.accepted == b.accepted
+        np.testing.assert_array_equal(a.obs_index, b.obs_index)
+        np.testing.assert_array_equal(a.cat_index, b.cat_index)
+        if a.accepted:
+            np.testing.assert_allclose(a.matrix, b.matrix, atol=1e-9)

@@ -131,20 +131,20 @@ class CatalogProjector:
 
         ``cat_m`` must be rows of the current cone (as :meth:`match` returns them).
         Returns the matches and the attitude fitted to them."""
+        obs_m, cat_m, matrix = self._refine_on_cone(obs_m, cat_m)
+        if not self.fixed and float(matrix[:, 2] @ self.boresight) < self.margin_cos:
+            # Moved beyond the cone's margin (never by arcseconds): once more on a fresh cone.
+            obs_m, cat_m, _ = self.match(matrix)
+            obs_m, cat_m, matrix = self._refine_on_cone(obs_m, cat_m)
+        return obs_m, cat_m, matrix
+
+    def _refine_on_cone(self, obs_m: np.ndarray, cat_m: np.ndarray,
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         pos = np.searchsorted(self.rows, cat_m)
         obs_m, pos, matrix = kern.refine(self.obs_vectors, self.ox, self.oy, self.vectors,
                                          self.geometry, self.radius_px, CAPTURE,
                                          np.asarray(obs_m, np.int64), pos, MAX_REFINEMENTS)
-        cat_m = self.rows[pos]
-        if not self.fixed and float(matrix[:, 2] @ self.boresight) < self.margin_cos:
-            # Moved beyond the cone's margin (never by arcseconds): once more on a fresh cone.
-            obs_m, cat_m, _ = self.match(matrix)
-            pos = np.searchsorted(self.rows, cat_m)
-            obs_m, pos, matrix = kern.refine(self.obs_vectors, self.ox, self.oy, self.vectors,
-                                             self.geometry, self.radius_px, CAPTURE, obs_m,
-                                             pos, MAX_REFINEMENTS)
-            cat_m = self.rows[pos]
-        return obs_m, cat_m, matrix
+        return obs_m, self.rows[pos], matrix
 
     def accept(self, obs_m: np.ndarray, cat_m: np.ndarray, label_params: tuple,
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
