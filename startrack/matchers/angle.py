@@ -42,7 +42,8 @@ class AngleMatcher(Matcher):
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_chains: int = 56, max_lookups: int = 400, max_skips: int = 2,
                  max_ambiguous: int = 4, max_rows: int = 2_000_000,
-                 closing: str = "until_one") -> None:
+                 closing: str = "until_one", pattern_per_region: int | None = 15,
+                 region_radius_deg: float | None = None) -> None:
         super().__init__(database, config)
         if closing not in CLOSING:
             raise ValueError(f"closing must be one of {', '.join(CLOSING)}, got {closing!r}")
@@ -55,12 +56,24 @@ class AngleMatcher(Matcher):
         # Double stars closer than the centroid noise stay ambiguous whatever the pivots.
         self.max_ambiguous = int(max_ambiguous)
         self.max_rows = int(max_rows)  # a chain whose candidates outgrow this is dropped
+        # The on-board catalog the pairs are looked up in: the pattern stars (fewer than
+        # ``pattern_per_region`` brighter stars within ``region_radius_deg``, as Pyramid's
+        # and the triangle table's), None for every catalog star.
+        self.pattern_per_region = None if pattern_per_region is None else int(pattern_per_region)
+        self.region_radius_deg = region_radius_deg
+
+    def _table(self):
+        return self.database.pattern_pairs(self.pattern_per_region, self.region_radius_deg)
+
+    def prepare(self) -> None:
+        super().prepare()
+        pair_index(self._table(), len(self.database.vectors))
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         n = min(self.config.max_stars, len(obs))
         if n < 3:
             return
-        index = pair_index(self.database.pairs, len(self.database.vectors))
+        index = pair_index(self._table(), len(self.database.vectors))
         lookup = PairLookup(index, obs.vectors[:n], self.angle_tolerance(obs), diag)
         budget = [self.max_lookups]
         # Each chain starts from another ordering of the stars: the first three of a triple

@@ -30,6 +30,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from startrack.database import StarDatabase
+from startrack.database.pairs import PairTable
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
 from startrack.matching import hybrid_kernels
 from startrack.matching.features import feature_sigma, observed_features
@@ -40,18 +41,20 @@ from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
 def angle_votes(vectors: np.ndarray, database: StarDatabase, tolerance: float,
-                diag: MatchDiagnostics) -> tuple[np.ndarray, dict[tuple[int, int], np.ndarray]]:
+                diag: MatchDiagnostics, table: PairTable | None = None,
+                ) -> tuple[np.ndarray, dict[tuple[int, int], np.ndarray]]:
     """Votes (n x catalog rows): in how many of observed star a's pair lookups each catalog
     star appears; and per observed pair (a < b) the matching catalog pairs as (K x 2) rows,
-    both ways round."""
+    both ways round. The lookups are in ``table`` (default: every catalog pair)."""
     n, n_cat = len(vectors), len(database.vectors)
+    table = database.pairs if table is None else table
     votes = np.zeros((n, n_cat), np.int16)
     found: dict[tuple[int, int], np.ndarray] = {}
     mark = np.zeros(n_cat, bool)
     cos = np.clip(vectors @ vectors.T, -1.0, 1.0)
     for a, b in itertools.combinations(range(n), 2):
         theta = float(np.arccos(cos[a, b]))
-        i, j, _ = database.pairs.query(theta - tolerance, theta + tolerance)
+        i, j, _ = table.query(theta - tolerance, theta + tolerance)
         diag.candidates += len(i)
         found[a, b] = np.column_stack([np.concatenate([i, j]), np.concatenate([j, i])])
         mark[:] = False
@@ -70,20 +73,35 @@ class HybridMatcher(Matcher):
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_false: int = 3, max_per_triangle: int = 5,
-                 max_unconfirmed: int = 10, fourth_star: bool = True) -> None:
+                 max_unconfirmed: int = 10, fourth_star: bool = True,
+                 pattern_per_region: int | None = 15,
+                 region_radius_deg: float | None = None) -> None:
         super().__init__(database, config)
+        # The on-board catalog of the angle lookups: the pattern stars (fewer than
+        # ``pattern_per_region`` brighter stars within ``region_radius_deg``, as Pyramid's
+        # and the triangle table's), None for every catalog star.
+        self.pattern_per_region = None if pattern_per_region is None else int(pattern_per_region)
+        self.region_radius_deg = region_radius_deg
         self.fourth_star = bool(fourth_star)
         self.max_unconfirmed = max_unconfirmed  # per pass, best first
         self.max_false = max_false  # votes the last pass may miss (false partners)
         self.max_per_triangle = max_per_triangle
+
+    def _table(self) -> PairTable:
+        return self.database.pattern_pairs(self.pattern_per_region, self.region_radius_deg)
+
+    def prepare(self) -> None:
+        super().prepare()
+        pair_index(self._table(), len(self.database.vectors))
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         n = min(self.config.max_stars, len(obs))
         if n < 3:
             return
         tol = self.angle_tolerance(obs)
-        votes, _ = angle_votes(obs.vectors[:n], self.database, tol, diag)
-        index = pair_index(self.database.pairs, len(self.database.vectors))
+        table = self._table()
+        votes, _ = angle_votes(obs.vectors[:n], self.database, tol, diag, table)
+        index = pair_index(table, len(self.database.vectors))
         ang = angle_table(obs.vectors[:n])
         windows = {(a, b): np.array(index.window(ang[a, b] - tol, ang[a, b] + tol))
                    for a, b in itertools.combinations(range(n), 2)}
@@ -107,7 +125,7 @@ class HybridMatcher(Matcher):
 
         k = self.config.tolerance_sigma
         cat = self.database.vectors
-        index = pair_index(self.database.pairs, len(cat))
+        index = pair_index(self._table(), len(cat))
         pi, pj, tol = index.pi, index.pj, self.angle_tolerance(obs)
         ang = angle_table(vec)
         heads = np.full(len(cat), -1, np.int64)
