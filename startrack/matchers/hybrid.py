@@ -24,7 +24,7 @@ from catalog vectors), so it covers every catalog star, not only the pattern sta
 
 from __future__ import annotations
 
-import itertools
+import functools
 from collections.abc import Iterator
 
 import numpy as np
@@ -33,7 +33,7 @@ from startrack.database import StarDatabase
 from startrack.database.pairs import PairTable
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
 from startrack.matching import hybrid_kernels
-from startrack.matching.features import feature_sigma, observed_features
+from startrack.matching.features import feature_sigma
 from startrack.matching.geometry import angle_table, handedness
 from startrack.matching.pairs import pair_index
 from startrack.matching.triples import brightness_triples
@@ -42,26 +42,27 @@ from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 def angle_votes(vectors: np.ndarray, database: StarDatabase, tolerance: float,
                 diag: MatchDiagnostics, table: PairTable | None = None,
-                ) -> tuple[np.ndarray, dict[tuple[int, int], np.ndarray]]:
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Votes (n x catalog rows): in how many of observed star a's pair lookups each catalog
-    star appears; and per observed pair (a < b) the matching catalog pairs as (K x 2) rows,
-    both ways round. The lookups are in ``table`` (default: every catalog pair)."""
-    n, n_cat = len(vectors), len(database.vectors)
-    table = database.pairs if table is None else table
-    votes = np.zeros((n, n_cat), np.int16)
-    found: dict[tuple[int, int], np.ndarray] = {}
-    mark = np.zeros(n_cat, bool)
-    cos = np.clip(vectors @ vectors.T, -1.0, 1.0)
-    for a, b in itertools.combinations(range(n), 2):
-        theta = float(np.arccos(cos[a, b]))
-        i, j, _ = table.query(theta - tolerance, theta + tolerance)
-        diag.candidates += len(i)
-        found[a, b] = np.column_stack([np.concatenate([i, j]), np.concatenate([j, i])])
-        mark[:] = False
-        mark[i] = mark[j] = True  # a star in several pairs of one lookup votes once
-        votes[a] += mark
-        votes[b] += mark
-    return votes, found
+    star appears (once per lookup); and each observed pair's lookup as table entries
+    [start, stop) (n x n x 2, symmetric). The lookups are in ``table`` (default: every
+    catalog pair), compiled."""
+    n = len(vectors)
+    index = pair_index(database.pairs if table is None else table, len(database.vectors))
+    ang = angle_table(vectors)
+    windows = np.zeros((n, n, 2), np.int64)
+    lo = np.searchsorted(index.angle, ang - tolerance, side="left")
+    hi = np.searchsorted(index.angle, ang + tolerance, side="right")
+    windows[..., 0], windows[..., 1] = lo, np.maximum(hi, lo)
+    upper = np.triu_indices(n, 1)
+    diag.candidates += int((windows[..., 1] - windows[..., 0])[upper].sum())
+    votes = hybrid_kernels.angle_votes(index.pi, index.pj, windows, index.n_catalog)
+    return votes, windows
+
+
+@functools.lru_cache(maxsize=16)
+def _triples(n: int) -> np.ndarray:
+    return np.array(brightness_triples(n), np.int64).reshape(-1, 3)
 
 
 @register
@@ -98,73 +99,73 @@ class HybridMatcher(Matcher):
         n = min(self.config.max_stars, len(obs))
         if n < 3:
             return
-        tol = self.angle_tolerance(obs)
-        table = self._table()
-        votes, _ = angle_votes(obs.vectors[:n], self.database, tol, diag, table)
-        index = pair_index(table, len(self.database.vectors))
-        ang = angle_table(obs.vectors[:n])
-        windows = {(a, b): np.array(index.window(ang[a, b] - tol, ang[a, b] + tol))
-                   for a, b in itertools.combinations(range(n), 2)}
-        triples = brightness_triples(n)
-        sigma = feature_sigma(obs, self.config.tolerance_sigma, self.config.min_tolerance_rad)
-        feats = observed_features(obs.vectors[:n], triples, sigma)
+        vec = np.ascontiguousarray(obs.vectors[:n])
+        tol, k = self.angle_tolerance(obs), self.config.tolerance_sigma
+        votes, windows = angle_votes(vec, self.database, tol, diag, self._table())
+        tri = _triples(n)
+        # observed_features' numbers, compiled for one frame's few triples
+        feats = hybrid_kernels.triple_features(
+            vec, tri, feature_sigma(obs, k, self.config.min_tolerance_rad))
+        # The mirror image has the same area and moment: its handedness tells it apart,
+        # unless the triangle is too flat for its sign to be sure.
+        hands = np.where(feats[:, 0] > k * feats[:, 2],
+                         handedness(vec[tri[:, 0]], vec[tri[:, 1]], vec[tri[:, 2]]),
+                         0).astype(np.int64)
+        frame = (vec, tol, windows, tri, feats, hands)
         diag.extra.update(triangles_tested=0, passes=0)
         for missed in range(min(self.max_false, n - 3) + 1):
             diag.extra["passes"] += 1
-            yield from self._triangles(obs, votes >= n - 1 - missed, windows, triples,
-                                       feats, diag)
+            yield from self._triangles(frame, votes >= n - 1 - missed, diag)
 
-    def _triangles(self, obs: Observation, shortlist: np.ndarray,
-                   windows: dict, triples: list, feats: dict,
+    def _triangles(self, frame: tuple, shortlist: np.ndarray,
                    diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         """The triangle test over the shortlisted catalog stars of every observed triple."""
+        vec, tol, windows, tri, feats, hands = frame
         n = len(shortlist)
-        vec = obs.vectors[:n]
         diag.extra["shortlist"] = shortlist.sum(axis=1).tolist()
         unconfirmed: list[tuple[float, Hypothesis]] = []
-
-        k = self.config.tolerance_sigma
         cat = self.database.vectors
         index = pair_index(self._table(), len(cat))
-        pi, pj, tol = index.pi, index.pj, self.angle_tolerance(obs)
         ang = angle_table(vec)
-        heads = np.full(len(cat), -1, np.int64)
-        for a, b, c in triples:
-            if not (shortlist[a].any() and shortlist[b].any() and shortlist[c].any()):
-                continue  # no catalog candidate for one of the stars
-            features = np.array(feats[a, b, c])
-            # The mirror image has the same area and moment: its handedness tells it apart.
-            hand = (int(handedness(vec[a], vec[b], vec[c])) if features[0] > k * features[2]
-                    else 0)
-            trip, err, tested = hybrid_kernels.shortlisted_triangles(
-                pi, pj, windows[a, b], windows[b, c], shortlist[a], shortlist[b],
-                shortlist[c], cat, features, k, hand, heads)
-            diag.extra["triangles_tested"] += int(tested)
+        lists = hybrid_kernels.shortlisted_pairs(index.pi, index.pj, windows, shortlist)
+        tested = np.zeros(1, np.int64)
+        t = 0
+        while t < len(tri):
+            # The compiled search passes over the triples without a catalog triangle.
+            t, trip, err = hybrid_kernels.next_triangles(
+                t, tri, feats, hands, lists, cat, self.config.tolerance_sigma, self._heads,
+                tested)
+            diag.extra["triangles_tested"] = int(tested[0])
+            if t >= len(tri):
+                break
+            abc, t = tri[t], t + 1
             keep = np.argsort(err, kind="stable")[: self.max_per_triangle]
-            if len(keep) == 0:
-                continue
             if not self.fourth_star:
-                for t in keep:
-                    yield Hypothesis(np.array([a, b, c]), trip[t])
+                for r in keep:
+                    yield Hypothesis(abc.copy(), trip[r])
                 continue
             # A chance triangle among hundreds of shortlisted stars is common on a dense
             # sky; one more star's three angles removes it before the costlier verification.
             confirmed = False
-            for d in (d for d in range(n) if d not in (a, b, c)):
+            for d in (d for d in range(n) if d not in abc):
                 diag.pivots += 1
-                hit, w = hybrid_kernels.confirm(trip[keep], np.array([a, b, c]), d, ang,
-                                                tol, shortlist[d], index.lists)
-                for t, star in zip(keep[hit], w, strict=True):
-                    yield Hypothesis(np.array([a, b, c, d]), np.append(trip[t], star))
+                hit, w = hybrid_kernels.confirm(trip[keep], abc, d, ang, tol,
+                                                shortlist[d], index.lists)
+                for r, star in zip(keep[hit], w, strict=True):
+                    yield Hypothesis(np.append(abc, d), np.append(trip[r], star))
                 if len(hit):
                     confirmed = True
                     break
             if not confirmed:  # every other star false? verification may still accept
-                unconfirmed += [(float(err[t]), Hypothesis(np.array([a, b, c]), trip[t]))
-                                for t in keep]
+                unconfirmed += [(float(err[r]), Hypothesis(abc.copy(), trip[r])) for r in keep]
         unconfirmed.sort(key=lambda item: item[0])
         for _, hyp in unconfirmed[: self.max_unconfirmed]:
             yield hyp
+
+    @functools.cached_property
+    def _heads(self) -> np.ndarray:
+        # The kernels' grouping heads: all -1 between calls, one per matcher for every frame.
+        return np.full(len(self.database.vectors), -1, np.int64)
 
 
 register_variant(HybridMatcher, "hybrid_nofourth",
