@@ -32,7 +32,7 @@ import numpy as np
 from startrack.database import StarDatabase
 from startrack.database.pairs import PairTable
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
-from startrack.matching import hybrid_kernels
+from startrack.matching import hybrid_kernels, hybrid_search
 from startrack.matching.features import feature_sigma
 from startrack.matching.geometry import angle_table, handedness
 from startrack.matching.pairs import pair_index
@@ -76,8 +76,11 @@ class HybridMatcher(Matcher):
                  max_false: int = 3, max_per_triangle: int = 5,
                  max_unconfirmed: int = 10, fourth_star: bool = True,
                  pattern_per_region: int | None = 15,
-                 region_radius_deg: float | None = None) -> None:
+                 region_radius_deg: float | None = None, extra_stars: int = 4) -> None:
         super().__init__(database, config)
+        # When the ``config.max_stars`` brightest leave no answer (false stars crowd them),
+        # a second round runs on up to this many more stars.
+        self.extra_stars = int(extra_stars)
         # The on-board catalog of the angle lookups: the pattern stars (fewer than
         # ``pattern_per_region`` brighter stars within ``region_radius_deg``, as Pyramid's
         # and the triangle table's), None for every catalog star.
@@ -96,9 +99,20 @@ class HybridMatcher(Matcher):
         pair_index(self._table(), len(self.database.vectors))
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
-        n = min(self.config.max_stars, len(obs))
-        if n < 3:
+        first = min(self.config.max_stars, len(obs))
+        if first < 3:
             return
+        diag.extra.update(triangles_tested=0, passes=0)
+        yield from self._round(obs, first, self.max_false, diag)
+        # False stars crowd the brightest: the fainter ones join, and more votes may miss.
+        n = min(self.config.max_stars + max(self.extra_stars, 0), len(obs))
+        if n > first:
+            yield from self._round(obs, n, self.max_false + n - first, diag)
+
+    def _round(self, obs: Observation, n: int, max_false: int,
+               diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+        """Votes among the ``n`` brightest stars, then the passes that ask for n - 1 votes,
+        one fewer each, down to n - 1 - ``max_false``."""
         vec = np.ascontiguousarray(obs.vectors[:n])
         tol, k = self.angle_tolerance(obs), self.config.tolerance_sigma
         votes, windows = angle_votes(vec, self.database, tol, diag, self._table())
@@ -112,8 +126,7 @@ class HybridMatcher(Matcher):
                          handedness(vec[tri[:, 0]], vec[tri[:, 1]], vec[tri[:, 2]]),
                          0).astype(np.int64)
         frame = (vec, tol, windows, tri, feats, hands)
-        diag.extra.update(triangles_tested=0, passes=0)
-        for missed in range(min(self.max_false, n - 3) + 1):
+        for missed in range(min(max_false, n - 3) + 1):
             diag.extra["passes"] += 1
             yield from self._triangles(frame, votes >= n - 1 - missed, diag)
 
@@ -121,46 +134,51 @@ class HybridMatcher(Matcher):
                    diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         """The triangle test over the shortlisted catalog stars of every observed triple."""
         vec, tol, windows, tri, feats, hands = frame
-        n = len(shortlist)
         diag.extra["shortlist"] = shortlist.sum(axis=1).tolist()
-        unconfirmed: list[tuple[float, Hypothesis]] = []
-        cat = self.database.vectors
-        index = pair_index(self._table(), len(cat))
-        ang = angle_table(vec)
+        index = pair_index(self._table(), len(self.database.vectors))
         lists = hybrid_kernels.shortlisted_pairs(index.pi, index.pj, windows, shortlist)
-        tested = np.zeros(1, np.int64)
-        t = 0
+        search = (vec, tol, tri, feats, hands, lists, shortlist, index)
+        if self.fourth_star:
+            yield from self._confirmed(search, diag)
+            return
+        stats, t = np.zeros(1, np.int64), 0
         while t < len(tri):
             # The compiled search passes over the triples without a catalog triangle.
-            t, trip, err = hybrid_kernels.next_triangles(
-                t, tri, feats, hands, lists, cat, self.config.tolerance_sigma, self._heads,
-                tested)
-            diag.extra["triangles_tested"] = int(tested[0])
-            if t >= len(tri):
-                break
-            abc, t = tri[t], t + 1
-            keep = np.argsort(err, kind="stable")[: self.max_per_triangle]
-            if not self.fourth_star:
-                for r in keep:
-                    yield Hypothesis(abc.copy(), trip[r])
-                continue
-            # A chance triangle among hundreds of shortlisted stars is common on a dense
-            # sky; one more star's three angles removes it before the costlier verification.
-            confirmed = False
-            for d in (d for d in range(n) if d not in abc):
-                diag.pivots += 1
-                hit, w = hybrid_kernels.confirm(trip[keep], abc, d, ang, tol,
-                                                shortlist[d], index.lists)
-                for r, star in zip(keep[hit], w, strict=True):
-                    yield Hypothesis(np.append(abc, d), np.append(trip[r], star))
-                if len(hit):
-                    confirmed = True
-                    break
-            if not confirmed:  # every other star false? verification may still accept
-                unconfirmed += [(float(err[r]), Hypothesis(abc.copy(), trip[r])) for r in keep]
-        unconfirmed.sort(key=lambda item: item[0])
-        for _, hyp in unconfirmed[: self.max_unconfirmed]:
-            yield hyp
+            t, trip, err = hybrid_search.next_triangles(
+                t, tri, feats, hands, lists, self.database.vectors,
+                self.config.tolerance_sigma, self._heads, stats)
+            diag.extra["triangles_tested"] = int(stats[0])
+            if t < len(tri):
+                for r in np.argsort(err, kind="stable")[: self.max_per_triangle]:
+                    yield Hypothesis(tri[t].copy(), trip[r])
+            t += 1
+
+    def _confirmed(self, search: tuple, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+        """The triangles that a fourth star confirms, in triple order; then, best first, at
+        most ``max_unconfirmed`` of those none confirms (every other star false?
+        verification may still accept one)."""
+        vec, tol, tri, feats, hands, lists, shortlist, index = search
+        # A chance triangle among hundreds of shortlisted stars is common on a dense sky;
+        # one more star's three angles removes it before the costlier verification.
+        best_rows = np.empty((max(self.max_unconfirmed, 0), 6), np.int64)
+        best_err = np.empty(len(best_rows))
+        stats, counted, t = np.zeros(3, np.int64), np.zeros(2, np.int64), 0
+        ang = angle_table(vec)
+        while t < len(tri):
+            t, d, rows = hybrid_search.next_confirmed(
+                t, tri, feats, hands, lists, self.database.vectors,
+                self.config.tolerance_sigma, self._heads, ang, tol, shortlist, index.lists,
+                self.max_per_triangle, best_rows, best_err, stats)
+            diag.extra["triangles_tested"] += int(stats[0] - counted[0])
+            diag.pivots += int(stats[1] - counted[1])
+            counted[:] = stats[:2]
+            if t < len(tri):
+                cols = np.append(tri[t], d)
+                for row in rows:
+                    yield Hypothesis(cols, row)
+            t += 1
+        for r in range(int(stats[2])):
+            yield Hypothesis(best_rows[r, :3].copy(), best_rows[r, 3:].copy())
 
     @functools.cached_property
     def _heads(self) -> np.ndarray:

@@ -1,5 +1,6 @@
-"""Compiled hybrid step: catalog triplets of shortlisted stars joined from two pair
-windows, kept when their planar area and polar moment match the observed triangle's."""
+"""Compiled hybrid steps: angle votes, the shortlisted pairs of each observed pair, the
+catalog triplets joined from two of them whose planar area and polar moment match the
+observed triangle's, and the observed triangles' features."""
 
 from __future__ import annotations
 
@@ -7,7 +8,6 @@ import numpy as np
 from numba import njit
 
 from startrack.database.build_kernels import triangle_features_one
-from startrack.matching.kernels import partners
 
 
 @njit(cache=True)
@@ -108,43 +108,6 @@ def shortlisted_triangles(lists, ab, bc, cat, features, k, hand, heads):
 
 
 @njit(cache=True)
-def _has_partner(star, other, lo, hi, lists, buf):
-    n = partners(star, lo, hi, False, *lists, buf)
-    for q in range(min(n, len(buf))):  # noqa: SIM110 (compiled: no generators)
-        if buf[q] == other:
-            return True
-    return False
-
-
-@njit(cache=True)
-def confirm(trip, abc, d, ang, tol, short_d, lists):
-    """Candidates (rows of ``trip``, catalog stars for observed a, b, c) that the fourth
-    observed star d confirms: a shortlisted catalog star w of d whose pair angles to the
-    three catalog stars match those from d to a, b, c. Returns (row index, w), one entry
-    per match, in the order of the sorted-key join. ``lists`` are the full pair table's
-    neighbour lists (:mod:`startrack.matching.kernels`)."""
-    a, b, c = abc[0], abc[1], abc[2]
-    buf = np.empty(4096, np.int64)
-    side = np.empty(4096, np.int64)
-    hit_k, hit_w = [0], [0]
-    hit_k.pop()
-    hit_w.pop()
-    for k in range(len(trip)):
-        n_w = partners(trip[k, 0], ang[a, d] - tol, ang[a, d] + tol, a > d, *lists, side)
-        for q in range(min(n_w, len(side))):
-            w = side[q]
-            if not short_d[w]:
-                continue
-            if not _has_partner(trip[k, 1], w, ang[b, d] - tol, ang[b, d] + tol, lists, buf):
-                continue
-            if not _has_partner(trip[k, 2], w, ang[c, d] - tol, ang[c, d] + tol, lists, buf):
-                continue
-            hit_k.append(k)
-            hit_w.append(w)
-    return np.array(hit_k, np.int64), np.array(hit_w, np.int64)
-
-
-@njit(cache=True)
 def angle_votes(pi, pj, windows, n_catalog):
     """Votes (n x catalog rows, int16): in how many of observed star a's pair windows each
     catalog star appears, once per window however many of its pairs it is in.
@@ -162,23 +125,6 @@ def angle_votes(pi, pj, windows, n_catalog):
                         votes[a, x] += 1
                         votes[b, x] += 1
     return votes
-
-
-@njit(cache=True)
-def next_triangles(start, triples, feats, hands, lists, cat, k, heads, tested):
-    """The first triple (a, b, c), from index ``start`` on, with catalog triangles among
-    the shortlisted pairs (:func:`shortlisted_triangles` on (a, b) and (b, c)): (its index,
-    rows, err); the index is len(triples) when none is left. ``tested[0]`` counts the
-    triplets tested."""
-    n = int(np.sqrt(len(lists[0]) - 1))
-    for t in range(start, len(triples)):
-        a, b, c = triples[t, 0], triples[t, 1], triples[t, 2]
-        rows, err, n_tested = shortlisted_triangles(lists, a * n + b, b * n + c, cat,
-                                                    feats[t], k, hands[t], heads)
-        tested[0] += n_tested
-        if len(rows):
-            return t, rows, err
-    return len(triples), np.empty((0, 3), np.int64), np.empty(0)
 
 
 @njit(cache=True)
