@@ -14,6 +14,15 @@ angles may go unchecked), "all" (every one), "none" (the paper's literal chain: 
 pivot shares one star with the last pair, no closing angle). The variants ``angle_closed``
 and ``angle_open`` are the last two.
 
+The on-board catalog the pairs are looked up in is the pattern stars' pair table (stars
+with fewer than ``pattern_per_region`` brighter ones within half the FOV, as Pyramid's
+and the triangle table's): a frame's brightest stars are pattern stars, and at 1 px noise
+on Hipparcos Hp <= 6.5 a window then holds hundreds of pairs instead of ~13 000, so the
+joins stay small; verification still uses the whole catalog. ``pattern_per_region=None``
+looks pairs up among every catalog star. When the chains of the ``config.max_stars``
+brightest stars leave no answer (false stars crowd them), those that start from triples
+with up to ``extra_stars`` fainter stars follow (Pyramid's order of triples).
+
 The lookups and joins are the shared ones of :mod:`startrack.matching.pairs` (compiled).
 """
 

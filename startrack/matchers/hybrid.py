@@ -18,8 +18,17 @@ false stars) are tried last in each pass. ``fourth_star=False`` (the variant
 ``hybrid_nofourth``) leaves the check out, as the paper does: each passing triangle goes
 to verification as it is.
 
+The angle lookups are in the pattern stars' pair table (as the angle matcher's: see
+there): at 1 px noise on Hipparcos the first pass's shortlists then hold tens of stars,
+not thousands. When every pass
+over the ``config.max_stars`` brightest fails (false stars crowd them), a second round
+runs the same passes on up to ``extra_stars`` more stars, whose votes may miss that many
+more. The triangle search and the fourth-star check run compiled
+(:mod:`startrack.matching.hybrid_search`), returning at each confirmed triangle so that
+verification's first acceptance ends the search.
+
 Unlike the triangle matcher it needs no triangle table (triangles are formed on the fly
-from catalog vectors), so it covers every catalog star, not only the pattern stars.
+from catalog vectors); with ``pattern_per_region=None`` it covers every catalog star.
 """
 
 from __future__ import annotations
