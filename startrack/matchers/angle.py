@@ -33,6 +33,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from startrack.database import StarDatabase
+from startrack.database.pairs import PairTable
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
 from startrack.matching.pairs import PairLookup, join_close, join_extend, pair_index
 from startrack.matching.triples import triple_order
@@ -74,7 +75,7 @@ class AngleMatcher(Matcher):
         # the chains that start with up to this many fainter stars are tried next.
         self.extra_stars = int(extra_stars)
 
-    def _table(self):
+    def _table(self) -> PairTable:
         return self.database.pattern_pairs(self.pattern_per_region, self.region_radius_deg)
 
     def prepare(self) -> None:
