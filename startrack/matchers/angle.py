@@ -53,7 +53,7 @@ class AngleMatcher(Matcher):
                  max_chains: int = 220, max_lookups: int = 1600, max_skips: int = 5,
                  max_ambiguous: int = 4, max_rows: int = 2_000_000,
                  closing: str = "until_one", pattern_per_region: int | None = 15,
-                 region_radius_deg: float | None = None, extra_stars: int = 4) -> None:
+                 region_radius_deg: float | None = None, extra_stars: int | None = None) -> None:
         super().__init__(database, config)
         if closing not in CLOSING:
             raise ValueError(f"closing must be one of {', '.join(CLOSING)}, got {closing!r}")
@@ -73,7 +73,7 @@ class AngleMatcher(Matcher):
         self.region_radius_deg = region_radius_deg
         # When the ``config.max_stars`` brightest leave no answer (false stars crowd them),
         # the chains that start with up to this many fainter stars are tried next.
-        self.extra_stars = int(extra_stars)
+        self.extra_stars = int(self.config.extra_stars if extra_stars is None else extra_stars)
 
     def _table(self) -> PairTable:
         return self.database.pattern_pairs(self.pattern_per_region, self.region_radius_deg)

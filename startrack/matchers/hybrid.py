@@ -85,11 +85,11 @@ class HybridMatcher(Matcher):
                  max_false: int = 3, max_per_triangle: int = 5,
                  max_unconfirmed: int = 10, fourth_star: bool = True,
                  pattern_per_region: int | None = 15,
-                 region_radius_deg: float | None = None, extra_stars: int = 4) -> None:
+                 region_radius_deg: float | None = None, extra_stars: int | None = None) -> None:
         super().__init__(database, config)
         # When the ``config.max_stars`` brightest leave no answer (false stars crowd them),
         # a second round runs on up to this many more stars.
-        self.extra_stars = int(extra_stars)
+        self.extra_stars = int(self.config.extra_stars if extra_stars is None else extra_stars)
         # The on-board catalog of the angle lookups: the pattern stars (fewer than
         # ``pattern_per_region`` brighter stars within ``region_radius_deg``, as Pyramid's
         # and the triangle table's), None for every catalog star.

@@ -56,7 +56,7 @@ class PyramidMatcher(Matcher):
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_triples: int = 220, max_triangles: int = 500, max_pyramids: int = 4,
                  pattern_per_region: int | None = 15, region_radius_deg: float | None = None,
-                 extra_stars: int = 4, fallback: bool = False,
+                 extra_stars: int | None = None, fallback: bool = False,
                  fallback_triples: int = 56) -> None:
         super().__init__(database, config)
         self.max_triples = int(max_triples)  # triples tried per frame on the pattern pairs
@@ -77,7 +77,7 @@ class PyramidMatcher(Matcher):
         self.fallback_triples = int(fallback_triples)
         # When the ``config.max_stars`` brightest fail (false stars crowd them), the triples
         # with up to this many fainter stars are tried next.
-        self.extra_stars = int(extra_stars)
+        self.extra_stars = int(self.config.extra_stars if extra_stars is None else extra_stars)
 
     def prepare(self) -> None:
         super().prepare()
