@@ -31,6 +31,7 @@ _MAD_TO_SIGMA = 1.4826
 _MASK_SIGMA = 3.0  # blocks above this (grown) are left out of the final sky model
 _AREA_PER_MPX = 400  # default max_area of a 1024 x 1024 frame, scaled with the frame
 _NO_MASK = np.zeros((0, 0), np.uint8)
+_NO_GRID = np.zeros((0, 0))
 _NATIVE = (np.uint8, np.uint16, np.int16, np.float32, np.float64)  # kernels take these
 
 
@@ -129,9 +130,10 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
         # Twice: the second sky model ignores the blocks the first showed to hold
         # sources, so bright stars and glows do not leak into it (nor, extrapolated, to
         # the border). A block mean is already smoothed: 3 of its sigmas mark a source.
-        resid = means - blocks.at_blocks(grid, *block_w)
+        resid = blocks.residual(means, grid, *block_w)
         sources = (resid > _MASK_SIGMA * _mad_sigma(resid[::2, ::2].ravel(), image.dtype))
         sources = cv2.dilate(sources.astype(np.uint8), np.ones((3, 3), np.uint8))
+        del resid
         grid = _sky_grid(means, lay, block_w, sources, float(np.median(grid)))
     del means
     model = (grid,) + pixel_w + (kern.column_rows(grid, *pixel_w[3:]),)
@@ -190,8 +192,9 @@ def _sky_grid(means: np.ndarray, lay: tuple, block_w: tuple, ignore: np.ndarray,
     block is.
     """
     nb_r, nb_c = lay[7], lay[8]
-    grid = sky.clean_grid(blocks.tile_medians(means, ignore, nb_r, nb_c), True, fallback)
-    extra = blocks.tile_medians(means - blocks.at_blocks(grid, *block_w), ignore, nb_r, nb_c)
+    raw = blocks.tile_medians(means, ignore, nb_r, nb_c, _NO_GRID, block_w)
+    grid = sky.clean_grid(raw, True, fallback)
+    extra = blocks.tile_medians(means, ignore, nb_r, nb_c, grid, block_w)
     return grid + sky.clean_grid(extra, False, 0.0)
 
 

@@ -72,25 +72,32 @@ def _centres(n_tiles: int, pitch: int, origin: int, b: int, n_blocks: int) -> np
 
 
 @njit(cache=True)
-def at_blocks(grid, r0, r1, fr, c0, c1, fc):
-    """The sky model (tile values ``grid``, bilinear) at the centre of every block: the
-    arguments after ``grid`` are the block weights of ``weights``."""
-    out = np.empty((len(r0), len(c0)))
+def _model_row(grid, r0, r1, fr, k, row):
+    """Row ``k`` of the block model's tile rows: the tile grid blended along the rows."""
+    for j in range(grid.shape[1]):
+        row[j] = grid[r0[k], j] * (1.0 - fr[k]) + grid[r1[k], j] * fr[k]
+
+
+@njit(cache=True)
+def residual(means, grid, r0, r1, fr, c0, c1, fc):
+    """Block means minus the sky model (tile values ``grid``, bilinear) at the blocks'
+    centres (float32); the arguments after ``grid`` are the block weights of ``weights``."""
+    out = np.empty(means.shape, np.float32)
     row = np.empty(grid.shape[1])
     for k in range(len(r0)):
-        row[:] = grid[r0[k]] * (1.0 - fr[k]) + grid[r1[k]] * fr[k]
+        _model_row(grid, r0, r1, fr, k, row)
         for m in range(len(c0)):
-            out[k, m] = row[c0[m]] * (1.0 - fc[m]) + row[c1[m]] * fc[m]
+            out[k, m] = means[k, m] - (row[c0[m]] * (1.0 - fc[m]) + row[c1[m]] * fc[m])
     return out
 
 
 @njit(cache=True)
 def block_means(image, fill, lay):
-    """Mean of every block (blocks down x blocks across); non-finite pixels count as
-    ``fill``. Rows are summed first: the inner loops run along contiguous memory."""
+    """Mean of every block (blocks down x blocks across, float32: plenty for a sky
+    model); non-finite pixels count as ``fill``. Rows are summed first: the inner loops run along contiguous memory."""
     n_r, n_c, t_r, t_c, o_r, o_c, b, nb_r, nb_c = lay
     w = image.shape[1]
-    out = np.empty((n_r * nb_r, n_c * nb_c))
+    out = np.empty((n_r * nb_r, n_c * nb_c), np.float32)
     acc = np.empty(w)
     inv = 1.0 / (b * b)
     for i in range(n_r):
@@ -112,21 +119,29 @@ def block_means(image, fill, lay):
 
 
 @njit(cache=True)
-def tile_medians(values, ignore, nb_r, nb_c):
-    """Median over each tile's blocks of ``values`` (blocks down x across), leaving out
-    blocks where ``ignore`` (when not empty) is non-zero; NaN where every one is."""
-    n_r, n_c = values.shape[0] // nb_r, values.shape[1] // nb_c
+def tile_medians(means, ignore, nb_r, nb_c, grid, block_w):
+    """Median over each tile's blocks of ``means`` (blocks down x across) minus the sky
+    model of tile values ``grid`` (none when it is empty; ``block_w``: the block weights
+    of ``weights``), leaving out blocks where ``ignore`` (when not empty) is non-zero;
+    NaN where every one is."""
+    r0, r1, fr, c0, c1, fc = block_w
+    n_r, n_c = means.shape[0] // nb_r, means.shape[1] // nb_c
     buf, sub = np.empty(nb_r * nb_c), np.empty(nb_r * nb_c)
     counts = np.empty(256, np.int64)
-    grid = np.full((n_r, n_c), np.nan)
-    use_ignore = ignore.shape[0] > 0
+    out = np.full((n_r, n_c), np.nan)
+    use_ignore, subtract = ignore.shape[0] > 0, grid.shape[0] > 0
+    row, bg = np.empty(grid.shape[1]), np.zeros((nb_r, means.shape[1]))
     for i in range(n_r):
+        for k in range(nb_r * subtract):  # the model along this row of tiles' blocks
+            _model_row(grid, r0, r1, fr, i * nb_r + k, row)
+            for m in range(means.shape[1]):
+                bg[k, m] = row[c0[m]] * (1.0 - fc[m]) + row[c1[m]] * fc[m]
         for j in range(n_c):
             n = 0
-            for k in range(i * nb_r, (i + 1) * nb_r):
+            for k in range(nb_r):
                 for m in range(j * nb_c, (j + 1) * nb_c):
-                    buf[n] = values[k, m]
-                    n += not (use_ignore and ignore[k, m])  # no branch on the mask
+                    buf[n] = means[i * nb_r + k, m] - bg[k, m]
+                    n += not (use_ignore and ignore[i * nb_r + k, m])  # no branch on it
             if n > 0:
-                grid[i, j] = median(buf[:n], counts, sub)
-    return grid
+                out[i, j] = median(buf[:n], counts, sub)
+    return out
