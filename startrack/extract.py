@@ -125,7 +125,7 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
     means = blocks.block_means(image, _dead_pixel_fill(image), lay)
     step = max(1, round(math.sqrt(image.size / 25_000)))  # ~2.5e4 px: a MAD to ~1 %
 
-    grid = _sky_grid(means, lay, block_w, _NO_MASK, 0.0)
+    grid, raw = _sky_grid(means, lay, block_w, _NO_MASK, 0.0)
     if not config.fast:
         # Twice: the second sky model ignores the blocks the first showed to hold
         # sources, so bright stars and glows do not leak into it (nor, extrapolated, to
@@ -134,7 +134,7 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
         sources = (resid > _MASK_SIGMA * _mad_sigma(resid[::2, ::2].ravel(), image.dtype))
         sources = cv2.dilate(sources.astype(np.uint8), np.ones((3, 3), np.uint8))
         del resid
-        grid = _sky_grid(means, lay, block_w, sources, float(np.median(grid)))
+        grid, _ = _sky_grid(means, lay, block_w, sources, float(np.median(grid)), raw)
     del means
     model = (grid,) + pixel_w + (kern.column_rows(grid, *pixel_w[3:]),)
     res, det = kern.samples(image, model, step, config.smooth)
@@ -160,7 +160,8 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
 
 def estimate_background(frame: np.ndarray, tile: int,
                         ignore: np.ndarray | None = None) -> np.ndarray:
-    """Smooth sky background (float32 image): medians of ~tile x tile blocks, interpolated.
+    """Smooth sky background (float32 image): medians of the 4 x 4 block means of
+    ~tile x tile tiles, interpolated.
 
     Blocks holding a pixel where ``ignore`` is true (known sources) are left out of the
     medians. Two passes: a tile median across a steep gradient is noisy (the gradient
@@ -177,25 +178,25 @@ def estimate_background(frame: np.ndarray, tile: int,
     if ignore is not None:
         mask = (blocks.block_means(np.asarray(ignore, np.uint8), 0.0, lay) > 0).astype(np.uint8)
     fallback = float(np.median(means))
-    grid = _sky_grid(means, lay, block_w, mask, fallback)
+    grid, _ = _sky_grid(means, lay, block_w, mask, fallback)
     model = (grid,) + pixel_w + (kern.column_rows(grid, *pixel_w[3:]),)
     return kern.background_image(model, *frame.shape)
 
 
 def _sky_grid(means: np.ndarray, lay: tuple, block_w: tuple, ignore: np.ndarray,
-              fallback: float) -> np.ndarray:
-    """Tile values of the two-pass sky model from the block means.
+              fallback: float, known: np.ndarray = _NO_GRID) -> tuple[np.ndarray, np.ndarray]:
+    """Tile values of the two-pass sky model from the block means, and its first pass.
 
-    First the tile medians, cleaned of spikes and smoothed; then the median of what that
-    model leaves in each tile is added (only despiked), so the model follows the sky
-    glow from tile to tile. ``ignore``: blocks left out; ``fallback``: the value when every
-    block is.
+    First the tile medians (``known``: those of an earlier call without ``ignore``),
+    cleaned of spikes and smoothed; then the median of what that model leaves in each
+    tile is added (only despiked), so the model follows the sky glow from tile to tile.
+    ``ignore``: blocks left out; ``fallback``: the value when every block is.
     """
     nb_r, nb_c = lay[7], lay[8]
-    raw = blocks.tile_medians(means, ignore, nb_r, nb_c, _NO_GRID, block_w)
+    raw = blocks.tile_medians(means, ignore, nb_r, nb_c, _NO_GRID, block_w, known)
     grid = sky.clean_grid(raw, True, fallback)
-    extra = blocks.tile_medians(means, ignore, nb_r, nb_c, grid, block_w)
-    return grid + sky.clean_grid(extra, False, 0.0)
+    extra = blocks.tile_medians(means, ignore, nb_r, nb_c, grid, block_w, _NO_GRID)
+    return grid + sky.clean_grid(extra, False, 0.0), raw
 
 
 def _mad_sigma(sample: np.ndarray, dtype: np.dtype) -> float:

@@ -94,7 +94,8 @@ def residual(means, grid, r0, r1, fr, c0, c1, fc):
 @njit(cache=True)
 def block_means(image, fill, lay):
     """Mean of every block (blocks down x blocks across, float32: plenty for a sky
-    model); non-finite pixels count as ``fill``. Rows are summed first: the inner loops run along contiguous memory."""
+    model); non-finite pixels count as ``fill``. Rows are summed first: the inner loops
+    run along contiguous memory."""
     n_r, n_c, t_r, t_c, o_r, o_c, b, nb_r, nb_c = lay
     w = image.shape[1]
     out = np.empty((n_r * nb_r, n_c * nb_c), np.float32)
@@ -119,11 +120,12 @@ def block_means(image, fill, lay):
 
 
 @njit(cache=True)
-def tile_medians(means, ignore, nb_r, nb_c, grid, block_w):
+def tile_medians(means, ignore, nb_r, nb_c, grid, block_w, known):
     """Median over each tile's blocks of ``means`` (blocks down x across) minus the sky
     model of tile values ``grid`` (none when it is empty; ``block_w``: the block weights
     of ``weights``), leaving out blocks where ``ignore`` (when not empty) is non-zero;
-    NaN where every one is."""
+    NaN where every one is. ``known``, when not empty, holds the medians of the same
+    call without ``ignore``: a tile with no ignored block takes its value."""
     r0, r1, fr, c0, c1, fc = block_w
     n_r, n_c = means.shape[0] // nb_r, means.shape[1] // nb_c
     buf, sub = np.empty(nb_r * nb_c), np.empty(nb_r * nb_c)
@@ -137,6 +139,10 @@ def tile_medians(means, ignore, nb_r, nb_c, grid, block_w):
             for m in range(means.shape[1]):
                 bg[k, m] = row[c0[m]] * (1.0 - fc[m]) + row[c1[m]] * fc[m]
         for j in range(n_c):
+            if use_ignore and known.shape[0] > 0 \
+                    and not ignore[i * nb_r:(i + 1) * nb_r, j * nb_c:(j + 1) * nb_c].any():
+                out[i, j] = known[i, j]
+                continue
             n = 0
             for k in range(nb_r):
                 for m in range(j * nb_c, (j + 1) * nb_c):
