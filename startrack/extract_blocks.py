@@ -63,6 +63,8 @@ def weights(shape: tuple[int, int], lay: tuple) -> tuple[tuple, tuple]:
 
     pixel = both(np.arange(shape[0]), np.arange(shape[1]))
     block = both(_centres(n_r, t_r, o_r, b, nb_r), _centres(n_c, t_c, o_c, b, nb_c))
+    for a in pixel + block:
+        a.flags.writeable = False
     return pixel, block
 
 

@@ -1,8 +1,8 @@
 """Compiled pixel kernels of the centroider: residual rows, noise samples, run-length blobs.
 
 Every kernel reads the raw frame (any numeric dtype) and evaluates the sky model on the
-fly, so no full-size float copy of the frame, background or residual is ever made: the
-memory of an extraction is the frame itself plus a byte mask. The sky model is a tuple
+fly, so no full-size float copy of the frame, background or residual is ever made (the
+sky model itself comes from ``extract_blocks``'s block means). The sky model is a tuple
 ``(grid, r0, r1, fr, c0, c1, fc, rows)``: tile values and, per row and per column, the two
 tiles to interpolate between and the weight of the second (bilinear, linear extrapolation
 at the border), and the tile rows interpolated along the columns (``column_rows``). A
