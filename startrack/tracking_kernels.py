@@ -12,33 +12,24 @@ import math
 import numpy as np
 from numba import njit
 
-from startrack.labelling_kernels import warm_up as _warm_up_labelling
 from startrack.matching import verify_kernels
+from startrack.matching.labelling_kernels import warm_up as _warm_up_labelling
+from startrack.matching.nearest_kernels import pairs_within
 from startrack.matching.verify_kernels import project
 
 
 @njit(cache=True)
 def window_pairs(vectors, matrix, ox, oy, geometry, window):
     """Every (observed, catalog position) pair within ``window`` pixels at ``matrix``,
-    with the displacement catalog - observed."""
+    by observed then catalog position, with the displacement catalog - observed."""
     px, py, inside = project(vectors, matrix, geometry, window)
-    n_obs, n_cat = ox.shape[0], vectors.shape[0]
-    w2 = window * window
-    count = 0
-    for i in range(n_obs):
-        for j in range(n_cat):
-            if inside[j] and (px[j] - ox[i]) ** 2 + (py[j] - oy[i]) ** 2 <= w2:
-                count += 1
-    oi = np.empty(count, np.int64)
-    cj = np.empty(count, np.int64)
-    dx = np.empty(count)
-    dy = np.empty(count)
-    k = 0
-    for i in range(n_obs):
-        for j in range(n_cat):
-            if inside[j] and (px[j] - ox[i]) ** 2 + (py[j] - oy[i]) ** 2 <= w2:
-                oi[k], cj[k], dx[k], dy[k] = i, j, px[j] - ox[i], py[j] - oy[i]
-                k += 1
+    sel = np.flatnonzero(inside)
+    oi, pos, _, _ = pairs_within(ox, oy, px[sel], py[sel], window * window)
+    cj = sel[pos]
+    dx = np.empty(oi.shape[0])
+    dy = np.empty(oi.shape[0])
+    for k in range(oi.shape[0]):
+        dx[k], dy[k] = px[cj[k]] - ox[oi[k]], py[cj[k]] - oy[oi[k]]
     return oi, cj, dx, dy
 
 

@@ -22,4 +22,9 @@ def handedness(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
 def angle_table(a: np.ndarray, b: np.ndarray | None = None) -> np.ndarray:
     """Angles (radians) between the rows of ``a`` and of ``b`` (default ``a``)."""
     b = a if b is None else b
-    return np.arccos(np.clip(a @ b.T, -1.0, 1.0))
+    cos = a @ b.T
+    # np.clip's Python wrapper costs more than the arithmetic on a frame's stars; the
+    # two ufuncs give the same values (NaN stays NaN).
+    np.maximum(cos, -1.0, out=cos)
+    np.minimum(cos, 1.0, out=cos)
+    return np.arccos(cos, out=cos)
