@@ -86,8 +86,8 @@ def _confirmed(obs_idx, hyp_obs, n_obs):
 
 
 @njit(cache=True)
-def first_match(obs_vectors, ox, oy, hyp_obs, hyp_sky, catalog, cone_order, cone_z,
-                cone_radius, geometry, radius, cos_radius):
+def first_match(obs_vectors, ox, oy, hyp_obs, hyp_sky, catalog, cone_order, cone_ra,
+                cone_bands, cone_radius, geometry, radius, cos_radius):
     """The first test of a hypothesis, in one call: its attitude (Wahba), each of its
     stars within the match radius, then the catalog cone around that attitude matched to
     the frame. Returns (fits, matrix, cone rows, cone vectors, observed index, cone
@@ -97,7 +97,8 @@ def first_match(obs_vectors, ox, oy, hyp_obs, hyp_sky, catalog, cone_order, cone
     vectors = np.zeros((0, 3))
     if not fits_within(obs_vectors[hyp_obs], hyp_sky, matrix, cos_radius):
         return False, matrix, rows, vectors, rows, rows, 0, 0
-    rows = cone_rows(catalog, cone_order, cone_z, matrix[:, 2].copy(), cone_radius)
+    rows = cone_rows(catalog, cone_order, cone_ra, cone_bands, matrix[:, 2].copy(),
+                     cone_radius)
     vectors = np.empty((rows.shape[0], 3))
     for i in range(rows.shape[0]):
         vectors[i] = catalog[rows[i]]
