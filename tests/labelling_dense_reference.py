@@ -13,32 +13,15 @@ import math
 import numpy as np
 from numba import njit
 
-_MAD_TO_SIGMA = 1.4826
-_MEDIAN_R2_TO_SIGMA2 = 1.0 / (2.0 * math.log(2.0))  # Rayleigh: median d^2 = 2 ln2 sigma^2
-#: The order of :data:`withheld`'s counts: brightness, unresolved, ambiguous, coincidence.
-N_REASONS = 4
-
-
-@njit(cache=True)
-def _median(values):
-    """numpy's median: NaN for no value or any NaN, the middle two averaged."""
-    n = len(values)
-    if n == 0:
-        return np.nan
-    s = np.sort(values)  # NaN sorts last
-    if np.isnan(s[n - 1]):
-        return np.nan
-    if n % 2:
-        return s[n // 2]
-    return (s[n // 2 - 1] + s[n // 2]) / 2.0
-
-
-@njit(cache=True)
-def _log(value):
-    """math.log, raising where Python's does (numba's gives -inf or NaN)."""
-    if value <= 0.0:
-        raise ValueError("math domain error")
-    return math.log(value)
+# The scalar helpers are the compiled kernel's own: the reference is the dense tables.
+from startrack.matching.labelling_kernels import (
+    _MAD_TO_SIGMA,
+    _MEDIAN_R2_TO_SIGMA2,
+    N_REASONS,
+    _log,
+    _median,
+    _unresolved,
+)
 
 
 @njit(cache=True)
@@ -197,16 +180,6 @@ def _coincidence_log(near, area):
     n_unobserved = n_cat - int(np.count_nonzero(near.sum(axis=0)))
     unobserved = (n_unobserved + 1.0) / (n_cat + 2.0)
     return _log((n_false + 1.0) / area * unobserved), _log(1.0 - unobserved)
-
-
-@njit(cache=True)
-def _unresolved(x, y, j, resolve2):
-    """Whether another catalog star lies within ``sqrt(resolve2)`` of catalog star j."""
-    for k in range(len(x)):
-        dx, dy = x[j] - x[k], y[j] - y[k]
-        if k != j and dx * dx + dy * dy < resolve2:
-            return True
-    return False
 
 
 @njit(cache=True)

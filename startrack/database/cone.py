@@ -15,22 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from startrack.database.sort_kernels import first_at_least
+
 BAND_RAD = math.radians(1.0)  # declination band height
 # Windows are widened by this (radians) so that rounding never drops a star on an edge;
 # the dot test decides.
 EDGE = 1e-9
-
-
-@njit(cache=True)
-def _first_at_least(values, lo, hi, x):
-    """The first index in sorted values[lo:hi] whose value is >= x (hi if none)."""
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if values[mid] < x:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
 
 
 @njit(cache=True)
@@ -54,16 +44,16 @@ def _windows(ra_sorted, band_start, direction, radius):
         if half >= math.pi:
             a, z = 0.0, 2.0 * math.pi
         elif a < 0.0:  # the window wraps through RA 0: two pieces
-            spans[n, 0], spans[n, 1] = _first_at_least(ra_sorted, lo, hi, a + 2.0 * math.pi), hi
+            spans[n, 0], spans[n, 1] = first_at_least(ra_sorted, lo, hi, a + 2.0 * math.pi), hi
             n += 1
             a = 0.0
         elif z >= 2.0 * math.pi:
             spans[n, 0] = lo
-            spans[n, 1] = _first_at_least(ra_sorted, lo, hi, z - 2.0 * math.pi + EDGE)
+            spans[n, 1] = first_at_least(ra_sorted, lo, hi, z - 2.0 * math.pi + EDGE)
             n += 1
             z = 2.0 * math.pi
-        s0 = _first_at_least(ra_sorted, lo, hi, a)
-        spans[n, 0], spans[n, 1] = s0, _first_at_least(ra_sorted, s0, hi, z + EDGE)
+        s0 = first_at_least(ra_sorted, lo, hi, a)
+        spans[n, 0], spans[n, 1] = s0, first_at_least(ra_sorted, s0, hi, z + EDGE)
         n += 1
     return spans[:n]
 

@@ -1,5 +1,6 @@
 """Compiled (numba) sorting of the database builds: a stable bucket argsort, the gathers
-that apply it, and the k-vector's merge, each one pass over millions of entries."""
+that apply it, and the k-vector's merge, each one pass over millions of entries; and the
+bisection of a sorted range that the lookups share."""
 
 from __future__ import annotations
 
@@ -8,6 +9,19 @@ from numba import njit
 
 PER_BUCKET = 8  # values per bucket on average
 CROWDED = 32  # more in one bucket: merge sort, as insertion sort is quadratic
+
+
+@njit(cache=True, inline="always")
+def first_at_least(values, lo, hi, x):
+    """The first position in ascending ``values[lo:hi]`` whose value is >= ``x`` (``hi``
+    if none)."""
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if values[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
 
 @njit(cache=True)

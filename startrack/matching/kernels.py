@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from startrack.database.sort_kernels import first_at_least
+
 
 @njit(cache=True)
 def neighbour_lists(pi, pj, angle, n):
@@ -44,18 +46,6 @@ def neighbour_lists(pi, pj, angle, n):
     return start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi
 
 
-@njit(cache=True, inline="always")
-def _first_at_least(values, a, b, lo):
-    """First position in values[a:b] (ascending) that is >= lo."""
-    while a < b:
-        mid = (a + b) >> 1
-        if values[mid] < lo:
-            a = mid + 1
-        else:
-            b = mid
-    return a
-
-
 @njit(cache=True)
 def partners(star, lo, hi, hi_first, start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi,
              out):
@@ -68,7 +58,7 @@ def partners(star, lo, hi, hi_first, start_lo, nbr_lo, ang_lo, start_hi, nbr_hi,
             nbr, ang, a, b = nbr_hi, ang_hi, start_hi[star], start_hi[star + 1]
         else:
             nbr, ang, a, b = nbr_lo, ang_lo, start_lo[star], start_lo[star + 1]
-        p = _first_at_least(ang, a, b, lo)
+        p = first_at_least(ang, a, b, lo)
         while p < b and ang[p] <= hi:
             if count < len(out):
                 out[count] = nbr[p]

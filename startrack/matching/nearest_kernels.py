@@ -9,6 +9,8 @@ import math
 import numpy as np
 from numba import njit
 
+from startrack.database.sort_kernels import first_at_least
+
 GRID_CELLS = 64  # cells per axis at most: a frame's hundreds of stars spread thin
 
 
@@ -105,7 +107,7 @@ def pairs_within(ox, oy, x, y, radius2):
         if half < 0.0 or np.isnan(ox[i]) or np.isnan(oy[i]):
             continue
         pad = half + 1e-12 * abs(ox[i])
-        for s in range(_first_at_least(xs, finite, ox[i] - pad), finite):
+        for s in range(first_at_least(xs, 0, finite, ox[i] - pad), finite):
             if xs[s] > ox[i] + pad:
                 break
             j = order[s]
@@ -124,19 +126,6 @@ def pairs_within(ox, oy, x, y, radius2):
             count += 1
     start[n] = count
     return e_obs[:count], e_cat[:count], e_d2[:count], start
-
-
-@njit(cache=True)
-def _first_at_least(xs, n, value):
-    """The first index of sorted ``xs[:n]`` whose value is >= ``value`` (bisection)."""
-    lo, hi = 0, n
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if xs[mid] < value:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
 
 
 @njit(cache=True)
