@@ -3,8 +3,8 @@
 numba invalidates a cached kernel when the file that defines it changes, but not when a
 kernel it calls, defined in another file, does: after an update that touched only a
 callee, the caller's cached machine code would still run the old callee. Keying the
-cache folder on every source file's size and modification time makes any change start
-a fresh cache (an installed release compiles once per version, as before); the folders
+cache folder on the contents of every file that defines kernels makes any change to one
+start a fresh cache (an installed release compiles once per version, as before); the folders
 of the last few versions are kept, so checkouts side by side do not evict each other.
 An explicit ``NUMBA_CACHE_DIR`` is left alone.
 """
@@ -40,7 +40,8 @@ def configure() -> None:
 
 
 def _source_stamp(package: Path | None = None) -> str:
-    """A digest of the package's Python files: their paths, sizes and mtimes."""
+    """A digest of the package's compiled-kernel sources (the Python files that use numba's
+    ``njit``): their paths and contents. Other files do not change compiled code."""
     package = package or Path(__file__).resolve().parent
     digest = hashlib.sha256()
     stack = [package]
@@ -50,8 +51,10 @@ def _source_stamp(package: Path | None = None) -> str:
             if entry.is_dir() and entry.name != "__pycache__":
                 stack.append(Path(entry.path))
             elif entry.name.endswith(".py"):
-                stat = entry.stat()
-                digest.update(f"{entry.path}:{stat.st_size}:{stat.st_mtime_ns};".encode())
+                with open(entry.path, "rb") as f:
+                    text = f.read()
+                if b"njit" in text:
+                    digest.update(entry.path.encode() + b"\0" + text + b"\0")
     return digest.hexdigest()[:16]
 
 

@@ -1,5 +1,5 @@
-"""The compiled kernels' cache folder follows the sources: any change to any source file
-(a callee's included) gives a fresh folder; the last few versions are kept."""
+"""The compiled kernels' cache folder follows the sources: any change to a file that
+defines kernels (a callee's included) gives a fresh folder; the last few are kept."""
 
 from __future__ import annotations
 
@@ -15,19 +15,22 @@ def _tree(root):
     (root / "sub").mkdir(parents=True)
     (root / "__pycache__").mkdir()
     for name in ("a.py", "sub/b.py", "__pycache__/x.nbi", "data.txt"):
-        (root / name).write_text("x = 1\n")
+        (root / name).write_text("from numba import njit\n")
+    (root / "plain.py").write_text("x = 1\n")  # no kernel: its changes do not count
     return root
 
 
-def test_stamp_changes_with_any_source_file_and_nothing_else(tmp_path):
+def test_stamp_changes_with_any_kernel_source_and_nothing_else(tmp_path):
     root = _tree(tmp_path / "pkg")
     first = _numba_cache._source_stamp(root)
     assert _numba_cache._source_stamp(root) == first
     (root / "__pycache__" / "x.nbi").write_text("compiled, changed")  # not a source
     (root / "data.txt").write_text("other")
-    assert _numba_cache._source_stamp(root) == first
+    (root / "plain.py").write_text("x = 2\n")
     later = time.time() + 5
-    os.utime(root / "sub" / "b.py", (later, later))  # a callee in another file
+    os.utime(root / "a.py", (later, later))  # touched, same contents
+    assert _numba_cache._source_stamp(root) == first
+    (root / "sub" / "b.py").write_text("from numba import njit  # a callee edited\n")
     assert _numba_cache._source_stamp(root) != first
 
 
