@@ -244,13 +244,17 @@ class BlindSolver:
         return self._databases[n]
 
     def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int],
-              deadline: Deadline = NO_DEADLINE) -> FovResult:
+              deadline: Deadline = NO_DEADLINE, camera: Camera | None = None,
+              tolerance: float = DEFAULT_FOV_TOLERANCE) -> FovResult:
         """Search every window, widest field first; the first verified find wins. Not
-        solved, with reason "timeout", if ``deadline`` passes first."""
+        solved, with reason "timeout", if ``deadline`` passes first. With ``camera`` (a
+        nominal focal length) only the focal lengths within ``tolerance`` of it are
+        searched, through that camera (its centre and lens model)."""
         t0 = time.perf_counter()
-        base = Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
+        base = camera or Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
+        f_lo, f_hi = focal_range(camera, tolerance) if camera else (
+            f_of_fov(size[0], fov) for fov in sorted(self.fov_range, reverse=True))
         diag, seen = MatchDiagnostics(), set()
-        f_lo, f_hi = (f_of_fov(size[0], fov) for fov in sorted(self.fov_range, reverse=True))
         db = self.database_for(base)
         reason = "no_match" if len(x) >= 3 else "too_few_stars"
         try:
