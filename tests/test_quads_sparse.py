@@ -32,7 +32,8 @@ def _brute(v: np.ndarray, min_rad: float, max_rad: float, k: int, max_higher: in
         radius = min(max(kth, min_rad), max_rad)
         edge = min(2 * radius, max_rad) if radius > min_rad else radius
         near = [b for b in range(a + 1, len(v)) if angle[a, b] <= radius * (1 + 1e-9)]
-        for b, c, d in itertools.combinations(near[:max_higher], 3):
+        cap = max(k, max_higher) if radius > min_rad else max_higher
+        for b, c, d in itertools.combinations(near[:cap], 3):
             if max(angle[b, c], angle[b, d], angle[c, d]) <= edge:
                 found.add((a, b, c, d))
     return found

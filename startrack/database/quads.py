@@ -74,12 +74,12 @@ def _dot(v, a, b):
 @njit(cache=True)
 def _enumerate(indptr, indices, vectors, cos_max, max_higher, out):
     """Every pattern (a, b, c, d), a < b < c < d, with b, c, d among the first
-    ``max_higher`` higher neighbours of a and every edge within the angle whose cosine is
-    ``cos_max[a]``; writes them to ``out`` when it is large enough and returns how many
+    ``max_higher[a]`` higher neighbours of a and every edge within the angle whose cosine
+    is ``cos_max[a]``; writes them to ``out`` when it is large enough and returns how many
     there are."""
     m = 0
     for a in range(len(indptr) - 1):
-        lo, hi = indptr[a], min(indptr[a + 1], indptr[a] + max_higher)
+        lo, hi = indptr[a], min(indptr[a + 1], indptr[a] + max_higher[a])
         cm = cos_max[a]
         for i in range(lo, hi):
             b = indices[i]
@@ -143,8 +143,8 @@ def all_quads(vectors: np.ndarray, max_edge_rad: float, sparse_edge_rad: float =
     """Every four rows of ``vectors`` whose six edges are at most the first row's pattern
     radius (:func:`pattern_radii`: ``max_edge_rad``, up to ``sparse_edge_rad`` where rows
     are sparse), each row combining with at most the first ``max_higher`` later rows near
-    it (rows are brightest first, so a crowded field keeps its brighter patterns); the
-    sparse reach extends to the ``k`` nearest rows."""
+    it (rows are brightest first, so a crowded field keeps its brighter patterns); a
+    sparse row reaches its ``k`` nearest rows and combines with every later one of them."""
     n = len(vectors)
     if n < 4:
         return np.zeros((0, 4), np.int64)
@@ -155,12 +155,13 @@ def all_quads(vectors: np.ndarray, max_edge_rad: float, sparse_edge_rad: float =
     v = np.ascontiguousarray(vectors, np.float64)
     # a sparse star's pattern lies in the disk out to its k-th nearest star: edges between
     # its neighbours reach across that disk
-    cos_max = np.cos(np.where(radii > max_edge_rad,
-                              np.minimum(2.0 * radii, max(sparse_edge_rad, max_edge_rad)),
-                              radii))
-    m = _enumerate(indptr, indices, v, cos_max, max_higher, np.zeros((0, 4), np.int64))
+    sparse = radii > max_edge_rad
+    cos_max = np.cos(np.where(sparse, np.minimum(2.0 * radii, max(sparse_edge_rad,
+                                                                  max_edge_rad)), radii))
+    cap = np.where(sparse, max(k, max_higher), max_higher).astype(np.int64)
+    m = _enumerate(indptr, indices, v, cos_max, cap, np.zeros((0, 4), np.int64))
     out = np.zeros((m, 4), np.int64)
-    _enumerate(indptr, indices, v, cos_max, max_higher, out)
+    _enumerate(indptr, indices, v, cos_max, cap, out)
     return out
 
 
