@@ -31,7 +31,7 @@ from startrack.types import Hypothesis, MatchDiagnostics, Observation
 IMAGE_STARS = 16  # brightest observed stars whose every four make a pattern
 #: an image star's patterns reach its this many nearest image stars (the catalog's reach
 #: its ``Q.K_NEAREST`` nearest: more, as the image also holds stars the catalog lacks)
-IMAGE_NEAREST = 12
+IMAGE_NEAREST = 10
 RATIO_TOLERANCE = 0.012  # largest error of one edge ratio (key lookup and edge test)
 MAX_CANDIDATES = 4000  # best by edge agreement, before the confirmation count
 CHECK_STARS = 24  # brightest observed stars counted against the catalog per candidate
