@@ -57,7 +57,8 @@ def make_spec(frames: int, methods=METHODS, noise=NOISE_PX, false=FALSE_STARS) -
               "mag_noise": (0.0,)}
     return RunSpec(methods=tuple(methods), conditions=tuple(build_conditions(levels)),
                    frames=frames, seed=cfg.frames.seed, camera=cfg.camera, sky=cfg.sky,
-                   max_stars=5, hot_pixel_fraction=cfg.frames.hot_pixel_fraction)
+                   max_stars=5, extra_stars=0,  # the paper's five brightest, no more
+                   hot_pixel_fraction=cfg.frames.hot_pixel_fraction)
 
 
 def sequential_pass(spec: RunSpec, frames: int, repeats: int) -> pd.DataFrame:

@@ -1,15 +1,18 @@
 """Centroid extraction: a grey frame in, the stars' sub-pixel positions out (numba kernels).
 
-Pipeline: local sky background removed (block medians, interpolated; estimated twice, the
-second time without the sources the first one revealed); noise from the median absolute
-deviation; detection on a lightly smoothed copy at ``k_sigma`` noise sigmas;
-8-connected components; intensity-weighted centroids of the unsmoothed background-removed
-pixels; hot pixels and oversized blobs rejected; saturated spots flagged. Pixel convention
-(interfaces.md): (0, 0) is the centre of the top-left pixel, x = column, y = row.
+Pipeline: local sky background removed (tile medians of 4 x 4 block means, interpolated;
+estimated twice, the second time without the blocks the first one showed to hold
+sources); noise from the median absolute deviation; detection on a lightly smoothed copy
+at ``k_sigma`` noise sigmas; 8-connected components; intensity-weighted centroids of the
+unsmoothed background-removed pixels; hot pixels and oversized blobs rejected; saturated
+spots flagged. Pixel convention (interfaces.md): (0, 0) is the centre of the top-left
+pixel, x = column, y = row.
 
-The pixel work runs in ``startrack.extract_kernels``, which reads the frame in its own
-dtype and evaluates the sky model on the fly: besides the frame, an extraction holds one
-byte per pixel (the source mask of the first pass), whatever the frame's size.
+The frame is read twice in full: once for the block means (``startrack.extract_blocks``,
+from which the whole sky model is made) and once, row by row, for detection and
+moments (``startrack.extract_kernels``, which evaluates the sky model on the fly). Both
+read the frame in its own dtype: besides the frame, an extraction holds the block means
+(1/16 of the pixels) and a few rows.
 """
 
 from __future__ import annotations
@@ -19,13 +22,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from startrack import extract_blocks as blocks
 from startrack import extract_kernels as kern
 from startrack import extract_sky as sky
 from startrack.centroids import Centroids
 
 _MAD_TO_SIGMA = 1.4826
-_MASK_SIGMA = 3.0  # pixels above this (dilated) are left out of the final sky model
+_MASK_SIGMA = 3.0  # blocks above this (grown) are left out of the final sky model
 _AREA_PER_MPX = 400  # default max_area of a 1024 x 1024 frame, scaled with the frame
+_NO_MASK = np.zeros((0, 0), np.uint8)
+_NO_GRID = np.zeros((0, 0))
 _NATIVE = (np.uint8, np.uint16, np.int16, np.float32, np.float64)  # kernels take these
 
 
@@ -48,9 +54,9 @@ class CentroidConfig:
         dtype's maximum (no flag for float images).
     smooth: pre-smooth with a 3x3 Gaussian for detection only (centroids use raw pixels).
     max_stars: keep at most this many, brightest first (None = all).
-    fast: one sky model from every fourth pixel of each tile, without the second,
-        source-masked estimate: about twice as fast, at the cost of the faintest stars
-        (bright stars' wings leak into the sky model); ``FAST`` is this preset.
+    fast: one sky model, without the second, source-masked estimate: somewhat faster, at
+        the cost of the faintest stars near bright ones (bright stars' wings leak into
+        the sky model); ``FAST`` is this preset.
     """
 
     k_sigma: float = 5.0
@@ -114,21 +120,23 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
     if image.dtype.type not in _NATIVE:
         image = image.astype(np.float64)
     sat_level = _saturation_level(image.dtype, config.saturation)
-    fill = _dead_pixel_fill(image)
-    geometries, weights = _tile_geometry(image.shape, config.background_size)
-    step = max(1, round(math.sqrt(image.size / 100_000)))  # ~1e5 pixels: plenty for a MAD
+    lay = blocks.layout(tuple(image.shape), config.background_size)
+    pixel_w, block_w = blocks.weights(tuple(image.shape), lay)
+    means = blocks.block_means(image, _dead_pixel_fill(image), lay)
+    step = max(1, round(math.sqrt(image.size / 25_000)))  # ~2.5e4 px: a MAD to ~1 %
 
-    model, first = _sky_model(image, fill, geometries, weights, None, False)
+    grid, raw = _sky_grid(means, lay, block_w, _NO_MASK, 0.0)
     if not config.fast:
-        # Twice: the second sky model ignores what the first showed to be sources, so
-        # bright stars and glows do not leak into it (nor, extrapolated, to the border).
-        # a 3-sigma source mask needs a rougher noise estimate: a quarter of the samples
-        _, det = kern.samples(image, model, 2 * step, config.smooth)
-        sources = kern.detection_mask(image, model, _MASK_SIGMA * _mad_sigma(det, image.dtype),
-                                      config.smooth)
-        sources = cv2.dilate(sources, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))
-        model, _ = _sky_model(image, fill, geometries, weights, sources, True, first)
-        del sources
+        # Twice: the second sky model ignores the blocks the first showed to hold
+        # sources, so bright stars and glows do not leak into it (nor, extrapolated, to
+        # the border). A block mean is already smoothed: 3 of its sigmas mark a source.
+        resid = blocks.residual(means, grid, *block_w)
+        sources = (resid > _MASK_SIGMA * _mad_sigma(resid[::2, ::2].ravel(), image.dtype))
+        sources = cv2.dilate(sources.astype(np.uint8), np.ones((3, 3), np.uint8))
+        del resid
+        grid, _ = _sky_grid(means, lay, block_w, sources, float(np.median(grid)), raw)
+    del means
+    model = (grid,) + pixel_w + (kern.column_rows(grid, *pixel_w[3:]),)
     res, det = kern.samples(image, model, step, config.smooth)
     sigma, sigma_det = _mad_sigma(res, image.dtype), _mad_sigma(det, image.dtype)
     comp = kern.components(image, model, config.k_sigma * sigma_det, config.smooth,
@@ -152,79 +160,43 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
 
 def estimate_background(frame: np.ndarray, tile: int,
                         ignore: np.ndarray | None = None) -> np.ndarray:
-    """Smooth sky background (float32 image): medians of ~tile x tile blocks, interpolated.
+    """Smooth sky background (float32 image): medians of the 4 x 4 block means of
+    ~tile x tile tiles, interpolated.
 
-    Pixels where ``ignore`` is true (known sources) are left out of the medians. Two
-    passes: a block median across a steep gradient is noisy (the gradient spreads the
-    block's values), so the second pass takes the medians of what the first left over.
+    Blocks holding a pixel where ``ignore`` is true (known sources) are left out of the
+    medians. Two passes: a tile median across a steep gradient is noisy (the gradient
+    spreads the tile's values), so the second pass takes the medians of what the first
+    left over.
     """
     frame = np.asarray(frame)
     if frame.dtype.type not in _NATIVE:
         frame = frame.astype(np.float64)
-    geometries, weights = _tile_geometry(frame.shape, tile)
-    mask = None if ignore is None else np.ascontiguousarray(ignore, dtype=np.uint8)
-    model, _ = _sky_model(frame, _dead_pixel_fill(frame), geometries, weights, mask, True)
+    lay = blocks.layout(tuple(frame.shape), tile)
+    pixel_w, block_w = blocks.weights(tuple(frame.shape), lay)
+    means = blocks.block_means(frame, _dead_pixel_fill(frame), lay)
+    mask = _NO_MASK
+    if ignore is not None:
+        mask = (blocks.block_means(np.asarray(ignore, np.uint8), 0.0, lay) > 0).astype(np.uint8)
+    fallback = float(np.median(means))
+    grid, _ = _sky_grid(means, lay, block_w, mask, fallback)
+    model = (grid,) + pixel_w + (kern.column_rows(grid, *pixel_w[3:]),)
     return kern.background_image(model, *frame.shape)
 
 
-def _sky_model(image, fill, geometries, weights, ignore, fine: bool,
-               first: tuple | None = None) -> tuple:
-    """The two-pass block-median sky model as a kernel tuple, and its first pass's raw
-    tile medians and fallback (``first``: those of an earlier call without ``ignore``,
-    whose tiles free of ignored pixels need no new median).
+def _sky_grid(means: np.ndarray, lay: tuple, block_w: tuple, ignore: np.ndarray,
+              fallback: float, known: np.ndarray = _NO_GRID) -> tuple[np.ndarray, np.ndarray]:
+    """Tile values of the two-pass sky model from the block means, and its first pass.
 
-    The first pass (tile medians, smoothed) samples every fourth pixel of a tile: the
-    second pass measures what it left in each tile, its errors included. The second
-    pass samples every other pixel when ``fine``, every fourth otherwise.
+    First the tile medians (``known``: those of an earlier call without ``ignore``),
+    cleaned of spikes and smoothed; then the median of what that model leaves in each
+    tile is added (only despiked), so the model follows the sky glow from tile to tile.
+    ``ignore``: blocks left out; ``fallback``: the value when every block is.
     """
-    coarse, dense = geometries
-    skip = np.zeros((0, 0), np.uint8) if ignore is None else ignore
-    zero = (np.zeros((coarse[0], coarse[1])),) + weights + (np.zeros((1, 1)),)
-    known, fallback = first if first is not None else (np.zeros((0, 0)), None)
-    raw = sky.block_medians(image, fill, zero, False, skip, coarse, known)
-    fallback = _sample_median(image, fill) if fallback is None else fallback
+    nb_r, nb_c = lay[7], lay[8]
+    raw = blocks.tile_medians(means, ignore, nb_r, nb_c, _NO_GRID, block_w, known)
     grid = sky.clean_grid(raw, True, fallback)
-    model = (grid,) + weights + (kern.column_rows(grid, *weights[3:]),)
-    extra = sky.block_medians(image, fill, model, True, skip, dense if fine else coarse,
-                              np.zeros((0, 0)))
-    grid = grid + sky.clean_grid(extra, False, 0.0)
-    model = (grid,) + weights + (kern.column_rows(grid, *weights[3:]),)
-    return model, (raw, fallback)
-
-
-def _tile_geometry(shape: tuple[int, int], tile: int) -> tuple[tuple, tuple]:
-    """Tile layouts for ``block_medians`` (every fourth and every other pixel of a tile)
-    and the per-row and per-column interpolation weights."""
-    h, w = shape
-    n_r, n_c = max(1, h // tile), max(1, w // tile)
-    t_r, t_c = h // n_r, w // n_c
-    o_r, o_c = (h - n_r * t_r) // 2, (w - n_c * t_c) // 2
-    # Every other pixel of each block is plenty for a median (~240 of a 31 x 31 block)
-    # and halves the work in each direction.
-    step = 2 if min(t_r, t_c) >= 8 else 1
-    dense = (n_r, n_c, t_r, t_c, o_r, o_c, step, 0, 0)
-    coarse = dense
-    if min(t_r, t_c) >= 16:  # every fourth pixel, centred where the dense samples are
-        coarse = (n_r, n_c, t_r, t_c, o_r, o_c, 4, ((t_r - 1) % 4) // 2, ((t_c - 1) % 4) // 2)
-    # The sampled pixels of a block are centred (step - 1) / 2 before its full centre
-    # when its size is even; the interpolation uses where the samples really are.
-    r0, r1, fr = _interp_weights(h, n_r, t_r, o_r + step * ((t_r - 1) // step) / 2)
-    c0, c1, fc = _interp_weights(w, n_c, t_c, o_c + step * ((t_c - 1) // step) / 2)
-    return (coarse, dense), (r0, r1, fr, c0, c1, fc)
-
-
-def _interp_weights(n_px: int, n_tiles: int, pitch: int, first: float) -> tuple:
-    """Per pixel: the lower and upper of two tiles and the weight of the upper one.
-
-    Tile i is centred at pixel ``first + i * pitch``; beyond the outer centres the weight
-    leaves [0, 1], which extrapolates linearly.
-    """
-    if n_tiles == 1:
-        zero = np.zeros(n_px, np.int64)
-        return zero, zero, np.zeros(n_px)
-    t = (np.arange(n_px) - first) / pitch
-    i0 = np.clip(np.floor(t).astype(np.int64), 0, n_tiles - 2)
-    return i0, i0 + 1, t - i0
+    extra = blocks.tile_medians(means, ignore, nb_r, nb_c, grid, block_w, _NO_GRID)
+    return grid + sky.clean_grid(extra, False, 0.0), raw
 
 
 def _mad_sigma(sample: np.ndarray, dtype: np.dtype) -> float:
@@ -246,13 +218,6 @@ def _dead_pixel_fill(image: np.ndarray) -> float:
     if finite.all():
         return 0.0
     return float(np.median(image[finite])) if finite.any() else 0.0
-
-
-def _sample_median(image: np.ndarray, fill: float) -> float:
-    step = max(1, round(math.sqrt(image.size / 10_000)))
-    sample = image[::step, ::step].astype(np.float64)
-    sample[~np.isfinite(sample)] = fill
-    return float(np.median(sample))
 
 
 def _saturation_level(dtype: np.dtype, level: float | None) -> float | None:

@@ -1,8 +1,8 @@
 """Compiled pixel kernels of the centroider: residual rows, noise samples, run-length blobs.
 
 Every kernel reads the raw frame (any numeric dtype) and evaluates the sky model on the
-fly, so no full-size float copy of the frame, background or residual is ever made: the
-memory of an extraction is the frame itself plus a byte mask. The sky model is a tuple
+fly, so no full-size float copy of the frame, background or residual is ever made (the
+sky model itself comes from ``extract_blocks``'s block means). The sky model is a tuple
 ``(grid, r0, r1, fr, c0, c1, fc, rows)``: tile values and, per row and per column, the two
 tiles to interpolate between and the weight of the second (bilinear, linear extrapolation
 at the border), and the tile rows interpolated along the columns (``column_rows``). A
@@ -19,6 +19,7 @@ from numba import njit
 # Columns of the per-run accumulator and of the components that ``components`` returns.
 SW, SWX, SWY, FLUX, AREA, SAT, PEAK, PEAK_AT = range(8)
 _N_ACC = 8
+_CHUNK = 32  # px, the unit in which rows are searched for detections
 
 
 @njit(cache=True)
@@ -130,20 +131,6 @@ def samples(image, model, step, smooth):
 
 
 @njit(cache=True)
-def detection_mask(image, model, threshold, smooth):
-    """Byte mask of the pixels whose detection-image value exceeds ``threshold``."""
-    h, w = image.shape
-    mask = np.zeros((h, w), np.uint8)
-    ring = np.empty((3, w))
-    vbuf, det = np.empty(w), np.empty(w)
-    for r in range(h):
-        _detection_row(image, model, r, ring, vbuf, det, smooth)
-        for c in range(w):
-            mask[r, c] = det[c] > threshold
-    return mask
-
-
-@njit(cache=True)
 def _find(parent, i):
     root = i
     while parent[root] != root:
@@ -198,24 +185,35 @@ def _merge(acc, parent, n_runs):
 
 @njit(cache=True)
 def _row_runs(det, threshold, out):
-    """Runs of ``det > threshold`` as (start, end) pairs in ``out``; returns their count."""
-    top = -np.inf
-    for x in det:  # most rows hold no detection: a vectorised test skips them
-        top = max(top, x)
-    if not top > threshold:
-        return 0
+    """Runs of ``det > threshold`` as (start, end) pairs in ``out``; returns their count.
+
+    Most of a row lies below the threshold: it is tested in chunks by a vectorised count,
+    and only chunks with a pixel above are walked pixel by pixel.
+    """
+    w = det.shape[0]
     n, inside = 0, False
-    for c in range(det.shape[0]):
-        if det[c] > threshold:
-            if not inside:
-                out[0, n] = c
-                inside = True
-        elif inside:
-            out[1, n] = c - 1
-            n += 1
-            inside = False
+    for c0 in range(0, w, _CHUNK):
+        c1 = min(c0 + _CHUNK, w)
+        above = 0
+        for c in range(c0, c1):
+            above += det[c] > threshold
+        if above == 0:
+            if inside:
+                out[1, n] = c0 - 1
+                n += 1
+                inside = False
+            continue
+        for c in range(c0, c1):
+            if det[c] > threshold:
+                if not inside:
+                    out[0, n] = c
+                    inside = True
+            elif inside:
+                out[1, n] = c - 1
+                n += 1
+                inside = False
     if inside:
-        out[1, n] = det.shape[0] - 1
+        out[1, n] = w - 1
         n += 1
     return n
 

@@ -1,4 +1,4 @@
-"""Compiled sky-model kernels of the centroider: tile medians and their clean-up.
+"""Compiled sky-model kernels of the centroider: exact medians and the tile grid's clean-up.
 
 The tile grid is small (a value per ~31 x 31 pixels) but its clean-up runs four times per
 frame, so it is compiled too: numpy's nan-aware medians over 3 x 3 windows cost more
@@ -91,63 +91,6 @@ def mad_sigma(sample, to_sigma):
     sub = np.empty(len(sample))
     med = median(sample, counts, sub)
     return to_sigma * median(np.abs(sample - med), counts, sub)
-
-
-@njit(cache=True)
-def _any_ignored(ignore, geometry, i, j):
-    """Whether a sampled pixel of tile (i, j) is ignored."""
-    n_r, n_c, t_r, t_c, o_r, o_c, step, s_r, s_c = geometry
-    r_0, c_0 = o_r + i * t_r + s_r, o_c + j * t_c + s_c
-    for rr in range(r_0, o_r + (i + 1) * t_r, step):
-        for cc in range(c_0, o_c + (j + 1) * t_c, step):
-            if ignore[rr, cc]:
-                return True
-    return False
-
-
-@njit(cache=True)
-def block_medians(image, fill, model, subtract, ignore, geometry, known):
-    """Median of the sampled pixels of each tile (NaN when all are ignored).
-
-    ``known``, when not empty, holds this call's medians without ``ignore`` (and without
-    ``subtract``): a tile none of whose sampled pixels is ignored takes its value as is.
-
-    ``geometry`` = (tiles down, tiles across, tile height, tile width, row offset,
-    column offset, sampling step, first sampled row and column within a tile). With
-    ``subtract`` the sky model (``model``, a kernel tuple as in ``extract_kernels``) is
-    removed first; pixels where ``ignore`` is non-zero (when it is not empty) are left
-    out and non-finite pixels count as ``fill``.
-    """
-    n_r, n_c, t_r, t_c, o_r, o_c, step, s_r, s_c = geometry
-    r0, r1, fr, g_in = model[1], model[2], model[3], model[7]
-    n_rows, n_cols = (t_r - s_r + step - 1) // step, (t_c - s_c + step - 1) // step
-    buf = np.empty(n_rows * n_cols)
-    counts, sub = np.empty(256, np.int64), np.empty(len(buf))
-    grid = np.full((n_r, n_c), np.nan)
-    bg = np.zeros((n_rows, image.shape[1]))
-    use_ignore = ignore.shape[0] > 0
-    for i in range(n_r):
-        if subtract:  # the sky model along the sampled rows of this row of tiles
-            for k in range(n_rows):
-                rr = o_r + i * t_r + s_r + k * step
-                a, b, t = r0[rr], r1[rr], fr[rr]
-                for cc in range(image.shape[1]):
-                    bg[k, cc] = g_in[a, cc] * (1.0 - t) + g_in[b, cc] * t
-        for j in range(n_c):
-            if use_ignore and known.shape[0] > 0 and not _any_ignored(ignore, geometry, i, j):
-                grid[i, j] = known[i, j]
-                continue
-            n = 0
-            for k in range(n_rows):
-                rr = o_r + i * t_r + s_r + k * step
-                for m in range(n_cols):
-                    cc = o_c + j * t_c + s_c + m * step
-                    v = float(image[rr, cc])
-                    buf[n] = (v if math.isfinite(v) else fill) - bg[k, cc]
-                    n += not (use_ignore and ignore[rr, cc])  # no branch on the mask
-            if n > 0:
-                grid[i, j] = median(buf[:n], counts, sub)
-    return grid
 
 
 @njit(cache=True)

@@ -9,8 +9,12 @@ from scipy.spatial.transform import Rotation
 
 from startrack.deadline import Deadline
 from startrack.matchers.base import Matcher
+from startrack.matching.projector import CatalogProjector
+from startrack.matching.verify_kernels import residual_angles
 from startrack.types import MatchDiagnostics, Observation, Solution
 from startrack.verify import VerifyConfig, verify
+
+_ARCSEC = 180.0 / np.pi * 3600.0
 
 
 def residuals_arcsec(rotation: Rotation | np.ndarray, obs: Observation, obs_index: np.ndarray,
@@ -18,9 +22,10 @@ def residuals_arcsec(rotation: Rotation | np.ndarray, obs: Observation, obs_inde
     """Angle between each observed star, rotated to the sky (by a Rotation or its 3 x 3
     matrix, camera to sky), and its catalog star."""
     matrix = rotation if isinstance(rotation, np.ndarray) else rotation.as_matrix()
-    sky = obs.vectors[obs_index] @ matrix.T
-    cos = np.clip(np.einsum("ij,ij->i", sky, cat_vectors), -1.0, 1.0)
-    return np.degrees(np.arccos(cos)) * 3600.0
+    return residual_angles(np.ascontiguousarray(obs.vectors, dtype=np.float64),
+                           np.asarray(obs_index, dtype=np.int64),
+                           np.ascontiguousarray(matrix, dtype=np.float64),
+                           np.ascontiguousarray(cat_vectors, dtype=np.float64)) * _ARCSEC
 
 
 def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = None,
@@ -39,6 +44,7 @@ def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = N
     t0 = time.perf_counter()
     deadline = Deadline.after_ms(timeout_ms).earliest(deadline)
     seen: set[tuple] = set()
+    project = None
     result = None
     timed_out = False
     if len(obs) >= 3:
@@ -53,7 +59,9 @@ def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = N
                 continue
             seen.add(key)
             diag.hypotheses += 1
-            check = verify(hyp, obs, matcher.database, config)
+            # One projector for the frame: each hypothesis looks up its own cone in it.
+            project = project or CatalogProjector(obs, matcher.database, config.radius_px(obs))
+            check = verify(hyp, obs, matcher.database, config, project)
             if check.accepted:
                 result = check
                 break

@@ -22,7 +22,7 @@ pair is reported only when all of these hold:
   as the true star at that residual and brightness. This is what keeps out a residual
   far beyond the other matches' scatter.
 
-The arithmetic is one compiled kernel, :func:`startrack.labelling_kernels.label_kernel`.
+The arithmetic is one compiled kernel, :func:`startrack.matching.labelling_kernels.label_kernel`.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from startrack.labelling_kernels import label_kernel
+from startrack.matching.labelling_kernels import label_kernel
 from startrack.types import Observation
 
 #: Catalog stars closer than this many pixels are one spot (as startrack.sky merges them).
@@ -106,7 +106,7 @@ def label_stars(obs: Observation, rows: np.ndarray, x: np.ndarray, y: np.ndarray
 
 def kernel_params(obs: Observation, radius_px: float, config: LabelConfig | None = None,
                   ) -> tuple:
-    """The frame's fluxes and the thresholds as :func:`startrack.labelling_kernels.
+    """The frame's fluxes and the thresholds as :func:`startrack.matching.labelling_kernels.
     label_kernel` takes them after its positions (``flux`` ... ``min_fit``): for compiled
     callers that label inside a larger kernel."""
     config = config or LabelConfig()

@@ -78,7 +78,8 @@ class Identifier:
     """A loaded catalog, database and matcher for one camera and sky."""
 
     def __init__(self, camera: Camera, catalog: Catalog, method: str, *,
-                 max_stars: int | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
+                 max_stars: int | None = None, extra_stars: int | None = None,
+                 sigma_px: float = DEFAULT_SIGMA_PX,
                  verify_config: VerifyConfig | None = None,
                  timeout_ms: float | None = None) -> None:
         if not (sigma_px > 0 and math.isfinite(sigma_px)):
@@ -88,8 +89,11 @@ class Identifier:
         self.sigma_px = float(sigma_px)
         self.timeout_ms = timeout_ms
         self.verify_config = verify_config or VerifyConfig()
-        config = MatcherConfig() if max_stars is None else dataclasses.replace(
-            MatcherConfig(), max_stars=int(max_stars))
+        config = MatcherConfig()
+        if max_stars is not None:
+            config = dataclasses.replace(config, max_stars=int(max_stars))
+        if extra_stars is not None:
+            config = dataclasses.replace(config, extra_stars=int(extra_stars))
         if get_matcher(method).tables:  # the quad matcher and the peers build no pairs
             check_pair_budget(catalog, camera)  # before a database that would not fit memory
         self.database = StarDatabase(catalog, camera)

@@ -23,9 +23,7 @@ import numpy as np
 
 from startrack.database import StarDatabase
 from startrack.tracking import Prior, TrackConfig, track
-from startrack.tracking_kernels import rotation_exp as _exp
-from startrack.tracking_kernels import rotation_log as _log
-from startrack.tracking_kernels import warm_up
+from startrack.tracking_kernels import predict_attitude, warm_up
 from startrack.types import Observation, Solution
 from startrack.verify import VerifyConfig
 
@@ -71,14 +69,13 @@ class Tracker:
         cfg = self.config
         if n > cfg.max_coast_frames + 1:
             return None
-        rate, sig_w = np.zeros(3), cfg.unknown_rate_rad
+        a, rot_a, sig_a = b, rot_b, sig_b  # one attitude: no rate yet
         if len(self.history) >= 2 and b - self.history[-2][0] <= cfg.max_coast_frames + 1:
             a, rot_a, sig_a = self.history[-2]
-            # The per-frame rotation in the camera frame: R_b = R_a exp(w (b - a)).
-            rate = _log(rot_a.T @ rot_b) / (b - a)
-            sig_w = (math.hypot(sig_a, sig_b) / (b - a) + cfg.accel_fraction
-                     * float(np.linalg.norm(rate)) + cfg.rate_floor_rad)
-        return Prior(rot_b @ _exp(rate * n), sig_b + n * sig_w)
+        matrix, sigma = predict_attitude(rot_a, rot_b, b - a, n, sig_a, sig_b,
+                                         cfg.unknown_rate_rad, cfg.accel_fraction,
+                                         cfg.rate_floor_rad)
+        return Prior(matrix, sigma)
 
     def step(self, obs: Observation, database: StarDatabase, verify_config: VerifyConfig,
              lost_in_space: Callable[[Observation], Solution], method: str) -> Solution:
@@ -86,13 +83,17 @@ class Tracker:
         ``lock``, and ``identify_ms`` covers the tracking attempt and any fallback."""
         t0 = time.perf_counter()
         prior = self.predict()
+        # Counted as identify() counts lost-in-space: the prediction, then each stage's
+        # matching, verification and attitude.
+        elapsed = (time.perf_counter() - t0) * 1000.0
         solution = None
         if prior is not None and len(obs) >= 3:
             solution = track(obs, database, prior, verify_config, self.config, method)
+            elapsed += solution.identify_ms
         mode = "tracking"
         if solution is None or not solution.solved:
             solution, mode = lost_in_space(obs), "lost_in_space"
-        elapsed = (time.perf_counter() - t0) * 1000.0
+            elapsed += solution.identify_ms
         lock = self._advance(solution, obs, mode)
         return dataclasses.replace(solution, mode=mode, identify_ms=elapsed, lock=lock)
 

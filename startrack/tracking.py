@@ -28,7 +28,7 @@ from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.identify import residuals_arcsec
 from startrack.matching.projector import CAPTURE, CONE_LOOKUP_MARGIN, CONE_MARGIN, CatalogProjector
-from startrack.tracking_kernels import consistent, window_pairs
+from startrack.tracking_kernels import consistent_pairs
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
 from startrack.verify import VerifyConfig, verify
 
@@ -90,13 +90,16 @@ class _Projector(CatalogProjector):
     """The catalog stars around the prediction (verify's projector over fixed rows), and
     the pairs of observed stars with them inside the prediction's window."""
 
-    def pairs(self, matrix: np.ndarray, window_px: float, max_stars: int):
-        """Pairs of the brightest observed stars with catalog rows within the window."""
+    def pairs(self, matrix: np.ndarray, window_px: float, max_stars: int, vote_px: float,
+              keep_px: float) -> tuple[np.ndarray, np.ndarray, int]:
+        """Pairs of the brightest observed stars with catalog rows within the window that
+        agree on one displacement (:func:`startrack.tracking_kernels.consistent_pairs`):
+        (observed index, catalog row, pairs in the window)."""
         m = min(len(self.obs), max_stars)
-        oi, pos, dx, dy = window_pairs(self.vectors, np.ascontiguousarray(matrix),
-                                       self.ox[:m], self.oy[:m], self.geometry,
-                                       float(window_px))
-        return oi, self.rows[pos], dx, dy
+        oi, pos, n_pairs = consistent_pairs(self.vectors, np.ascontiguousarray(matrix),
+                                            self.ox[:m], self.oy[:m], self.geometry,
+                                            float(window_px), float(vote_px), float(keep_px))
+        return oi, self.rows[pos], int(n_pairs)
 
 
 def track(obs: Observation, database: StarDatabase, prior: Prior,
@@ -116,17 +119,17 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
         reach = (_half_diagonal_rad(cam) * CONE_MARGIN * CONE_LOOKUP_MARGIN
                  + (window + CAPTURE * radius_px) / cam.f_px)
         project = _Projector(obs, database, radius_px, database.cone(prior.matrix[:, 2], reach))
-        oi, ci, dx, dy = project.pairs(prior.matrix, window, config.max_stars)
-        diag.candidates = len(oi)
-        if len(oi) >= 3:
-            diag_px = math.hypot(cam.width, cam.height)
-            tol = radius_px + config.window_sigma * prior.sigma_rad * diag_px
-            keep = consistent(oi, ci, dx, dy, min(tol, VOTE_RADII * radius_px), tol)
-            o_s, c_s = oi[keep], ci[keep]
+        diag_px = math.hypot(cam.width, cam.height)
+        tol = radius_px + config.window_sigma * prior.sigma_rad * diag_px
+        o_s, c_s, diag.candidates = project.pairs(prior.matrix, window, config.max_stars,
+                                                  min(tol, VOTE_RADII * radius_px), tol)
+        if diag.candidates >= 3:
             result = _first_accepted(o_s, c_s, project, verify_config, config, diag)
+    # The time of matching, verification and the attitude, as identify() counts it (the
+    # Solution's residuals and Rotation are not).
+    elapsed = (time.perf_counter() - t0) * 1000.0
     if result is None:
-        return Solution(False, method, diagnostics=diag,
-                        identify_ms=(time.perf_counter() - t0) * 1000.0,
+        return Solution(False, method, diagnostics=diag, identify_ms=elapsed,
                         reason="no_track" if len(obs) >= 3 else "too_few_stars",
                         mode="tracking")
     order = np.argsort(result.obs_index)
@@ -135,7 +138,7 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
     return Solution(True, method, rotation=result.rotation, obs_index=obs_index,
                     cat_index=cat_index, residual_arcsec=residuals,
                     false_probability=result.false_probability, diagnostics=diag,
-                    identify_ms=(time.perf_counter() - t0) * 1000.0, mode="tracking")
+                    identify_ms=elapsed, mode="tracking")
 
 
 def _first_accepted(o_s, c_s, project, verify_config, config, diag):

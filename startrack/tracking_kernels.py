@@ -12,33 +12,24 @@ import math
 import numpy as np
 from numba import njit
 
-from startrack.labelling_kernels import warm_up as _warm_up_labelling
 from startrack.matching import verify_kernels
+from startrack.matching.labelling_kernels import warm_up as _warm_up_labelling
+from startrack.matching.nearest_kernels import pairs_within
 from startrack.matching.verify_kernels import project
 
 
 @njit(cache=True)
 def window_pairs(vectors, matrix, ox, oy, geometry, window):
     """Every (observed, catalog position) pair within ``window`` pixels at ``matrix``,
-    with the displacement catalog - observed."""
+    by observed then catalog position, with the displacement catalog - observed."""
     px, py, inside = project(vectors, matrix, geometry, window)
-    n_obs, n_cat = ox.shape[0], vectors.shape[0]
-    w2 = window * window
-    count = 0
-    for i in range(n_obs):
-        for j in range(n_cat):
-            if inside[j] and (px[j] - ox[i]) ** 2 + (py[j] - oy[i]) ** 2 <= w2:
-                count += 1
-    oi = np.empty(count, np.int64)
-    cj = np.empty(count, np.int64)
-    dx = np.empty(count)
-    dy = np.empty(count)
-    k = 0
-    for i in range(n_obs):
-        for j in range(n_cat):
-            if inside[j] and (px[j] - ox[i]) ** 2 + (py[j] - oy[i]) ** 2 <= w2:
-                oi[k], cj[k], dx[k], dy[k] = i, j, px[j] - ox[i], py[j] - oy[i]
-                k += 1
+    sel = np.flatnonzero(inside)
+    oi, pos, _, _ = pairs_within(ox, oy, px[sel], py[sel], window * window)
+    cj = sel[pos]
+    dx = np.empty(oi.shape[0])
+    dy = np.empty(oi.shape[0])
+    for k in range(oi.shape[0]):
+        dx[k], dy[k] = px[cj[k]] - ox[oi[k]], py[cj[k]] - oy[oi[k]]
     return oi, cj, dx, dy
 
 
@@ -90,6 +81,36 @@ def consistent(oi, ci, dx, dy, vote_tol, tol):
 
 
 @njit(cache=True)
+def consistent_pairs(vectors, matrix, ox, oy, geometry, window, vote_tol, tol):
+    """:func:`window_pairs` then :func:`consistent` in one call: the consistent pairs'
+    observed indices and catalog positions, and how many pairs the window held (the
+    vote needs three)."""
+    oi, cj, dx, dy = window_pairs(vectors, matrix, ox, oy, geometry, window)
+    if oi.shape[0] < 3:
+        return oi[:0], cj[:0], oi.shape[0]
+    keep = consistent(oi, cj, dx, dy, vote_tol, tol)
+    return oi[keep], cj[keep], oi.shape[0]
+
+
+@njit(cache=True)
+def predict_attitude(rot_a, rot_b, gap, steps, sig_a, sig_b, unknown_rate, accel_fraction,
+                     rate_floor):
+    """The attitude ``steps`` frames after ``rot_b`` (camera to sky) and its 1-sigma error:
+    the per-frame rotation estimated from ``rot_a``, ``gap`` frames before ``rot_b``
+    (R_b = R_a exp(w gap), in the camera frame), carried forward; with ``gap`` 0 there is
+    no rate yet and the error grows by ``unknown_rate`` per frame. The rate's own error
+    per frame: the two attitudes' errors over the gap, ``accel_fraction`` of the rate
+    (angular acceleration) and a floor (jitter)."""
+    rate = np.zeros(3)
+    sig_w = unknown_rate
+    if gap > 0:
+        rate = rotation_log(rot_a.T @ rot_b) / gap
+        sig_w = (math.hypot(sig_a, sig_b) / gap + accel_fraction * np.linalg.norm(rate)
+                 + rate_floor)
+    return rot_b @ rotation_exp(rate * steps), sig_b + steps * sig_w
+
+
+@njit(cache=True)
 def rotation_exp(rotvec: np.ndarray) -> np.ndarray:
     """The rotation matrix of a rotation vector (Rodrigues), without scipy's overhead."""
     angle = float(np.linalg.norm(rotvec))
@@ -126,5 +147,7 @@ def warm_up() -> None:
     verify_kernels.warm_up()
     oi, cj, dx, dy = window_pairs(v, m, xy, xy, geometry, 50.0)
     consistent(oi, cj, dx, dy, 1.0, 2.0)
+    consistent_pairs(v, m, xy, xy, geometry, 50.0, 1.0, 2.0)
     rotation_log(rotation_exp(np.array([0.0, 0.0, 0.1])))
+    predict_attitude(m, m, 1, 1, 1e-5, 1e-5, 1e-3, 0.1, 1e-4)
     _warm_up_labelling()  # a tracked frame's labelling

@@ -82,19 +82,18 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
     with one of the same class over other rows: tracking passes one restricted to the
     stars around its prediction, so that a tracked frame is held to exactly this test
     and labelling."""
-    rejected = Verification(False, None, np.zeros(0, np.int64), np.zeros(0, np.int64), 1.0, 0)
     obs_h = np.asarray(hypothesis.obs_index, dtype=np.int64)
     cat_h = np.asarray(hypothesis.cat_index, dtype=np.int64)
     if len(obs_h) < 3 or len(set(cat_h.tolist())) != len(cat_h) \
             or len(set(obs_h.tolist())) != len(obs_h):
-        return rejected
+        return _rejected()
     radius_px = config.radius_px(obs)
     project = project or CatalogProjector(obs, database, radius_px)
     # Evidence comes only from stars the matcher did not choose (``confirmed``).
     matrix, obs_m, cat_m, n_cat, confirmed = project.first_match(
         obs_h, database.vectors[cat_h], math.cos(radius_px / obs.camera.f_px))
     if matrix is None:
-        return rejected
+        return _rejected()
     n_other = len(obs) - len(obs_h)
     prob = false_match_probability(n_other, confirmed, n_cat, radius_px,
                                    obs.camera.width, obs.camera.height)
@@ -106,6 +105,11 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
         labelled = _final_labels(project, project.refine(obs_m, cat_m)[2])
     obs_m, cat_m, matrix = labelled
     return Verification(True, matrix, obs_m, cat_m, prob, confirmed)
+
+
+def _rejected() -> Verification:
+    none = np.zeros(0, np.int64)
+    return Verification(False, None, none, none, 1.0, 0)
 
 
 def _final_labels(project: CatalogProjector,

@@ -88,3 +88,16 @@ def false_star_first(db: StarDatabase, seed: int = 32) -> tuple[Observation, np.
     and the truth rows: the matcher's first patterns all hold the false star."""
     frame = next(frames(db.catalog, db.camera, 3, seed=seed, noise_px=0.3))
     return with_false_star(frame, 0, np.random.default_rng(seed + 1000))
+
+
+def false_stars_first(db: StarDatabase, count: int, seed: int = 32,
+                      ) -> tuple[Observation, np.ndarray]:
+    """A noisy (0.3 px) frame of ``db``'s sky with ``count`` false stars as its brightest,
+    and the truth rows."""
+    frame = next(frames(db.catalog, db.camera, 3, seed=seed, noise_px=0.3))
+    rng = np.random.default_rng(seed + 1000)
+    obs, truth = with_false_star(frame, 0, rng)
+    for _ in range(count - 1):
+        frame = SyntheticFrame(obs, truth, frame.rotation)
+        obs, truth = with_false_star(frame, 0, rng)
+    return obs, truth

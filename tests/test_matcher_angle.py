@@ -4,7 +4,13 @@ tests/test_matching.py, the contract every matcher meets in tests/test_matcher_c
 from __future__ import annotations
 
 import numpy as np
-from synth import assert_correct, false_star_first, frames, prepared_matcher
+from synth import (
+    assert_correct,
+    false_star_first,
+    false_stars_first,
+    frames,
+    prepared_matcher,
+)
 
 from startrack.identify import identify
 from startrack.types import MatchDiagnostics
@@ -32,3 +38,20 @@ def test_pivot_diagnostics_are_counted(random_db):
     assert np.all(frame.truth_rows[first.obs_index] == first.cat_index)
     assert diag.pivots >= 1 and diag.candidates >= 1
     assert diag.extra["lookups"] <= 28
+
+
+def test_fainter_stars_join_when_false_stars_crowd_the_brightest(hip_db):
+    """Six false stars among the eight brightest: the chains of the brightest cannot
+    solve; those that start with the extra, fainter stars do."""
+    obs, truth = false_stars_first(hip_db, 6)
+    assert not identify(obs, prepared_matcher(METHOD, hip_db, extra_stars=0)).solved
+    solution = identify(obs, prepared_matcher(METHOD, hip_db))
+    assert_correct(solution, truth)
+    assert solution.diagnostics.extra["chains"] > 56  # past the triples of the brightest
+
+
+def test_full_catalog_lookups_give_the_same_answer(hip_db):
+    """pattern_per_region=None looks pairs up among every catalog star (the slow way)."""
+    obs, truth = false_star_first(hip_db)
+    solution = identify(obs, prepared_matcher(METHOD, hip_db, pattern_per_region=None))
+    assert_correct(solution, truth)

@@ -4,9 +4,17 @@ tests/test_matcher_contract.py)."""
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
-from synth import assert_correct, frames, prepared_matcher, with_false_star
+from synth import (
+    assert_correct,
+    false_stars_first,
+    frames,
+    prepared_matcher,
+    with_false_star,
+)
 
 from startrack.attitude import angle_between_deg
 from startrack.identify import identify
@@ -38,18 +46,25 @@ def test_shortlists_hold_the_true_star_and_are_small(random_db):
     n = 8
     m = get_matcher(METHOD)(random_db)
     diag = MatchDiagnostics()
-    votes, found = angle_votes(frame.obs.vectors[:n], random_db, m.angle_tolerance(frame.obs),
-                               diag)
-    assert len(found) == n * (n - 1) // 2 and diag.candidates > 0
+    tol = m.angle_tolerance(frame.obs)
+    vectors = frame.obs.vectors[:n]
+    votes, windows = angle_votes(vectors, random_db, tol, diag)
+    assert votes.shape == (n, len(random_db.vectors)) and diag.candidates > 0
     truth = frame.truth_rows[:n]
     assert np.all(votes[np.arange(n), truth] == n - 1)  # every pair votes for the truth
     assert np.all((votes >= n - 1).sum(axis=1) <= 20)  # out of 2000 catalog stars
-    # Votes are counts of lookups: recount star 0's by brute force.
-    want = np.zeros(len(random_db.vectors), int)
-    for (a, b), rows in found.items():
-        if 0 in (a, b):
-            want[np.unique(rows)] += 1
-    assert np.array_equal(votes[0], want)
+    # Votes are counts of lookups: recount them by brute force over the k-vector lookups.
+    table = random_db.pairs
+    want = np.zeros_like(votes, dtype=int)
+    for a, b in itertools.combinations(range(n), 2):
+        theta = np.arccos(np.clip(vectors[a] @ vectors[b], -1, 1))
+        i, j, _ = table.query(theta - tol, theta + tol)
+        assert (windows[a, b, 1] - windows[a, b, 0]) == len(i)
+        assert np.array_equal(table.i[windows[a, b, 0]:windows[a, b, 1]], i)
+        stars = np.unique(np.concatenate([i, j]))
+        want[a, stars] += 1
+        want[b, stars] += 1
+    assert np.array_equal(votes, want)
 
 
 def test_fourth_star_checks_are_pivots_and_a_false_star_costs_a_pass(random_db, matcher):
@@ -63,3 +78,13 @@ def test_fourth_star_checks_are_pivots_and_a_false_star_costs_a_pass(random_db, 
     # them fails, and a later one succeeds.
     assert diag.extra["passes"] >= 2
     assert len(solution.obs_index) == np.count_nonzero(truth >= 0)
+
+
+def test_a_second_round_on_fainter_stars_when_false_stars_crowd_the_brightest(hip_db):
+    obs, truth = false_stars_first(hip_db, 6)
+    assert not identify(obs, prepared_matcher(METHOD, hip_db, extra_stars=0)).solved
+    solution = identify(obs, prepared_matcher(METHOD, hip_db))
+    assert_correct(solution, truth)
+    # The first round's passes all failed: the second one (12 stars) solved it.
+    assert solution.diagnostics.extra["passes"] > 4
+    assert max(solution.obs_index) >= 8

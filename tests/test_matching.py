@@ -178,6 +178,27 @@ def test_nearest_matches_keep_the_nearest_claim(radius, spread):
     assert len(set(pos.tolist())) == len(pos)
 
 
+@pytest.mark.parametrize("radius2", [0.0, 9.0, 400.0, 1e8, np.inf, -1.0, np.nan])
+def test_pairs_within_is_the_brute_force_list(radius2):
+    """The strip search lists exactly the pairs a full observed x catalog table keeps, by
+    observed then catalog index; NaN positions pair with nothing."""
+    from startrack.matching.nearest_kernels import pairs_within
+
+    rng = np.random.default_rng(17)
+    cx, cy = rng.uniform(0, 200, 60), rng.uniform(0, 200, 60)
+    ox, oy = np.concatenate([cx[:30] + rng.normal(0, 2, 30), rng.uniform(0, 200, 20)]), \
+        np.concatenate([cy[:30] + rng.normal(0, 2, 30), rng.uniform(0, 200, 20)])
+    cx[7], ox[3], oy[9] = np.nan, np.nan, np.nan
+    ox[4], oy[4] = cx[4], cy[4]  # an exact coincidence: distance 0
+    obs, cat, d2, start = pairs_within(ox, oy, cx, cy, radius2)
+    full = (ox[:, None] - cx[None, :]) ** 2 + (oy[:, None] - cy[None, :]) ** 2
+    want_obs, want_cat = np.nonzero(full <= radius2)  # row-major: observed, then catalog
+    np.testing.assert_array_equal(obs, want_obs)
+    np.testing.assert_array_equal(cat, want_cat)
+    np.testing.assert_array_equal(d2, full[want_obs, want_cat])
+    np.testing.assert_array_equal(start, np.searchsorted(want_obs, np.arange(len(ox) + 1)))
+
+
 @pytest.mark.parametrize("k1", [0.0, -0.3, 0.2])
 def test_compiled_projection_is_the_cameras(k1):
     """Verification projects through the compiled kernel; it must land every catalog

@@ -20,9 +20,11 @@ ROOT = Path(__file__).parents[1]
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
     out = tmp_path_factory.mktemp("report") / "cmp"
-    # the issue's command, as given (default levels: 7 conditions), into a test folder
+    # the issue's command, as given (default levels: 7 conditions), into a test folder; plus
+    # one dropout level that leaves some frames too few stars, so that a frame fails
     result = CliRunner().invoke(main, ["compare", "--frames", "20", "--methods",
-                                       "angle,pyramid", "--out", str(out), "--jobs", "1"])
+                                       "angle,pyramid", "--out", str(out), "--jobs", "1",
+                                       "--missing", "0,0.9"])
     assert result.exit_code == 0, result.output
     header = result.stdout.splitlines()[0]
     assert "err_med_as" in header and '"' not in header  # no quote characters in names
@@ -36,7 +38,8 @@ def test_report_has_every_method_provenance_plots_and_intervals(report):
     for key in ("startrack", "git commit", "date (UTC)", "host", "CPU", "Python",
                 "libraries", "numpy", "scipy", "command"):
         assert key in text
-    assert "startrack compare --methods angle,pyramid --frames 20 --jobs 1 --out" in text
+    assert ("startrack compare --methods angle,pyramid --frames 20 --missing 0,0.9 --jobs 1 "
+            "--out") in text
     links = re.findall(r"!\[[^]]*\]\(([^)]+)\)", text)
     assert {"plot_noise_px.png", "plot_false_stars.png"} <= set(links)
     assert all((out / link).is_file() for link in links)
@@ -53,7 +56,7 @@ def test_frames_keep_quaternions_and_a_failed_frame_replays(report):
     q = np.array([[float(r[c]) for c in ATTITUDE_COLUMNS[4:]] for r in solved])
     assert np.allclose(np.linalg.norm(q, axis=1), 1.0)
     commands = re.findall(r"`(startrack compare [^`]*--replay \d+,\d+)`", text)
-    assert commands, "angle misses frames with false stars: the report lists them"
+    assert commands, "frames with too few stars fail: the report lists them"
     args = shlex.split(commands[0])[1:]
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 0, result.output

@@ -14,8 +14,10 @@ from startrack.bench.tracking import TrackCondition, make_sequence
 from startrack.errors import InputError
 from startrack.identify import identify
 from startrack.matchers import get_matcher
-from startrack.tracker import Tracker, _exp, _log
+from startrack.tracker import Tracker
 from startrack.tracking import Prior, _Projector, track
+from startrack.tracking_kernels import rotation_exp as _exp
+from startrack.tracking_kernels import rotation_log as _log
 from startrack.trajectory import constant_rate, profile_trajectory, read_profile
 from startrack.types import Hypothesis
 from startrack.verify import VerifyConfig, verify
@@ -41,6 +43,29 @@ def test_exp_log_match_scipy():
     for v in rng.normal(0, 0.3, (20, 3)):
         assert np.allclose(_exp(v), Rotation.from_rotvec(v).as_matrix(), atol=1e-12)
         assert np.allclose(_log(Rotation.from_rotvec(v).as_matrix()), v, atol=1e-9)
+
+
+def test_prediction_carries_the_rate_forward_with_a_growing_sigma():
+    """From two attitudes ``gap`` frames apart the next is predicted by their per-frame
+    rotation (scipy's composition), its sigma growing per frame by the rate's error."""
+    from startrack.tracking import TrackConfig
+
+    cfg = TrackConfig()
+    r_a = Rotation.from_euler("zyx", [10, 20, 30], degrees=True)
+    step = Rotation.from_rotvec(np.radians([0.1, 0.05, 0.2]))  # per frame
+    tracker = Tracker(cfg)
+    tracker.history = [(3, r_a.as_matrix(), 1e-5), (5, (r_a * step * step).as_matrix(), 2e-5)]
+    prior = tracker.predict(8)
+    want = r_a * step ** 5
+    assert (Rotation.from_matrix(prior.matrix).inv() * want).magnitude() < 1e-12
+    sig_w = (math.hypot(1e-5, 2e-5) / 2 + cfg.accel_fraction * np.linalg.norm(step.as_rotvec())
+             + cfg.rate_floor_rad)
+    assert prior.sigma_rad == pytest.approx(2e-5 + 3 * sig_w, rel=1e-12)
+    tracker.history = tracker.history[-1:]  # one attitude: no rate, the prior's own sigma
+    alone = tracker.predict(6)
+    assert np.allclose(alone.matrix, tracker.history[0][1], atol=1e-15)
+    assert alone.sigma_rad == pytest.approx(2e-5 + cfg.unknown_rate_rad, rel=1e-12)
+    assert tracker.predict(5 + cfg.max_coast_frames + 2) is None
 
 
 def _write_profile(path, rows):
@@ -193,3 +218,19 @@ def test_a_wrong_prior_is_never_accepted(hip_db):
     off = Prior.from_rotation(truth * Rotation.from_rotvec([math.radians(2), 0, 0]), 1.7e-4)
     result = track(obs, hip_db, off)
     assert not result.solved and result.reason == "no_track"
+
+
+def test_time_ratios_pair_each_tracking_mode_with_its_own_lost_in_space():
+    import pandas as pd
+
+    from startrack.bench.tracking_report import VARIABLES, lost_in_space_name, time_ratios
+
+    assert lost_in_space_name("pyramid+track") == "pyramid"
+    assert lost_in_space_name("tetra3rs+hint") == "tetra3rs"
+    assert lost_in_space_name("pyramid") is None
+    rows = [("pyramid+track", 0.2), ("pyramid", 0.3), ("tetra3rs+hint", 0.1),
+            ("tetra3rs", 0.4)]
+    summary = pd.DataFrame([{"condition": 0, **dict.fromkeys(VARIABLES, 0.0), "method": m,
+                             "time_median_ms": t} for m, t in rows])
+    ratios = time_ratios(summary).set_index("method")["speed_up"]
+    assert ratios.to_dict() == pytest.approx({"pyramid+track": 1.5, "tetra3rs+hint": 4.0})

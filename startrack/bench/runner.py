@@ -49,6 +49,7 @@ class RunSpec:
     source: str = "centroids"
     grid: str = "oat"
     max_stars: int = 5
+    extra_stars: int | None = None  # None: the matchers' default (MatcherConfig)
     hot_pixel_fraction: float = 0.5
     threshold_arcsec: float = 60.0
 
@@ -58,7 +59,7 @@ class RunSpec:
             "methods": list(self.methods),
             "conditions": [c.to_dict() for c in self.conditions],
             "frames": self.frames, "seed": self.seed, "source": self.source,
-            "grid": self.grid, "max_stars": self.max_stars,
+            "grid": self.grid, "max_stars": self.max_stars, "extra_stars": self.extra_stars,
             "hot_pixel_fraction": self.hot_pixel_fraction,
             "threshold_arcsec": self.threshold_arcsec,
             "camera": {"width": self.camera.width, "height": self.camera.height,
@@ -92,7 +93,8 @@ class LoadedBench:
                 from startrack.pipeline import Identifier
 
                 self.identifiers[key] = Identifier(camera, base.catalog, method,
-                                                   max_stars=self.spec.max_stars)
+                                                   max_stars=self.spec.max_stars,
+                                                   extra_stars=self.spec.extra_stars)
         return self.identifiers[key]
 
 
@@ -115,7 +117,8 @@ def load_bench(spec: RunSpec) -> LoadedBench:
             seconds = {"sky": time.perf_counter() - t0}
             identifiers = {}
             for name in spec.methods:
-                ident = Identifier(spec.camera, catalog, name, max_stars=spec.max_stars)
+                ident = Identifier(spec.camera, catalog, name, max_stars=spec.max_stars,
+                                   extra_stars=spec.extra_stars)
                 identifiers[name] = ident
                 seconds[name] = ident.load_seconds
             _LOADED[key] = LoadedBench(spec, identifiers, seconds)

@@ -41,6 +41,7 @@ from startrack.types import MatchDiagnostics, Observation, Solution
 RATE_AXIS = np.array([1.0, 0.5, 2.0]) / np.linalg.norm([1.0, 0.5, 2.0])
 VARIABLES = ("rate_dps", "noise_px", "false_stars", "missing")
 PEER = "tetra3rs+hint"
+PEER_LIS = "tetra3rs"  # its lost-in-space alone on every frame: what its hint saves
 
 
 @dataclass(frozen=True)
@@ -129,9 +130,10 @@ def lost_in_space(identifier: Identifier) -> Runner:
     return identifier.identify
 
 
-def tetra3rs_hinted(identifier: Identifier) -> Runner:
+def tetra3rs_hinted(identifier: Identifier, hinted: bool = True) -> Runner:
     """tetra3rs with its last solution as ``attitude_hint`` (strict), then its lost-in-
-    space; its own answer (and its own acceptance test) is taken as it is."""
+    space; its own answer (and its own acceptance test) is taken as it is. With
+    ``hinted`` False, its lost-in-space alone on every frame (``PEER_LIS``)."""
     from startrack.matchers import get_matcher
     from startrack.matchers.tetra3rs import attitude_from_tetra3rs, tetra3rs_centroids
 
@@ -139,13 +141,14 @@ def tetra3rs_hinted(identifier: Identifier) -> Runner:
     peer.prepare()
     catalog = identifier.database.catalog
     state: dict = {"hint": None}
+    name = PEER if hinted else PEER_LIS
 
     def run(obs: Observation) -> Solution:
         kwargs = {"camera_model": peer._camera_for(obs), **peer.solve_kwargs}
         cents = tetra3rs_centroids(obs)
         t0 = time.perf_counter()
         result, mode = None, "tracking"
-        if state["hint"] is not None and len(obs) >= 3:
+        if hinted and state["hint"] is not None and len(obs) >= 3:
             result = peer._solver.solve_from_centroids(cents, attitude_hint=state["hint"],
                                                        strict_hint=True, **kwargs)
         if not result and len(obs) >= 3:
@@ -153,11 +156,11 @@ def tetra3rs_hinted(identifier: Identifier) -> Runner:
         ms = (time.perf_counter() - t0) * 1000.0
         diag = MatchDiagnostics(method_ms=ms)
         if not result or result.parity_flip:
-            return Solution(False, PEER, diagnostics=diag, identify_ms=ms, reason="no_match")
+            return Solution(False, name, diagnostics=diag, identify_ms=ms, reason="no_match")
         state["hint"] = np.asarray(result.quaternion, dtype=np.float64)
         cat = catalog.index_of(np.asarray(result.matched_catalog_ids, dtype=np.int64))
         obs_index = np.asarray(result.matched_centroids, dtype=np.int64)
-        return Solution(True, PEER, attitude_from_tetra3rs(result.rotation_matrix_icrs_to_camera),
+        return Solution(True, name, attitude_from_tetra3rs(result.rotation_matrix_icrs_to_camera),
                         obs_index=obs_index[cat >= 0], cat_index=cat[cat >= 0],
                         diagnostics=diag, identify_ms=ms, mode=mode)
     return run
@@ -232,6 +235,7 @@ def runners_for(identifiers: dict[str, Identifier], with_peer: bool) -> dict:
     if with_peer and identifiers:
         first = next(iter(identifiers.values()))
         runners[PEER] = lambda: tetra3rs_hinted(first)
+        runners[PEER_LIS] = lambda: tetra3rs_hinted(first, hinted=False)
     return runners
 
 

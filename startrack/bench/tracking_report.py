@@ -72,6 +72,15 @@ def _cell(column: str, value) -> str:
     return f"{value:.3g}" if column != "rate_dps" else f"{value:.2f}"
 
 
+def lost_in_space_name(method: str) -> str | None:
+    """The lost-in-space row a tracking method is compared with (ours ``X+track`` with
+    ``X``, the peer's ``tetra3rs+hint`` with ``tetra3rs``); None for the others."""
+    for suffix in ("+track", "+hint"):
+        if method.endswith(suffix):
+            return method[:-len(suffix)]
+    return None
+
+
 def time_ratios(summary: pd.DataFrame) -> pd.DataFrame:
     """Per condition and matcher: lost-in-space median time over tracking's, on the same
     frames (higher is better for tracking)."""
@@ -79,11 +88,12 @@ def time_ratios(summary: pd.DataFrame) -> pd.DataFrame:
     for _, g in summary.groupby("condition", sort=False):
         times = dict(zip(g["method"], g["time_median_ms"], strict=True))
         for name, ms in times.items():
-            if name.endswith("+track") and name[:-6] in times:
+            alone = lost_in_space_name(name)
+            if alone in times:
                 rows.append({"condition": int(g["condition"].iloc[0]),
                              **{v: g[v].iloc[0] for v in VARIABLES}, "method": name,
-                             "tracking_ms": ms, "lost_in_space_ms": times[name[:-6]],
-                             "speed_up": times[name[:-6]] / ms})
+                             "tracking_ms": ms, "lost_in_space_ms": times[alone],
+                             "speed_up": times[alone] / ms})
     return pd.DataFrame(rows)
 
 

@@ -14,6 +14,15 @@ angles may go unchecked), "all" (every one), "none" (the paper's literal chain: 
 pivot shares one star with the last pair, no closing angle). The variants ``angle_closed``
 and ``angle_open`` are the last two.
 
+The on-board catalog the pairs are looked up in is the pattern stars' pair table (stars
+with fewer than ``pattern_per_region`` brighter ones within half the FOV, as Pyramid's
+and the triangle table's): a frame's brightest stars are pattern stars, and at 1 px noise
+on Hipparcos Hp <= 6.5 a window then holds hundreds of pairs instead of ~13 000, so the
+joins stay small; verification still uses the whole catalog. ``pattern_per_region=None``
+looks pairs up among every catalog star. When the chains of the ``config.max_stars``
+brightest stars leave no answer (false stars crowd them), those that start from triples
+with up to ``extra_stars`` fainter stars follow (Pyramid's order of triples).
+
 The lookups and joins are the shared ones of :mod:`startrack.matching.pairs` (compiled).
 """
 
@@ -24,9 +33,10 @@ from collections.abc import Iterator
 import numpy as np
 
 from startrack.database import StarDatabase
+from startrack.database.pairs import PairTable
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
 from startrack.matching.pairs import PairLookup, join_close, join_extend, pair_index
-from startrack.matching.triples import smart_triples
+from startrack.matching.triples import triple_order
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 CLOSING = ("until_one", "all", "none")
@@ -40,9 +50,10 @@ class AngleMatcher(Matcher):
     description = "inter-star angles, pivoting on pairs that share a star (seed 000)"
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
-                 max_chains: int = 56, max_lookups: int = 400, max_skips: int = 2,
+                 max_chains: int = 220, max_lookups: int = 1600, max_skips: int = 5,
                  max_ambiguous: int = 4, max_rows: int = 2_000_000,
-                 closing: str = "until_one") -> None:
+                 closing: str = "until_one", pattern_per_region: int | None = 15,
+                 region_radius_deg: float | None = None, extra_stars: int | None = None) -> None:
         super().__init__(database, config)
         if closing not in CLOSING:
             raise ValueError(f"closing must be one of {', '.join(CLOSING)}, got {closing!r}")
@@ -55,21 +66,39 @@ class AngleMatcher(Matcher):
         # Double stars closer than the centroid noise stay ambiguous whatever the pivots.
         self.max_ambiguous = int(max_ambiguous)
         self.max_rows = int(max_rows)  # a chain whose candidates outgrow this is dropped
+        # The on-board catalog the pairs are looked up in: the pattern stars (fewer than
+        # ``pattern_per_region`` brighter stars within ``region_radius_deg``, as Pyramid's
+        # and the triangle table's), None for every catalog star.
+        self.pattern_per_region = None if pattern_per_region is None else int(pattern_per_region)
+        self.region_radius_deg = region_radius_deg
+        # When the ``config.max_stars`` brightest leave no answer (false stars crowd them),
+        # the chains that start with up to this many fainter stars are tried next.
+        self.extra_stars = int(self.config.extra_stars if extra_stars is None else extra_stars)
+
+    def _table(self) -> PairTable:
+        return self.database.pattern_pairs(self.pattern_per_region, self.region_radius_deg)
+
+    def prepare(self) -> None:
+        super().prepare()
+        pair_index(self._table(), len(self.database.vectors))
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
-        n = min(self.config.max_stars, len(obs))
+        n = min(self.config.max_stars + max(self.extra_stars, 0), len(obs))
         if n < 3:
             return
-        index = pair_index(self.database.pairs, len(self.database.vectors))
+        first = min(self.config.max_stars, n)
+        index = pair_index(self._table(), len(self.database.vectors))
         lookup = PairLookup(index, obs.vectors[:n], self.angle_tolerance(obs), diag)
         budget = [self.max_lookups]
         # Each chain starts from another ordering of the stars: the first three of a triple
-        # in spreading order, then the rest by brightness.
-        for chain, start in enumerate(smart_triples(n)):
-            if chain >= self.max_chains or budget[0] <= 0:
+        # in spreading order, then the rest by brightness, down to the triple's faintest
+        # star when it is one of the extra stars.
+        for chain, start in enumerate(triple_order(first, n, self.max_chains)):
+            if budget[0] <= 0:
                 break
             diag.extra["chains"] = chain + 1
-            order = list(start) + [s for s in range(n) if s not in start]
+            stars = range(max(first, start[2] + 1))
+            order = list(start) + [s for s in stars if s not in start]
             found = self._chain(order, lookup, diag, budget)
             if found is not None:
                 cols, rows = found

@@ -24,12 +24,16 @@ class MatcherConfig:
     """Settings every matcher shares.
 
     ``max_stars``: how many of the brightest observed stars the matcher may use (the
-    2011 paper uses five). ``tolerance_sigma``: the half-width of every feature window in
+    2011 paper uses five). ``extra_stars``: fainter stars the matchers that can (angle,
+    hybrid, pyramid) add when patterns of the ``max_stars`` brightest all fail, as when
+    false stars crowd them; 0 keeps to the brightest (the paper's experiment).
+    ``tolerance_sigma``: the half-width of every feature window in
     standard deviations of the propagated centroid noise. ``min_tolerance_rad``: a floor
     on angular windows, for noise-free input and unmodelled error (catalog, optics).
     """
 
     max_stars: int = 8
+    extra_stars: int = 4
     tolerance_sigma: float = 4.0
     min_tolerance_rad: float = 5e-6
 

@@ -18,21 +18,31 @@ false stars) are tried last in each pass. ``fourth_star=False`` (the variant
 ``hybrid_nofourth``) leaves the check out, as the paper does: each passing triangle goes
 to verification as it is.
 
+The angle lookups are in the pattern stars' pair table (as the angle matcher's: see
+there): at 1 px noise on Hipparcos the first pass's shortlists then hold tens of stars,
+not thousands. When every pass
+over the ``config.max_stars`` brightest fails (false stars crowd them), a second round
+runs the same passes on up to ``extra_stars`` more stars, whose votes may miss that many
+more. The triangle search and the fourth-star check run compiled
+(:mod:`startrack.matching.hybrid_search`), returning at each confirmed triangle so that
+verification's first acceptance ends the search.
+
 Unlike the triangle matcher it needs no triangle table (triangles are formed on the fly
-from catalog vectors), so it covers every catalog star, not only the pattern stars.
+from catalog vectors); with ``pattern_per_region=None`` it covers every catalog star.
 """
 
 from __future__ import annotations
 
-import itertools
+import functools
 from collections.abc import Iterator
 
 import numpy as np
 
 from startrack.database import StarDatabase
+from startrack.database.pairs import PairTable
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
-from startrack.matching import hybrid_kernels
-from startrack.matching.features import feature_sigma, observed_features
+from startrack.matching import hybrid_kernels, hybrid_search
+from startrack.matching.features import feature_sigma
 from startrack.matching.geometry import angle_table, handedness
 from startrack.matching.pairs import pair_index
 from startrack.matching.triples import brightness_triples
@@ -40,25 +50,28 @@ from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
 def angle_votes(vectors: np.ndarray, database: StarDatabase, tolerance: float,
-                diag: MatchDiagnostics) -> tuple[np.ndarray, dict[tuple[int, int], np.ndarray]]:
+                diag: MatchDiagnostics, table: PairTable | None = None,
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Votes (n x catalog rows): in how many of observed star a's pair lookups each catalog
-    star appears; and per observed pair (a < b) the matching catalog pairs as (K x 2) rows,
-    both ways round."""
-    n, n_cat = len(vectors), len(database.vectors)
-    votes = np.zeros((n, n_cat), np.int16)
-    found: dict[tuple[int, int], np.ndarray] = {}
-    mark = np.zeros(n_cat, bool)
-    cos = np.clip(vectors @ vectors.T, -1.0, 1.0)
-    for a, b in itertools.combinations(range(n), 2):
-        theta = float(np.arccos(cos[a, b]))
-        i, j, _ = database.pairs.query(theta - tolerance, theta + tolerance)
-        diag.candidates += len(i)
-        found[a, b] = np.column_stack([np.concatenate([i, j]), np.concatenate([j, i])])
-        mark[:] = False
-        mark[i] = mark[j] = True  # a star in several pairs of one lookup votes once
-        votes[a] += mark
-        votes[b] += mark
-    return votes, found
+    star appears (once per lookup); and each observed pair's lookup as table entries
+    [start, stop) (n x n x 2, symmetric). The lookups are in ``table`` (default: every
+    catalog pair), compiled."""
+    n = len(vectors)
+    index = pair_index(database.pairs if table is None else table, len(database.vectors))
+    ang = angle_table(vectors)
+    windows = np.zeros((n, n, 2), np.int64)
+    lo = np.searchsorted(index.angle, ang - tolerance, side="left")
+    hi = np.searchsorted(index.angle, ang + tolerance, side="right")
+    windows[..., 0], windows[..., 1] = lo, np.maximum(hi, lo)
+    upper = np.triu_indices(n, 1)
+    diag.candidates += int((windows[..., 1] - windows[..., 0])[upper].sum())
+    votes = hybrid_kernels.angle_votes(index.pi, index.pj, windows, index.n_catalog)
+    return votes, windows
+
+
+@functools.lru_cache(maxsize=16)
+def _triples(n: int) -> np.ndarray:
+    return np.array(brightness_triples(n), np.int64).reshape(-1, 3)
 
 
 @register
@@ -70,83 +83,116 @@ class HybridMatcher(Matcher):
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_false: int = 3, max_per_triangle: int = 5,
-                 max_unconfirmed: int = 10, fourth_star: bool = True) -> None:
+                 max_unconfirmed: int = 10, fourth_star: bool = True,
+                 pattern_per_region: int | None = 15,
+                 region_radius_deg: float | None = None, extra_stars: int | None = None) -> None:
         super().__init__(database, config)
+        # When the ``config.max_stars`` brightest leave no answer (false stars crowd them),
+        # a second round runs on up to this many more stars.
+        self.extra_stars = int(self.config.extra_stars if extra_stars is None else extra_stars)
+        # The on-board catalog of the angle lookups: the pattern stars (fewer than
+        # ``pattern_per_region`` brighter stars within ``region_radius_deg``, as Pyramid's
+        # and the triangle table's), None for every catalog star.
+        self.pattern_per_region = None if pattern_per_region is None else int(pattern_per_region)
+        self.region_radius_deg = region_radius_deg
         self.fourth_star = bool(fourth_star)
         self.max_unconfirmed = max_unconfirmed  # per pass, best first
         self.max_false = max_false  # votes the last pass may miss (false partners)
         self.max_per_triangle = max_per_triangle
 
-    def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
-        n = min(self.config.max_stars, len(obs))
-        if n < 3:
-            return
-        tol = self.angle_tolerance(obs)
-        votes, _ = angle_votes(obs.vectors[:n], self.database, tol, diag)
-        index = pair_index(self.database.pairs, len(self.database.vectors))
-        ang = angle_table(obs.vectors[:n])
-        windows = {(a, b): np.array(index.window(ang[a, b] - tol, ang[a, b] + tol))
-                   for a, b in itertools.combinations(range(n), 2)}
-        triples = brightness_triples(n)
-        sigma = feature_sigma(obs, self.config.tolerance_sigma, self.config.min_tolerance_rad)
-        feats = observed_features(obs.vectors[:n], triples, sigma)
-        diag.extra.update(triangles_tested=0, passes=0)
-        for missed in range(min(self.max_false, n - 3) + 1):
-            diag.extra["passes"] += 1
-            yield from self._triangles(obs, votes >= n - 1 - missed, windows, triples,
-                                       feats, diag)
+    def _table(self) -> PairTable:
+        return self.database.pattern_pairs(self.pattern_per_region, self.region_radius_deg)
 
-    def _triangles(self, obs: Observation, shortlist: np.ndarray,
-                   windows: dict, triples: list, feats: dict,
+    def prepare(self) -> None:
+        super().prepare()
+        pair_index(self._table(), len(self.database.vectors))
+
+    def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+        first = min(self.config.max_stars, len(obs))
+        if first < 3:
+            return
+        diag.extra.update(triangles_tested=0, passes=0)
+        yield from self._round(obs, first, self.max_false, diag)
+        # False stars crowd the brightest: the fainter ones join, and more votes may miss.
+        n = min(self.config.max_stars + max(self.extra_stars, 0), len(obs))
+        if n > first:
+            yield from self._round(obs, n, self.max_false + n - first, diag)
+
+    def _round(self, obs: Observation, n: int, max_false: int,
+               diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+        """Votes among the ``n`` brightest stars, then the passes that ask for n - 1 votes,
+        one fewer each, down to n - 1 - ``max_false``."""
+        vec = np.ascontiguousarray(obs.vectors[:n])
+        tol, k = self.angle_tolerance(obs), self.config.tolerance_sigma
+        votes, windows = angle_votes(vec, self.database, tol, diag, self._table())
+        tri = _triples(n)
+        # observed_features' numbers, compiled for one frame's few triples
+        feats = hybrid_kernels.triple_features(
+            vec, tri, feature_sigma(obs, k, self.config.min_tolerance_rad))
+        # The mirror image has the same area and moment: its handedness tells it apart,
+        # unless the triangle is too flat for its sign to be sure.
+        hands = np.where(feats[:, 0] > k * feats[:, 2],
+                         handedness(vec[tri[:, 0]], vec[tri[:, 1]], vec[tri[:, 2]]),
+                         0).astype(np.int64)
+        frame = (vec, tol, windows, tri, feats, hands)
+        for missed in range(min(max_false, n - 3) + 1):
+            diag.extra["passes"] += 1
+            yield from self._triangles(frame, votes >= n - 1 - missed, diag)
+
+    def _triangles(self, frame: tuple, shortlist: np.ndarray,
                    diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         """The triangle test over the shortlisted catalog stars of every observed triple."""
-        n = len(shortlist)
-        vec = obs.vectors[:n]
+        vec, tol, windows, tri, feats, hands = frame
         diag.extra["shortlist"] = shortlist.sum(axis=1).tolist()
-        unconfirmed: list[tuple[float, Hypothesis]] = []
+        index = pair_index(self._table(), len(self.database.vectors))
+        lists = hybrid_kernels.shortlisted_pairs(index.pi, index.pj, windows, shortlist)
+        search = (vec, tol, tri, feats, hands, lists, shortlist, index)
+        if self.fourth_star:
+            yield from self._confirmed(search, diag)
+            return
+        stats, t = np.zeros(1, np.int64), 0
+        while t < len(tri):
+            # The compiled search passes over the triples without a catalog triangle.
+            t, trip, err = hybrid_search.next_triangles(
+                t, tri, feats, hands, lists, self.database.vectors,
+                self.config.tolerance_sigma, self._heads, stats)
+            diag.extra["triangles_tested"] = int(stats[0])
+            if t < len(tri):
+                for r in np.argsort(err, kind="stable")[: self.max_per_triangle]:
+                    yield Hypothesis(tri[t].copy(), trip[r])
+            t += 1
 
-        k = self.config.tolerance_sigma
-        cat = self.database.vectors
-        index = pair_index(self.database.pairs, len(cat))
-        pi, pj, tol = index.pi, index.pj, self.angle_tolerance(obs)
+    def _confirmed(self, search: tuple, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+        """The triangles that a fourth star confirms, in triple order; then, best first, at
+        most ``max_unconfirmed`` of those none confirms (every other star false?
+        verification may still accept one)."""
+        vec, tol, tri, feats, hands, lists, shortlist, index = search
+        # A chance triangle among hundreds of shortlisted stars is common on a dense sky;
+        # one more star's three angles removes it before the costlier verification.
+        best_rows = np.empty((max(self.max_unconfirmed, 0), 6), np.int64)
+        best_err = np.empty(len(best_rows))
+        stats, counted, t = np.zeros(3, np.int64), np.zeros(2, np.int64), 0
         ang = angle_table(vec)
-        heads = np.full(len(cat), -1, np.int64)
-        for a, b, c in triples:
-            if not (shortlist[a].any() and shortlist[b].any() and shortlist[c].any()):
-                continue  # no catalog candidate for one of the stars
-            features = np.array(feats[a, b, c])
-            # The mirror image has the same area and moment: its handedness tells it apart.
-            hand = (int(handedness(vec[a], vec[b], vec[c])) if features[0] > k * features[2]
-                    else 0)
-            trip, err, tested = hybrid_kernels.shortlisted_triangles(
-                pi, pj, windows[a, b], windows[b, c], shortlist[a], shortlist[b],
-                shortlist[c], cat, features, k, hand, heads)
-            diag.extra["triangles_tested"] += int(tested)
-            keep = np.argsort(err, kind="stable")[: self.max_per_triangle]
-            if len(keep) == 0:
-                continue
-            if not self.fourth_star:
-                for t in keep:
-                    yield Hypothesis(np.array([a, b, c]), trip[t])
-                continue
-            # A chance triangle among hundreds of shortlisted stars is common on a dense
-            # sky; one more star's three angles removes it before the costlier verification.
-            confirmed = False
-            for d in (d for d in range(n) if d not in (a, b, c)):
-                diag.pivots += 1
-                hit, w = hybrid_kernels.confirm(trip[keep], np.array([a, b, c]), d, ang,
-                                                tol, shortlist[d], index.lists)
-                for t, star in zip(keep[hit], w, strict=True):
-                    yield Hypothesis(np.array([a, b, c, d]), np.append(trip[t], star))
-                if len(hit):
-                    confirmed = True
-                    break
-            if not confirmed:  # every other star false? verification may still accept
-                unconfirmed += [(float(err[t]), Hypothesis(np.array([a, b, c]), trip[t]))
-                                for t in keep]
-        unconfirmed.sort(key=lambda item: item[0])
-        for _, hyp in unconfirmed[: self.max_unconfirmed]:
-            yield hyp
+        while t < len(tri):
+            t, d, rows = hybrid_search.next_confirmed(
+                t, tri, feats, hands, lists, self.database.vectors,
+                self.config.tolerance_sigma, self._heads, ang, tol, shortlist, index.lists,
+                self.max_per_triangle, best_rows, best_err, stats)
+            diag.extra["triangles_tested"] += int(stats[0] - counted[0])
+            diag.pivots += int(stats[1] - counted[1])
+            counted[:] = stats[:2]
+            if t < len(tri):
+                cols = np.append(tri[t], d)
+                for row in rows:
+                    yield Hypothesis(cols, row)
+            t += 1
+        for r in range(int(stats[2])):
+            yield Hypothesis(best_rows[r, :3].copy(), best_rows[r, 3:].copy())
+
+    @functools.cached_property
+    def _heads(self) -> np.ndarray:
+        # The kernels' grouping heads: all -1 between calls, one per matcher for every frame.
+        return np.full(len(self.database.vectors), -1, np.int64)
 
 
 register_variant(HybridMatcher, "hybrid_nofourth",

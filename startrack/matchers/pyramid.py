@@ -56,7 +56,7 @@ class PyramidMatcher(Matcher):
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_triples: int = 220, max_triangles: int = 500, max_pyramids: int = 4,
                  pattern_per_region: int | None = 15, region_radius_deg: float | None = None,
-                 extra_stars: int = 4, fallback: bool = False,
+                 extra_stars: int | None = None, fallback: bool = False,
                  fallback_triples: int = 56) -> None:
         super().__init__(database, config)
         self.max_triples = int(max_triples)  # triples tried per frame on the pattern pairs
@@ -77,7 +77,7 @@ class PyramidMatcher(Matcher):
         self.fallback_triples = int(fallback_triples)
         # When the ``config.max_stars`` brightest fail (false stars crowd them), the triples
         # with up to this many fainter stars are tried next.
-        self.extra_stars = int(extra_stars)
+        self.extra_stars = int(self.config.extra_stars if extra_stars is None else extra_stars)
 
     def prepare(self) -> None:
         super().prepare()
@@ -96,6 +96,15 @@ class PyramidMatcher(Matcher):
             tables.append(self.database.pairs)
         return tables
 
+    @functools.cached_property
+    def _search_tables(self) -> tuple[tuple, list[tuple[bool, tuple, int]]]:
+        # Looked up once: per frame the lookups cost as much as a search's first triples.
+        n_cat = len(self.database.vectors)
+        full = pair_index(self.database.pairs, n_cat).lists
+        return full, [(bool(k), pair_index(table, n_cat).arrays,
+                       self.fallback_triples if k else self.max_triples)
+                      for k, table in enumerate(self._tables())]
+
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         n = min(self.config.max_stars + max(self.extra_stars, 0), len(obs))
         if n < 3:
@@ -104,13 +113,10 @@ class PyramidMatcher(Matcher):
         tol = self.angle_tolerance(obs)
         first = min(self.config.max_stars, n)
         ang = angle_table(vec)
-        n_cat = len(self.database.vectors)
-        full = pair_index(self.database.pairs, n_cat).lists
+        full, tables = self._search_tables
         stats = np.zeros(4, np.int64)
-        for fallback, table in enumerate(self._tables()):
-            diag.extra["fallback"] = bool(fallback)
-            tab = pair_index(table, n_cat).arrays
-            limit = self.fallback_triples if fallback else self.max_triples
+        for fallback, tab, limit in tables:
+            diag.extra["fallback"] = fallback
             triples = triple_array(first, n, limit)
             start = 0
             while start < len(triples):

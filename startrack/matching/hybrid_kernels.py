@@ -1,5 +1,6 @@
-"""Compiled hybrid step: catalog triplets of shortlisted stars joined from two pair
-windows, kept when their planar area and polar moment match the observed triangle's."""
+"""Compiled hybrid steps: angle votes, the shortlisted pairs of each observed pair, the
+catalog triplets joined from two of them whose planar area and polar moment match the
+observed triangle's, and the observed triangles' features."""
 
 from __future__ import annotations
 
@@ -7,7 +8,6 @@ import numpy as np
 from numba import njit
 
 from startrack.database.build_kernels import triangle_features_one
-from startrack.matching.kernels import group_window, partners, ungroup_window
 
 
 @njit(cache=True)
@@ -16,88 +16,151 @@ def _sign(x):
 
 
 @njit(cache=True)
-def shortlisted_triangles(pi, pj, ab, bc, short_a, short_b, short_c, cat, features, k,
-                          hand, heads):
-    """Triplets (x, y, z): (x, y) a pair of table entries ab = (start, stop), seen both ways
-    round, (y, z) one of bc, x != z, each star in its observed star's shortlist, whose
-    area and polar moment lie within ``k`` sigmas of ``features`` = (area, polar,
-    sigma_area, sigma_polar) and, unless ``hand`` is 0, whose handedness is ``hand``.
-    Rows come in the order of the sorted-key join. Returns (rows, err in sigmas, how many
-    triplets were tested). ``heads`` is an all -1 scratch array over the catalog."""
-    area, polar, s_area, s_polar = features[0], features[1], features[2], features[3]
-    t0, t1 = bc[0], bc[1]
-    nxt, val = np.empty(2 * (t1 - t0), np.int64), np.empty(2 * (t1 - t0), np.int64)
-    group_window(pi, pj, t0, t1, False, heads, nxt, val)
-    cap = 64
-    rows = np.empty((cap, 3), np.int64)
-    err = np.empty(cap)
+def _pair_lists(pi, pj, windows, short, fill, xs, ys, start):
     m = 0
-    tested = 0
-    for half in range(2):
-        for e in range(ab[0], ab[1]):
-            x, y = (pi[e], pj[e]) if half == 0 else (pj[e], pi[e])
-            if not (short_a[x] and short_b[y]):
+    n = short.shape[0]
+    for a in range(n):
+        for b in range(n):
+            start[a * n + b] = m
+            if b <= a:
                 continue
-            p = heads[y]
-            while p >= 0:
-                z = val[p]
-                p = nxt[p]
-                if z == x or not short_c[z]:
-                    continue
-                tested += 1
-                ca, cp = triangle_features_one(cat, x, y, z)
-                if abs(ca - area) > k * s_area or abs(cp - polar) > k * s_polar:
-                    continue
-                if hand != 0:
-                    t = (cat[x, 0] * (cat[y, 1] * cat[z, 2] - cat[y, 2] * cat[z, 1])
-                         + cat[x, 1] * (cat[y, 2] * cat[z, 0] - cat[y, 0] * cat[z, 2])
-                         + cat[x, 2] * (cat[y, 0] * cat[z, 1] - cat[y, 1] * cat[z, 0]))
-                    if _sign(t) != hand:
-                        continue
-                if m == cap:
-                    cap *= 2
-                    grown, grown_err = np.empty((cap, 3), np.int64), np.empty(cap)
-                    grown[:m], grown_err[:m] = rows[:m], err[:m]
-                    rows, err = grown, grown_err
-                rows[m, 0], rows[m, 1], rows[m, 2] = x, y, z
-                err[m] = np.hypot((ca - area) / s_area, (cp - polar) / s_polar)
-                m += 1
-    ungroup_window(pi, pj, t0, t1, heads)
+            for half in range(2):
+                for e in range(windows[a, b, 0], windows[a, b, 1]):
+                    x, y = (pi[e], pj[e]) if half == 0 else (pj[e], pi[e])
+                    if short[a, x] and short[b, y]:
+                        if fill:
+                            xs[m], ys[m] = x, y
+                        m += 1
+    start[n * n] = m
+    return m
+
+
+@njit(cache=True)
+def shortlisted_pairs(pi, pj, windows, short):
+    """Each observed pair's catalog pairs among the shortlisted stars, as (start, xs, ys):
+    for a < b, the pairs (xs[p], ys[p]), p in [start[a*n + b], start[a*n + b + 1]), are the
+    entries of the window ``windows[a, b]`` seen both ways round, x shortlisted for a and y
+    for b: first every entry as (i, j), in table order, then every entry as (j, i)."""
+    n = short.shape[0]
+    start = np.zeros(n * n + 1, np.int64)
+    none = np.empty(0, np.int64)
+    m = _pair_lists(pi, pj, windows, short, False, none, none, start)
+    xs, ys = np.empty(m, np.int64), np.empty(m, np.int64)
+    _pair_lists(pi, pj, windows, short, True, xs, ys, start)
+    return start, xs, ys
+
+
+@njit(cache=True)
+def _feature_test(cat, x, y, z, features, k, hand):
+    """Error in sigmas of the catalog triangle (x, y, z) against ``features``; -1 when its
+    area, polar moment or (unless ``hand`` is 0) handedness does not match."""
+    area, polar, s_area, s_polar = features[0], features[1], features[2], features[3]
+    ca, cp = triangle_features_one(cat, x, y, z)
+    if abs(ca - area) > k * s_area or abs(cp - polar) > k * s_polar:
+        return -1.0
+    if hand != 0:
+        t = (cat[x, 0] * (cat[y, 1] * cat[z, 2] - cat[y, 2] * cat[z, 1])
+             + cat[x, 1] * (cat[y, 2] * cat[z, 0] - cat[y, 0] * cat[z, 2])
+             + cat[x, 2] * (cat[y, 0] * cat[z, 1] - cat[y, 1] * cat[z, 0]))
+        if _sign(t) != hand:
+            return -1.0
+    return np.hypot((ca - area) / s_area, (cp - polar) / s_polar)
+
+
+@njit(cache=True)
+def shortlisted_triangles(lists, ab, bc, cat, features, k, hand, heads):
+    """Triplets (x, y, z), x != z: (x, y) a pair of observed pair ``ab`` and (y, z) one of
+    ``bc`` in :func:`shortlisted_pairs`'s ``lists``, whose area and polar moment lie within
+    ``k`` sigmas of ``features`` = (area, polar, sigma_area, sigma_polar) and, unless
+    ``hand`` is 0, whose handedness is ``hand``. Rows in the order of the (x, y) pairs,
+    then of y's pairs in bc. Returns (rows, err in sigmas, how many triplets were tested).
+    ``heads`` is an all -1 scratch array over the catalog, left so."""
+    start, xs, ys = lists
+    s0, s1 = start[bc], start[bc + 1]
+    nxt = np.empty(s1 - s0, np.int64)
+    for p in range(s1 - 1, s0 - 1, -1):  # linked backwards: y's partners come out forwards
+        nxt[p - s0] = heads[xs[p]]
+        heads[xs[p]] = p
+    rows = np.empty((64, 3), np.int64)
+    err = np.empty(64)
+    m = tested = 0
+    for q in range(start[ab], start[ab + 1]):
+        x, y = xs[q], ys[q]
+        p = heads[y]
+        while p >= 0:
+            z = ys[p]
+            p = nxt[p - s0]
+            if z == x:
+                continue
+            tested += 1
+            e = _feature_test(cat, x, y, z, features, k, hand)
+            if e < 0:
+                continue
+            if m == len(rows):
+                rows = np.concatenate((rows, np.empty_like(rows)))
+                err = np.concatenate((err, np.empty_like(err)))
+            rows[m, 0], rows[m, 1], rows[m, 2] = x, y, z
+            err[m] = e
+            m += 1
+    for p in range(s0, s1):
+        heads[xs[p]] = -1
     return rows[:m], err[:m], tested
 
 
 @njit(cache=True)
-def _has_partner(star, other, lo, hi, lists, buf):
-    n = partners(star, lo, hi, False, *lists, buf)
-    for q in range(min(n, len(buf))):  # noqa: SIM110 (compiled: no generators)
-        if buf[q] == other:
-            return True
-    return False
+def angle_votes(pi, pj, windows, n_catalog):
+    """Votes (n x catalog rows, int16): in how many of observed star a's pair windows each
+    catalog star appears, once per window however many of its pairs it is in.
+    ``windows`` (n x n x 2) holds each observed pair's table entries [start, stop)."""
+    n = windows.shape[0]
+    votes = np.zeros((n, n_catalog), np.int16)
+    stamp = np.full(n_catalog, -1, np.int64)
+    for a in range(n):
+        for b in range(a + 1, n):
+            key = a * n + b
+            for e in range(windows[a, b, 0], windows[a, b, 1]):
+                for x in (pi[e], pj[e]):
+                    if stamp[x] != key:
+                        stamp[x] = key
+                        votes[a, x] += 1
+                        votes[b, x] += 1
+    return votes
 
 
 @njit(cache=True)
-def confirm(trip, abc, d, ang, tol, short_d, lists):
-    """Candidates (rows of ``trip``, catalog stars for observed a, b, c) that the fourth
-    observed star d confirms: a shortlisted catalog star w of d whose pair angles to the
-    three catalog stars match those from d to a, b, c. Returns (row index, w), one entry
-    per match, in the order of the sorted-key join. ``lists`` are the full pair table's
-    neighbour lists (:mod:`startrack.matching.kernels`)."""
-    a, b, c = abc[0], abc[1], abc[2]
-    buf = np.empty(4096, np.int64)
-    side = np.empty(4096, np.int64)
-    hit_k, hit_w = [0], [0]
-    hit_k.pop()
-    hit_w.pop()
-    for k in range(len(trip)):
-        n_w = partners(trip[k, 0], ang[a, d] - tol, ang[a, d] + tol, a > d, *lists, side)
-        for q in range(min(n_w, len(side))):
-            w = side[q]
-            if not short_d[w]:
-                continue
-            if not _has_partner(trip[k, 1], w, ang[b, d] - tol, ang[b, d] + tol, lists, buf):
-                continue
-            if not _has_partner(trip[k, 2], w, ang[c, d] - tol, ang[c, d] + tol, lists, buf):
-                continue
-            hit_k.append(k)
-            hit_w.append(w)
-    return np.array(hit_k, np.int64), np.array(hit_w, np.int64)
+def _tangent_basis(v):
+    """:func:`startrack.database.triangles._tangent_basis` for one unit vector."""
+    axis = np.argmin(np.abs(v))
+    helper = np.zeros(3)
+    helper[axis] = 1.0
+    t1 = np.cross(v, helper)
+    t1 /= np.sqrt(np.sum(t1 * t1))
+    return t1, np.cross(v, t1)
+
+
+@njit(cache=True)
+def triple_features(vectors, triples, sigma):
+    """(area, polar, sigma_area, sigma_polar) of each observed triple (rows of
+    ``triples``): :func:`startrack.database.triangles.triangle_features` and
+    :func:`~startrack.database.triangles.feature_sigmas` (central differences along two
+    tangent directions per vertex), compiled for one frame's few triples."""
+    h = 1e-6
+    out = np.empty((len(triples), 4))
+    verts = np.empty((3, 3))
+    for t in range(len(triples)):
+        for n in range(3):
+            verts[n] = vectors[triples[t, n]]
+        out[t, 0], out[t, 1] = triangle_features_one(verts, 0, 1, 2)
+        var_a = var_j = 0.0
+        for n in range(3):
+            v = verts[n].copy()
+            for step in _tangent_basis(v):
+                verts[n] = v + h * step
+                ap, jp = triangle_features_one(verts, 0, 1, 2)
+                verts[n] = v - h * step
+                am, jm = triangle_features_one(verts, 0, 1, 2)
+                var_a += ((ap - am) / (2 * h)) ** 2
+                var_j += ((jp - jm) / (2 * h)) ** 2
+            verts[n] = v
+        out[t, 2], out[t, 3] = sigma * np.sqrt(var_a), sigma * np.sqrt(var_j)
+    return out

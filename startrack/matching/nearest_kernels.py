@@ -1,7 +1,10 @@
-"""Compiled nearest-star pairing of observed and projected catalog positions on a grid of
-cells, so that a frame of hundreds of stars costs O(n + m) and not O(n m)."""
+"""Compiled pairing of observed and projected catalog positions: the nearest star on a
+grid of cells, and every pair within a radius by a strip search, so that a frame of
+hundreds of stars costs O(n + m) (times a log) and not O(n m)."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit
@@ -75,3 +78,69 @@ def nearest_matches(ox, oy, cx, cy, radius_px):
         keep[i] = nearest[i] >= 0 and owner[nearest[i]] == i
     rows = np.flatnonzero(keep)
     return rows, nearest[rows]
+
+
+@njit(cache=True)
+def pairs_within(ox, oy, x, y, radius2):
+    """Every pair of an observed star (ox, oy) and a catalog star (x, y) whose squared
+    distance is <= ``radius2``, sorted by observed then catalog index: (observed, catalog,
+    squared distance, per observed star the start of its pairs; n + 1 offsets). The
+    catalog is searched in an x strip a hair wider than the radius, so rounding cannot
+    drop a pair the exact test keeps; a NaN position pairs with nothing."""
+    n = len(ox)
+    order = np.argsort(x)  # NaN last: never within any radius
+    xs = x[order]
+    finite = len(x)
+    while finite > 0 and np.isnan(xs[finite - 1]):
+        finite -= 1
+    cap = n + 16
+    e_obs = np.empty(cap, np.int64)
+    e_cat = np.empty(cap, np.int64)
+    e_d2 = np.empty(cap)
+    start = np.zeros(n + 1, np.int64)
+    count = 0
+    half = math.sqrt(radius2) * (1.0 + 1e-9) + 1e-9 if radius2 >= 0.0 else -1.0
+    for i in range(n):
+        start[i] = count
+        if half < 0.0 or np.isnan(ox[i]) or np.isnan(oy[i]):
+            continue
+        pad = half + 1e-12 * abs(ox[i])
+        for s in range(_first_at_least(xs, finite, ox[i] - pad), finite):
+            if xs[s] > ox[i] + pad:
+                break
+            j = order[s]
+            dx, dy = ox[i] - x[j], oy[i] - y[j]
+            d2 = dx * dx + dy * dy
+            if not d2 <= radius2:
+                continue
+            if count == cap:
+                cap *= 2
+                e_obs, e_cat, e_d2 = _grow(e_obs, cap), _grow(e_cat, cap), _grow(e_d2, cap)
+            k = count  # insertion by catalog index: a star has few pairs
+            while k > start[i] and e_cat[k - 1] > j:
+                e_obs[k], e_cat[k], e_d2[k] = e_obs[k - 1], e_cat[k - 1], e_d2[k - 1]
+                k -= 1
+            e_obs[k], e_cat[k], e_d2[k] = i, j, d2
+            count += 1
+    start[n] = count
+    return e_obs[:count], e_cat[:count], e_d2[:count], start
+
+
+@njit(cache=True)
+def _first_at_least(xs, n, value):
+    """The first index of sorted ``xs[:n]`` whose value is >= ``value`` (bisection)."""
+    lo, hi = 0, n
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if xs[mid] < value:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True)
+def _grow(a, cap):
+    out = np.empty(cap, a.dtype)
+    out[:a.shape[0]] = a
+    return out

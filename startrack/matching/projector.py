@@ -89,7 +89,7 @@ class CatalogProjector:
         index = self.database.cone_index
         fits, matrix, rows, vectors, obs_m, pos, n_in, confirmed = kern.first_match(
             self.obs_vectors, self.ox, self.oy, obs_h, sky_h, index.vectors, index.order,
-            index.z_sorted, self.cone_rad * CONE_LOOKUP_MARGIN, self.geometry,
+            index.ra_sorted, index.band_start, self.cone_rad * CONE_LOOKUP_MARGIN, self.geometry,
             self.radius_px, cos_radius)
         if not fits:
             return None, none, none, 0, 0

@@ -10,11 +10,13 @@ and the projection is :meth:`startrack.camera.Camera.vector_to_pixel` followed b
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
 from startrack.database.cone import cone_rows
-from startrack.labelling_kernels import label_kernel
+from startrack.matching.labelling_kernels import label_kernel
 from startrack.matching.nearest_kernels import nearest_matches
 from startrack.matching.wahba_kernels import matrix_to_quaternion, wahba
 
@@ -84,8 +86,8 @@ def _confirmed(obs_idx, hyp_obs, n_obs):
 
 
 @njit(cache=True)
-def first_match(obs_vectors, ox, oy, hyp_obs, hyp_sky, catalog, cone_order, cone_z,
-                cone_radius, geometry, radius, cos_radius):
+def first_match(obs_vectors, ox, oy, hyp_obs, hyp_sky, catalog, cone_order, cone_ra,
+                cone_bands, cone_radius, geometry, radius, cos_radius):
     """The first test of a hypothesis, in one call: its attitude (Wahba), each of its
     stars within the match radius, then the catalog cone around that attitude matched to
     the frame. Returns (fits, matrix, cone rows, cone vectors, observed index, cone
@@ -95,7 +97,8 @@ def first_match(obs_vectors, ox, oy, hyp_obs, hyp_sky, catalog, cone_order, cone
     vectors = np.zeros((0, 3))
     if not fits_within(obs_vectors[hyp_obs], hyp_sky, matrix, cos_radius):
         return False, matrix, rows, vectors, rows, rows, 0, 0
-    rows = cone_rows(catalog, cone_order, cone_z, matrix[:, 2].copy(), cone_radius)
+    rows = cone_rows(catalog, cone_order, cone_ra, cone_bands, matrix[:, 2].copy(),
+                     cone_radius)
     vectors = np.empty((rows.shape[0], 3))
     for i in range(rows.shape[0]):
         vectors[i] = catalog[rows[i]]
@@ -118,6 +121,17 @@ def first_match_fixed(obs_vectors, ox, oy, hyp_obs, hyp_sky, vectors, geometry, 
 
 
 @njit(cache=True)
+def _same(obs_a, pos_a, obs_b, pos_b):
+    """Whether two match lists are the same pairs in the same order."""
+    if obs_a.shape[0] != obs_b.shape[0]:
+        return False
+    for k in range(obs_a.shape[0]):  # noqa: SIM110 (numba compiles no generator into all())
+        if obs_a[k] != obs_b[k] or pos_a[k] != pos_b[k]:
+            return False
+    return True
+
+
+@njit(cache=True)
 def refine(obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m,
            max_rounds):
     """Refit on every matched star and match again until the matched set stops changing;
@@ -128,12 +142,11 @@ def refine(obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m
     for _ in range(max_rounds):
         obs_new, pos_new, _ = match(vectors, matrix, ox, oy, geometry, radius)
         changed = obs_new.shape[0] > obs_m.shape[0] or (
-            obs_new.shape[0] == obs_m.shape[0]
-            and not (np.all(obs_new == obs_m) and np.all(pos_new == pos_m)))
+            obs_new.shape[0] == obs_m.shape[0] and not _same(obs_new, pos_new, obs_m, pos_m))
         if not changed:
             obs_w, pos_w, _ = match(vectors, matrix, ox, oy, geometry, capture * radius)
-            if obs_w.shape[0] < 2:
-                break
+            if obs_w.shape[0] < 2 or _same(obs_w, pos_w, obs_m, pos_m):
+                break  # the same pairs refit to the same attitude: nothing would change
             wide = wahba(obs_vectors[obs_w], vectors[pos_w])
             obs_new, pos_new, _ = match(vectors, wide, ox, oy, geometry, radius)
             if obs_new.shape[0] <= obs_m.shape[0]:
@@ -149,7 +162,7 @@ def refine_and_label(obs_vectors, ox, oy, vectors, mags, geometry, radius, captu
                      log_false_odds, resolve2, mag_sigmas, min_mag_sigma, min_sigma_px,
                      min_fit):
     """An accepted hypothesis's matches refined (:func:`refine`), the stars labelled at the
-    refined attitude (:func:`startrack.labelling_kernels.label_kernel`, whose parameters
+    refined attitude (:func:`startrack.matching.labelling_kernels.label_kernel`, whose parameters
     follow ``max_rounds``) and the attitude refitted to the labels when there are three or
     more. Returns (observed index, vector position, refined matrix, final matrix)."""
     obs_m, pos_m, matrix = refine(obs_vectors, ox, oy, vectors, geometry, radius, capture,
@@ -163,6 +176,21 @@ def refine_and_label(obs_vectors, ox, oy, vectors, mags, geometry, radius, captu
     if obs_index.shape[0] >= 3:
         final = wahba(obs_vectors[obs_index], vectors[cat_pos])
     return obs_index, cat_pos, matrix, final
+
+
+@njit(cache=True)
+def residual_angles(obs_vectors, obs_index, matrix, cat_vectors):
+    """Angle (radians) between each observed star ``obs_vectors[obs_index[k]]`` rotated
+    to the sky by ``matrix`` (camera to sky) and its catalog vector ``cat_vectors[k]``."""
+    out = np.empty(obs_index.shape[0])
+    for k in range(obs_index.shape[0]):
+        v = obs_vectors[obs_index[k]]
+        dot = 0.0
+        for i in range(3):
+            dot += (matrix[i, 0] * v[0] + matrix[i, 1] * v[1] + matrix[i, 2] * v[2]) \
+                * cat_vectors[k, i]
+        out[k] = math.acos(max(-1.0, min(1.0, dot)))
+    return out
 
 
 def warm_up() -> None:
@@ -179,3 +207,4 @@ def warm_up() -> None:
     refine_and_label(v, xy, xy, v, xy, geometry, 1.0, 3.0, idx, idx, 2, xy, True, 1.0, 1.0,
                      1e4, -6.9, -6.9, 4.0, 5.0, 0.03, 0.02, 5)
     matrix_to_quaternion(m)
+    residual_angles(v, idx, m, v)

@@ -1,14 +1,9 @@
-"""Compiled kernel of the final labelling (startrack.labelling): one call per accepted
-attitude (numba; a frame has tens of stars, and numpy over the dense observed x catalog
-tables spent most of its time in per-call overhead).
-
-:func:`label_kernel` is the implementation of :func:`startrack.labelling.label_stars`; the
-rules are described there. It follows numpy's semantics where they decide a result: a
-median is NaN when any value is NaN and the mean of the middle two for an even count, the
-best score is the first maximum with NaN counted as the maximum, a runner-up is NaN when
-any other score is NaN, and a comparison with NaN is False. Where the numpy version raised
-(a log of zero for a zero fitted scatter, the magnitude span of no catalog star), this
-raises the same ``ValueError``.
+"""The dense formulation of the final labelling: observed x catalog tables, as
+startrack.matching.labelling_kernels computed it before it moved to the pairs within the match
+radius. Kept as the reference that tests/test_labelling_kernels.py holds the compiled
+kernel to: numpy's semantics where they decide a result (a median is NaN when any value is
+NaN, the best score is the first maximum with NaN counted as the maximum, a runner-up is
+NaN when any other score is NaN, a comparison with NaN is False), and the same errors.
 """
 
 from __future__ import annotations
@@ -263,10 +258,3 @@ def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area,
     obs_index = np.flatnonzero(ok)
     return obs_index, rows[best_c[obs_index]], withheld, sigma, mag_sigma, used
 
-
-def warm_up() -> None:
-    """Compile (or load from numba's cache) :func:`label_kernel` with the argument types
-    :func:`startrack.labelling.label_stars` passes, so that no timed frame compiles it."""
-    v = np.array([10.0, 40.0, 70.0, 100.0, 130.0, 160.0])
-    label_kernel(v, v, v, v, v / 30.0, np.arange(len(v), dtype=np.int64), v, True, 16.0, 1.0,
-                 1e4, math.log(1e-3), math.log(1e-3), 4.0, 5.0, 0.03, 0.02, 5)

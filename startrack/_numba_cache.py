@@ -1,0 +1,62 @@
+"""Where numba keeps startrack's compiled kernels: a folder per version of the sources.
+
+numba invalidates a cached kernel when the file that defines it changes, but not when a
+kernel it calls, defined in another file, does: after an update that touched only a
+callee, the caller's cached machine code would still run the old callee. Keying the
+cache folder on every source file's size and modification time makes any change start
+a fresh cache (an installed release compiles once per version, as before); the folders
+of the last few versions are kept, so checkouts side by side do not evict each other.
+An explicit ``NUMBA_CACHE_DIR`` is left alone.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+from pathlib import Path
+
+PREFIX = "kernels-"
+KEEP = 4  # source versions kept (checkouts side by side each have their own)
+
+
+def configure() -> None:
+    """Point ``NUMBA_CACHE_DIR`` at this source version's folder (before numba loads)."""
+    if "NUMBA_CACHE_DIR" in os.environ:
+        return
+    try:
+        from platformdirs import user_cache_dir
+
+        root = Path(user_cache_dir("startrack")) / "numba"
+        folder = root / (PREFIX + _source_stamp())
+        if folder.is_dir():
+            os.utime(folder)  # last used: kept by _prune
+        else:
+            folder.mkdir(parents=True, exist_ok=True)
+            _prune(root)
+    except OSError:  # no writable cache: numba's own default applies
+        return
+    os.environ["NUMBA_CACHE_DIR"] = str(folder)
+
+
+def _source_stamp(package: Path | None = None) -> str:
+    """A digest of the package's Python files: their paths, sizes and mtimes."""
+    package = package or Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    stack = [package]
+    while stack:
+        folder = stack.pop()
+        for entry in sorted(os.scandir(folder), key=lambda e: e.name):
+            if entry.is_dir() and entry.name != "__pycache__":
+                stack.append(Path(entry.path))
+            elif entry.name.endswith(".py"):
+                stat = entry.stat()
+                digest.update(f"{entry.path}:{stat.st_size}:{stat.st_mtime_ns};".encode())
+    return digest.hexdigest()[:16]
+
+
+def _prune(root: Path) -> None:
+    """Keep the :data:`KEEP` most recently used source versions' folders."""
+    folders = sorted(root.glob(PREFIX + "*"), key=lambda p: p.stat().st_mtime, reverse=True)
+    for old in folders[KEEP:]:
+        shutil.rmtree(old, ignore_errors=True)

@@ -1,0 +1,116 @@
+"""The centroider's block-mean sky kernels and run finder against plain numpy references."""
+
+import numpy as np
+import pytest
+
+from startrack import extract_blocks as blocks
+from startrack.extract_kernels import _row_runs
+
+NO_GRID = np.zeros((0, 0))
+NO_MASK = np.zeros((0, 0), np.uint8)
+
+
+def reference_means(image, lay, fill=0.0):
+    """Block means by reshaping the blocks' pixels (tiles laid out as in ``layout``)."""
+    n_r, n_c, t_r, t_c, o_r, o_c, b, nb_r, nb_c = lay
+    image = np.where(np.isfinite(image), image, fill).astype(np.float64)
+    out = np.empty((n_r * nb_r, n_c * nb_c))
+    for i in range(n_r):
+        for j in range(n_c):
+            r, c = o_r + i * t_r, o_c + j * t_c
+            tile = image[r:r + nb_r * b, c:c + nb_c * b]
+            out[i * nb_r:(i + 1) * nb_r, j * nb_c:(j + 1) * nb_c] = \
+                tile.reshape(nb_r, b, nb_c, b).mean(axis=(1, 3))
+    return out
+
+
+@pytest.mark.parametrize("shape,tile", [((200, 260), 31), ((97, 131), 16), ((40, 50), 5)])
+def test_block_means_match_numpy(shape, tile):
+    rng = np.random.default_rng(shape[0])
+    image = rng.integers(0, 65535, shape).astype(np.uint16)
+    lay = blocks.layout(shape, tile)
+    n_r, n_c, t_r, t_c, o_r, o_c, b, nb_r, nb_c = lay
+    assert b == (4 if min(t_r, t_c) >= 8 else 1)
+    assert o_r >= 0 and o_c >= 0
+    assert o_r + n_r * t_r <= shape[0] and o_c + n_c * t_c <= shape[1]
+    got = blocks.block_means(image, 0.0, lay)
+    np.testing.assert_allclose(got, reference_means(image, lay), rtol=1e-6)
+    floats = rng.normal(100.0, 5.0, shape)
+    floats[3:9, 10:14] = np.nan
+    np.testing.assert_allclose(blocks.block_means(floats, 42.0, lay),
+                               reference_means(floats, lay, 42.0), rtol=1e-6)
+
+
+def test_tile_medians_match_numpy_with_mask_model_and_known():
+    rng = np.random.default_rng(5)
+    shape, tile = (200, 260), 31
+    lay = blocks.layout(shape, tile)
+    nb_r, nb_c = lay[7], lay[8]
+    _, block_w = blocks.weights(shape, lay)
+    means = rng.normal(0.0, 3.0, (lay[0] * nb_r, lay[1] * nb_c)).astype(np.float32)
+    grid = rng.normal(10.0, 2.0, (lay[0], lay[1]))
+    model = means - blocks.residual(means, grid, *block_w)  # the model at the blocks
+    r0, r1, fr, c0, c1, fc = block_w
+    rows = grid[r0] * (1 - fr)[:, None] + grid[r1] * fr[:, None]
+    np.testing.assert_allclose(model, rows[:, c0] * (1 - fc) + rows[:, c1] * fc, atol=1e-4)
+    ignore = (rng.random(means.shape) < 0.3).astype(np.uint8)
+    ignore[:nb_r, :nb_c] = 1  # a tile with every block ignored
+
+    def tiles(values, mask):
+        out = np.full((lay[0], lay[1]), np.nan)
+        for i in range(lay[0]):
+            for j in range(lay[1]):
+                v = values[i * nb_r:(i + 1) * nb_r, j * nb_c:(j + 1) * nb_c]
+                keep = mask[i * nb_r:(i + 1) * nb_r, j * nb_c:(j + 1) * nb_c] == 0
+                if keep.any():
+                    out[i, j] = np.median(v[keep].astype(np.float64))
+        return out
+
+    none = np.zeros(means.shape, np.uint8)
+    plain = blocks.tile_medians(means, NO_MASK, nb_r, nb_c, NO_GRID, block_w, NO_GRID)
+    np.testing.assert_array_equal(plain, tiles(means, none))
+    masked = blocks.tile_medians(means, ignore, nb_r, nb_c, NO_GRID, block_w, NO_GRID)
+    np.testing.assert_array_equal(masked, tiles(means, ignore))
+    assert np.isnan(masked[0, 0]) and np.isfinite(masked[1:, 1:]).all()
+    sub = blocks.tile_medians(means, ignore, nb_r, nb_c, grid, block_w, NO_GRID)
+    np.testing.assert_allclose(sub, tiles(means - model, ignore), atol=1e-4)
+    # known medians are taken as they are where no block of a tile is ignored
+    sparse = np.zeros_like(ignore)
+    sparse[nb_r + 1, 2 * nb_c + 3] = 1
+    known = np.full((lay[0], lay[1]), -7.0)
+    reused = blocks.tile_medians(means, sparse, nb_r, nb_c, NO_GRID, block_w, known)
+    assert reused[1, 2] == tiles(means, sparse)[1, 2]
+    assert np.all(np.delete(reused.ravel(), 1 * lay[1] + 2) == -7.0)
+
+
+def test_block_weights_put_each_tile_value_at_its_blocks_centre():
+    shape, tile = (200, 260), 31
+    lay = blocks.layout(shape, tile)
+    pixel_w, block_w = blocks.weights(shape, lay)
+    rows, cols = np.mgrid[0:shape[0], 0:shape[1]]
+    plane = 5.0 + 0.3 * cols - 0.7 * rows
+    means = blocks.block_means(plane, 0.0, lay)
+    grid = blocks.tile_medians(means, NO_MASK, lay[7], lay[8], NO_GRID, block_w, NO_GRID)
+    # a plane's tile medians are the plane at the tiles' centres: bilinear is exact
+    np.testing.assert_allclose(blocks.residual(means, grid, *block_w), 0.0, atol=1e-3)
+    r0, r1, fr, c0, c1, fc = pixel_w
+    at = grid[r0] * (1 - fr)[:, None] + grid[r1] * fr[:, None]
+    np.testing.assert_allclose(at[:, c0] * (1 - fc) + at[:, c1] * fc, plane, atol=1e-3)
+
+
+def reference_runs(det, threshold):
+    above = np.r_[False, det > threshold, False]
+    edges = np.flatnonzero(np.diff(above.astype(np.int8)))
+    return list(zip(edges[::2], edges[1::2] - 1, strict=True))
+
+
+@pytest.mark.parametrize("w", [1, 31, 32, 33, 64, 100, 1024])
+def test_row_runs_match_numpy_across_chunk_edges(w):
+    rng = np.random.default_rng(w)
+    out = np.empty((2, w // 2 + 1), np.int64)
+    for density in (0.0, 0.02, 0.3, 0.7, 1.0):
+        det = np.where(rng.random(w) < density, 5.0, 0.0)
+        if w > 40:
+            det[30:35] = 5.0  # a run across the first chunk edge
+        n = _row_runs(det, 1.0, out)
+        assert list(zip(out[0, :n], out[1, :n], strict=True)) == reference_runs(det, 1.0)

@@ -1,0 +1,55 @@
+"""The compiled kernels' cache folder follows the sources: any change to any source file
+(a callee's included) gives a fresh folder; the last few versions are kept."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+
+from startrack import _numba_cache
+
+
+def _tree(root):
+    (root / "sub").mkdir(parents=True)
+    (root / "__pycache__").mkdir()
+    for name in ("a.py", "sub/b.py", "__pycache__/x.nbi", "data.txt"):
+        (root / name).write_text("x = 1\n")
+    return root
+
+
+def test_stamp_changes_with_any_source_file_and_nothing_else(tmp_path):
+    root = _tree(tmp_path / "pkg")
+    first = _numba_cache._source_stamp(root)
+    assert _numba_cache._source_stamp(root) == first
+    (root / "__pycache__" / "x.nbi").write_text("compiled, changed")  # not a source
+    (root / "data.txt").write_text("other")
+    assert _numba_cache._source_stamp(root) == first
+    later = time.time() + 5
+    os.utime(root / "sub" / "b.py", (later, later))  # a callee in another file
+    assert _numba_cache._source_stamp(root) != first
+
+
+def test_prune_keeps_the_most_recently_used(tmp_path):
+    for k in range(_numba_cache.KEEP + 3):
+        folder = tmp_path / f"{_numba_cache.PREFIX}{k}"
+        folder.mkdir()
+        os.utime(folder, (1000 + k, 1000 + k))
+    _numba_cache._prune(tmp_path)
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == [f"{_numba_cache.PREFIX}{k}" for k in range(3, _numba_cache.KEEP + 3)]
+
+
+def test_import_points_numba_at_the_versioned_folder(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["XDG_CACHE_HOME"] = str(tmp_path)
+    code = ("import startrack, os, numba.core.config as c; "
+            "print(os.environ['NUMBA_CACHE_DIR']); print(c.CACHE_DIR)")
+    out = subprocess.run([sys.executable, "-c", code], env=env, text=True,
+                         capture_output=True, check=True).stdout.split()
+    assert out[0] == out[1] and out[0].startswith(str(tmp_path / "startrack" / "numba"))
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "mine")
+    out = subprocess.run([sys.executable, "-c", code], env=env, text=True,
+                         capture_output=True, check=True).stdout.split()
+    assert out == [str(tmp_path / "mine")] * 2
