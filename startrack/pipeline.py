@@ -244,14 +244,12 @@ class Pipeline:
             found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
                      if first.solution.solved else None)
             spent = first.solution.identify_ms  # the first try is part of the answer
-        if found is None and self.options.sky is None and self.options.mag_limit is None:
-            # the default sky: the whole Gaia catalog, cut per window (as when blind)
-            blind = self.blind_solver(SkySpec(kind="gaia", epoch=self.options.epoch))
-            found = blind.solve(x, y, (camera.width, camera.height), deadline, camera,
-                                self.options.fov_tolerance)
-        elif found is None:
-            ident = self.identifier(camera, sky, "quad")
-            found = solve_approximate(ident, x, y, self.options.fov_tolerance, deadline)
+        if found is None:
+            tol, opt = self.options.fov_tolerance, self.options
+            found = (self.blind_solver(SkySpec(kind="gaia", epoch=opt.epoch)).solve(
+                x, y, (camera.width, camera.height), deadline, camera, tol)  # Gaia per window
+                if opt.sky is None and opt.mag_limit is None else
+                solve_approximate(self.identifier(camera, sky, "quad"), x, y, tol, deadline))
             found = dataclasses.replace(found, solution=dataclasses.replace(
                 found.solution, identify_ms=found.solution.identify_ms + spent))
         return found
