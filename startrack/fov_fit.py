@@ -14,7 +14,7 @@ from startrack.distortion import RadialDistortion
 
 #: an undescribed lens's k1 is fitted to this many stars reaching this far (r^2 of the
 #: normalised plane: 11 deg off axis), within +-LENS_MAX_K1
-LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1 = 6, 0.01, 0.3
+LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1 = 6, 0.04, 0.3
 
 
 def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
