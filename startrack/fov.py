@@ -23,10 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from startrack.attitude import wahba_matrices
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.deadline import NO_DEADLINE, Deadline
+from startrack.errors import InputError
+from startrack.fov_fit import fit_camera, fit_focal
 from startrack.identify import residuals_arcsec
 from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
@@ -54,32 +55,6 @@ def _check(deadline: Deadline) -> None:
         raise SearchTimeout
 
 
-def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
-              iterations: int = 12) -> float:
-    """The focal length (px) that, with its best attitude, fits the pixels ``x``, ``y`` to
-    the catalog directions: alternate Wahba's problem and the linear least squares of
-    ``pixel - centre = f * D(tangent-plane position)`` (D the camera's lens distortion, if
-    any) until the focal length settles."""
-    f = camera.f_px
-    d = np.stack([np.asarray(x, float) - camera.cx, np.asarray(y, float) - camera.cy], 1)
-    for _ in range(iterations):
-        cam = dataclasses.replace(camera, f_px=f).pixel_to_vector(x, y)
-        matrix = wahba_matrices(cam, cat_vectors)
-        c = cat_vectors @ matrix  # rows R^T v: catalog directions in the camera frame
-        t = c[:, :2] / c[:, 2:3]
-        if camera.distortion is not None:  # the lens acts on the normalised plane: d = f D(t)
-            t = np.stack(camera.distortion.distort(t[:, 0], t[:, 1]), 1)
-        denom = float(np.sum(t * t))
-        if denom <= 0:
-            break
-        f_new = float(np.sum(d * t) / denom)
-        done = abs(f_new - f) <= 1e-10 * abs(f)
-        f = f_new
-        if done:
-            break
-    return f
-
-
 def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
                   ) -> tuple[Verification, Camera, Observation] | None:
@@ -88,13 +63,16 @@ def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
     cat = database.vectors
     obs = Observation.from_pixels(x, y, camera, sigma_px)
     check = verify(hyp, obs, database, config)
-    for _ in range(2):
+    for _ in range(3):
         if not check.accepted:
             return None
-        f = fit_focal(camera, x[check.obs_index], y[check.obs_index], cat[check.cat_index])
-        if not (f > 0 and math.isfinite(f)):
+        try:
+            camera = fit_camera(camera, x[check.obs_index], y[check.obs_index],
+                                cat[check.cat_index])
+        except InputError:  # a fitted lens that folds back inside the image
             return None
-        camera = dataclasses.replace(camera, f_px=f)
+        if not (camera.f_px > 0 and math.isfinite(camera.f_px)):
+            return None
         obs = Observation.from_pixels(x, y, camera, sigma_px)
         check = verify(hyp, obs, database, config)
     return (check, camera, obs) if check.accepted else None
@@ -244,13 +222,17 @@ class BlindSolver:
         return self._databases[n]
 
     def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int],
-              deadline: Deadline = NO_DEADLINE) -> FovResult:
+              deadline: Deadline = NO_DEADLINE, camera: Camera | None = None,
+              tolerance: float = DEFAULT_FOV_TOLERANCE) -> FovResult:
         """Search every window, widest field first; the first verified find wins. Not
-        solved, with reason "timeout", if ``deadline`` passes first."""
+        solved, with reason "timeout", if ``deadline`` passes first. With ``camera`` (a
+        nominal focal length) only the focal lengths within ``tolerance`` of it are
+        searched, through that camera (its centre and lens model)."""
         t0 = time.perf_counter()
-        base = Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
+        base = camera or Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
+        f_lo, f_hi = focal_range(camera, tolerance) if camera else (
+            f_of_fov(size[0], fov) for fov in sorted(self.fov_range, reverse=True))
         diag, seen = MatchDiagnostics(), set()
-        f_lo, f_hi = (f_of_fov(size[0], fov) for fov in sorted(self.fov_range, reverse=True))
         db = self.database_for(base)
         reason = "no_match" if len(x) >= 3 else "too_few_stars"
         try:

@@ -245,8 +245,11 @@ class Pipeline:
                      if first.solution.solved else None)
             spent = first.solution.identify_ms  # the first try is part of the answer
         if found is None:
-            ident = self.identifier(camera, sky, "quad")
-            found = solve_approximate(ident, x, y, self.options.fov_tolerance, deadline)
+            tol, opt = self.options.fov_tolerance, self.options
+            found = (self.blind_solver(SkySpec(kind="gaia", epoch=opt.epoch)).solve(
+                x, y, (camera.width, camera.height), deadline, camera, tol)  # Gaia per window
+                if opt.sky is None and opt.mag_limit is None else
+                solve_approximate(self.identifier(camera, sky, "quad"), x, y, tol, deadline))
             found = dataclasses.replace(found, solution=dataclasses.replace(
                 found.solution, identify_ms=found.solution.identify_ms + spent))
         return found

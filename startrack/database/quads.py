@@ -6,9 +6,12 @@ a match gives the image scale (the largest edge in pixels against the same edge 
 sky). The sky is covered at levels of field of view ``F`` a factor sqrt(2) apart: at
 each level the pattern stars are the brightest stars, as many as give
 ``STARS_PER_FRAME`` in an average frame (all of a catalog that holds fewer), and every
-four pattern stars whose edges are all within ``PATTERN_SIZE * F`` make a pattern. The
-brightest stars of an image are then mostly pattern stars, wherever it points. A frame of field
-of view F is searched in the level nearest F.
+four pattern stars whose edges are all within ``PATTERN_SIZE * F`` make a pattern. Where
+the pattern stars are sparse (a narrow field whose catalog runs out, a galactic pole) a
+star's patterns reach out to its ``K_NEAREST`` nearest pattern stars, up to the frame
+diagonal (``MAX_PATTERN_SIZE * F``): a sparse frame's few stars still make patterns that
+the table holds. The brightest stars of an image are then mostly pattern stars, wherever
+it points. A frame of field of view F is searched in the level nearest F.
 Each level is built once and cached (:func:`startrack.cache.cached_arrays`).
 """
 
@@ -25,10 +28,14 @@ from startrack.cache import cached_arrays
 STARS_PER_FRAME = 25  # pattern stars in an average frame of a level's FOV
 PATTERN_SIZE = 0.4  # largest pattern edge, in level FOVs
 MAX_HIGHER = 8  # fainter pattern stars each pattern star combines with, at most
+#: a star in a sparse patch makes patterns with its this many nearest pattern stars
+K_NEAREST = 8
+MAX_PATTERN_SIZE = 1.25  # largest pattern edge where stars are sparse: a 4:3 diagonal
 BIN = 0.025  # key quantisation step of an edge ratio (at least twice the lookup tolerance)
 NBINS = int(round(1.0 / BIN))
 LEVEL_STEP = math.sqrt(2.0)
-FORMAT_VERSION = 1
+RATIO_STEPS = 255  # a table's ratios are stored as uint8 in steps of 1/RATIO_STEPS
+FORMAT_VERSION = 4
 #: pair (a, b) of each of the six edges of a pattern (a < b, rows of a 4-star pattern)
 EDGES = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
 
@@ -65,22 +72,24 @@ def _dot(v, a, b):
 
 
 @njit(cache=True)
-def _enumerate(indptr, indices, vectors, cos_max, out):
-    """Every pattern (a, b, c, d), a < b < c < d, with b, c, d among the higher
-    neighbours of a and every edge within the angle whose cosine is ``cos_max``; writes
-    them to ``out`` when it is large enough and returns how many there are."""
+def _enumerate(indptr, indices, vectors, cos_max, max_higher, out):
+    """Every pattern (a, b, c, d), a < b < c < d, with b, c, d among the first
+    ``max_higher[a]`` higher neighbours of a and every edge within the angle whose cosine
+    is ``cos_max[a]``; writes them to ``out`` when it is large enough and returns how many
+    there are."""
     m = 0
     for a in range(len(indptr) - 1):
-        lo, hi = indptr[a], min(indptr[a + 1], indptr[a] + MAX_HIGHER)
+        lo, hi = indptr[a], min(indptr[a + 1], indptr[a] + max_higher[a])
+        cm = cos_max[a]
         for i in range(lo, hi):
             b = indices[i]
             for j in range(i + 1, hi):
                 c = indices[j]
-                if _dot(vectors, b, c) < cos_max:
+                if _dot(vectors, b, c) < cm:
                     continue
                 for k in range(j + 1, hi):
                     d = indices[k]
-                    if _dot(vectors, b, d) < cos_max or _dot(vectors, c, d) < cos_max:
+                    if _dot(vectors, b, d) < cm or _dot(vectors, c, d) < cm:
                         continue
                     if m < out.shape[0]:
                         out[m, 0], out[m, 1], out[m, 2], out[m, 3] = a, b, c, d
@@ -88,27 +97,71 @@ def _enumerate(indptr, indices, vectors, cos_max, out):
     return m
 
 
-def all_quads(vectors: np.ndarray, max_edge_rad: float) -> np.ndarray:
-    """Every four rows of ``vectors`` whose six edges are at most ``max_edge_rad``, each
-    row combining with at most the first ``MAX_HIGHER`` later rows near it (rows are
-    brightest first, so a crowded field keeps its brighter patterns)."""
+def _chord(angle_rad: float) -> float:
+    return 2.0 * math.sin(min(angle_rad, math.pi) / 2.0)
+
+
+def pattern_radii(vectors: np.ndarray, min_rad: float, max_rad: float,
+                  k: int = K_NEAREST) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's largest pattern edge (radians): ``min_rad``, or where stars are sparse
+    the angle to its ``k``-th nearest other row, at most ``max_rad``; and the rows within
+    that angle of each row whose radius exceeds ``min_rad`` (N x k, ``len(vectors)`` where
+    there is none)."""
+    n = len(vectors)
+    kk = min(k, n - 1)
+    if kk <= 0 or max_rad <= min_rad:
+        return np.full(n, float(min_rad)), np.full((n, 0), n, np.int64)
+    dist, rows = cKDTree(vectors).query(vectors, k=kk + 1,
+                                        distance_upper_bound=_chord(max_rad))
+    kth = dist[:, -1]
+    angle = np.where(np.isfinite(kth), 2.0 * np.arcsin(np.clip(kth / 2.0, 0.0, 1.0)),
+                     max_rad)
+    radii = np.clip(angle, min_rad, max_rad)
+    rows = np.where(radii[:, None] > min_rad, rows[:, 1:], n)
+    return radii, rows
+
+
+def _neighbour_lists(vectors: np.ndarray, min_rad: float, sparse_rows: np.ndarray):
+    """CSR lists of each row's higher rows within its pattern radius: the pairs within
+    ``min_rad`` and the rows of :func:`pattern_radii` beyond it."""
+    n = len(vectors)
+    pairs = cKDTree(vectors).query_pairs(_chord(min_rad), output_type="ndarray")
+    pairs = np.sort(pairs.reshape(-1, 2).astype(np.int64), axis=1)
+    head = np.repeat(np.arange(n, dtype=np.int64), sparse_rows.shape[1])
+    other = sparse_rows.ravel().astype(np.int64)
+    far = (other < n) & (other > head)
+    # one int64 code per (head, higher row): unique sorts by head, then by brightness
+    code = np.unique(np.concatenate([pairs[:, 0] * n + pairs[:, 1],
+                                     head[far] * n + other[far]]))
+    indptr = np.zeros(n + 1, np.int64)
+    np.cumsum(np.bincount(code // n, minlength=n), out=indptr[1:])
+    return indptr, np.ascontiguousarray(code % n, np.int64)
+
+
+def all_quads(vectors: np.ndarray, max_edge_rad: float, sparse_edge_rad: float = 0.0,
+              max_higher: int = MAX_HIGHER, k: int = K_NEAREST) -> np.ndarray:
+    """Every four rows of ``vectors`` whose six edges are at most the first row's pattern
+    radius (:func:`pattern_radii`: ``max_edge_rad``, up to ``sparse_edge_rad`` where rows
+    are sparse), each row combining with at most the first ``max_higher`` later rows near
+    it (rows are brightest first, so a crowded field keeps its brighter patterns); a
+    sparse row reaches its ``k`` nearest rows and combines with every later one of them."""
     n = len(vectors)
     if n < 4:
         return np.zeros((0, 4), np.int64)
-    chord = 2.0 * math.sin(max_edge_rad / 2.0)
-    pairs = cKDTree(vectors).query_pairs(chord, output_type="ndarray")
-    if len(pairs) == 0:
+    radii, sparse_rows = pattern_radii(vectors, max_edge_rad, sparse_edge_rad, k)
+    indptr, indices = _neighbour_lists(vectors, max_edge_rad, sparse_rows)
+    if len(indices) == 0:
         return np.zeros((0, 4), np.int64)
-    pairs = np.sort(pairs, axis=1)
-    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
-    indptr = np.zeros(n + 1, np.int64)
-    np.cumsum(np.bincount(pairs[:, 0], minlength=n), out=indptr[1:])
-    indices = np.ascontiguousarray(pairs[:, 1], np.int64)
     v = np.ascontiguousarray(vectors, np.float64)
-    cos_max = math.cos(max_edge_rad)
-    m = _enumerate(indptr, indices, v, cos_max, np.zeros((0, 4), np.int64))
+    # a sparse star's pattern lies in the disk out to its k-th nearest star: edges between
+    # its neighbours reach across that disk
+    sparse = radii > max_edge_rad
+    cos_max = np.cos(np.where(sparse, np.minimum(2.0 * radii, max(sparse_edge_rad,
+                                                                  max_edge_rad)), radii))
+    cap = np.where(sparse, max(k, max_higher), max_higher).astype(np.int64)
+    m = _enumerate(indptr, indices, v, cos_max, cap, np.zeros((0, 4), np.int64))
     out = np.zeros((m, 4), np.int64)
-    _enumerate(indptr, indices, v, cos_max, out)
+    _enumerate(indptr, indices, v, cos_max, cap, out)
     return out
 
 
@@ -120,14 +173,17 @@ def level_stars(level_deg: float) -> int:
 
 
 def build_level_arrays(vectors: np.ndarray, level_deg: float) -> dict[str, np.ndarray]:
-    """The pattern table of one level: keys (sorted, int32: NBINS**5 < 2**31) and quads
-    (rows of ``vectors``, which are brightest first)."""
+    """The pattern table of one level: keys (sorted, int32: NBINS**5 < 2**31), quads
+    (rows of ``vectors``, which are brightest first) and the ratios in ``RATIO_STEPS``
+    (a first test of a lookup's candidates that needs no star of the catalog)."""
     head = vectors[: min(len(vectors), level_stars(level_deg))]
-    quads = all_quads(head, PATTERN_SIZE * math.radians(level_deg))
+    quads = all_quads(head, PATTERN_SIZE * math.radians(level_deg),
+                      MAX_PATTERN_SIZE * math.radians(level_deg))
     r, _ = ratios(edge_angles(head, quads))
     keys = keys_of(r)
     order = np.argsort(keys, kind="stable")
-    return {"keys": keys[order].astype(np.int32), "quads": quads[order].astype(np.int32)}
+    return {"keys": keys[order].astype(np.int32), "quads": quads[order].astype(np.int32),
+            "ratios": np.round(r[order] * RATIO_STEPS).astype(np.uint8)}
 
 
 class QuadLevel:
@@ -137,6 +193,7 @@ class QuadLevel:
         self.level_deg = level_deg
         self.keys = arrays["keys"].astype(np.int64)
         self.quads = arrays["quads"]
+        self.ratios = arrays["ratios"]
 
     def __len__(self) -> int:
         return len(self.keys)
@@ -155,6 +212,7 @@ def quad_level(catalog, level_deg: float) -> QuadLevel:
     """The cached pattern table of ``catalog`` at one level."""
     params = {"catalog": catalog.fingerprint(), "level": round(level_deg, 9),
               "stars": STARS_PER_FRAME, "size": PATTERN_SIZE, "k": MAX_HIGHER, "bin": BIN,
+              "near": K_NEAREST, "sparse": MAX_PATTERN_SIZE,
               "v": FORMAT_VERSION}
     arrays = cached_arrays("quads", params,
                            lambda: build_level_arrays(catalog.vectors, level_deg))

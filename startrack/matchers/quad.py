@@ -29,6 +29,9 @@ from startrack.matchers.base import Matcher, register
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 IMAGE_STARS = 16  # brightest observed stars whose every four make a pattern
+#: an image star's patterns reach its this many nearest image stars (the catalog's reach
+#: its ``Q.K_NEAREST`` nearest: more, as the image also holds stars the catalog lacks)
+IMAGE_NEAREST = 10
 RATIO_TOLERANCE = 0.012  # largest error of one edge ratio (key lookup and edge test)
 MAX_CANDIDATES = 4000  # best by edge agreement, before the confirmation count
 CHECK_STARS = 24  # brightest observed stars counted against the catalog per candidate
@@ -66,7 +69,9 @@ def image_patterns(vectors: np.ndarray, level_deg: float,
     every four of the ``IMAGE_STARS`` brightest stars whose edges fit the level.
     ``slack``: how much larger than assumed the scale may be."""
     top = np.arange(min(len(vectors), IMAGE_STARS))
-    quads = Q.all_quads(vectors[top], Q.PATTERN_SIZE * math.radians(level_deg) * slack)
+    size = math.radians(level_deg) * slack
+    quads = Q.all_quads(vectors[top], Q.PATTERN_SIZE * size, Q.MAX_PATTERN_SIZE * size,
+                        max_higher=IMAGE_STARS, k=IMAGE_NEAREST)
     return quads, Q.edge_angles(vectors, quads)
 
 
@@ -80,9 +85,15 @@ def match_patterns(vectors: np.ndarray, table: Q.QuadLevel, cat_vectors: np.ndar
         return empty
     r, largest = Q.ratios(edges)
     qi, rows = table.lookup(_query_keys(r).ravel())
+    qi //= 32
+    # sorting moves no ratio by more than the largest edge error: a test on the sorted
+    # ratios drops most candidates before their stars are read
+    step = 0.5 / Q.RATIO_STEPS
+    near = np.abs(table.ratios[rows] * (1.0 / Q.RATIO_STEPS) - r[qi]).max(axis=1)
+    qi, rows = qi[near <= RATIO_TOLERANCE + step], rows[near <= RATIO_TOLERANCE + step]
     if len(qi) == 0:
         return empty
-    pair = np.unique((qi // 32) * len(table) + rows)  # one per (pattern, table row)
+    pair = np.unique(qi * len(table) + rows)  # one per (pattern, table row)
     qi, rows = pair // len(table), pair % len(table)
     img = edges[qi] / largest[qi, None]  # (P, 6)
     cat_quads = table.quads[rows].astype(np.int64)
