@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 CACHE_VERSION = 2  # 2: entries carry a checksum
-DEFAULT_CACHE_MAX_MB = 1024
+DEFAULT_CACHE_MAX_MB = 2048  # room for a blind search's Gaia pattern tables beside the rest
 CHECKSUM_KEY = "__sha256__"
 # What the cache writes: kind-<20 hex>.suffix; anything else in the folder is left alone.
 ENTRY_NAME = re.compile(r"^[a-z0-9_]+-[0-9a-f]{20}(\.[A-Za-z0-9]+)+$")
@@ -87,7 +87,7 @@ def cache_dir() -> Path:
 
 
 def cache_max_bytes() -> int:
-    """The cache size cap: ``$STARTRACK_CACHE_MAX_MB`` megabytes (default 1024)."""
+    """The cache size cap: ``$STARTRACK_CACHE_MAX_MB`` megabytes (default 2048)."""
     text = os.environ.get("STARTRACK_CACHE_MAX_MB", "")
     try:
         mb = float(text) if text else DEFAULT_CACHE_MAX_MB
