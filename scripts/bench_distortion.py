@@ -28,7 +28,7 @@ from startrack.bench.frames import make_frame, true_camera
 from startrack.bench.metrics import score_frame
 from startrack.camera import Camera
 from startrack.camera_file import load_camera
-from startrack.pipeline import Identifier
+from startrack.identifier import Identifier
 from startrack.sky import SkySpec, load_sky
 
 

@@ -27,7 +27,7 @@ from startrack.bench import tracking as tb
 from startrack.bench import tracking_report as tr
 from startrack.cache import atomic_text
 from startrack.config import load_config
-from startrack.pipeline import Identifier
+from startrack.identifier import Identifier
 from startrack.sky import load_sky, resolve_sky
 
 ROOT = Path(__file__).resolve().parents[1]

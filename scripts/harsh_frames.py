@@ -34,8 +34,8 @@ from startrack.bench.conditions import Condition
 from startrack.bench.frames import make_frame
 from startrack.bench.metrics import DEFAULT_THRESHOLD_ARCSEC, NOISE_SIGMAS
 from startrack.camera import Camera
+from startrack.identifier import Identifier
 from startrack.identify import identify
-from startrack.pipeline import Identifier
 from startrack.sky import UNRESOLVED_PIXELS, SkySpec, load_sky
 from startrack.verify import VerifyConfig
 

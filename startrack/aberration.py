@@ -97,7 +97,7 @@ def correct_solution(solution, obs, catalog_vectors: np.ndarray, time):
 
 
 def correct_result(result, when):
-    """A solved :class:`startrack.pipeline.FrameResult` with its attitude corrected for the
+    """A solved :class:`startrack.identifier.FrameResult` with its attitude corrected for the
     aberration at time ``when`` (an astropy Time), the correction's time counted in
     ``identify``; an unsolved one as it is."""
     import dataclasses

@@ -148,7 +148,7 @@ def _draw_stars(ax, frame, width: int) -> tuple | None:
 
 
 def write_annotated(frame, path: str | Path) -> None:
-    """Write the annotated PNG of one :class:`~startrack.pipeline.FrameResult`.
+    """Write the annotated PNG of one :class:`~startrack.identifier.FrameResult`.
 
     A centroid-list input (no image) is drawn on a black frame of the camera's size.
     """

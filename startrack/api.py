@@ -19,7 +19,8 @@ from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
 from startrack.errors import InputError
 from startrack.fov import DEFAULT_FOV_TOLERANCE
 from startrack.frame_input import FrameInput, image_input, read_input
-from startrack.pipeline import DEFAULT_METHOD, FrameResult, Options, Pipeline
+from startrack.identifier import FrameResult
+from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
 
 STAR_COLUMNS = ["x", "y", "catalog_id", "ra_deg", "dec_deg", "residual_arcsec"]
 

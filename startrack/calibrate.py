@@ -85,7 +85,7 @@ def calibrate(frames, nominal: Camera, catalog: Catalog, *, method: str = "pyram
 
 def _solve_all(frames, nominal: Camera, catalog: Catalog, method: str) -> list[FrameStars]:
     """Every frame that solves, after finding a focal length at which one does."""
-    from startrack.pipeline import Identifier
+    from startrack.identifier import Identifier
 
     found = _sweep(frames, nominal, catalog, method)
     if found is None:
@@ -105,7 +105,7 @@ def _sweep(frames, nominal: Camera, catalog: Catalog,
            method: str) -> tuple[FrameStars, Camera] | None:
     """The first frame that solves and the camera it solved with, trying focal lengths
     nearest the nominal first."""
-    from startrack.pipeline import Identifier
+    from startrack.identifier import Identifier
 
     config = VerifyConfig(max_hypotheses=SWEEP_MAX_HYPOTHESES)
     # Every swept FOV builds a database: not worth it for frames with too few stars.

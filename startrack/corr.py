@@ -21,7 +21,7 @@ CORR_COLUMNS = [
 
 
 def corr_rows(frame) -> list[list]:
-    """The rows of one :class:`~startrack.pipeline.FrameResult`; none when not solved."""
+    """The rows of one :class:`~startrack.identifier.FrameResult`; none when not solved."""
     from startrack.annotate import residual_pixels
     from startrack.sky.catalog import vectors_to_radec
 

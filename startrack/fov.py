@@ -173,7 +173,7 @@ def _result(found, catalog: Catalog, method: str, diag: MatchDiagnostics, t0: fl
 def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
                       deadline: Deadline = NO_DEADLINE) -> FovResult:
     """Solve the stars at pixels ``x``, ``y`` with ``ident`` (an
-    :class:`startrack.pipeline.Identifier` of the quad matcher) whose camera's focal
+    :class:`startrack.identifier.Identifier` of the quad matcher) whose camera's focal
     length is nominal: the true FOV may be ``tolerance`` off either way; not solved with
     reason "timeout" if ``deadline`` passes first."""
     t0 = time.perf_counter()
@@ -258,7 +258,7 @@ REFIT_HYPOTHESIS_STARS = 4
 
 def refit_fov(result, database: StarDatabase, config: VerifyConfig,
               deadline: Deadline = NO_DEADLINE) -> FovResult | None:
-    """A solved :class:`startrack.pipeline.FrameResult` made at a nominal FOV, with the
+    """A solved :class:`startrack.identifier.FrameResult` made at a nominal FOV, with the
     focal length fitted to its identified stars and the pointing verified again through
     the fitted camera (:func:`verify_fitted`); None when that verification fails or
     ``deadline`` has already passed (the search after it then says "timeout")."""

@@ -1,9 +1,9 @@
 """Input to solution: each input read once, its camera and sky decided, its stars identified.
 
 :func:`read_input` (:mod:`startrack.frame_input`) turns a path (image or centroid CSV)
-into a :class:`FrameInput`;
-:class:`Identifier` holds one loaded catalog, database and matcher and turns centroids
-into a :class:`FrameResult`, the one complete record of an input. :class:`Pipeline`
+into a :class:`FrameInput`; :class:`~startrack.identifier.Identifier` holds one loaded
+catalog, database and matcher and turns centroids into a
+:class:`~startrack.identifier.FrameResult`, the one complete record of an input. :class:`Pipeline`
 decides each input's camera and sky (options, else the JSON sidecar beside the input,
 else defaults) and keeps one ``Identifier`` per (camera, sky), so a batch from one camera
 loads everything once; ``startrack identify``, the Python API and compare build on this.
@@ -14,24 +14,17 @@ every stage of its identification (the configured method, the FOV refit, the FOV
 from __future__ import annotations
 
 import dataclasses
-import math
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from startrack.camera import Camera
-from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
-from startrack.database import StarDatabase
+from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.deadline import Deadline
 from startrack.errors import InputError
 from startrack.fov import DEFAULT_FOV_TOLERANCE, BlindSolver, refit_fov, solve_approximate
 from startrack.frame_input import FrameInput, read_input
-from startrack.identify import identify
-from startrack.matchers import MatcherConfig, get_matcher
-from startrack.output import solution_record
+from startrack.identifier import FrameResult, Identifier
+from startrack.matchers import get_matcher
 from startrack.sidecar import find_sidecar, read_sidecar
 from startrack.sky import (
     Catalog,
@@ -41,96 +34,11 @@ from startrack.sky import (
     load_sky,
     resolve_sky,
 )
-from startrack.types import Observation, Solution, Timing
-from startrack.verify import VerifyConfig
+from startrack.types import Timing
 
 # The most reliable method measured (scripts/bench_identify.py, the real-sky frames and
 # scripts/false_positives.py; docs/results.md has the figures).
 DEFAULT_METHOD = "pyramid"
-@dataclass(frozen=True)
-class FrameResult:
-    """One input's answer with everything that produced it."""
-
-    input: str
-    solution: Solution
-    obs: Observation
-    centroids: Centroids
-    timing: Timing
-    camera: Camera
-    catalog: Catalog
-    sigma_px: float
-    match_radius_px: float
-    image: np.ndarray | None = None
-    time_utc: str | None = None  # observation time the attitude is corrected for (ISO)
-
-    def record(self, with_input: bool = True) -> dict:
-        """The interfaces.md solution record of this input."""
-        extra = {"sigma_px": self.sigma_px, "match_radius_px": self.match_radius_px,
-                 "sky": self.catalog.source, "camera": self.camera.to_dict()}
-        if self.time_utc is not None:
-            extra["time_utc"] = self.time_utc
-        return solution_record(self.solution, self.obs, self.catalog, self.timing,
-                               input_name=self.input if with_input else None, extra=extra,
-                               fov_deg=self.camera.fov_deg)
-
-
-class Identifier:
-    """A loaded catalog, database and matcher for one camera and sky."""
-
-    def __init__(self, camera: Camera, catalog: Catalog, method: str, *,
-                 max_stars: int | None = None, extra_stars: int | None = None,
-                 sigma_px: float = DEFAULT_SIGMA_PX,
-                 verify_config: VerifyConfig | None = None,
-                 timeout_ms: float | None = None) -> None:
-        if not (sigma_px > 0 and math.isfinite(sigma_px)):
-            raise InputError(f"--sigma-px must be a positive number, got {sigma_px}")
-        self.camera = camera
-        self.catalog = catalog
-        self.sigma_px = float(sigma_px)
-        self.timeout_ms = timeout_ms
-        self.verify_config = verify_config or VerifyConfig()
-        config = MatcherConfig()
-        if max_stars is not None:
-            config = dataclasses.replace(config, max_stars=int(max_stars))
-        if extra_stars is not None:
-            config = dataclasses.replace(config, extra_stars=int(extra_stars))
-        if get_matcher(method).tables:  # the quad matcher and the peers build no pairs
-            check_pair_budget(catalog, camera)  # before a database that would not fit memory
-        self.database = StarDatabase(catalog, camera)
-        self.matcher = get_matcher(method)(self.database, config)
-        t0 = time.perf_counter()
-        self.matcher.prepare()
-        self.load_seconds = time.perf_counter() - t0
-
-    def observation(self, centroids: Centroids) -> Observation:
-        flux = centroids.flux if centroids.photometric else None
-        return Observation.from_pixels(centroids.x, centroids.y, self.camera, self.sigma_px,
-                                       flux=flux)
-
-    def identify(self, obs: Observation, deadline: Deadline | None = None) -> Solution:
-        """Identify the stars of an observation made elsewhere (the bench's frames), by
-        ``deadline`` (the input's, shared with other stages) if given, else within this
-        identifier's ``timeout_ms``."""
-        if deadline is not None:
-            return identify(obs, self.matcher, self.verify_config, deadline=deadline)
-        return identify(obs, self.matcher, self.verify_config, timeout_ms=self.timeout_ms)
-
-    def solve(self, frame: FrameInput,
-              identify: Callable[[Observation], Solution] | None = None) -> FrameResult:
-        """Identify the stars of one input read by :func:`read_input` (by ``identify``
-        when given: a tracking step of :mod:`startrack.sequence`)."""
-        if frame.size is not None and frame.size != (self.camera.width, self.camera.height):
-            raise InputError(f"{frame.name}: image is {frame.size[0]} x {frame.size[1]} px "
-                             f"but the camera is {self.camera.width} x {self.camera.height}")
-        obs = self.observation(frame.centroids)
-        solution = (identify or self.identify)(obs)
-        timing = Timing(frame.centroid_ms, solution.identify_ms,
-                        frame.read_ms + frame.centroid_ms + solution.identify_ms)
-        return FrameResult(frame.name, solution, obs, frame.centroids, timing, self.camera,
-                           self.catalog, self.sigma_px, self.verify_config.radius_px(obs),
-                           frame.image)
-
-
 @dataclass(frozen=True)
 class Options:
     """What the user said; None means "from the sidecar, else the default"."""
@@ -245,14 +153,28 @@ class Pipeline:
                      if first.solution.solved else None)
             spent = first.solution.identify_ms  # the first try is part of the answer
         if found is None:
-            tol, opt = self.options.fov_tolerance, self.options
-            found = (self.blind_solver(SkySpec(kind="gaia", epoch=opt.epoch)).solve(
-                x, y, (camera.width, camera.height), deadline, camera, tol)  # Gaia per window
-                if opt.sky is None and opt.mag_limit is None else
-                solve_approximate(self.identifier(camera, sky, "quad"), x, y, tol, deadline))
+            found = self._search(x, y, camera, sky, deadline)
             found = dataclasses.replace(found, solution=dataclasses.replace(
                 found.solution, identify_ms=found.solution.identify_ms + spent))
         return found
+
+    def _search(self, x, y, camera: Camera, sky: SkySpec, deadline: Deadline):
+        """The quad search within the tolerance: on the chosen sky; with the default sky,
+        also (or, when that is Gaia, only) over the whole Gaia catalog cut per window,
+        whose brightest stars are ordered by Gaia's magnitudes, not Hipparcos's."""
+        tol, opt = self.options.fov_tolerance, self.options
+        default = opt.sky is None and opt.mag_limit is None
+        found = None
+        if not default or sky.kind != "gaia":
+            found = solve_approximate(self.identifier(camera, sky, "quad"), x, y, tol, deadline)
+            if not default or found.solution.solved or found.solution.reason == "timeout":
+                return found
+        again = self.blind_solver(SkySpec(kind="gaia", epoch=opt.epoch)).solve(
+            x, y, (camera.width, camera.height), deadline, camera, tol)
+        if found is None:
+            return again
+        return dataclasses.replace(again, solution=dataclasses.replace(
+            again.solution, identify_ms=again.solution.identify_ms + found.solution.identify_ms))
 
     def _tables_fit(self, camera: Camera, sky: SkySpec) -> bool:
         """Whether the configured method's pair table for ``camera`` fits the pair budget

@@ -15,7 +15,8 @@ from pathlib import Path
 
 from startrack.attitude import from_radec_roll
 from startrack.errors import InputError
-from startrack.pipeline import FrameInput, FrameResult, Pipeline, read_input
+from startrack.identifier import FrameResult
+from startrack.pipeline import FrameInput, Pipeline, read_input
 from startrack.tracker import Tracker
 from startrack.tracking import Prior, TrackConfig
 

@@ -274,7 +274,7 @@ def write_wcs(path: str | Path, header: fits.Header) -> None:
 
 
 def solved_wcs_header(frame, extra: dict | None = None) -> fits.Header:
-    """The WCS header of a solved :class:`~startrack.pipeline.FrameResult`.
+    """The WCS header of a solved :class:`~startrack.identifier.FrameResult`.
 
     With a distortion model in the camera its SIP terms are written; otherwise, when
     enough stars are matched, CD and SIP terms are fitted to them (:func:`fit_sip`), so

@@ -22,7 +22,8 @@ from startrack.centroids import Centroids
 from startrack.deadline import Deadline
 from startrack.errors import InputError
 from startrack.fov import BlindSolver, refit_fov, solve_approximate
-from startrack.pipeline import FrameInput, Identifier, Options, Pipeline
+from startrack.identifier import Identifier
+from startrack.pipeline import FrameInput, Options, Pipeline
 from startrack.scene import stars_in_view
 from startrack.sky import SkySpec, load_sky
 

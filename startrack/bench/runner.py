@@ -90,7 +90,7 @@ class LoadedBench:
         key = (method, camera)
         with _LOCK:
             if key not in self.identifiers:
-                from startrack.pipeline import Identifier
+                from startrack.identifier import Identifier
 
                 self.identifiers[key] = Identifier(camera, base.catalog, method,
                                                    max_stars=self.spec.max_stars,
@@ -106,7 +106,7 @@ def load_bench(spec: RunSpec) -> LoadedBench:
     """Load (once per process) the catalog and every method's database and matcher."""
     import json
 
-    from startrack.pipeline import Identifier
+    from startrack.identifier import Identifier
     from startrack.sky import load_sky
 
     key = json.dumps(spec.to_json(), sort_keys=True)

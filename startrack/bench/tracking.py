@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 from startrack.attitude import random_attitudes
 from startrack.bench.metrics import score_frame, summarise
 from startrack.camera import Camera
-from startrack.pipeline import Identifier
+from startrack.identifier import Identifier
 from startrack.scene import observe
 from startrack.sky import Catalog
 from startrack.tracker import Tracker

@@ -1,0 +1,113 @@
+"""One camera and sky loaded for identification, and the complete record of an input.
+
+:class:`Identifier` holds a catalog, its database and a matcher for one camera and turns
+an input's centroids into a :class:`FrameResult`; :class:`startrack.pipeline.Pipeline`
+keeps one per (camera, sky, method).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from startrack.camera import Camera
+from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
+from startrack.database import StarDatabase
+from startrack.deadline import Deadline
+from startrack.errors import InputError
+from startrack.frame_input import FrameInput
+from startrack.identify import identify
+from startrack.matchers import MatcherConfig, get_matcher
+from startrack.output import solution_record
+from startrack.sky import Catalog, check_pair_budget
+from startrack.types import Observation, Solution, Timing
+from startrack.verify import VerifyConfig
+
+
+@dataclass(frozen=True)
+class FrameResult:
+    """One input's answer with everything that produced it."""
+
+    input: str
+    solution: Solution
+    obs: Observation
+    centroids: Centroids
+    timing: Timing
+    camera: Camera
+    catalog: Catalog
+    sigma_px: float
+    match_radius_px: float
+    image: np.ndarray | None = None
+    time_utc: str | None = None  # observation time the attitude is corrected for (ISO)
+
+    def record(self, with_input: bool = True) -> dict:
+        """The interfaces.md solution record of this input."""
+        extra = {"sigma_px": self.sigma_px, "match_radius_px": self.match_radius_px,
+                 "sky": self.catalog.source, "camera": self.camera.to_dict()}
+        if self.time_utc is not None:
+            extra["time_utc"] = self.time_utc
+        return solution_record(self.solution, self.obs, self.catalog, self.timing,
+                               input_name=self.input if with_input else None, extra=extra,
+                               fov_deg=self.camera.fov_deg)
+
+
+class Identifier:
+    """A loaded catalog, database and matcher for one camera and sky."""
+
+    def __init__(self, camera: Camera, catalog: Catalog, method: str, *,
+                 max_stars: int | None = None, extra_stars: int | None = None,
+                 sigma_px: float = DEFAULT_SIGMA_PX,
+                 verify_config: VerifyConfig | None = None,
+                 timeout_ms: float | None = None) -> None:
+        if not (sigma_px > 0 and math.isfinite(sigma_px)):
+            raise InputError(f"--sigma-px must be a positive number, got {sigma_px}")
+        self.camera = camera
+        self.catalog = catalog
+        self.sigma_px = float(sigma_px)
+        self.timeout_ms = timeout_ms
+        self.verify_config = verify_config or VerifyConfig()
+        config = MatcherConfig()
+        if max_stars is not None:
+            config = dataclasses.replace(config, max_stars=int(max_stars))
+        if extra_stars is not None:
+            config = dataclasses.replace(config, extra_stars=int(extra_stars))
+        if get_matcher(method).tables:  # the quad matcher and the peers build no pairs
+            check_pair_budget(catalog, camera)  # before a database that would not fit memory
+        self.database = StarDatabase(catalog, camera)
+        self.matcher = get_matcher(method)(self.database, config)
+        t0 = time.perf_counter()
+        self.matcher.prepare()
+        self.load_seconds = time.perf_counter() - t0
+
+    def observation(self, centroids: Centroids) -> Observation:
+        flux = centroids.flux if centroids.photometric else None
+        return Observation.from_pixels(centroids.x, centroids.y, self.camera, self.sigma_px,
+                                       flux=flux)
+
+    def identify(self, obs: Observation, deadline: Deadline | None = None) -> Solution:
+        """Identify the stars of an observation made elsewhere (the bench's frames), by
+        ``deadline`` (the input's, shared with other stages) if given, else within this
+        identifier's ``timeout_ms``."""
+        if deadline is not None:
+            return identify(obs, self.matcher, self.verify_config, deadline=deadline)
+        return identify(obs, self.matcher, self.verify_config, timeout_ms=self.timeout_ms)
+
+    def solve(self, frame: FrameInput,
+              identify: Callable[[Observation], Solution] | None = None) -> FrameResult:
+        """Identify the stars of one input read by :func:`read_input` (by ``identify``
+        when given: a tracking step of :mod:`startrack.sequence`)."""
+        if frame.size is not None and frame.size != (self.camera.width, self.camera.height):
+            raise InputError(f"{frame.name}: image is {frame.size[0]} x {frame.size[1]} px "
+                             f"but the camera is {self.camera.width} x {self.camera.height}")
+        obs = self.observation(frame.centroids)
+        solution = (identify or self.identify)(obs)
+        timing = Timing(frame.centroid_ms, solution.identify_ms,
+                        frame.read_ms + frame.centroid_ms + solution.identify_ms)
+        return FrameResult(frame.name, solution, obs, frame.centroids, timing, self.camera,
+                           self.catalog, self.sigma_px, self.verify_config.radius_px(obs),
+                           frame.image)
