@@ -5,7 +5,9 @@ kernel it calls, defined in another file, does: after an update that touched onl
 callee, the caller's cached machine code would still run the old callee. Keying the
 cache folder on the contents of every file that defines kernels makes any change to one
 start a fresh cache (an installed release compiles once per version, as before); the folders
-of the last few versions are kept, so checkouts side by side do not evict each other.
+of the last few versions are kept, and no folder used within the last day is removed, so
+checkouts side by side (or a long run of an older install) never lose their kernels while
+they run.
 An explicit ``NUMBA_CACHE_DIR`` is left alone.
 """
 
@@ -14,10 +16,14 @@ from __future__ import annotations
 import hashlib
 import os
 import shutil
+import time
 from pathlib import Path
 
 PREFIX = "kernels-"
 KEEP = 4  # source versions kept (checkouts side by side each have their own)
+# A folder used more recently than this is never pruned: a process started before may still
+# be compiling into it (numba fails when its cache folder disappears under it).
+MIN_AGE_S = 86400.0
 
 
 def configure() -> None:
@@ -59,7 +65,10 @@ def _source_stamp(package: Path | None = None) -> str:
 
 
 def _prune(root: Path) -> None:
-    """Keep the :data:`KEEP` most recently used source versions' folders."""
+    """Keep the :data:`KEEP` most recently used source versions' folders, and any used
+    within :data:`MIN_AGE_S`."""
     folders = sorted(root.glob(PREFIX + "*"), key=lambda p: p.stat().st_mtime, reverse=True)
+    cutoff = time.time() - MIN_AGE_S
     for old in folders[KEEP:]:
-        shutil.rmtree(old, ignore_errors=True)
+        if old.stat().st_mtime < cutoff:
+            shutil.rmtree(old, ignore_errors=True)

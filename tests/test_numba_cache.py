@@ -44,6 +44,19 @@ def test_prune_keeps_the_most_recently_used(tmp_path):
     assert left == [f"{_numba_cache.PREFIX}{k}" for k in range(3, _numba_cache.KEEP + 3)]
 
 
+def test_prune_spares_folders_in_use(tmp_path):
+    now = time.time()
+    recent = _numba_cache.KEEP + 2  # more folders used within the day than KEEP
+    for k in range(recent + 3):
+        folder = tmp_path / f"{_numba_cache.PREFIX}{k}"
+        folder.mkdir()
+        age = 60.0 * (k + 1) if k < recent else 10 * 86400.0 + k
+        os.utime(folder, (now - age, now - age))
+    _numba_cache._prune(tmp_path)
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == sorted(f"{_numba_cache.PREFIX}{k}" for k in range(recent))
+
+
 def test_import_points_numba_at_the_versioned_folder(tmp_path):
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
     env["XDG_CACHE_HOME"] = str(tmp_path)
