@@ -15,7 +15,7 @@ from numba import njit
 _MAD_TO_SIGMA = 1.4826
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _select(a, k):
     """Reorder ``a`` so that ``a[k]`` is its k-th smallest value (Hoare quickselect)."""
     lo, hi = 0, len(a) - 1
@@ -40,7 +40,7 @@ def _select(a, k):
     return a[k]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def median(a, counts, sub):
     """Exact median of ``a`` (no NaN), equal to ``np.median``, several times faster.
 
@@ -84,7 +84,7 @@ def median(a, counts, sub):
     return 0.5 * (v1 + v2)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def mad_sigma(sample, to_sigma):
     """``to_sigma`` x the median absolute deviation of ``sample`` (not modified)."""
     counts = np.empty(4096, np.int64)
@@ -93,7 +93,7 @@ def mad_sigma(sample, to_sigma):
     return to_sigma * median(np.abs(sample - med), counts, sub)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _pad_odd(grid):
     """``np.pad(grid, 1, mode="reflect", reflect_type="odd")``: planes extend as planes."""
     n_r, n_c = grid.shape
@@ -106,13 +106,13 @@ def _pad_odd(grid):
     return p
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _nanmedian(values):
     finite = values[~np.isnan(values)]
     return np.median(finite) if len(finite) else np.nan
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _window_median(p, i, j, buf):
     """NaN-aware median of the 3 x 3 window ``p[i:i+3, j:j+3]`` (insertion sort in
     ``buf``): as ``_nanmedian`` without an allocation per tile."""
@@ -132,7 +132,7 @@ def _window_median(p, i, j, buf):
     return buf[n // 2] if n % 2 else 0.5 * (buf[n // 2 - 1] + buf[n // 2])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _despike(grid):
     """Replace tiles that stand out from their 3x3 neighbourhood (or are NaN) by its median.
 
@@ -157,7 +157,7 @@ def _despike(grid):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def clean_grid(grid, average, fallback):
     """Tiles spoiled by a bright star replaced from their neighbours; with ``average`` the
     grid is then smoothed by a 3x3 mean (planes pass unchanged). NaN tiles left over take
