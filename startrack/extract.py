@@ -13,6 +13,16 @@ from which the whole sky model is made) and once, row by row, for detection and
 moments (``startrack.extract_kernels``, which evaluates the sky model on the fly). Both
 read the frame in its own dtype: besides the frame, an extraction holds the block means
 (1/16 of the pixels) and a few rows.
+
+Threads: the passes over the pixels (block means and tile medians, the tile medians of
+the later passes, the noise samples and their MADs, the blob finder of
+``startrack.extract_runs``) run on bands of rows at once, on ``CentroidConfig.threads``
+threads (default: numba's limit ``NUMBA_NUM_THREADS``, the cores this process may use);
+a frame under ~2 x 65536 px stays on one. The kernels release the GIL and a small pool
+of Python threads runs them (``startrack.extract_parallel``; no numba threading layer).
+Each band writes its own part of a result, and the blobs' runs are joined in raster
+order, so the centroids are the same, bit for bit and in the same order, whatever the
+thread count.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Compiled pixel kernels of the centroider: residual rows, noise samples, run-length blobs.
+"""Compiled pixel kernels of the centroider: residual and detection rows, noise samples.
 
 Every kernel reads the raw frame (any numeric dtype) and evaluates the sky model on the
 fly, so no full-size float copy of the frame, background or residual is ever made (the
