@@ -2,7 +2,7 @@
 
 For each real frame of ../shared/real-sky (sky glow and vignetting from ~1,900 to 7,500
 counts), the sky model that ``extract_centroids`` detects against is taken (caught at
-its call of the components kernel), the frame minus it is cut into boxes of ``--box`` px
+its call of the components pass), the frame minus it is cut into boxes of ``--box`` px
 (laid half a tile off the model's tiles), and each box's median residual is measured over
 the pixels that are not sources (3 noise sigmas, grown by 2 px). A perfect model leaves
 only the boxes' own noise; what is printed is the mean, RMS and largest of the box
@@ -28,17 +28,17 @@ REAL_SKY = Path(__file__).resolve().parents[2].parent / "shared" / "real-sky"
 def sky_model(image: np.ndarray, config=None) -> np.ndarray:
     """The background image ``extract_centroids`` detects against."""
     caught = {}
-    components = extract_kernels.components
+    components = extract._components
 
     def spy(frame, model, *args):
         caught["model"] = model
         return components(frame, model, *args)
 
-    extract.kern.components = spy
+    extract._components = spy
     try:
         extract.extract_centroids(image, config)
     finally:
-        extract.kern.components = components
+        extract._components = components
     return extract_kernels.background_image(caught["model"], *image.shape)
 
 

@@ -13,6 +13,16 @@ from which the whole sky model is made) and once, row by row, for detection and
 moments (``startrack.extract_kernels``, which evaluates the sky model on the fly). Both
 read the frame in its own dtype: besides the frame, an extraction holds the block means
 (1/16 of the pixels) and a few rows.
+
+Threads: the passes over the pixels (block means and tile medians, the tile medians of
+the later passes, the noise samples and their MADs, the blob finder of
+``startrack.extract_runs``) run on bands of rows at once, on ``CentroidConfig.threads``
+threads (default: numba's limit ``NUMBA_NUM_THREADS``, the cores this process may use);
+a frame under ~2 x 65536 px stays on one. The kernels release the GIL and a small pool
+of Python threads runs them (``startrack.extract_parallel``; no numba threading layer).
+Each band writes its own part of a result, and the blobs' runs are joined in raster
+order, so the centroids are the same, bit for bit and in the same order, whatever the
+thread count.
 """
 
 from __future__ import annotations
@@ -24,6 +34,8 @@ import numpy as np
 
 from startrack import extract_blocks as blocks
 from startrack import extract_kernels as kern
+from startrack import extract_parallel as par
+from startrack import extract_runs as runs
 from startrack import extract_sky as sky
 from startrack.centroids import Centroids
 
@@ -57,6 +69,9 @@ class CentroidConfig:
     fast: one sky model, without the second, source-masked estimate: somewhat faster, at
         the cost of the faintest stars near bright ones (bright stars' wings leak into
         the sky model); ``FAST`` is this preset.
+    threads: threads that the passes over the pixels run on (None = numba's limit,
+        ``NUMBA_NUM_THREADS``, by default the cores this process may use). The result is
+        the same, bit for bit, whatever the number.
     """
 
     k_sigma: float = 5.0
@@ -69,6 +84,7 @@ class CentroidConfig:
     smooth: bool = True
     max_stars: int | None = None
     fast: bool = False
+    threads: int | None = None
 
     def __post_init__(self) -> None:
         if not self.k_sigma > 0:
@@ -84,6 +100,8 @@ class CentroidConfig:
         if not 0 < self.hot_pixel_fraction <= 1:
             raise ValueError(f"hot_pixel_fraction must be in (0, 1], got "
                              f"{self.hot_pixel_fraction}")
+        if self.threads is not None and self.threads < 1:
+            raise ValueError(f"threads must be >= 1, got {self.threads}")
 
     def area_limits(self, shape: tuple[int, int]) -> tuple[int, int]:
         """(max_area, max_saturated_area) in px for a frame of ``shape``."""
@@ -111,8 +129,6 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
     -------
     Centroids sorted brightest first.
     """
-    import cv2
-
     config = config or CentroidConfig()
     image = np.asarray(image)
     if image.ndim != 2 or image.size == 0:
@@ -120,40 +136,25 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
     if image.dtype.type not in _NATIVE:
         image = image.astype(np.float64)
     sat_level = _saturation_level(image.dtype, config.saturation)
-    lay = blocks.layout(tuple(image.shape), config.background_size)
-    pixel_w, block_w = blocks.weights(tuple(image.shape), lay)
-    means = blocks.block_means(image, _dead_pixel_fill(image), lay)
+    threads = par.thread_count(config.threads)
+    model = _sky_model(image, config.background_size, config.fast, threads)
     step = max(1, round(math.sqrt(image.size / 25_000)))  # ~2.5e4 px: a MAD to ~1 %
-
-    grid, raw = _sky_grid(means, lay, block_w, _NO_MASK, 0.0)
-    if not config.fast:
-        # Twice: the second sky model ignores the blocks the first showed to hold
-        # sources, so bright stars and glows do not leak into it (nor, extrapolated, to
-        # the border). A block mean is already smoothed: 3 of its sigmas mark a source.
-        resid = blocks.residual(means, grid, *block_w)
-        sources = (resid > _MASK_SIGMA * _mad_sigma(resid[::2, ::2].ravel(), image.dtype))
-        sources = cv2.dilate(sources.astype(np.uint8), np.ones((3, 3), np.uint8))
-        del resid
-        grid, _ = _sky_grid(means, lay, block_w, sources, float(np.median(grid)), raw)
-    del means
-    model = (grid,) + pixel_w + (kern.column_rows(grid, *pixel_w[3:]),)
-    res, det = kern.samples(image, model, step, config.smooth)
-    sigma, sigma_det = _mad_sigma(res, image.dtype), _mad_sigma(det, image.dtype)
-    comp = kern.components(image, model, config.k_sigma * sigma_det, config.smooth,
-                           np.inf if sat_level is None else sat_level)
+    sigma, sigma_det = _noise(image, model, step, config.smooth, threads)
+    comp = _components(image, model, config.k_sigma * sigma_det, config.smooth,
+                       np.inf if sat_level is None else sat_level, threads)
     if len(comp) == 0:
         return _empty()
 
-    box = kern.peak_boxes(image, model, comp[:, kern.PEAK_AT])
-    peak, sum_w, flux = comp[:, kern.PEAK], comp[:, kern.SW], comp[:, kern.FLUX]
-    area, saturated = comp[:, kern.AREA].astype(np.int64), comp[:, kern.SAT] > 0
+    box = kern.peak_boxes(image, model, comp[:, runs.PEAK_AT])
+    peak, sum_w, flux = comp[:, runs.PEAK], comp[:, runs.SW], comp[:, runs.FLUX]
+    area, saturated = comp[:, runs.AREA].astype(np.int64), comp[:, runs.SAT] > 0
     # A star's image spreads onto its neighbours; a hot pixel's does not (beyond noise).
     hot = (peak > config.hot_pixel_fraction * box) | (box - peak < 2.0 * math.sqrt(8.0) * sigma)
     max_area, max_saturated = config.area_limits(image.shape)
     keep = (area >= config.min_area) & (area <= np.where(saturated, max_saturated, max_area)) \
         & ~hot & (sum_w > 0) & (flux > 0)
     safe = np.where(sum_w > 0, sum_w, 1.0)
-    out = Centroids(comp[keep, kern.SWX] / safe[keep], comp[keep, kern.SWY] / safe[keep],
+    out = Centroids(comp[keep, runs.SWX] / safe[keep], comp[keep, runs.SWY] / safe[keep],
                     flux[keep], saturated[keep], area[keep])
     return out if config.max_stars is None else out.brightest(config.max_stars)
 
@@ -177,31 +178,93 @@ def estimate_background(frame: np.ndarray, tile: int,
     mask = _NO_MASK
     if ignore is not None:
         mask = (blocks.block_means(np.asarray(ignore, np.uint8), 0.0, lay) > 0).astype(np.uint8)
-    fallback = float(np.median(means))
-    grid, _ = _sky_grid(means, lay, block_w, mask, fallback)
+    raw = blocks.tile_medians(means, mask, lay[7], lay[8], _NO_GRID, block_w, _NO_GRID)
+    grid = _sky_grid(means, lay, block_w, mask, float(np.median(means)), raw, 1)
     model = (grid,) + pixel_w + (kern.column_rows(grid, *pixel_w[3:]),)
     return kern.background_image(model, *frame.shape)
 
 
+def _sky_model(image: np.ndarray, tile: int, fast: bool, threads: int) -> tuple:
+    """The sky model (``extract_kernels``'s tuple) of ``image`` from its block means."""
+    lay = blocks.layout(tuple(image.shape), tile)
+    pixel_w, block_w = blocks.weights(tuple(image.shape), lay)
+    means = np.empty((lay[0] * lay[7], lay[1] * lay[8]), np.float32)
+    raw = np.empty((lay[0], lay[1]))
+    fill = _dead_pixel_fill(image)
+    par.run(blocks.sky_rows, [(image, fill, lay, block_w, a, b, means, raw)
+                              for a, b in _tile_bands(lay, threads, image.size)])
+    grid = _sky_grid(means, lay, block_w, _NO_MASK, 0.0, raw, threads)
+    if not fast:
+        # Twice: the second sky model ignores the blocks the first showed to hold
+        # sources, so bright stars and glows do not leak into it (nor, extrapolated, to
+        # the border). A block mean is already smoothed: 3 of its sigmas mark a source.
+        import cv2
+
+        resid = blocks.residual(means, grid, *block_w)
+        sources = (resid > _MASK_SIGMA * _mad_sigma(resid[::2, ::2].ravel(), image.dtype))
+        sources = cv2.dilate(sources.astype(np.uint8), np.ones((3, 3), np.uint8))
+        masked = _tile_medians(means, sources, lay, _NO_GRID, block_w, raw, threads)
+        grid = _sky_grid(means, lay, block_w, sources, float(np.median(grid)), masked,
+                         threads)
+    return (grid,) + pixel_w + (kern.column_rows(grid, *pixel_w[3:]),)
+
+
 def _sky_grid(means: np.ndarray, lay: tuple, block_w: tuple, ignore: np.ndarray,
-              fallback: float, known: np.ndarray = _NO_GRID) -> tuple[np.ndarray, np.ndarray]:
-    """Tile values of the two-pass sky model from the block means, and its first pass.
+              fallback: float, raw: np.ndarray, threads: int) -> np.ndarray:
+    """Tile values of the two-pass sky model from the block means and their tile medians.
 
-    First the tile medians (``known``: those of an earlier call without ``ignore``),
-    cleaned of spikes and smoothed; then the median of what that model leaves in each
-    tile is added (only despiked), so the model follows the sky glow from tile to tile.
-    ``ignore``: blocks left out; ``fallback``: the value when every block is.
+    First the tile medians ``raw``, cleaned of spikes and smoothed; then the median of
+    what that model leaves in each tile is added (only despiked), so the model follows
+    the sky glow from tile to tile. ``ignore``: blocks left out; ``fallback``: the value
+    when every block is.
     """
-    nb_r, nb_c = lay[7], lay[8]
-    raw = blocks.tile_medians(means, ignore, nb_r, nb_c, _NO_GRID, block_w, known)
     grid = sky.clean_grid(raw, True, fallback)
-    extra = blocks.tile_medians(means, ignore, nb_r, nb_c, grid, block_w, _NO_GRID)
-    return grid + sky.clean_grid(extra, False, 0.0), raw
+    extra = _tile_medians(means, ignore, lay, grid, block_w, _NO_GRID, threads)
+    return grid + sky.clean_grid(extra, False, 0.0)
 
 
-def _mad_sigma(sample: np.ndarray, dtype: np.dtype) -> float:
-    """Noise sigma from the median absolute deviation (stars barely move it)."""
-    sigma = sky.mad_sigma(sample, _MAD_TO_SIGMA)
+def _tile_bands(lay: tuple, threads: int, pixels: int) -> list[tuple[int, int]]:
+    return par.bands(lay[0], par.parts_for(threads, pixels))
+
+
+def _tile_medians(means: np.ndarray, ignore: np.ndarray, lay: tuple, grid: np.ndarray,
+                  block_w: tuple, known: np.ndarray, threads: int) -> np.ndarray:
+    """``extract_blocks.tile_medians``, bands of tile rows on ``threads`` threads."""
+    out = np.empty((lay[0], lay[1]))
+    par.run(blocks.tile_rows, [(means, ignore, lay[7], lay[8], grid, block_w, known, a, b, out)
+                               for a, b in _tile_bands(lay, threads, 16 * means.size)])
+    return out
+
+
+def _noise(image: np.ndarray, model: tuple, step: int, smooth: bool,
+           threads: int) -> tuple[float, float]:
+    """Noise sigma of the residual and of the detection image, from samples on the grid
+    [::step, ::step]."""
+    n_rows, n_cols = -(-image.shape[0] // step), -(-image.shape[1] // step)
+    res, det = np.empty(n_rows * n_cols), np.empty(n_rows * n_cols)
+    parts = par.bands(n_rows, par.parts_for(threads, 9 * res.size))
+    par.run(kern.samples, [(image, model, step, smooth, a, b, res, det) for a, b in parts])
+    pairs = [(res, _MAD_TO_SIGMA), (det, _MAD_TO_SIGMA)]
+    sigmas = par.run(sky.mad_sigma, pairs) if threads > 1 else [sky.mad_sigma(*p) for p in pairs]
+    return _mad_sigma(res, image.dtype, sigmas[0]), _mad_sigma(det, image.dtype, sigmas[1])
+
+
+def _components(image: np.ndarray, model: tuple, threshold: float, smooth: bool,
+                sat_level: float, threads: int) -> np.ndarray:
+    """Components of detection > ``threshold`` (``extract_runs``), bands of rows on
+    ``threads`` threads."""
+    parts = par.bands(image.shape[0], par.parts_for(threads, image.size))
+    pieces = par.run(runs.band_runs, [(image, model, threshold, smooth, sat_level, a, b)
+                                      for a, b in parts])
+    found = np.concatenate([p[0] for p in pieces]) if len(pieces) > 1 else pieces[0][0]
+    acc = np.concatenate([p[1] for p in pieces]) if len(pieces) > 1 else pieces[0][1]
+    return runs.join_runs(found, acc)
+
+
+def _mad_sigma(sample: np.ndarray, dtype: np.dtype, sigma: float | None = None) -> float:
+    """Noise sigma from the median absolute deviation (stars barely move it); ``sigma``:
+    that of ``extract_sky.mad_sigma`` when known."""
+    sigma = sky.mad_sigma(sample, _MAD_TO_SIGMA) if sigma is None else sigma
     if sigma > 0:
         return sigma
     sigma = float(np.std(sample))  # a nearly flat or heavily quantised frame

@@ -73,14 +73,14 @@ def _centres(n_tiles: int, pitch: int, origin: int, b: int, n_blocks: int) -> np
     return (tiles + b * np.arange(n_blocks)[None, :] + (b - 1) / 2).ravel()
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _model_row(grid, r0, r1, fr, k, row):
     """Row ``k`` of the block model's tile rows: the tile grid blended along the rows."""
     for j in range(grid.shape[1]):
         row[j] = grid[r0[k], j] * (1.0 - fr[k]) + grid[r1[k], j] * fr[k]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def residual(means, grid, r0, r1, fr, c0, c1, fc):
     """Block means minus the sky model (tile values ``grid``, bilinear) at the blocks'
     centres (float32); the arguments after ``grid`` are the block weights of ``weights``."""
@@ -93,17 +93,24 @@ def residual(means, grid, r0, r1, fr, c0, c1, fc):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def block_means(image, fill, lay):
     """Mean of every block (blocks down x blocks across, float32: plenty for a sky
-    model); non-finite pixels count as ``fill``. Rows are summed first: the inner loops
-    run along contiguous memory."""
+    model); non-finite pixels count as ``fill``."""
+    out = np.empty((lay[0] * lay[7], lay[1] * lay[8]), np.float32)
+    block_rows(image, fill, lay, 0, lay[0], out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def block_rows(image, fill, lay, i_start, i_stop, out):
+    """``block_means`` of tile rows ``i_start`` .. ``i_stop - 1`` into their rows of
+    ``out``. Rows are summed first: the inner loops run along contiguous memory."""
     n_r, n_c, t_r, t_c, o_r, o_c, b, nb_r, nb_c = lay
     w = image.shape[1]
-    out = np.empty((n_r * nb_r, n_c * nb_c), np.float32)
     acc = np.empty(w)
     inv = 1.0 / (b * b)
-    for i in range(n_r):
+    for i in range(i_start, i_stop):
         for k in range(nb_r):
             r = o_r + i * t_r + k * b
             acc[:] = 0.0
@@ -118,24 +125,41 @@ def block_means(image, fill, lay):
                     for e in range(b):
                         s += acc[c + e]
                     out[i * nb_r + k, j * nb_c + m] = s * inv
-    return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
+def sky_rows(image, fill, lay, block_w, i_start, i_stop, means, raw):
+    """The first pass of the sky model over tile rows ``i_start`` .. ``i_stop - 1``: their
+    block means into ``means`` and their plain tile medians into ``raw``."""
+    block_rows(image, fill, lay, i_start, i_stop, means)
+    none = np.zeros((0, 0))
+    tile_rows(means, np.zeros((0, 0), np.uint8), lay[7], lay[8], none, block_w, none,
+              i_start, i_stop, raw)
+
+
+@njit(cache=True, nogil=True)
 def tile_medians(means, ignore, nb_r, nb_c, grid, block_w, known):
     """Median over each tile's blocks of ``means`` (blocks down x across) minus the sky
     model of tile values ``grid`` (none when it is empty; ``block_w``: the block weights
     of ``weights``), leaving out blocks where ``ignore`` (when not empty) is non-zero;
     NaN where every one is. ``known``, when not empty, holds the medians of the same
     call without ``ignore``: a tile with no ignored block takes its value."""
+    out = np.empty((means.shape[0] // nb_r, means.shape[1] // nb_c))
+    tile_rows(means, ignore, nb_r, nb_c, grid, block_w, known, 0, out.shape[0], out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def tile_rows(means, ignore, nb_r, nb_c, grid, block_w, known, i_start, i_stop, out):
+    """``tile_medians`` of tile rows ``i_start`` .. ``i_stop - 1`` into their rows of
+    ``out``."""
     r0, r1, fr, c0, c1, fc = block_w
-    n_r, n_c = means.shape[0] // nb_r, means.shape[1] // nb_c
+    n_c = means.shape[1] // nb_c
     buf, sub = np.empty(nb_r * nb_c), np.empty(nb_r * nb_c)
     counts = np.empty(256, np.int64)
-    out = np.full((n_r, n_c), np.nan)
     use_ignore, subtract = ignore.shape[0] > 0, grid.shape[0] > 0
     row, bg = np.empty(grid.shape[1]), np.zeros((nb_r, means.shape[1]))
-    for i in range(n_r):
+    for i in range(i_start, i_stop):
         for k in range(nb_r * subtract):  # the model along this row of tiles' blocks
             _model_row(grid, r0, r1, fr, i * nb_r + k, row)
             for m in range(means.shape[1]):
@@ -150,6 +174,4 @@ def tile_medians(means, ignore, nb_r, nb_c, grid, block_w, known):
                 for m in range(j * nb_c, (j + 1) * nb_c):
                     buf[n] = means[i * nb_r + k, m] - bg[k, m]
                     n += not (use_ignore and ignore[i * nb_r + k, m])  # no branch on it
-            if n > 0:
-                out[i, j] = median(buf[:n], counts, sub)
-    return out
+            out[i, j] = median(buf[:n], counts, sub) if n > 0 else np.nan

@@ -13,9 +13,10 @@ import numpy as np
 from numba import njit
 
 _MAD_TO_SIGMA = 1.4826
+_SAMPLED = 1024  # values; a longer array's first histogram spans a sample of it
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _select(a, k):
     """Reorder ``a`` so that ``a[k]`` is its k-th smallest value (Hoare quickselect)."""
     lo, hi = 0, len(a) - 1
@@ -40,51 +41,82 @@ def _select(a, k):
     return a[k]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def median(a, counts, sub):
     """Exact median of ``a`` (no NaN), equal to ``np.median``, several times faster.
 
-    A histogram over [min, max] finds the bin(s) holding the middle rank(s); a quickselect
-    among their values finishes (the bin of a value is monotone in it, so ranks are
-    kept). ``counts`` is the histogram's scratch, ``sub`` scratch of ``len(a)``.
+    ``counts`` is the histogram's scratch, ``sub`` scratch of ``len(a)`` (see ``_middle``).
     """
     n = len(a)
-    lo = hi = a[0]
-    for x in a:  # min and max without branches: the loop vectorises
-        lo = min(lo, x)
-        hi = max(hi, x)
-    if lo == hi:
-        return lo
-    nb = min(len(counts), max(16, n // 2))  # ~2 values a bin: cheap to clear and scan
-    scale = nb / (hi - lo)
-    counts[:nb] = 0
-    for x in a:
-        counts[min(int((x - lo) * scale), nb - 1)] += 1
-    k1, k2 = (n - 1) // 2, n // 2
-    cum, b1, b2, below = 0, -1, -1, 0
-    for b in range(nb):
-        nxt = cum + counts[b]
-        if b1 < 0 and k1 < nxt:
-            b1, below = b, cum
-        if k2 < nxt:
-            b2 = b
+    sub[:n] = a
+    return _middle(sub, n, (n - 1) // 2, n // 2, counts)
+
+
+@njit(cache=True, nogil=True)
+def _middle(a, n, k1, k2, counts):
+    """The mean of the k1-th and k2-th smallest of ``a[:n]`` (k2 = k1 or k1 + 1), which
+    is reordered.
+
+    A histogram finds the bin(s) holding the two ranks, and the values of those bins are
+    kept (the bin of a value is monotone in it, so ranks are kept); again until few are
+    left, which a quickselect finishes. The first histogram of a long array spans the
+    central part of a sample of it (the values beyond go to the end bins), so that a few
+    outliers do not crowd the rest into a few bins; later ones span [min, max].
+    """
+    first = n > _SAMPLED
+    while True:
+        lo, hi = _span(a, n, first)
+        if lo == hi and not first:
+            return lo
+        if n <= 32:
             break
-        cum = nxt
-    m = 0
-    for x in a:  # bins b1 .. b2 (any between them are empty); stores without branches
-        b = min(int((x - lo) * scale), nb - 1)
-        sub[m] = x
-        m += (b >= b1) & (b <= b2)
-    v1 = _select(sub[:m], k1 - below)
+        nb = min(len(counts), max(16, n // 2))  # ~2 values a bin: cheap to clear and scan
+        scale, top = nb / (hi - lo) if hi > lo else 0.0, nb - 1.0
+        counts[:nb] = 0
+        for i in range(n):
+            counts[int(min(max((a[i] - lo) * scale, 0.0), top))] += 1
+        cum, b1, b2, below = 0, -1, -1, 0
+        for b in range(nb):
+            nxt = cum + counts[b]
+            if b1 < 0 and k1 < nxt:
+                b1, below = b, cum
+            if k2 < nxt:
+                b2 = b
+                break
+            cum = nxt
+        m = 0
+        for i in range(n):  # bins b1 .. b2 (any between are empty), in place, no branch
+            x = a[i]
+            b = int(min(max((x - lo) * scale, 0.0), top))
+            a[m] = x
+            m += (b >= b1) & (b <= b2)
+        if m == n and not first:
+            break
+        n, k1, k2, first = m, k1 - below, k2 - below, False
+    v1 = _select(a[:n], k1)
     if k2 == k1:
         return v1
     v2 = np.inf  # the select leaves every value after rank k1 at or above it
-    for x in sub[k1 - below + 1:m]:
+    for x in a[k1 + 1:n]:
         v2 = min(v2, x)
     return 0.5 * (v1 + v2)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
+def _span(a, n, sampled):
+    """[min, max] of ``a[:n]``; with ``sampled``, the 8th and 56th of 64 values spread
+    over it instead (no full pass)."""
+    if sampled:
+        smp = np.sort(a[:n:n // 64][:64])
+        return smp[8], smp[55]
+    lo = hi = a[0]
+    for i in range(n):  # min and max without branches: the loop vectorises
+        lo = min(lo, a[i])
+        hi = max(hi, a[i])
+    return lo, hi
+
+
+@njit(cache=True, nogil=True)
 def mad_sigma(sample, to_sigma):
     """``to_sigma`` x the median absolute deviation of ``sample`` (not modified)."""
     counts = np.empty(4096, np.int64)
@@ -93,7 +125,7 @@ def mad_sigma(sample, to_sigma):
     return to_sigma * median(np.abs(sample - med), counts, sub)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _pad_odd(grid):
     """``np.pad(grid, 1, mode="reflect", reflect_type="odd")``: planes extend as planes."""
     n_r, n_c = grid.shape
@@ -106,13 +138,13 @@ def _pad_odd(grid):
     return p
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _nanmedian(values):
     finite = values[~np.isnan(values)]
     return np.median(finite) if len(finite) else np.nan
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _window_median(p, i, j, buf):
     """NaN-aware median of the 3 x 3 window ``p[i:i+3, j:j+3]`` (insertion sort in
     ``buf``): as ``_nanmedian`` without an allocation per tile."""
@@ -132,7 +164,7 @@ def _window_median(p, i, j, buf):
     return buf[n // 2] if n % 2 else 0.5 * (buf[n // 2 - 1] + buf[n // 2])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _despike(grid):
     """Replace tiles that stand out from their 3x3 neighbourhood (or are NaN) by its median.
 
@@ -157,7 +189,7 @@ def _despike(grid):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def clean_grid(grid, average, fallback):
     """Tiles spoiled by a bright star replaced from their neighbours; with ``average`` the
     grid is then smoothed by a 3x3 mean (planes pass unchanged). NaN tiles left over take

@@ -261,8 +261,11 @@ def test_histogram_median_is_exact(n):
     from startrack.extract_sky import mad_sigma, median
 
     rng = np.random.default_rng(n)
+    outliers = rng.normal(0, 1, n)
+    outliers[:min(n, 3)] = [1e12, -1e9, 5e8][:min(n, 3)]  # the rest crowd into a few bins
     for values in (rng.normal(0, 3, n), np.rint(rng.normal(200, 2, n)),
-                   np.r_[rng.normal(0, 1, n - n // 3), np.full(n // 3, 6e4)]):
+                   np.r_[rng.normal(0, 1, n - n // 3), np.full(n // 3, 6e4)], outliers,
+                   np.where(np.arange(n) % 2, 1.0, 2.0), rng.exponential(1.0, n) ** 6):
         assert median(values, np.empty(256, np.int64), np.empty(n)) == np.median(values)
         want = 1.4826 * np.median(np.abs(values - np.median(values)))
         assert mad_sigma(values, 1.4826) == pytest.approx(want, rel=1e-12, abs=1e-12)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from startrack import extract_blocks as blocks
-from startrack.extract_kernels import _row_runs
+from startrack.extract_runs import row_runs as _row_runs
 
 NO_GRID = np.zeros((0, 0))
 NO_MASK = np.zeros((0, 0), np.uint8)
