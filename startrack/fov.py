@@ -215,8 +215,11 @@ class BlindSolver:
         searched, through that camera (its centre and lens model)."""
         t0 = time.perf_counter()
         base = camera or Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
+        # widened by MARGIN, as a nominal range is: a camera at the very end of the range
+        # (a 1 deg field) has its patterns' focal lengths on both sides of that end
         f_lo, f_hi = focal_range(camera, tolerance) if camera else (
-            f_of_fov(size[0], fov) for fov in sorted(self.fov_range, reverse=True))
+            f_of_fov(size[0], max(self.fov_range) * (1.0 + MARGIN)),
+            f_of_fov(size[0], min(self.fov_range) / (1.0 + MARGIN)))
         diag, seen = MatchDiagnostics(), set()
         db = self.database_for(base)
         reason = "no_match" if len(x) >= 3 else "too_few_stars"
