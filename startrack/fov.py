@@ -26,13 +26,12 @@ import numpy as np
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.deadline import NO_DEADLINE, Deadline
-from startrack.errors import InputError
-from startrack.fov_fit import fit_camera, fit_focal
+from startrack.fov_fit import fit_focal, verify_fitted
 from startrack.identify import residuals_arcsec
 from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
-from startrack.verify import Verification, VerifyConfig, verify
+from startrack.verify import Verification, VerifyConfig
 
 #: default ``--fov-tolerance``: the true FOV may be this fraction above or below nominal
 DEFAULT_FOV_TOLERANCE = 0.10
@@ -55,29 +54,6 @@ def _check(deadline: Deadline) -> None:
         raise SearchTimeout
 
 
-def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
-                  sigma_px: float, database: StarDatabase, config: VerifyConfig,
-                  ) -> tuple[Verification, Camera, Observation] | None:
-    """Verify ``hyp`` with ``camera``, fit the focal length to every matched star and
-    verify again with the fitted camera; None unless both pass."""
-    cat = database.vectors
-    obs = Observation.from_pixels(x, y, camera, sigma_px)
-    check = verify(hyp, obs, database, config)
-    for _ in range(3):
-        if not check.accepted:
-            return None
-        try:
-            camera = fit_camera(camera, x[check.obs_index], y[check.obs_index],
-                                cat[check.cat_index])
-        except InputError:  # a fitted lens that folds back inside the image
-            return None
-        if not (camera.f_px > 0 and math.isfinite(camera.f_px)):
-            return None
-        obs = Observation.from_pixels(x, y, camera, sigma_px)
-        check = verify(hyp, obs, database, config)
-    return (check, camera, obs) if check.accepted else None
-
-
 def _solution(check: Verification, obs: Observation, database: StarDatabase, method: str,
               diag: MatchDiagnostics, t0: float) -> Solution:
     order = np.argsort(check.obs_index)
@@ -90,14 +66,16 @@ def _solution(check: Verification, obs: Observation, database: StarDatabase, met
 
 def search_window(matcher: QuadMatcher, x, y, camera: Camera, f_lo: float, f_hi: float,
                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
-                  diag: MatchDiagnostics, seen: set, deadline: Deadline = NO_DEADLINE):
+                  diag: MatchDiagnostics, seen: set, deadline: Deadline = NO_DEADLINE,
+                  deeper: int = 0):
     """The first quad hypothesis with a focal length in [f_lo, f_hi] that passes
     :func:`verify_fitted` against ``database``: (verification, camera, obs) or None.
-    Raises :class:`SearchTimeout` when ``deadline`` passes first."""
+    ``deeper``: the patterns of the level that many steps below the nearest. Raises
+    :class:`SearchTimeout` when ``deadline`` passes first."""
     n_cat = len(database.vectors)
     _check(deadline)
     tried = 0
-    for sh in matcher.scaled(x, y, camera, f_lo, f_hi, diag, database):
+    for sh in matcher.scaled(x, y, camera, f_lo, f_hi, diag, database, deeper):
         hyp = sh.hypothesis
         key = tuple(sorted(zip(hyp.obs_index.tolist(), hyp.cat_index.tolist(), strict=True)))
         if sh.confirmed < MIN_CONFIRMED:
@@ -146,6 +124,13 @@ def f_of_fov(width: int, fov_deg: float) -> float:
     return (width / 2.0) / math.tan(math.radians(fov_deg) / 2.0)
 
 
+def passes(spans: list[tuple[float, float]]) -> list[tuple[int, float, float]]:
+    """(deeper, f_lo, f_hi) in search order: every window at its nearest pattern level,
+    then every window one level deeper (fainter pattern stars: a sparse patch of sky holds
+    too few of the nearest level's), so a frame the first pass solves costs no more."""
+    return [(deeper, lo, hi) for deeper in (0, 1) for lo, hi in spans]
+
+
 @dataclass(frozen=True)
 class FovResult:
     """What a search found (or not): the solution, the fitted camera it holds for, the
@@ -184,9 +169,9 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
         return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db,
                        reason="too_few_stars")
     try:
-        for lo, hi in windows(*focal_range(cam, tolerance)):
+        for deeper, lo, hi in passes(windows(*focal_range(cam, tolerance))):
             found = search_window(quad, x, y, cam, lo, hi, ident.sigma_px, db, config, diag,
-                                  seen, deadline)
+                                  seen, deadline, deeper)
             if found is not None:
                 return _result(found, ident.catalog, quad.name, diag, t0, config, db)
     except SearchTimeout:
@@ -230,17 +215,20 @@ class BlindSolver:
         searched, through that camera (its centre and lens model)."""
         t0 = time.perf_counter()
         base = camera or Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
+        # widened by MARGIN, as a nominal range is: a camera at the very end of the range
+        # (a 1 deg field) has its patterns' focal lengths on both sides of that end
         f_lo, f_hi = focal_range(camera, tolerance) if camera else (
-            f_of_fov(size[0], fov) for fov in sorted(self.fov_range, reverse=True))
+            f_of_fov(size[0], max(self.fov_range) * (1.0 + MARGIN)),
+            f_of_fov(size[0], min(self.fov_range) / (1.0 + MARGIN)))
         diag, seen = MatchDiagnostics(), set()
         db = self.database_for(base)
         reason = "no_match" if len(x) >= 3 else "too_few_stars"
         try:
-            for lo, hi in windows(f_lo, f_hi) if len(x) >= 3 else []:
+            for deeper, lo, hi in passes(windows(f_lo, f_hi)) if len(x) >= 3 else []:
                 _check(deadline)  # before the window's tables are built
                 db = self.database_for(dataclasses.replace(base, f_px=math.sqrt(lo * hi)))
                 found = search_window(self.matcher, x, y, base, lo, hi, self.sigma_px, db,
-                                      self.config, diag, seen, deadline)
+                                      self.config, diag, seen, deadline, deeper)
                 if found is not None:
                     return _result(found, self.catalog, self.matcher.name, diag, t0,
                                    self.config, db)

@@ -1,5 +1,6 @@
 """The camera fitted to identified stars: the focal length and, for a lens nobody described,
-its radial k1 (the fit behind every answer of :mod:`startrack.fov`)."""
+its radial k1; and a hypothesis verified through the fitted camera (the fit and the check
+behind every answer of :mod:`startrack.fov`)."""
 
 from __future__ import annotations
 
@@ -10,11 +11,20 @@ import numpy as np
 
 from startrack.attitude import wahba_matrices
 from startrack.camera import Camera
+from startrack.database import StarDatabase
 from startrack.distortion import RadialDistortion
+from startrack.errors import InputError
+from startrack.types import Hypothesis, Observation
+from startrack.verify import Verification, VerifyConfig, verify
 
 #: an undescribed lens's k1 is fitted to this many stars reaching this far (r^2 of the
 #: normalised plane: 11 deg off axis), within +-LENS_MAX_K1
 LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1 = 6, 0.04, 0.3
+#: a hypothesis the whole frame does not confirm is checked again on this many of the
+#: brightest stars alone (see :func:`verify_fitted`)
+BRIGHTEST = 16
+#: ... only when the whole frame confirmed at least this many stars (fewer cannot pass)
+BRIGHTEST_MIN_CONFIRMED = 3
 
 
 def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
@@ -58,3 +68,52 @@ def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.nda
         if done:
             break
     return cam
+
+
+def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
+                  sigma_px: float, database: StarDatabase, config: VerifyConfig,
+                  ) -> tuple[Verification, Camera, Observation] | None:
+    """Verify ``hyp`` with ``camera``, fit the camera to every matched star and verify
+    again with the fitted camera: (verification, camera, observation of every star), None
+    unless both pass. When the whole frame fails but confirms a few stars, the same test
+    runs on the ``BRIGHTEST`` stars alone (a prefix: the rows stay the same): a deep
+    camera's faint detections, mostly stars the catalog lacks, each add a chance of a
+    coincidence, and the bound over the bright stars alone holds just as well. Trying
+    that second set of stars is one more test per hypothesis, as one more hypothesis
+    would be; the bound of each test is unchanged."""
+    found = _verify_fitted(hyp, x, y, camera, sigma_px, database, config)
+    if isinstance(found, tuple) or found < BRIGHTEST_MIN_CONFIRMED \
+            or len(x) <= BRIGHTEST or np.max(hyp.obs_index) >= BRIGHTEST:
+        return found if isinstance(found, tuple) else None
+    bright = _verify_fitted(hyp, x[:BRIGHTEST], y[:BRIGHTEST], camera, sigma_px, database,
+                            config)
+    if not isinstance(bright, tuple):
+        return None
+    check, fitted, _ = bright
+    obs = Observation.from_pixels(x, y, fitted, sigma_px)
+    whole = verify(hyp, obs, database, config)  # every star labelled where it passes
+    return (whole if whole.accepted else check), fitted, obs
+
+
+def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
+                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
+                   ) -> tuple[Verification, Camera, Observation] | int:
+    """:func:`verify_fitted` on the stars ``x``, ``y``; when it fails, how many stars the
+    first verification confirmed."""
+    cat = database.vectors
+    obs = Observation.from_pixels(x, y, camera, sigma_px)
+    check = verify(hyp, obs, database, config)
+    confirmed = check.confirmed
+    for _ in range(3):
+        if not check.accepted:
+            return confirmed
+        try:
+            camera = fit_camera(camera, x[check.obs_index], y[check.obs_index],
+                                cat[check.cat_index])
+        except InputError:  # a fitted lens that folds back inside the image
+            return 0
+        if not (camera.f_px > 0 and math.isfinite(camera.f_px)):
+            return 0
+        obs = Observation.from_pixels(x, y, camera, sigma_px)
+        check = verify(hyp, obs, database, config)
+    return (check, camera, obs) if check.accepted else 0

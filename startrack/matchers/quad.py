@@ -166,19 +166,31 @@ class QuadMatcher(Matcher):
             levels[key] = Q.quad_level(self.database.catalog, key)
         return levels[key]
 
+    def deeper_levels(self, fov_deg: float) -> int:
+        """How many levels below the nearest one :meth:`scaled` may search for a field of
+        ``fov_deg``: one, unless the nearest level's pattern stars are already the whole
+        catalog (a deeper level would hold no other star)."""
+        return int(Q.level_stars(Q.level_for(fov_deg)) < len(self.database.vectors))
+
     def scaled(self, x: np.ndarray, y: np.ndarray, camera: Camera, f_lo: float, f_hi: float,
-               diag: MatchDiagnostics, check: StarDatabase | None = None,
+               diag: MatchDiagnostics, check: StarDatabase | None = None, deeper: int = 0,
                ) -> list[ScaledHypothesis]:
         """Hypotheses for the stars at pixels ``x``, ``y`` (brightest first) seen through
         ``camera`` with its focal length anywhere in [f_lo, f_hi]; best first: most of
         the brightest other stars confirmed against ``check`` (default: this matcher's
-        database) at each pattern's own attitude and scale, then closest edges."""
+        database) at each pattern's own attitude and scale, then closest edges. ``deeper``:
+        the patterns of the level that many steps narrower than the nearest (fainter
+        pattern stars: a sparse patch of sky holds too few of the nearest level's; none
+        beyond :meth:`deeper_levels`)."""
         f_mid = math.sqrt(f_lo * f_hi)
         guess = dataclasses.replace(camera, f_px=f_mid)
+        if deeper > self.deeper_levels(guess.fov_deg):
+            return []
         vectors = guess.pixel_to_vector(x, y)
         slack = math.sqrt(f_hi / f_lo) * 1.02
-        obs_q, cat_q, scale, error = match_patterns(
-            vectors, self.level(guess.fov_deg), self.database.vectors, slack)
+        level = self.level(guess.fov_deg / Q.LEVEL_STEP ** deeper)
+        obs_q, cat_q, scale, error = match_patterns(vectors, level, self.database.vectors,
+                                                    slack)
         f = f_mid * scale
         keep = (f >= f_lo) & (f <= f_hi)
         obs_q, cat_q, f, error = obs_q[keep], cat_q[keep], f[keep], error[keep]
