@@ -2,15 +2,18 @@
 
 A star tracker runs lost-in-space once and then tracks. :class:`startrack.tracker.Tracker`
 predicts each frame's attitude and its uncertainty from the frames before it;
-:func:`track` projects the catalog stars around
-the predicted boresight (one cone lookup), pairs the brightest observed stars with
-projected stars inside a window sized from that uncertainty, keeps the pairs that agree on
-one image displacement (a vectorised vote, so a false star or a neighbour inside the
-window cannot pull the match), and hands three-star hypotheses from them to the shared
-:func:`startrack.verify.verify`: the same Wahba fit, the same match radius and the same
-binomial false-match bound as every lost-in-space matcher, with evidence only from stars
-outside the hypothesis. A tracked attitude is therefore never easier to accept wrongly
-than a lost-in-space one. When tracking fails, the frame falls back to lost-in-space.
+:func:`track` pairs the brightest observed stars with the catalog stars projected at the
+prediction inside a window sized from that uncertainty, keeps the pairs that agree on one
+image displacement (a vote, so a false star or a neighbour inside the window cannot pull
+the match), and tests three-star hypotheses from them exactly as
+:func:`startrack.verify.verify` does: the same Wahba fit, the same match radius and the
+same binomial false-match bound, with evidence only from stars outside the hypothesis
+(scipy decides wherever the compiled screen is within 1% of the bound), then the same
+labelling. All of it is one compiled call
+(:func:`startrack.tracking_kernels.attempt`) over catalog rows that a
+:class:`CatalogCone` keeps from frame to frame. A tracked attitude is therefore never
+easier to accept wrongly than a lost-in-space one. When tracking fails, the frame falls
+back to lost-in-space.
 """
 
 from __future__ import annotations
