@@ -22,8 +22,9 @@ from collections.abc import Callable
 import numpy as np
 
 from startrack.database import StarDatabase
-from startrack.tracking import Prior, TrackConfig, track
-from startrack.tracking_kernels import predict_attitude, warm_up
+from startrack.prediction_kernels import predict_attitude
+from startrack.tracking import CatalogCone, Prior, TrackConfig, track
+from startrack.tracking_kernels import warm_up
 from startrack.types import Observation, Solution
 from startrack.verify import VerifyConfig
 
@@ -57,6 +58,7 @@ class Tracker:
         self.history: list[tuple[int, np.ndarray, float]] = []
         self.locked = False
         self.ever_locked = False
+        self.cone = CatalogCone()  # the catalog rows of recent frames, reused while they cover
 
     def predict(self, frame: int | None = None) -> Prior | None:
         """The predicted attitude of ``frame`` (default: the next), None when there is no
@@ -88,7 +90,7 @@ class Tracker:
         elapsed = (time.perf_counter() - t0) * 1000.0
         solution = None
         if prior is not None and len(obs) >= 3:
-            solution = track(obs, database, prior, verify_config, self.config, method)
+            solution = track(obs, database, prior, verify_config, self.config, method, self.cone)
             elapsed += solution.identify_ms
         mode = "tracking"
         if solution is None or not solution.solved:

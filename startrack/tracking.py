@@ -2,15 +2,18 @@
 
 A star tracker runs lost-in-space once and then tracks. :class:`startrack.tracker.Tracker`
 predicts each frame's attitude and its uncertainty from the frames before it;
-:func:`track` projects the catalog stars around
-the predicted boresight (one cone lookup), pairs the brightest observed stars with
-projected stars inside a window sized from that uncertainty, keeps the pairs that agree on
-one image displacement (a vectorised vote, so a false star or a neighbour inside the
-window cannot pull the match), and hands three-star hypotheses from them to the shared
-:func:`startrack.verify.verify`: the same Wahba fit, the same match radius and the same
-binomial false-match bound as every lost-in-space matcher, with evidence only from stars
-outside the hypothesis. A tracked attitude is therefore never easier to accept wrongly
-than a lost-in-space one. When tracking fails, the frame falls back to lost-in-space.
+:func:`track` pairs the brightest observed stars with the catalog stars projected at the
+prediction inside a window sized from that uncertainty, keeps the pairs that agree on one
+image displacement (a vote, so a false star or a neighbour inside the window cannot pull
+the match), and tests three-star hypotheses from them exactly as
+:func:`startrack.verify.verify` does: the same Wahba fit, the same match radius and the
+same binomial false-match bound, with evidence only from stars outside the hypothesis
+(scipy decides wherever the compiled screen is within 1% of the bound), then the same
+labelling. All of it is one compiled call
+(:func:`startrack.tracking_kernels.attempt`) over catalog rows that a
+:class:`CatalogCone` keeps from frame to frame. A tracked attitude is therefore never
+easier to accept wrongly than a lost-in-space one. When tracking fails, the frame falls
+back to lost-in-space.
 """
 
 from __future__ import annotations
@@ -27,14 +30,26 @@ from scipy.spatial.transform import Rotation
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.identify import residuals_arcsec
-from startrack.matching.projector import CAPTURE, CONE_LOOKUP_MARGIN, CONE_MARGIN, CatalogProjector
-from startrack.tracking_kernels import consistent_pairs
+from startrack.labelling import kernel_params
+from startrack.matching.projector import CAPTURE, CONE_LOOKUP_MARGIN, MAX_REFINEMENTS, cone_radius
+from startrack.matching.wahba_kernels import matrix_to_quaternion
+from startrack.tracking_kernels import attempt, consistent_pairs, nearby
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
-from startrack.verify import VerifyConfig, verify
+from startrack.verify import VerifyConfig, false_match_probability
 
 # The vote looks for the densest spot of displacements within this many match radii: the
 # true pairs crowd there while chance pairs spread over the whole window.
 VOTE_RADII = 3.0
+# Hypotheses are drawn from this many of the most consistent pairs.
+HYPOTHESIS_PAIRS = 12
+# A hypothesis whose matches miss at most this many of the consistent pairs' stars is
+# labelled at their fit at once (tracking_kernels._settle); else refined step by step.
+SETTLE_MISSES = 0
+# The vote tries the pairs of this many of the brightest stars as its centres.
+VOTE_CENTRES = 24
+# The catalog cone is looked up this much wider than a frame needs and reused while later
+# predictions' cones stay inside it: a sequence turns a fraction of a degree per frame.
+CONE_REUSE_RAD = math.radians(1.0)
 
 
 @dataclass(frozen=True)
@@ -74,82 +89,170 @@ class Prior:
         return cls(rotation.as_matrix(), float(sigma_rad))
 
 
-@lru_cache(maxsize=16)
-def _half_diagonal_rad(camera: Camera) -> float:
-    return math.radians(camera.half_diagonal_deg)
+class CatalogCone:
+    """The catalog rows that can reach the image near a recent prediction (their vectors
+    and magnitudes with them), reused by later frames while they cover them, and what
+    else stays from frame to frame of one camera (:meth:`setup`).
+
+    :meth:`look_up` holds every catalog star that can fall in the image widened by
+    ``CAPTURE`` match radii at any attitude within ``turn`` of the prediction: the stars of
+    a cone, less those whose projection at the prediction lies too far outside the image
+    for such a turn to bring them in. It is looked up for ``CONE_REUSE_RAD`` more turn;
+    the attempt kernel keeps it while a later prediction, turned by its own allowance,
+    stays inside that (:func:`startrack.tracking_kernels.attempt`)."""
+
+    def __init__(self) -> None:
+        self.database: StarDatabase | None = None
+        self.matrix = np.eye(3)
+        self.turn = -1.0
+        self._key: tuple | None = None
+
+    def look_up(self, database: StarDatabase, camera: Camera, matrix: np.ndarray,
+                turn: float, radius_px: float) -> None:
+        """Hold the rows for attitudes within ``turn`` (radians) of ``matrix``, and then
+        some (``CONE_REUSE_RAD``)."""
+        turn += CONE_REUSE_RAD
+        need = cone_radius(camera) * CONE_LOOKUP_MARGIN + turn + CAPTURE * radius_px / camera.f_px
+        rows = database.cone(matrix[:, 2], need)
+        if need < math.pi / 2:
+            # The stretch is cached per 0.01 of rho, rounded up (a wider range bounds it).
+            stretch = _lens_stretch(camera, math.ceil(math.tan(need) * 100.0) / 100.0)
+            margin = CAPTURE * radius_px + turn * camera.f_px * stretch + 1.0
+            rows = rows[nearby(np.ascontiguousarray(database.vectors[rows]), matrix,
+                               camera.geometry, margin)]
+        self.rows = rows
+        self.vectors = np.ascontiguousarray(database.vectors[rows])
+        self.mags = np.ascontiguousarray(database.catalog.mag[rows], dtype=np.float64)
+        self.database, self.matrix, self.turn = database, matrix.copy(), turn
+
+    def setup(self, obs: Observation, vc: VerifyConfig, config: TrackConfig) -> tuple:
+        """What stays from frame to frame of one camera and centroid error: the match
+        radius, the attempt kernel's ``scan`` and the labelling's floats and ``min_fit``
+        (:func:`startrack.labelling.kernel_params`)."""
+        key = (obs.camera, obs.sigma_rad, vc, config)
+        if key != self._key:
+            cam = obs.camera
+            radius_px = vc.radius_px(obs)
+            label = kernel_params(obs, radius_px)
+            half = 0.5 * min(cam.width, cam.height)
+            # Off-axis, an angle spans more pixels: 1 + tan^2 at the farthest corner.
+            stretch = 1.0 + math.tan(math.radians(cam.half_diagonal_deg)) ** 2
+            scan = np.array([config.window_sigma * cam.f_px * stretch,
+                             config.window_sigma * math.hypot(cam.width, cam.height),
+                             VOTE_RADII, radius_px, CAPTURE, math.cos(radius_px / cam.f_px),
+                             config.max_stars, MAX_REFINEMENTS, vc.min_confirmed,
+                             config.max_hypotheses, HYPOTHESIS_PAIRS,
+                             vc.max_false_probability, math.pi / (cam.width * cam.height),
+                             half, SETTLE_MISSES, VOTE_CENTRES, CONE_REUSE_RAD])
+            self._setup = (radius_px, scan, np.array(label[2:11], dtype=np.float64),
+                           label[11])
+            self._key = key
+        return self._setup
 
 
-def _window_px(obs: Observation, prior: Prior, config: TrackConfig, radius_px: float) -> float:
-    cam = obs.camera
-    # Off-axis, an angle spans more pixels: 1 + tan^2 at the farthest corner.
-    stretch = 1.0 + math.tan(_half_diagonal_rad(cam)) ** 2
-    return config.window_sigma * prior.sigma_rad * cam.f_px * stretch + radius_px
-
-
-class _Projector(CatalogProjector):
-    """The catalog stars around the prediction (verify's projector over fixed rows), and
-    the pairs of observed stars with them inside the prediction's window."""
-
-    def pairs(self, matrix: np.ndarray, window_px: float, max_stars: int, vote_px: float,
-              keep_px: float) -> tuple[np.ndarray, np.ndarray, int]:
-        """Pairs of the brightest observed stars with catalog rows within the window that
-        agree on one displacement (:func:`startrack.tracking_kernels.consistent_pairs`):
-        (observed index, catalog row, pairs in the window)."""
-        m = min(len(self.obs), max_stars)
-        oi, pos, n_pairs = consistent_pairs(self.vectors, np.ascontiguousarray(matrix),
-                                            self.ox[:m], self.oy[:m], self.geometry,
-                                            float(window_px), float(vote_px), float(keep_px))
-        return oi, self.rows[pos], int(n_pairs)
+@lru_cache(maxsize=64)
+def _lens_stretch(camera: Camera, rho_top: float) -> float:
+    """Pixels per radian of turn, over f, at most, for stars within ``rho_top`` (tangent of
+    the angle off the boresight): a turn moves the tangent-plane point by up to
+    (1 + rho^2) per radian and the lens scales that by at most max(|s|, |s + 2 rho^2 s'|)
+    (its tangential and radial gains); a star that the lens model cannot place at the
+    prediction is kept whatever its position (:func:`~startrack.tracking_kernels.nearby`).
+    Sampled finely, with 1% to spare."""
+    k1, k2, k3, max_r2 = (float(v) for v in camera.geometry[5:9])
+    rho = np.linspace(0.0, min(rho_top, math.sqrt(max_r2)), 4097)
+    r2 = rho * rho
+    s = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    ds = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+    gain = (1.0 + r2) * np.maximum(np.abs(s), np.abs(s + 2.0 * r2 * ds))
+    return 1.01 * float(gain.max())
 
 
 def track(obs: Observation, database: StarDatabase, prior: Prior,
           verify_config: VerifyConfig | None = None, config: TrackConfig | None = None,
-          method: str = "tracking") -> Solution:
+          method: str = "tracking", cone: CatalogCone | None = None) -> Solution:
     """Solve ``obs`` near ``prior``; an unsolved Solution (reason ``no_track``) when no
-    hypothesis from the window passes verification."""
+    hypothesis from the window passes verification. ``cone``: the rows of an earlier
+    frame, reused when they cover this one (a :class:`~startrack.tracker.Tracker` keeps
+    one)."""
     verify_config = verify_config or VerifyConfig()
     config = config or TrackConfig()
-    diag = MatchDiagnostics()
+    cone = cone or CatalogCone()
     t0 = time.perf_counter()
-    result = None
-    radius_px = verify_config.radius_px(obs)
-    window = _window_px(obs, prior, config, radius_px)
+    result, counts = None, (0, 0)
+    radius_px, scan, floats, min_fit = cone.setup(obs, verify_config, config)
+    window = scan[0] * prior.sigma_rad + radius_px
     if len(obs) >= 3 and window <= config.max_window_px:
-        cam = obs.camera
-        reach = (_half_diagonal_rad(cam) * CONE_MARGIN * CONE_LOOKUP_MARGIN
-                 + (window + CAPTURE * radius_px) / cam.f_px)
-        project = _Projector(obs, database, radius_px, database.cone(prior.matrix[:, 2], reach))
-        diag_px = math.hypot(cam.width, cam.height)
-        tol = radius_px + config.window_sigma * prior.sigma_rad * diag_px
-        o_s, c_s, diag.candidates = project.pairs(prior.matrix, window, config.max_stars,
-                                                  min(tol, VOTE_RADII * radius_px), tol)
-        if diag.candidates >= 3:
-            result = _first_accepted(o_s, c_s, project, verify_config, config, diag)
+        result, counts = _attempt(obs, database, prior, verify_config, cone, window,
+                                  (radius_px, scan, floats, min_fit))
     # The time of matching, verification and the attitude, as identify() counts it (the
     # Solution's residuals and Rotation are not).
     elapsed = (time.perf_counter() - t0) * 1000.0
+    diag = MatchDiagnostics(candidates=counts[0], hypotheses=counts[1])
     if result is None:
         return Solution(False, method, diagnostics=diag, identify_ms=elapsed,
                         reason="no_track" if len(obs) >= 3 else "too_few_stars",
                         mode="tracking")
-    order = np.argsort(result.obs_index)
-    obs_index, cat_index = result.obs_index[order], result.cat_index[order]
-    residuals = residuals_arcsec(result.matrix, obs, obs_index, database.vectors[cat_index])
-    return Solution(True, method, rotation=result.rotation, obs_index=obs_index,
-                    cat_index=cat_index, residual_arcsec=residuals,
-                    false_probability=result.false_probability, diagnostics=diag,
-                    identify_ms=elapsed, mode="tracking")
+    matrix, obs_index, cat_index, prob = result
+    order = np.argsort(obs_index)
+    obs_index, cat_index = obs_index[order], cat_index[order]
+    residuals = residuals_arcsec(matrix, obs, obs_index, database.vectors[cat_index])
+    rotation = Rotation.from_quat(matrix_to_quaternion(matrix))  # as Verification.rotation
+    return Solution(True, method, rotation=rotation, obs_index=obs_index, cat_index=cat_index,
+                    residual_arcsec=residuals, false_probability=float(prob),
+                    diagnostics=diag, identify_ms=elapsed, mode="tracking")
 
 
-def _first_accepted(o_s, c_s, project, verify_config, config, diag):
-    """Verify three-star hypotheses from the consistent pairs, most consistent first."""
-    picks = itertools.islice(itertools.combinations(range(min(len(o_s), 12)), 3),
+def _attempt(obs, database, prior, vc, cone, window, setup, start=0):
+    """The compiled attempt (:func:`startrack.tracking_kernels.attempt`); where its bound
+    is too close to the line to call, scipy's (verify()'s own) decides, and where the held
+    rows do not cover the prediction they are looked up again. Returns ((attitude,
+    observed index, catalog rows, bound) or None, (pairs in the window, hypotheses));
+    ``start``: the first hypothesis tried (tests)."""
+    radius_px, scan, floats, min_fit = setup
+    cam = obs.camera
+    matrix = np.ascontiguousarray(prior.matrix, dtype=np.float64)
+    looked_up = cone.database is not database
+    if looked_up:
+        cone.look_up(database, cam, matrix, window / scan[13], radius_px)
+    has_flux = obs.flux is not None  # as kernel_params passes them
+    flux = np.ascontiguousarray(obs.flux if has_flux else obs.x, dtype=np.float64)
+    args = (np.ascontiguousarray(obs.vectors, dtype=np.float64),
+            np.ascontiguousarray(obs.x, dtype=np.float64),
+            np.ascontiguousarray(obs.y, dtype=np.float64), cam.geometry, matrix,
+            float(prior.sigma_rad), scan, flux, has_flux, floats, min_fit)
+    forced, exact, hypotheses = -1, None, 0
+    while True:
+        status, h, tried, n_pairs, confirmed, n_in, prob, obs_i, rows, final = attempt(
+            cone.vectors, cone.mags, cone.rows, cone.matrix, cone.turn, *args, start, forced)
+        hypotheses += tried - (forced >= 0)  # a forced one was counted already
+        if status == 1:
+            return (final, obs_i, rows, prob if exact is None else exact), (n_pairs, hypotheses)
+        if status == 4 and not looked_up:  # once: fresh rows cover it
+            cone.look_up(database, cam, matrix, window / scan[13], radius_px)
+            looked_up = True
+            continue
+        if status != 2:
+            return None, (n_pairs, hypotheses)
+        exact = false_match_probability(len(obs) - 3, confirmed, n_in, radius_px,
+                                        cam.width, cam.height)
+        start, forced = h + 1, (h if exact <= vc.max_false_probability else -1)
+
+
+def hypotheses(obs: Observation, database: StarDatabase, prior: Prior,
+               verify_config: VerifyConfig | None = None,
+               config: TrackConfig | None = None) -> list[Hypothesis]:
+    """The three-star hypotheses :func:`track` tries on ``obs`` near ``prior``, in its
+    order (to check its decisions against :func:`startrack.verify.verify`'s)."""
+    vc, config, cone = verify_config or VerifyConfig(), config or TrackConfig(), CatalogCone()
+    radius_px, scan, _, _ = cone.setup(obs, vc, config)
+    window = scan[0] * prior.sigma_rad + radius_px
+    tol = scan[1] * prior.sigma_rad + radius_px
+    matrix = np.ascontiguousarray(prior.matrix, dtype=np.float64)
+    cone.look_up(database, obs.camera, matrix, window / scan[13], radius_px)
+    m = min(len(obs), config.max_stars)
+    oi, cj, _ = consistent_pairs(cone.vectors, matrix, np.ascontiguousarray(obs.x[:m]),
+                                 np.ascontiguousarray(obs.y[:m]), obs.camera.geometry,
+                                 window, min(tol, VOTE_RADII * radius_px), tol, VOTE_CENTRES)
+    picks = itertools.islice(itertools.combinations(range(min(len(oi), HYPOTHESIS_PAIRS)), 3),
                              config.max_hypotheses)
-    for pick in picks:
-        idx = list(pick)
-        diag.hypotheses += 1
-        check = verify(Hypothesis(o_s[idx], c_s[idx]), project.obs, project.database,
-                       verify_config, project)
-        if check.accepted:
-            return check
-    return None
+    return [Hypothesis(oi[list(p)], cone.rows[cj[list(p)]]) for p in picks]

@@ -1,8 +1,8 @@
 """Compiled kernels of the tracking stage: pair observed stars with the catalog stars
-projected at a prediction, vote on their displacement, rotation matrix <-> rotation vector
-(numba; a frame has tens of stars, and numpy or scipy on so few is dominated by per-call
-overhead). The projection is verification's own
-(:func:`startrack.matching.verify_kernels.project`), lens included.
+projected at a prediction, vote on their displacement, and the whole tracked attempt in
+one call (numba; a frame has tens of stars, and numpy or scipy on so few is dominated by
+per-call overhead). Projection, first test, refinement and labelling are verification's
+own (:mod:`startrack.matching.verify_kernels`), lens included.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ import math
 import numpy as np
 from numba import njit
 
+from startrack import prediction_kernels
 from startrack.matching import verify_kernels
 from startrack.matching.labelling_kernels import warm_up as _warm_up_labelling
 from startrack.matching.nearest_kernels import pairs_within
@@ -34,19 +35,24 @@ def window_pairs(vectors, matrix, ox, oy, geometry, window):
 
 
 @njit(cache=True)
-def consistent(oi, ci, dx, dy, vote_tol, tol):
-    """Indices of the pairs that agree on one displacement: the pair whose displacement
-    the most distinct observed stars share within ``vote_tol`` px (the densest spot; ties:
-    the smaller displacement), then, within ``tol`` px of it (which allows for the spread
-    a roll error makes), per observed star the pair nearest it, each catalog star once
-    (nearest wins, ties: the lower observed index). Sorted by the distance of their
-    displacement from the winner's."""
+def consistent(oi, ci, dx, dy, vote_tol, tol, centres):
+    """Indices of the pairs that agree on one displacement: among the pairs of the
+    ``centres`` brightest observed stars, the one whose displacement the most distinct
+    observed stars share within ``vote_tol`` px (the densest spot; ties: the smaller
+    displacement), then, within ``tol`` px of it (which allows for the spread a roll error
+    makes), per observed star the pair nearest it, each catalog star once (nearest wins,
+    ties: the lower observed index). Sorted by the distance of their displacement from
+    the winner's."""
     p = oi.shape[0]
     v2 = vote_tol * vote_tol
     t2 = tol * tol
     seen = np.full(oi.max() + 1 if p else 1, -1, np.int64)
     best, best_votes, best_d = -1, -1, np.inf
+    # The true displacement is shared by nearly every real star's pair, so the brightest
+    # stars' pairs hold it: trying only those as centres bounds the vote at O(centres p).
     for i in range(p):
+        if oi[i] >= centres:
+            break
         votes = 0
         for j in range(p):
             if (dx[i] - dx[j]) ** 2 + (dy[i] - dy[j]) ** 2 <= v2 and seen[oi[j]] != i:
@@ -58,22 +64,22 @@ def consistent(oi, ci, dx, dy, vote_tol, tol):
     n_obs = seen.shape[0]
     pick = np.full(n_obs, -1, np.int64)
     dist = np.full(n_obs, np.inf)
+    if best < 0:
+        return pick[:0]
     for j in range(p):
         d = (dx[best] - dx[j]) ** 2 + (dy[best] - dy[j]) ** 2
         if d <= t2 and d < dist[oi[j]]:
             pick[oi[j]], dist[oi[j]] = j, d
     keep = np.zeros(n_obs, np.bool_)
+    owner = np.full(ci.max() + 1, -1, np.int64)  # per catalog star, the observed one kept
     for o in range(n_obs):
         if pick[o] < 0:
             continue
-        keep[o] = True
-        for o2 in range(o):  # a catalog star claimed twice: the nearer (earlier) keeps it
-            if keep[o2] and ci[pick[o2]] == ci[pick[o]]:
-                if dist[o] < dist[o2]:
-                    keep[o2] = False
-                else:
-                    keep[o] = False
-                break
+        c = ci[pick[o]]
+        if owner[c] < 0 or dist[o] < dist[owner[c]]:  # the nearer keeps it; ties: earlier
+            if owner[c] >= 0:
+                keep[owner[c]] = False
+            owner[c], keep[o] = o, True
     chosen = pick[keep]
     # Nearest the winning displacement first: true pairs cluster there, chance pairs
     # inside a wide window spread over it.
@@ -81,60 +87,167 @@ def consistent(oi, ci, dx, dy, vote_tol, tol):
 
 
 @njit(cache=True)
-def consistent_pairs(vectors, matrix, ox, oy, geometry, window, vote_tol, tol):
+def consistent_pairs(vectors, matrix, ox, oy, geometry, window, vote_tol, tol, centres):
     """:func:`window_pairs` then :func:`consistent` in one call: the consistent pairs'
     observed indices and catalog positions, and how many pairs the window held (the
     vote needs three)."""
     oi, cj, dx, dy = window_pairs(vectors, matrix, ox, oy, geometry, window)
     if oi.shape[0] < 3:
         return oi[:0], cj[:0], oi.shape[0]
-    keep = consistent(oi, cj, dx, dy, vote_tol, tol)
+    keep = consistent(oi, cj, dx, dy, vote_tol, tol, centres)
     return oi[keep], cj[keep], oi.shape[0]
 
 
 @njit(cache=True)
-def predict_attitude(rot_a, rot_b, gap, steps, sig_a, sig_b, unknown_rate, accel_fraction,
-                     rate_floor):
-    """The attitude ``steps`` frames after ``rot_b`` (camera to sky) and its 1-sigma error:
-    the per-frame rotation estimated from ``rot_a``, ``gap`` frames before ``rot_b``
-    (R_b = R_a exp(w gap), in the camera frame), carried forward; with ``gap`` 0 there is
-    no rate yet and the error grows by ``unknown_rate`` per frame. The rate's own error
-    per frame: the two attitudes' errors over the gap, ``accel_fraction`` of the rate
-    (angular acceleration) and a floor (jitter)."""
-    rate = np.zeros(3)
-    sig_w = unknown_rate
-    if gap > 0:
-        rate = rotation_log(rot_a.T @ rot_b) / gap
-        sig_w = (math.hypot(sig_a, sig_b) / gap + accel_fraction * np.linalg.norm(rate)
-                 + rate_floor)
-    return rot_b @ rotation_exp(rate * steps), sig_b + steps * sig_w
+def binomial_tail(c, n, p):
+    """P(X >= c) for X ~ Binomial(n, p), summed term by term in logs: the in-kernel screen
+    of :func:`startrack.verify.false_match_probability` (scipy's ``bdtrc(c - 1, n, p)``,
+    which still makes the decision)."""
+    if c <= 0:
+        return 1.0
+    if c > n or p <= 0.0:
+        return 0.0
+    if p >= 1.0:
+        return 1.0
+    lp, lq, base = math.log(p), math.log1p(-p), math.lgamma(n + 1.0)
+    total = 0.0
+    for k in range(c, n + 1):
+        total += math.exp(base - math.lgamma(k + 1.0) - math.lgamma(n - k + 1.0)
+                          + k * lp + (n - k) * lq)
+    return total
 
 
 @njit(cache=True)
-def rotation_exp(rotvec: np.ndarray) -> np.ndarray:
-    """The rotation matrix of a rotation vector (Rodrigues), without scipy's overhead."""
-    angle = float(np.linalg.norm(rotvec))
-    if angle < 1e-15:
-        return np.eye(3)
-    k = rotvec / angle
-    kx = np.zeros((3, 3))
-    kx[0, 1], kx[0, 2], kx[1, 2] = -k[2], k[1], -k[0]
-    kx[1, 0], kx[2, 0], kx[2, 1] = k[2], -k[1], k[0]
-    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
+def _triples(n, limit):
+    """The first ``limit`` index triples of ``range(n)`` in itertools.combinations order."""
+    out = np.empty((max(limit, 0), 3), np.int64)
+    h = 0
+    for a in range(n):
+        for b in range(a + 1, n):
+            for c in range(b + 1, n):
+                if h == limit:
+                    return out
+                out[h, 0], out[h, 1], out[h, 2] = a, b, c
+                h += 1
+    return out[:h]
 
 
 @njit(cache=True)
-def rotation_log(matrix: np.ndarray) -> np.ndarray:
-    """The rotation vector of a rotation matrix (angles well below pi: frame to frame)."""
-    cos = min(1.0, max(-1.0, (float(np.trace(matrix)) - 1.0) / 2.0))
-    angle = math.acos(cos)
-    axis = np.empty(3)
-    axis[0] = matrix[2, 1] - matrix[1, 2]
-    axis[1] = matrix[0, 2] - matrix[2, 0]
-    axis[2] = matrix[1, 0] - matrix[0, 1]
-    if angle < 1e-7:
-        return axis / 2.0
-    return axis * (angle / (2.0 * math.sin(angle)))
+def _near(a, b, min_trace):
+    """Whether attitudes ``a`` and ``b`` differ by at most the angle whose
+    ``1 + 2 cos`` is ``min_trace`` (the trace of a^T b)."""
+    t = 0.0
+    for i in range(3):
+        for j in range(3):
+            t += a[i, j] * b[i, j]
+    return t >= min_trace
+
+
+@njit(cache=True)
+def nearby(vectors, matrix, geometry, margin):
+    """Positions of the vectors in the image widened by ``margin`` px at ``matrix``, and
+    of any the lens model cannot place there (beyond its fold radius: kept, since a turn
+    could bring them in)."""
+    _, _, inside = project(vectors, matrix, geometry, margin)
+    if math.isfinite(geometry[8]):
+        for i in range(vectors.shape[0]):
+            v = vectors[i]
+            vx = v[0] * matrix[0, 0] + v[1] * matrix[1, 0] + v[2] * matrix[2, 0]
+            vy = v[0] * matrix[0, 1] + v[1] * matrix[1, 1] + v[2] * matrix[2, 1]
+            vz = v[0] * matrix[0, 2] + v[1] * matrix[1, 2] + v[2] * matrix[2, 2]
+            inside[i] |= vz > 1e-12 and not (vx * vx + vy * vy) / (vz * vz) < geometry[8]
+    return np.flatnonzero(inside)
+
+
+@njit(cache=True)
+def _settle(obs_vectors, ox, oy, vectors, mags, geometry, scan, flux, has_flux, label,
+            min_fit, oi, obs_m, pos_m):
+    """An accepted hypothesis refined and labelled. When the hypothesis's attitude already
+    matched the observed star of every consistent pair (bar ``scan[14]``), those pairs
+    spanning the frame, the matches' own fit is labelled at once: that is where
+    verification's refinement stops when its first refit changes no match. Else its
+    iterative refinement runs. Returns (observed index, vector position, refined, final)."""
+    matched = np.zeros(ox.shape[0], np.bool_)
+    matched[obs_m] = True
+    missed = 0
+    for o in oi:
+        missed += not matched[o]
+    rounds = 0 if missed <= scan[14] else int(scan[7])
+    return verify_kernels.refine_and_label(
+        obs_vectors, ox, oy, vectors, mags, geometry, scan[3], scan[4], obs_m, pos_m, rounds,
+        flux, has_flux, label[0], label[1], label[2], label[3], label[4], label[5],
+        label[6], label[7], label[8], min_fit)
+
+
+@njit(cache=True)
+def _covers(cone_matrix, cone_turn, prior, turn, reuse):
+    """Whether rows held for attitudes within ``cone_turn`` of ``cone_matrix`` cover those
+    within ``turn`` of ``prior`` (rotation angles add up), and are not far wider."""
+    spare = cone_turn - turn
+    return 0.0 <= spare <= 2.0 * reuse and _near(cone_matrix, prior,
+                                                  1.0 + 2.0 * math.cos(spare))
+
+
+@njit(cache=True)
+def attempt(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, ox, oy, geometry,
+            prior, sigma, scan, flux, has_flux, label, min_fit, start, forced):
+    """One tracked frame in one call: the consistent pairs at the prediction ``prior``
+    (1-sigma ``sigma`` rad; :func:`consistent_pairs`), then its three-star hypotheses from
+    number ``start`` on, each through verification's own first test
+    (:func:`~startrack.matching.verify_kernels.first_match_fixed`) and its false-match
+    bound (:func:`binomial_tail`); the first accepted is refined and labelled
+    (:func:`_settle`). An attitude turned from ``prior`` by more than the turn that moves
+    a star at the image's edge across the window is not taken (a wider one would have
+    left the pairs it came from outside the window): the catalog ``rows`` (vectors,
+    magnitudes) hold every star that can reach the image within ``cone_turn`` of
+    ``cone_matrix`` (:class:`startrack.tracking.CatalogCone`).
+
+    ``scan`` (:meth:`startrack.tracking.CatalogCone.setup`): window px per sigma, keep
+    tolerance px per sigma, vote radii, match radius (px), capture (radii), cos of the
+    match radius, brightest stars paired, refinement rounds, confirmed stars needed,
+    hypotheses at most, pairs they are drawn from, bound on a false match, the area
+    factor of its p (pi / (width height)), half the image's shorter side (px), consistent
+    pairs unmatched and still settled in one pass (:func:`_settle`), vote centres, the
+    cone's spare turn. ``label``: :func:`startrack.labelling.kernel_params`'s floats (``radius2`` to
+    ``min_sigma_px``). ``forced``: a hypothesis number to take without the bound (scipy
+    accepted it).
+
+    Returns (status: 0 none accepted, 1 accepted, 2 the bound too close to call here (the
+    caller decides with scipy), 3 the refined attitude left the allowed turn, 4 the rows
+    do not cover the allowed turn (the caller looks them up again); hypothesis number;
+    tried; pairs in the window; confirmed; catalog stars in the image; bound; observed
+    index; catalog rows; attitude).
+    """
+    r = scan[3]
+    window, tol = scan[0] * sigma + r, scan[1] * sigma + r
+    turn = window / scan[13]
+    none = np.zeros(0, np.int64)
+    if not _covers(cone_matrix, cone_turn, prior, turn, scan[16]):
+        return 4, -1, 0, 0, 0, 0, 1.0, none, none, prior
+    turn_trace = 1.0 + 2.0 * math.cos(min(turn, math.pi))
+    m = min(ox.shape[0], int(scan[6]))
+    oi, cj, n_pairs = consistent_pairs(vectors, prior, ox[:m], oy[:m], geometry, window,
+                                       min(tol, scan[2] * r), tol, int(scan[15]))
+    triples = _triples(min(oi.shape[0], int(scan[10])), int(scan[9]))
+    tried = 0
+    for h in range(start if forced < 0 else forced, triples.shape[0]):
+        tried += 1
+        fits, matrix, obs_m, pos, n_in, confirmed = verify_kernels.first_match_fixed(
+            obs_vectors, ox, oy, oi[triples[h]], vectors[cj[triples[h]]], vectors,
+            geometry, r, scan[5])
+        if not fits or not _near(matrix, prior, turn_trace) or confirmed < int(scan[8]):
+            continue
+        prob = binomial_tail(confirmed, ox.shape[0] - 3, min(1.0, n_in * r * r * scan[12]))
+        if forced < 0 and prob > scan[11] * 1.01:
+            continue
+        if forced < 0 and prob > scan[11] * 0.99:  # summed in logs to ~1e-12: too close
+            return 2, h, tried, n_pairs, confirmed, n_in, prob, none, none, prior
+        obs_i, pos_i, refined, final = _settle(obs_vectors, ox, oy, vectors, mags, geometry,
+                                               scan, flux, has_flux, label, min_fit, oi,
+                                               obs_m, pos)
+        status = 1 if _near(refined, prior, turn_trace) else 3
+        return status, h, tried, n_pairs, confirmed, n_in, prob, obs_i, rows[pos_i], final
+    return 0, -1, tried, n_pairs, 0, 0, 1.0, none, none, prior
 
 
 def warm_up() -> None:
@@ -146,8 +259,14 @@ def warm_up() -> None:
     geometry = np.array([100.0, 1.0, 1.0, 4.0, 4.0, 0.0, 0.0, 0.0, np.inf])
     verify_kernels.warm_up()
     oi, cj, dx, dy = window_pairs(v, m, xy, xy, geometry, 50.0)
-    consistent(oi, cj, dx, dy, 1.0, 2.0)
-    consistent_pairs(v, m, xy, xy, geometry, 50.0, 1.0, 2.0)
-    rotation_log(rotation_exp(np.array([0.0, 0.0, 0.1])))
-    predict_attitude(m, m, 1, 1, 1e-5, 1e-5, 1e-3, 0.1, 1e-4)
+    consistent(oi, cj, dx, dy, 1.0, 2.0, 24)
+    consistent_pairs(v, m, xy, xy, geometry, 50.0, 1.0, 2.0, 24)
+    scan = np.array([1e4, 1e4, 3.0, 1.0, 3.0, 0.9, 64, 5, 2, 24, 12, 1e-9, 1e-4, 2.0, 2.9,
+                     24, 0.01])
+    label = np.array([1.0, 1.0, 1e4, -6.9, -6.9, 4.0, 5.0, 0.03, 0.02])
+    attempt(v, xy, np.arange(3), m, 0.01, v, xy, xy, geometry, m, 1e-4, scan, xy, True,
+            label, 5, 0, -1)
+    nearby(v, m, geometry, 9.0)
+    binomial_tail(2, 10, 0.1)
+    prediction_kernels.warm_up()
     _warm_up_labelling()  # a tracked frame's labelling

@@ -14,13 +14,12 @@ from startrack.bench.tracking import TrackCondition, make_sequence
 from startrack.errors import InputError
 from startrack.identify import identify
 from startrack.matchers import get_matcher
+from startrack.prediction_kernels import rotation_exp as _exp
+from startrack.prediction_kernels import rotation_log as _log
 from startrack.tracker import Tracker
-from startrack.tracking import Prior, _Projector, track
-from startrack.tracking_kernels import rotation_exp as _exp
-from startrack.tracking_kernels import rotation_log as _log
+from startrack.tracking import Prior, track
 from startrack.trajectory import constant_rate, profile_trajectory, read_profile
-from startrack.types import Hypothesis
-from startrack.verify import VerifyConfig, verify
+from startrack.verify import VerifyConfig
 
 
 def test_constant_rate_is_r0_times_exp_of_body_rate():
@@ -95,44 +94,6 @@ def test_profile_slerp_and_rate(tmp_path):
 def test_bad_profile_names_file_and_line(tmp_path, rows, message):
     with pytest.raises(InputError, match=message):
         read_profile(_write_profile(tmp_path / "p.csv", rows))
-
-
-def test_tracking_projector_matches_as_verify_does(hip_db):
-    """Tracking hands its hypotheses to verify() with a projector of the stars around the
-    prediction; it must project and match exactly as verify's own, so a tracked frame
-    gets the same acceptance, refinement and labelling as a lost-in-space one."""
-    from startrack.matching.projector import CatalogProjector as FullProjector
-
-    rng = np.random.default_rng(5)
-    camera = hip_db.camera
-    seq = make_sequence(hip_db.catalog, camera, TrackCondition(noise_px=0.5, false_stars=3),
-                        3, 10.0, seed=9)
-    checked = {True: 0, False: 0}
-    for frame in seq:
-        obs = frame.obs
-        rows = hip_db.cone(frame.rotation.apply([0, 0, 1]), math.radians(16))
-        config = VerifyConfig()
-        radius = config.radius_px(obs)
-        ours, full = _Projector(obs, hip_db, radius, rows), FullProjector(obs, hip_db, radius)
-        matrix = frame.rotation.as_matrix()
-        for got, want in zip(ours.match(matrix), full.match(matrix), strict=True):
-            np.testing.assert_array_equal(got, want)
-        for got, want in zip(ours(matrix, radius), full(matrix, radius), strict=True):
-            np.testing.assert_allclose(got, want)
-        real = np.flatnonzero(frame.truth_rows >= 0)
-        for trial in range(6):
-            pick = rng.choice(real, 3, replace=False)
-            cat = frame.truth_rows[pick].copy()
-            if trial % 2:  # a wrong identity for one star
-                cat[0] = rng.choice(rows)
-            ref = verify(Hypothesis(pick, cat), obs, hip_db, config)
-            got = verify(Hypothesis(pick, cat), obs, hip_db, config, ours)
-            assert got.accepted == ref.accepted
-            checked[ref.accepted] += 1
-            if ref.accepted:
-                np.testing.assert_array_equal(got.obs_index, ref.obs_index)
-                np.testing.assert_array_equal(got.cat_index, ref.cat_index)
-    assert checked[True] > 3 and checked[False] > 3
 
 
 def _run(seq, hip_db, tracker=None):
