@@ -23,11 +23,14 @@ looks pairs up among every catalog star. When the chains of the ``config.max_sta
 brightest stars leave no answer (false stars crowd them), those that start from triples
 with up to ``extra_stars`` fainter stars follow (Pyramid's order of triples).
 
-The lookups and joins are the shared ones of :mod:`startrack.matching.pairs` (compiled).
+The chains run compiled (:mod:`startrack.matching.angle_search`, over the shared joins of
+:mod:`startrack.matching.kernels`), returning at each chain that leaves an answer so that
+verification's first acceptance ends the search.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterator
 
 import numpy as np
@@ -35,8 +38,10 @@ import numpy as np
 from startrack.database import StarDatabase
 from startrack.database.pairs import PairTable
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
-from startrack.matching.pairs import PairLookup, join_close, join_extend, pair_index
-from startrack.matching.triples import triple_order
+from startrack.matching import angle_search
+from startrack.matching.geometry import angle_table
+from startrack.matching.pairs import PairIndex, pair_index
+from startrack.matching.triples import triple_array
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 CLOSING = ("until_one", "all", "none")
@@ -81,6 +86,7 @@ class AngleMatcher(Matcher):
     def prepare(self) -> None:
         super().prepare()
         pair_index(self._table(), len(self.database.vectors))
+        _ = self._slots
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         n = min(self.config.max_stars + max(self.extra_stars, 0), len(obs))
@@ -88,66 +94,58 @@ class AngleMatcher(Matcher):
             return
         first = min(self.config.max_stars, n)
         index = pair_index(self._table(), len(self.database.vectors))
-        lookup = PairLookup(index, obs.vectors[:n], self.angle_tolerance(obs), diag)
-        budget = [self.max_lookups]
+        pi, pj, slot_rows = self._slots
         # Each chain starts from another ordering of the stars: the first three of a triple
         # in spreading order, then the rest by brightness, down to the triple's faintest
         # star when it is one of the extra stars.
-        for chain, start in enumerate(triple_order(first, n, self.max_chains)):
-            if budget[0] <= 0:
-                break
-            diag.extra["chains"] = chain + 1
-            stars = range(max(first, start[2] + 1))
-            order = list(start) + [s for s in stars if s not in start]
-            found = self._chain(order, lookup, diag, budget)
-            if found is not None:
-                cols, rows = found
-                for row in rows:
-                    yield Hypothesis(np.asarray(cols, np.int64), row.astype(np.int64))
+        triples = triple_array(first, n, self.max_chains)
+        windows = self._windows(index, obs.vectors[:n], self.angle_tolerance(obs))
+        groups, memo = angle_search.frame_arrays(windows, len(slot_rows))
+        seen = np.zeros((n, n), np.bool_)
+        state = np.zeros(8, np.int64)
+        state[angle_search.BUDGET] = self.max_lookups
+        params = np.array([self.max_skips, self.max_ambiguous, self.max_rows,
+                           CLOSING.index(self.closing)], np.int64)
+        base = (diag.pivots, diag.candidates, dict(diag.extra))
+        t = 0
+        while t < len(triples):
+            t, cols, rows = angle_search.next_chain(t, triples, first, windows, seen, state,
+                                                    pi, pj, groups, memo, params)
+            _count(state, base, diag)
+            for row in slot_rows[rows] if t < len(triples) else ():
+                yield Hypothesis(cols.copy(), row)
+            t += 1
 
-    def _chain(self, order: list[int], lookup: PairLookup, diag: MatchDiagnostics,
-               budget: list[int]) -> tuple[list[int], np.ndarray] | None:
-        """Pivot from the pair (order[0], order[1]) through the other stars in turn.
+    @staticmethod
+    def _windows(index: PairIndex, vectors: np.ndarray, tol: float) -> np.ndarray:
+        """Each observed pair's table entries [start, stop) (n x n x 2): the catalog pairs
+        whose angle lies within ``tol`` of the observed one."""
+        ang = angle_table(vectors)
+        windows = np.empty(ang.shape + (2,), np.int64)
+        windows[..., 0] = np.searchsorted(index.angle, ang - tol, side="left")
+        windows[..., 1] = np.searchsorted(index.angle, ang + tol, side="right")
+        return windows
 
-        Each new star q comes in by the pair (newest chain star, q); then the pairs
-        (q, earlier chain star), each sharing q with the one before, close the chain until
-        one hypothesis is left. A star that leaves no hypothesis is taken out again (the
-        chain then continues as if it had been ordered without it): it is most likely a
-        false star. Returns (observed stars, hypotheses as rows of catalog rows) when one
-        hypothesis remains, or at most ``max_ambiguous`` when the stars run out.
-        """
-        hyps = lookup.pairs(order[0], order[1])
-        budget[0] -= 1
-        if len(hyps) == 0:
-            return None
-        cols, skips = list(order[:2]), 0
-        for q in order[2:]:
-            if len(cols) >= 3 and len(hyps) == 1:
-                break
-            if budget[0] <= 0 or skips > self.max_skips:
-                return None
-            before = hyps
-            budget[0] -= 1
-            diag.pivots += 1
-            hyps, total = join_extend(hyps, len(cols) - 1, lookup, cols[-1], q,
-                                      self.max_rows + 1)
-            for col_t in range(len(cols) - 1 if self.closing != "none" else 0):
-                if budget[0] <= 0 or total > self.max_rows or len(hyps) == 0 or (
-                        len(hyps) == 1 and self.closing == "until_one"):
-                    break
-                budget[0] -= 1
-                diag.pivots += 1
-                hyps = join_close(hyps, len(cols), col_t, lookup, q, cols[col_t])
-            if len(hyps) == 0 or total > self.max_rows:
-                hyps, skips = before, skips + 1
-                diag.extra["skipped"] = diag.extra.get("skipped", 0) + 1
-                continue
-            cols.append(q)
-        if len(cols) >= 3 and 1 <= len(hyps) <= max(self.max_ambiguous, 1):
-            if len(hyps) > 1:
-                diag.extra["ambiguous"] = diag.extra.get("ambiguous", 0) + 1
-            return cols, hyps
-        return None
+    @functools.cached_property
+    def _slots(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        # The search's numbering of the table's stars (angle_search.compact_pairs).
+        index = pair_index(self._table(), len(self.database.vectors))
+        return angle_search.compact_pairs(index.pi, index.pj)
+
+
+def _count(state: np.ndarray, base: tuple, diag: MatchDiagnostics) -> None:
+    """The search's counters (:mod:`startrack.matching.angle_search`) into ``diag``, on
+    top of what it held before the search (``base``), keys in the order they arose."""
+    pivots, candidates, extra = base
+    diag.pivots = pivots + int(state[angle_search.PIVOTS])
+    diag.candidates = candidates + int(state[angle_search.CANDIDATES])
+    events = ["chains", "lookups", "skipped", "ambiguous"]
+    if state[angle_search.FIRST_EVENT] == angle_search.AMBIGUOUS:
+        events[2:] = events[:1:-1]
+    for key in events:
+        value = int(state[getattr(angle_search, key.upper())])
+        if value:
+            diag.extra[key] = extra.get(key, 0) + value if key != "chains" else value
 
 
 register_variant(AngleMatcher, "angle_closed",
