@@ -48,7 +48,7 @@ def _counting_build():
 
 
 def test_a_flipped_byte_inside_the_data_is_rebuilt(tmp_path, monkeypatch):
-    # The zip's own CRC is not checked on the direct read: the SHA-256 must catch it.
+    # The zip's own CRC is not checked on the direct read: the hash must catch it.
     build, calls = _counting_build()
     path = _entry(tmp_path, monkeypatch, build)
     blob = bytearray(path.read_bytes())
