@@ -122,7 +122,7 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
     project = project or CatalogProjector(obs, database, config.radius_px(obs))
     # Evidence comes only from stars the matcher did not choose (``confirmed``).
     status, matrix, obs_m, cat_m, prob, confirmed, final, resid, quat = project.check(
-        obs_h, cat_h, config)
+        obs_h, cat_h, config, kernel_params)
     if status == check.ACCEPTED:
         return Verification(True, final, obs_m, cat_m, prob, confirmed, resid, quat)
     if status == check.NOT_ACCEPTED:

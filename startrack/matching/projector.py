@@ -14,14 +14,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from startrack.camera import Camera
-from startrack.labelling import kernel_params
 from startrack.matching import check_kernels
 from startrack.matching import verify_kernels as kern
 from startrack.types import Observation
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from startrack.database import StarDatabase
-    from startrack.verify import VerifyConfig
 
 MAX_REFINEMENTS = 5
 # The catalog cone around a boresight: 2% beyond the farthest image corner, so that a star
@@ -73,7 +73,7 @@ class CatalogProjector:
         self.margin_cos = math.cos(CONE_REUSE_FRACTION * self.cone_rad)
         self.fixed = rows is not None
         self.boresight = np.zeros(3)
-        self._config: VerifyConfig | None = None
+        self._config = None  # the startrack.verify.VerifyConfig of _packed
         if self.fixed:
             self._use(np.asarray(rows, np.int64))
         else:  # the first hypothesis looks its cone up
@@ -85,7 +85,7 @@ class CatalogProjector:
         if self.fixed:
             self.mags = np.ascontiguousarray(self.database.catalog.mag[rows], dtype=np.float64)
 
-    def _params(self, config: VerifyConfig) -> np.ndarray:
+    def _params(self, config, kernel_params: Callable) -> np.ndarray:
         """The frame's constants for the check kernels under ``config`` (kept for the
         config last asked for: a frame's hypotheses share one)."""
         if config is not self._config:
@@ -102,14 +102,17 @@ class CatalogProjector:
             self._config = config
         return self._packed
 
-    def check(self, obs_h: np.ndarray, cat_h: np.ndarray, config: VerifyConfig) -> tuple:
+    def check(self, obs_h: np.ndarray, cat_h: np.ndarray, config,
+              kernel_params: Callable) -> tuple:
         """:func:`startrack.verify.verify`'s steps in one compiled call
-        (:mod:`startrack.matching.check_kernels`) on int64 arrays: (status, first matrix,
+        (:mod:`startrack.matching.check_kernels`) on int64 arrays, the labelling's
+        parameters from ``kernel_params`` (:func:`startrack.labelling.kernel_params`,
+        passed in: labelling sits above this package): (status, first matrix,
         observed index, catalog rows, false probability, confirmed, final matrix,
         residuals in arcseconds, quaternion). Unless the status is ACCEPTED the pairs are
         the first test's; after it (not REJECTED or BAD_INDEX) the projector holds the
         cone around the first attitude, as after :meth:`first_match`."""
-        params = self._params(config)
+        params = self._params(config, kernel_params)
         index = self.database.cone_index
         if self.fixed:
             return check_kernels.check_fixed(
