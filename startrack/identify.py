@@ -11,8 +11,8 @@ from startrack.deadline import Deadline
 from startrack.matchers.base import Matcher
 from startrack.matching.projector import CatalogProjector
 from startrack.matching.verify_kernels import residual_angles
-from startrack.types import MatchDiagnostics, Observation, Solution
-from startrack.verify import VerifyConfig, verify
+from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
+from startrack.verify import Verification, VerifyConfig, verify
 
 _ARCSEC = 180.0 / np.pi * 3600.0
 
@@ -53,11 +53,10 @@ def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = N
             if deadline.passed():
                 timed_out = True
                 break
-            key = tuple(sorted(zip(np.asarray(hyp.obs_index).tolist(),
-                                   np.asarray(hyp.cat_index).tolist(), strict=True)))
+            # A repeat of a refused hypothesis is skipped (the first cannot be one).
+            key = _key(hyp) if seen else None
             if key in seen:
                 continue
-            seen.add(key)
             diag.hypotheses += 1
             # One projector for the frame: each hypothesis looks up its own cone in it.
             project = project or CatalogProjector(obs, matcher.database, config.radius_px(obs))
@@ -65,6 +64,7 @@ def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = N
             if check.accepted:
                 result = check
                 break
+            seen.add(_key(hyp) if key is None else key)
             if diag.hypotheses >= config.max_hypotheses:
                 break
     elapsed = (time.perf_counter() - t0) * 1000.0
@@ -74,16 +74,32 @@ def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = N
             reason = "timeout"
         return Solution(False, matcher.name, diagnostics=diag, identify_ms=elapsed,
                         reason=reason)
-    vectors = matcher.database.vectors[result.cat_index]
-    order = np.argsort(result.obs_index)
-    obs_index, cat_index = result.obs_index[order], result.cat_index[order]
+    return _solved(result, obs, matcher, diag, elapsed)
+
+
+def _key(hyp: Hypothesis) -> tuple:
+    return tuple(sorted(zip(np.asarray(hyp.obs_index).tolist(),
+                            np.asarray(hyp.cat_index).tolist(), strict=True)))
+
+
+def _solved(result: Verification, obs: Observation, matcher: Matcher, diag: MatchDiagnostics,
+            elapsed: float) -> Solution:
+    """The Solution of an accepted hypothesis, identities by observed index."""
+    if result.residual_arcsec is not None:  # the one-call path: obs_index ascending
+        obs_index, cat_index, residuals = (result.obs_index, result.cat_index,
+                                           result.residual_arcsec)
+    else:
+        order = np.argsort(result.obs_index)
+        obs_index, cat_index = result.obs_index[order], result.cat_index[order]
+        residuals = residuals_arcsec(result.matrix, obs, obs_index,
+                                     matcher.database.vectors[cat_index])
     return Solution(
         solved=True,
         method=matcher.name,
         rotation=result.rotation,
         obs_index=obs_index,
         cat_index=cat_index,
-        residual_arcsec=residuals_arcsec(result.matrix, obs, obs_index, vectors[order]),
+        residual_arcsec=residuals,
         false_probability=result.false_probability,
         diagnostics=diag,
         identify_ms=elapsed,

@@ -11,6 +11,7 @@ probability below ``max_false_probability`` (binomial tail, as tetra3 argues).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -20,6 +21,7 @@ from scipy.special import bdtrc
 
 from startrack.database import StarDatabase
 from startrack.labelling import kernel_params, label_stars
+from startrack.matching import check_kernels as check
 from startrack.matching import verify_kernels as kern
 from startrack.matching.projector import CatalogProjector
 from startrack.types import Hypothesis, Observation
@@ -56,12 +58,45 @@ class Verification:
     cat_index: np.ndarray
     false_probability: float
     confirmed: int  # matched stars outside the hypothesis
+    #: once accepted by the one-call path: each reported star's residual (arcsec, in the
+    #: order of obs_index, which is then ascending) and the attitude's quaternion
+    residual_arcsec: np.ndarray | None = None
+    quaternion: np.ndarray | None = None
 
     @property
     def rotation(self) -> Rotation | None:
         if self.matrix is None:
             return None
-        return Rotation.from_quat(kern.matrix_to_quaternion(self.matrix))
+        return rotation_of(self.matrix, self.quaternion)
+
+
+def rotation_of(matrix: np.ndarray, quat: np.ndarray | None = None) -> Rotation:
+    """``Rotation.from_quat(matrix_to_quaternion(matrix))``, the same numbers built through
+    the pickling protocol from ``quat`` (default: computed), the quaternion normalised as
+    from_quat normalises it (:func:`startrack.matching.check_kernels.scipy_quaternion`):
+    from_quat's input checks cost as much as the rest of a solved frame's Python."""
+    if not _state_matches():
+        return Rotation.from_quat(kern.matrix_to_quaternion(matrix))
+    rotation = Rotation.__new__(Rotation)
+    quat = check.scipy_quaternion(matrix) if quat is None else quat
+    rotation.__setstate__((np.reshape(quat, (1, 4)), True))
+    return rotation
+
+
+@functools.cache
+def _state_matches() -> bool:
+    """Whether this scipy's pickled state builds the Rotation from_quat does."""
+    matrix = kern.wahba(np.eye(3), np.array([[0.0, 0.6, 0.8], [1.0, 0.0, 0.0],
+                                             [0.0, 0.8, -0.6]]))
+    try:
+        rotation = Rotation.__new__(Rotation)
+        rotation.__setstate__((check.scipy_quaternion(matrix).reshape(1, 4), True))
+        ref = Rotation.from_quat(kern.matrix_to_quaternion(matrix))
+        return bool(rotation.single and np.array_equal(rotation.as_quat(canonical=False),
+                                                       ref.as_quat(canonical=False))
+                    and np.array_equal(rotation.as_matrix(), ref.as_matrix()))
+    except (AttributeError, TypeError, ValueError):
+        return False
 
 
 def false_match_probability(n_other: int, n_confirmed: int, n_catalog_in_image: int,
@@ -82,14 +117,33 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
     with one of the same class over other rows: tracking passes one restricted to the
     stars around its prediction, so that a tracked frame is held to exactly this test
     and labelling."""
-    obs_h = np.asarray(hypothesis.obs_index, dtype=np.int64)
-    cat_h = np.asarray(hypothesis.cat_index, dtype=np.int64)
+    obs_h = np.ascontiguousarray(hypothesis.obs_index, dtype=np.int64)
+    cat_h = np.ascontiguousarray(hypothesis.cat_index, dtype=np.int64)
+    project = project or CatalogProjector(obs, database, config.radius_px(obs))
+    # Evidence comes only from stars the matcher did not choose (``confirmed``).
+    status, matrix, obs_m, cat_m, prob, confirmed, final, resid, quat = project.check(
+        obs_h, cat_h, config, kernel_params)
+    if status == check.ACCEPTED:
+        return Verification(True, final, obs_m, cat_m, prob, confirmed, resid, quat)
+    if status == check.NOT_ACCEPTED:
+        return Verification(False, matrix, obs_m, cat_m, prob, confirmed)
+    if status == check.BEYOND_CONE:  # refined beyond the cone: step by step on a fresh one
+        obs_m, cat_m, final = _final_labels(project, project.refine(obs_m, cat_m)[2])
+        return Verification(True, final, obs_m, cat_m, prob, confirmed)
+    if status == check.REJECTED:
+        return _rejected()
+    return _verify_steps(obs_h, cat_h, obs, database, config, project)
+
+
+def _verify_steps(obs_h: np.ndarray, cat_h: np.ndarray, obs: Observation,
+                  database: StarDatabase, config: VerifyConfig,
+                  project: CatalogProjector) -> Verification:
+    """:func:`verify` step by step, for a hypothesis the one-call path refuses to index
+    (repeated or out-of-range stars, unequal lengths): numpy's indexing decides."""
     if len(obs_h) < 3 or len(set(cat_h.tolist())) != len(cat_h) \
             or len(set(obs_h.tolist())) != len(obs_h):
         return _rejected()
     radius_px = config.radius_px(obs)
-    project = project or CatalogProjector(obs, database, radius_px)
-    # Evidence comes only from stars the matcher did not choose (``confirmed``).
     matrix, obs_m, cat_m, n_cat, confirmed = project.first_match(
         obs_h, database.vectors[cat_h], math.cos(radius_px / obs.camera.f_px))
     if matrix is None:

@@ -35,7 +35,6 @@ import numpy as np
 from startrack.database import StarDatabase
 from startrack.matchers.base import Matcher, MatcherConfig, register
 from startrack.matching import pyramid_kernels
-from startrack.matching.geometry import angle_table
 from startrack.matching.pairs import pair_index
 from startrack.matching.triples import triple_array
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
@@ -112,7 +111,7 @@ class PyramidMatcher(Matcher):
         vec = np.ascontiguousarray(obs.vectors[:n])
         tol = self.angle_tolerance(obs)
         first = min(self.config.max_stars, n)
-        ang = angle_table(vec)
+        ang = np.full((n, n), np.nan)  # filled as the search needs it (pair_angle)
         full, tables = self._search_tables
         stats = np.zeros(4, np.int64)
         for fallback, tab, limit in tables:

@@ -11,7 +11,7 @@ from numba import njit
 
 from startrack.database.sort_kernels import first_at_least
 
-GRID_CELLS = 64  # cells per axis at most: a frame's hundreds of stars spread thin
+GRID_CELLS = 64  # cells per axis at most
 
 
 @njit(cache=True)
@@ -44,7 +44,10 @@ def _nearest(ox, oy, cx, cy, radius_px):
         return nearest, dist2
     x0, y0 = min(ox.min(), cx.min()), min(oy.min(), cy.min())
     x1, y1 = max(ox.max(), cx.max()), max(oy.max(), cy.max())
-    size = max(radius_px, (x1 - x0) / GRID_CELLS, (y1 - y0) / GRID_CELLS, 1e-9)
+    # ~3 sqrt(n m) cells balance the cell scan against the pairs tested (filling a
+    # fine grid cost more than the search); any size >= the radius finds the same pairs.
+    cells = min(GRID_CELLS, max(1, int(math.sqrt(3.0 * math.sqrt(n * m)))))
+    size = max(radius_px, (x1 - x0) / cells, (y1 - y0) / cells, 1e-9)
     nx, ny = int((x1 - x0) / size) + 1, int((y1 - y0) / size) + 1
     start, order = _grid(cx, cy, x0, y0, size, nx, ny)
     r2 = radius_px * radius_px

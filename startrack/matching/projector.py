@@ -14,10 +14,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from startrack.camera import Camera
+from startrack.matching import check_kernels
 from startrack.matching import verify_kernels as kern
 from startrack.types import Observation
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from startrack.database import StarDatabase
 
 MAX_REFINEMENTS = 5
@@ -38,6 +41,17 @@ def cone_radius(camera: Camera) -> float:
     return math.radians(camera.half_diagonal_deg) * CONE_MARGIN
 
 
+_last_camera: list = [None, None]  # the last camera seen and its constants
+
+
+def _camera_constants(camera: Camera) -> tuple[np.ndarray, float]:
+    """The camera's kernel geometry and cone radius; a frame sequence shares one camera,
+    whose hash (two lru_cache look-ups) would cost more than the rest of a projector."""
+    if _last_camera[0] is not camera:
+        _last_camera[:] = [camera, (camera.geometry, cone_radius(camera))]
+    return _last_camera[1]
+
+
 class CatalogProjector:
     """The catalog stars around one attitude, projected into the image of ``obs``.
 
@@ -52,19 +66,64 @@ class CatalogProjector:
     def __init__(self, obs: Observation, database: StarDatabase, radius_px: float,
                  rows: np.ndarray | None = None) -> None:
         self.obs, self.database, self.radius_px = obs, database, float(radius_px)
-        self.geometry = obs.camera.geometry
+        self.geometry, self.cone_rad = _camera_constants(obs.camera)
         self.ox = np.ascontiguousarray(obs.x, dtype=np.float64)
         self.oy = np.ascontiguousarray(obs.y, dtype=np.float64)
         self.obs_vectors = np.ascontiguousarray(obs.vectors, dtype=np.float64)
-        self.cone_rad = cone_radius(obs.camera)
         self.margin_cos = math.cos(CONE_REUSE_FRACTION * self.cone_rad)
         self.fixed = rows is not None
         self.boresight = np.zeros(3)
-        self._use(np.zeros(0, np.int64) if rows is None else np.asarray(rows, np.int64))
+        self._config = None  # the startrack.verify.VerifyConfig of _packed
+        if self.fixed:
+            self._use(np.asarray(rows, np.int64))
+        else:  # the first hypothesis looks its cone up
+            self.rows, self.vectors = np.zeros(0, np.int64), np.zeros((0, 3))
 
     def _use(self, rows: np.ndarray) -> None:
         self.rows = rows
         self.vectors = np.ascontiguousarray(self.database.vectors[rows])
+        if self.fixed:
+            self.mags = np.ascontiguousarray(self.database.catalog.mag[rows], dtype=np.float64)
+
+    def _params(self, config, kernel_params: Callable) -> np.ndarray:
+        """The frame's constants for the check kernels under ``config`` (kept for the
+        config last asked for: a frame's hypotheses share one)."""
+        if config is not self._config:
+            radius = config.radius_px(self.obs)
+            label = kernel_params(self.obs, radius)
+            self._flux = label[0]
+            self._packed = check_kernels.pack_params(
+                self.radius_px, math.cos(radius / self.obs.camera.f_px),
+                self.cone_rad * CONE_LOOKUP_MARGIN, -2.0 if self.fixed else self.margin_cos,
+                CAPTURE, MAX_REFINEMENTS, config.min_confirmed, config.max_false_probability,
+                label)
+            if not self.fixed:
+                self.mags = np.ascontiguousarray(self.database.catalog.mag, dtype=np.float64)
+            self._config = config
+        return self._packed
+
+    def check(self, obs_h: np.ndarray, cat_h: np.ndarray, config,
+              kernel_params: Callable) -> tuple:
+        """:func:`startrack.verify.verify`'s steps in one compiled call
+        (:mod:`startrack.matching.check_kernels`) on int64 arrays, the labelling's
+        parameters from ``kernel_params`` (:func:`startrack.labelling.kernel_params`,
+        passed in: labelling sits above this package): (status, first matrix,
+        observed index, catalog rows, false probability, confirmed, final matrix,
+        residuals in arcseconds, quaternion). Unless the status is ACCEPTED the pairs are
+        the first test's; after it (not REJECTED or BAD_INDEX) the projector holds the
+        cone around the first attitude, as after :meth:`first_match`."""
+        params = self._params(config, kernel_params)
+        index = self.database.cone_index
+        if self.fixed:
+            return check_kernels.check_fixed(
+                self.obs_vectors, self.ox, self.oy, self._flux, obs_h, cat_h, index.vectors,
+                self.rows, self.vectors, self.mags, self.geometry, params)
+        status, matrix, rows, vectors, *rest = check_kernels.check_cone(
+            self.obs_vectors, self.ox, self.oy, self._flux, obs_h, cat_h, index.vectors,
+            self.mags, index.order, index.ra_sorted, index.band_start, self.geometry, params)
+        if status > check_kernels.REJECTED:
+            self.rows, self.vectors, self.boresight = rows, vectors, matrix[:, 2].copy()
+        return status, matrix, *rest
 
     def _around(self, matrix: np.ndarray) -> None:
         boresight = matrix[:, 2]

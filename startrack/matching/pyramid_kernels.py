@@ -30,6 +30,20 @@ def _angle(a, b):
 
 
 @njit(cache=True)
+def pair_angle(ang, vec, a, b):
+    """``ang[a, b]``, the angle between observed stars a and b, computed on first use
+    where the table holds NaN (as :func:`startrack.matching.geometry.angle_table`
+    computes it): a frame solved on its first triple needs a few rows of the table."""
+    value = ang[a, b]
+    if np.isnan(value):
+        dot = vec[a, 0] * vec[b, 0] + vec[a, 1] * vec[b, 1] + vec[a, 2] * vec[b, 2]
+        value = math.acos(max(-1.0, min(1.0, dot)))
+        ang[a, b] = value
+        ang[b, a] = value
+    return value
+
+
+@njit(cache=True)
 def _frame(a, b):
     """An orthonormal frame (columns) from two directions: a, a x b, a x (a x b)."""
     out = np.empty((3, 3))
@@ -56,7 +70,8 @@ def triangles(i, j, k, ang, vec, tol, cat, max_triangles, pi, pj, angle, heads):
     there). ``heads`` is (2, n_catalog) of -1, scratch, left as it was found."""
     lo, hi = np.empty(3), np.empty(3)
     for m, (a, b) in enumerate(((i, j), (j, k), (i, k))):
-        lo[m], hi[m] = ang[a, b] - tol, ang[a, b] + tol
+        side = pair_angle(ang, vec, a, b)
+        lo[m], hi[m] = side - tol, side + tol
     s0 = np.searchsorted(angle, lo[0], side="left")
     s1 = np.searchsorted(angle, hi[0], side="right")
     t0 = np.searchsorted(angle, lo[1], side="left")
@@ -67,7 +82,7 @@ def triangles(i, j, k, ang, vec, tol, cat, max_triangles, pi, pj, angle, heads):
     if s1 <= s0 or t1 <= t0 or u1 <= u0:
         return out[:0], 0
     observed = _triple(vec[i], vec[j], vec[k])
-    sides = math.sin(ang[j, k]) + math.sin(ang[i, k]) + math.sin(ang[i, j])
+    sides = math.sin(ang[j, k]) + math.sin(ang[i, k]) + math.sin(ang[i, j])  # filled above
     check = abs(observed) > tol * sides  # a nearly flat triangle keeps both handednesses
     nxt_jk, val_jk = np.empty(2 * (t1 - t0), np.int64), np.empty(2 * (t1 - t0), np.int64)
     nxt_ik, val_ik = np.empty(2 * (u1 - u0), np.int64), np.empty(2 * (u1 - u0), np.int64)
@@ -112,7 +127,8 @@ def confirm(tri, ijk, ang, vec, tol, radius, cat, max_pyramids, lists):
         count = 0
         for t in range(len(tri)):
             big, mid, last = tri[t, 0], tri[t, 1], tri[t, 2]
-            lo, hi = ang[i, r] - tol, ang[i, r] + tol
+            side = pair_angle(ang, vec, i, r)
+            lo, hi = side - tol, side + tol
             n_r = partners(big, lo, hi, i > r, *lists, buf)
             if n_r > len(buf):
                 buf = np.empty(2 * n_r, np.int64)
@@ -121,9 +137,9 @@ def confirm(tri, ijk, ang, vec, tol, radius, cat, max_pyramids, lists):
                 star = buf[q]
                 if star in (mid, last):
                     continue
-                if abs(_angle(cat[mid], cat[star]) - ang[j, r]) > tol:
+                if abs(_angle(cat[mid], cat[star]) - pair_angle(ang, vec, j, r)) > tol:
                     continue
-                if abs(_angle(cat[last], cat[star]) - ang[k, r]) > tol:
+                if abs(_angle(cat[last], cat[star]) - pair_angle(ang, vec, k, r)) > tol:
                     continue
                 if not have[t]:
                     rots[t] = triad(vec[i], vec[j], cat[big], cat[mid])
@@ -153,8 +169,9 @@ def search(triples, start, ang, vec, tol, radius, cat, max_triangles, max_pyrami
         i, j, k = triples[s, 0], triples[s, 1], triples[s, 2]
         stats[0] += 1
         for a, b in ((i, j), (j, k), (i, k)):
-            stats[2] += (np.searchsorted(angle, ang[a, b] + tol, side="right")
-                         - np.searchsorted(angle, ang[a, b] - tol, side="left"))
+            side = pair_angle(ang, vec, a, b)
+            stats[2] += (np.searchsorted(angle, side + tol, side="right")
+                         - np.searchsorted(angle, side - tol, side="left"))
         tri, count = triangles(i, j, k, ang, vec, tol, cat, max_triangles, pi, pj, angle,
                                heads)
         stats[1] += min(count, max_triangles)

@@ -76,7 +76,8 @@ def match(vectors, matrix, ox, oy, geometry, radius):
 
 
 @njit(cache=True)
-def _confirmed(obs_idx, hyp_obs, n_obs):
+def confirmed_count(obs_idx, hyp_obs, n_obs):
+    """How many of the matched observed stars ``obs_idx`` are not among ``hyp_obs``."""
     chosen = np.zeros(n_obs, np.bool_)
     chosen[hyp_obs] = True
     count = 0
@@ -104,7 +105,7 @@ def first_match(obs_vectors, ox, oy, hyp_obs, hyp_sky, catalog, cone_order, cone
         vectors[i] = catalog[rows[i]]
     obs_idx, pos, n_in = match(vectors, matrix, ox, oy, geometry, radius)
     return (True, matrix, rows, vectors, obs_idx, pos, n_in,
-            _confirmed(obs_idx, hyp_obs, ox.shape[0]))
+            confirmed_count(obs_idx, hyp_obs, ox.shape[0]))
 
 
 @njit(cache=True)
@@ -117,7 +118,7 @@ def first_match_fixed(obs_vectors, ox, oy, hyp_obs, hyp_sky, vectors, geometry, 
     if not fits_within(obs_vectors[hyp_obs], hyp_sky, matrix, cos_radius):
         return False, matrix, none, none, 0, 0
     obs_idx, pos, n_in = match(vectors, matrix, ox, oy, geometry, radius)
-    return True, matrix, obs_idx, pos, n_in, _confirmed(obs_idx, hyp_obs, ox.shape[0])
+    return True, matrix, obs_idx, pos, n_in, confirmed_count(obs_idx, hyp_obs, ox.shape[0])
 
 
 @njit(cache=True)
@@ -208,3 +209,6 @@ def warm_up() -> None:
                      1e4, -6.9, -6.9, 4.0, 5.0, 0.03, 0.02, 5)
     matrix_to_quaternion(m)
     residual_angles(v, idx, m, v)
+    from startrack.matching import check_kernels  # it imports this module
+
+    check_kernels.warm_up()
