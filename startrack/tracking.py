@@ -35,7 +35,7 @@ from startrack.matching.projector import CAPTURE, CONE_LOOKUP_MARGIN, MAX_REFINE
 from startrack.matching.wahba_kernels import matrix_to_quaternion
 from startrack.tracking_kernels import attempt, consistent_pairs, nearby
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
-from startrack.verify import VerifyConfig, false_match_probability
+from startrack.verify import VerifyConfig
 
 # The vote looks for the densest spot of displacements within this many match radii: the
 # true pairs crowd there while chance pairs spread over the whole window.
@@ -182,7 +182,7 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
     radius_px, scan, floats, min_fit = cone.setup(obs, verify_config, config)
     window = scan[0] * prior.sigma_rad + radius_px
     if len(obs) >= 3 and window <= config.max_window_px:
-        result, counts = _attempt(obs, database, prior, verify_config, cone, window,
+        result, counts = _attempt(obs, database, prior, cone, window,
                                   (radius_px, scan, floats, min_fit))
     # The time of matching, verification and the attitude, as identify() counts it (the
     # Solution's residuals and Rotation are not).
@@ -202,10 +202,9 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
                     diagnostics=diag, identify_ms=elapsed, mode="tracking")
 
 
-def _attempt(obs, database, prior, vc, cone, window, setup, start=0):
-    """The compiled attempt (:func:`startrack.tracking_kernels.attempt`); where its bound
-    is too close to the line to call, scipy's (verify()'s own) decides, and where the held
-    rows do not cover the prediction they are looked up again. Returns ((attitude,
+def _attempt(obs, database, prior, cone, window, setup, start=0):
+    """The compiled attempt (:func:`startrack.tracking_kernels.attempt`), with the held
+    rows looked up again where they do not cover the prediction. Returns ((attitude,
     observed index, catalog rows, bound) or None, (pairs in the window, hypotheses));
     ``start``: the first hypothesis tried (tests)."""
     radius_px, scan, floats, min_fit = setup
@@ -220,22 +219,16 @@ def _attempt(obs, database, prior, vc, cone, window, setup, start=0):
             np.ascontiguousarray(obs.x, dtype=np.float64),
             np.ascontiguousarray(obs.y, dtype=np.float64), cam.geometry, matrix,
             float(prior.sigma_rad), scan, flux, has_flux, floats, min_fit)
-    forced, exact, hypotheses = -1, None, 0
     while True:
-        status, h, tried, n_pairs, confirmed, n_in, prob, obs_i, rows, final = attempt(
-            cone.vectors, cone.mags, cone.rows, cone.matrix, cone.turn, *args, start, forced)
-        hypotheses += tried - (forced >= 0)  # a forced one was counted already
+        status, _, tried, n_pairs, _, _, prob, obs_i, rows, final = attempt(
+            cone.vectors, cone.mags, cone.rows, cone.matrix, cone.turn, *args, start)
         if status == 1:
-            return (final, obs_i, rows, prob if exact is None else exact), (n_pairs, hypotheses)
+            return (final, obs_i, rows, prob), (n_pairs, tried)
         if status == 4 and not looked_up:  # once: fresh rows cover it
             cone.look_up(database, cam, matrix, window / scan[13], radius_px)
             looked_up = True
             continue
-        if status != 2:
-            return None, (n_pairs, hypotheses)
-        exact = false_match_probability(len(obs) - 3, confirmed, n_in, radius_px,
-                                        cam.width, cam.height)
-        start, forced = h + 1, (h if exact <= vc.max_false_probability else -1)
+        return None, (n_pairs, tried)
 
 
 def hypotheses(obs: Observation, database: StarDatabase, prior: Prior,

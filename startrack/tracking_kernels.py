@@ -14,6 +14,7 @@ from numba import njit
 
 from startrack import prediction_kernels
 from startrack.matching import verify_kernels
+from startrack.matching.check_kernels import binomial_tail
 from startrack.matching.labelling_kernels import warm_up as _warm_up_labelling
 from startrack.matching.nearest_kernels import pairs_within
 from startrack.matching.verify_kernels import project
@@ -99,25 +100,6 @@ def consistent_pairs(vectors, matrix, ox, oy, geometry, window, vote_tol, tol, c
 
 
 @njit(cache=True)
-def binomial_tail(c, n, p):
-    """P(X >= c) for X ~ Binomial(n, p), summed term by term in logs: the in-kernel screen
-    of :func:`startrack.verify.false_match_probability` (scipy's ``bdtrc(c - 1, n, p)``,
-    which still makes the decision)."""
-    if c <= 0:
-        return 1.0
-    if c > n or p <= 0.0:
-        return 0.0
-    if p >= 1.0:
-        return 1.0
-    lp, lq, base = math.log(p), math.log1p(-p), math.lgamma(n + 1.0)
-    total = 0.0
-    for k in range(c, n + 1):
-        total += math.exp(base - math.lgamma(k + 1.0) - math.lgamma(n - k + 1.0)
-                          + k * lp + (n - k) * lq)
-    return total
-
-
-@njit(cache=True)
 def _triples(n, limit):
     """The first ``limit`` index triples of ``range(n)`` in itertools.combinations order."""
     out = np.empty((max(limit, 0), 3), np.int64)
@@ -190,17 +172,18 @@ def _covers(cone_matrix, cone_turn, prior, turn, reuse):
 
 @njit(cache=True)
 def attempt(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, ox, oy, geometry,
-            prior, sigma, scan, flux, has_flux, label, min_fit, start, forced):
+            prior, sigma, scan, flux, has_flux, label, min_fit, start):
     """One tracked frame in one call: the consistent pairs at the prediction ``prior``
     (1-sigma ``sigma`` rad; :func:`consistent_pairs`), then its three-star hypotheses from
     number ``start`` on, each through verification's own first test
     (:func:`~startrack.matching.verify_kernels.first_match_fixed`) and its false-match
-    bound (:func:`binomial_tail`); the first accepted is refined and labelled
-    (:func:`_settle`). An attitude turned from ``prior`` by more than the turn that moves
-    a star at the image's edge across the window is not taken (a wider one would have
-    left the pairs it came from outside the window): the catalog ``rows`` (vectors,
-    magnitudes) hold every star that can reach the image within ``cone_turn`` of
-    ``cone_matrix`` (:class:`startrack.tracking.CatalogCone`).
+    bound (verification's own compiled
+    :func:`~startrack.matching.check_kernels.binomial_tail`); the first accepted is
+    refined and labelled (:func:`_settle`). An attitude turned from ``prior`` by more
+    than the turn that moves a star at the image's edge across the window is not taken
+    (a wider one would have left the pairs it came from outside the window): the catalog
+    ``rows`` (vectors, magnitudes) hold every star that can reach the image within
+    ``cone_turn`` of ``cone_matrix`` (:class:`startrack.tracking.CatalogCone`).
 
     ``scan`` (:meth:`startrack.tracking.CatalogCone.setup`): window px per sigma, keep
     tolerance px per sigma, vote radii, match radius (px), capture (radii), cos of the
@@ -209,11 +192,10 @@ def attempt(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, ox, oy, ge
     factor of its p (pi / (width height)), half the image's shorter side (px), consistent
     pairs unmatched and still settled in one pass (:func:`_settle`), vote centres, the
     cone's spare turn. ``label``: :func:`startrack.labelling.kernel_params`'s floats (``radius2`` to
-    ``min_sigma_px``). ``forced``: a hypothesis number to take without the bound (scipy
-    accepted it).
+    ``min_sigma_px``).
 
-    Returns (status: 0 none accepted, 1 accepted, 2 the bound too close to call here (the
-    caller decides with scipy), 3 the refined attitude left the allowed turn, 4 the rows
+    Returns (status: 0 none accepted, 1 accepted, 3 the refined attitude left the allowed
+    turn, 4 the rows
     do not cover the allowed turn (the caller looks them up again); hypothesis number;
     tried; pairs in the window; confirmed; catalog stars in the image; bound; observed
     index; catalog rows; attitude).
@@ -230,18 +212,17 @@ def attempt(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, ox, oy, ge
                                        min(tol, scan[2] * r), tol, int(scan[15]))
     triples = _triples(min(oi.shape[0], int(scan[10])), int(scan[9]))
     tried = 0
-    for h in range(start if forced < 0 else forced, triples.shape[0]):
+    for h in range(start, triples.shape[0]):
         tried += 1
         fits, matrix, obs_m, pos, n_in, confirmed = verify_kernels.first_match_fixed(
             obs_vectors, ox, oy, oi[triples[h]], vectors[cj[triples[h]]], vectors,
             geometry, r, scan[5])
         if not fits or not _near(matrix, prior, turn_trace) or confirmed < int(scan[8]):
             continue
-        prob = binomial_tail(confirmed, ox.shape[0] - 3, min(1.0, n_in * r * r * scan[12]))
-        if forced < 0 and prob > scan[11] * 1.01:
+        prob = binomial_tail(confirmed - 1, ox.shape[0] - 3,
+                             min(1.0, n_in * r * r * scan[12]))
+        if prob > scan[11]:
             continue
-        if forced < 0 and prob > scan[11] * 0.99:  # summed in logs to ~1e-12: too close
-            return 2, h, tried, n_pairs, confirmed, n_in, prob, none, none, prior
         obs_i, pos_i, refined, final = _settle(obs_vectors, ox, oy, vectors, mags, geometry,
                                                scan, flux, has_flux, label, min_fit, oi,
                                                obs_m, pos)
@@ -265,8 +246,7 @@ def warm_up() -> None:
                      24, 0.01])
     label = np.array([1.0, 1.0, 1e4, -6.9, -6.9, 4.0, 5.0, 0.03, 0.02])
     attempt(v, xy, np.arange(3), m, 0.01, v, xy, xy, geometry, m, 1e-4, scan, xy, True,
-            label, 5, 0, -1)
+            label, 5, 0)
     nearby(v, m, geometry, 9.0)
-    binomial_tail(2, 10, 0.1)
     prediction_kernels.warm_up()
     _warm_up_labelling()  # a tracked frame's labelling
