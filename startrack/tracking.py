@@ -27,6 +27,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from startrack import tracking_kernels as tk
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.identify import residuals_arcsec
@@ -137,13 +138,20 @@ class CatalogCone:
             half = 0.5 * min(cam.width, cam.height)
             # Off-axis, an angle spans more pixels: 1 + tan^2 at the farthest corner.
             stretch = 1.0 + math.tan(math.radians(cam.half_diagonal_deg)) ** 2
-            scan = np.array([config.window_sigma * cam.f_px * stretch,
-                             config.window_sigma * math.hypot(cam.width, cam.height),
-                             VOTE_RADII, radius_px, CAPTURE, math.cos(radius_px / cam.f_px),
-                             config.max_stars, MAX_REFINEMENTS, vc.min_confirmed,
-                             config.max_hypotheses, HYPOTHESIS_PAIRS,
-                             vc.max_false_probability, math.pi / (cam.width * cam.height),
-                             half, SETTLE_MISSES, VOTE_CENTRES, CONE_REUSE_RAD])
+            scan = np.empty(tk.N_SCAN)
+            scan[tk.S_WINDOW] = config.window_sigma * cam.f_px * stretch
+            scan[tk.S_KEEP] = config.window_sigma * math.hypot(cam.width, cam.height)
+            scan[tk.S_VOTE_RADII], scan[tk.S_RADIUS], scan[tk.S_CAPTURE] = (
+                VOTE_RADII, radius_px, CAPTURE)
+            scan[tk.S_COS_RADIUS] = math.cos(radius_px / cam.f_px)
+            scan[tk.S_MAX_STARS], scan[tk.S_ROUNDS] = config.max_stars, MAX_REFINEMENTS
+            scan[tk.S_MIN_CONFIRMED] = vc.min_confirmed
+            scan[tk.S_MAX_HYPOTHESES], scan[tk.S_PAIRS] = (config.max_hypotheses,
+                                                           HYPOTHESIS_PAIRS)
+            scan[tk.S_MAX_FALSE] = vc.max_false_probability
+            scan[tk.S_AREA] = math.pi / (cam.width * cam.height)
+            scan[tk.S_HALF_SIDE], scan[tk.S_SETTLE_MISSES] = half, SETTLE_MISSES
+            scan[tk.S_VOTE_CENTRES], scan[tk.S_CONE_REUSE] = VOTE_CENTRES, CONE_REUSE_RAD
             self._setup = (radius_px, scan, np.array(label[2:11], dtype=np.float64),
                            label[11])
             self._key = key
@@ -180,7 +188,7 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
     t0 = time.perf_counter()
     result, counts = None, (0, 0)
     radius_px, scan, floats, min_fit = cone.setup(obs, verify_config, config)
-    window = scan[0] * prior.sigma_rad + radius_px
+    window = scan[tk.S_WINDOW] * prior.sigma_rad + radius_px
     if len(obs) >= 3 and window <= config.max_window_px:
         result, counts = _attempt(obs, database, prior, cone, window,
                                   (radius_px, scan, floats, min_fit))
@@ -212,7 +220,7 @@ def _attempt(obs, database, prior, cone, window, setup, start=0):
     matrix = np.ascontiguousarray(prior.matrix, dtype=np.float64)
     looked_up = cone.database is not database
     if looked_up:
-        cone.look_up(database, cam, matrix, window / scan[13], radius_px)
+        cone.look_up(database, cam, matrix, window / scan[tk.S_HALF_SIDE], radius_px)
     has_flux = obs.flux is not None  # as kernel_params passes them
     flux = np.ascontiguousarray(obs.flux if has_flux else obs.x, dtype=np.float64)
     args = (np.ascontiguousarray(obs.vectors, dtype=np.float64),
@@ -225,7 +233,7 @@ def _attempt(obs, database, prior, cone, window, setup, start=0):
         if status == 1:
             return (final, obs_i, rows, prob), (n_pairs, tried)
         if status == 4 and not looked_up:  # once: fresh rows cover it
-            cone.look_up(database, cam, matrix, window / scan[13], radius_px)
+            cone.look_up(database, cam, matrix, window / scan[tk.S_HALF_SIDE], radius_px)
             looked_up = True
             continue
         return None, (n_pairs, tried)
@@ -238,10 +246,10 @@ def hypotheses(obs: Observation, database: StarDatabase, prior: Prior,
     order (to check its decisions against :func:`startrack.verify.verify`'s)."""
     vc, config, cone = verify_config or VerifyConfig(), config or TrackConfig(), CatalogCone()
     radius_px, scan, _, _ = cone.setup(obs, vc, config)
-    window = scan[0] * prior.sigma_rad + radius_px
-    tol = scan[1] * prior.sigma_rad + radius_px
+    window = scan[tk.S_WINDOW] * prior.sigma_rad + radius_px
+    tol = scan[tk.S_KEEP] * prior.sigma_rad + radius_px
     matrix = np.ascontiguousarray(prior.matrix, dtype=np.float64)
-    cone.look_up(database, obs.camera, matrix, window / scan[13], radius_px)
+    cone.look_up(database, obs.camera, matrix, window / scan[tk.S_HALF_SIDE], radius_px)
     m = min(len(obs), config.max_stars)
     oi, cj, _ = consistent_pairs(cone.vectors, matrix, np.ascontiguousarray(obs.x[:m]),
                                  np.ascontiguousarray(obs.y[:m]), obs.camera.geometry,

@@ -19,6 +19,13 @@ from startrack.matching.labelling_kernels import warm_up as _warm_up_labelling
 from startrack.matching.nearest_kernels import pairs_within
 from startrack.matching.verify_kernels import project
 
+# The fields of the attempt kernel's ``scan`` array, in order (built by
+# :meth:`startrack.tracking.CatalogCone.setup`; see :func:`attempt`).
+N_SCAN = 17
+(S_WINDOW, S_KEEP, S_VOTE_RADII, S_RADIUS, S_CAPTURE, S_COS_RADIUS, S_MAX_STARS, S_ROUNDS,
+ S_MIN_CONFIRMED, S_MAX_HYPOTHESES, S_PAIRS, S_MAX_FALSE, S_AREA, S_HALF_SIDE,
+ S_SETTLE_MISSES, S_VOTE_CENTRES, S_CONE_REUSE) = range(N_SCAN)
+
 
 @njit(cache=True)
 def window_pairs(vectors, matrix, ox, oy, geometry, window):
@@ -145,8 +152,8 @@ def nearby(vectors, matrix, geometry, margin):
 def _settle(obs_vectors, ox, oy, vectors, mags, geometry, scan, flux, has_flux, label,
             min_fit, oi, obs_m, pos_m):
     """An accepted hypothesis refined and labelled. When the hypothesis's attitude already
-    matched the observed star of every consistent pair (bar ``scan[14]``), those pairs
-    spanning the frame, the matches' own fit is labelled at once: that is where
+    matched the observed star of every consistent pair (bar ``scan[S_SETTLE_MISSES]`` of
+    them), those pairs spanning the frame, the matches' own fit is labelled at once: that is where
     verification's refinement stops when its first refit changes no match. Else its
     iterative refinement runs. Returns (observed index, vector position, refined, final)."""
     matched = np.zeros(ox.shape[0], np.bool_)
@@ -154,9 +161,10 @@ def _settle(obs_vectors, ox, oy, vectors, mags, geometry, scan, flux, has_flux, 
     missed = 0
     for o in oi:
         missed += not matched[o]
-    rounds = 0 if missed <= scan[14] else int(scan[7])
+    rounds = 0 if missed <= scan[S_SETTLE_MISSES] else int(scan[S_ROUNDS])
     return verify_kernels.refine_and_label(
-        obs_vectors, ox, oy, vectors, mags, geometry, scan[3], scan[4], obs_m, pos_m, rounds,
+        obs_vectors, ox, oy, vectors, mags, geometry, scan[S_RADIUS], scan[S_CAPTURE], obs_m,
+        pos_m, rounds,
         flux, has_flux, label[0], label[1], label[2], label[3], label[4], label[5],
         label[6], label[7], label[8], min_fit)
 
@@ -200,28 +208,30 @@ def attempt(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, ox, oy, ge
     tried; pairs in the window; confirmed; catalog stars in the image; bound; observed
     index; catalog rows; attitude).
     """
-    r = scan[3]
-    window, tol = scan[0] * sigma + r, scan[1] * sigma + r
-    turn = window / scan[13]
+    r = scan[S_RADIUS]
+    window, tol = scan[S_WINDOW] * sigma + r, scan[S_KEEP] * sigma + r
+    turn = window / scan[S_HALF_SIDE]
     none = np.zeros(0, np.int64)
-    if not _covers(cone_matrix, cone_turn, prior, turn, scan[16]):
+    if not _covers(cone_matrix, cone_turn, prior, turn, scan[S_CONE_REUSE]):
         return 4, -1, 0, 0, 0, 0, 1.0, none, none, prior
     turn_trace = 1.0 + 2.0 * math.cos(min(turn, math.pi))
-    m = min(ox.shape[0], int(scan[6]))
+    m = min(ox.shape[0], int(scan[S_MAX_STARS]))
     oi, cj, n_pairs = consistent_pairs(vectors, prior, ox[:m], oy[:m], geometry, window,
-                                       min(tol, scan[2] * r), tol, int(scan[15]))
-    triples = _triples(min(oi.shape[0], int(scan[10])), int(scan[9]))
+                                       min(tol, scan[S_VOTE_RADII] * r), tol,
+                                       int(scan[S_VOTE_CENTRES]))
+    triples = _triples(min(oi.shape[0], int(scan[S_PAIRS])), int(scan[S_MAX_HYPOTHESES]))
     tried = 0
     for h in range(start, triples.shape[0]):
         tried += 1
         fits, matrix, obs_m, pos, n_in, confirmed = verify_kernels.first_match_fixed(
             obs_vectors, ox, oy, oi[triples[h]], vectors[cj[triples[h]]], vectors,
-            geometry, r, scan[5])
-        if not fits or not _near(matrix, prior, turn_trace) or confirmed < int(scan[8]):
+            geometry, r, scan[S_COS_RADIUS])
+        if not fits or not _near(matrix, prior, turn_trace) \
+                or confirmed < int(scan[S_MIN_CONFIRMED]):
             continue
         prob = binomial_tail(confirmed - 1, ox.shape[0] - 3,
-                             min(1.0, n_in * r * r * scan[12]))
-        if prob > scan[11]:
+                             min(1.0, n_in * r * r * scan[S_AREA]))
+        if prob > scan[S_MAX_FALSE]:
             continue
         obs_i, pos_i, refined, final = _settle(obs_vectors, ox, oy, vectors, mags, geometry,
                                                scan, flux, has_flux, label, min_fit, oi,
