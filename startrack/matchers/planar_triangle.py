@@ -6,11 +6,14 @@ propagated from the centroid noise. The catalog vertices are mapped to the obser
 by comparing the three side lengths, and the mirror image is refused (triple product).
 While several catalog triangles remain, the matcher pivots on a triangle that shares two
 stars with the last one and keeps the hypotheses in which the shared stars agree.
+
+The lookups, the vertex mapping and the pivot joins run compiled
+(:mod:`startrack.matching.triangle_search`), returning at each triple that leaves an
+answer so that verification's first acceptance ends the search.
 """
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Iterator
 from functools import cache
 
@@ -18,45 +21,19 @@ import numpy as np
 
 from startrack.database import StarDatabase
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
-from startrack.matching.features import feature_sigma, observed_features
-from startrack.matching.geometry import handedness
-from startrack.matching.pairs import join_sorted
+from startrack.matching import triangle_lookup as tl
+from startrack.matching.features import feature_sigma, feature_table
+from startrack.matching.triangle_search import next_answer
 from startrack.matching.triples import brightness_triples
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
-# The six vertex orders; the odd ones reverse the handedness (the triple product's sign).
-_PERMS = np.array(list(itertools.permutations(range(3))))
-_ODD = np.array([False, True, True, False, False, True])
+# Search buffers larger than this (grown on a pathological frame) are not kept for the next.
+_KEEP_BYTES = 1 << 27
 
 
-def map_vertices(obs_tri: np.ndarray, cat_vectors: np.ndarray, side_tol: float,
-                 check_mirror: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Vertex correspondences between one observed triangle (3 x 3) and catalog triangles
-    (M x 3 x 3): for each of the six vertex orders whose sides all agree within
-    ``side_tol`` (and, if ``check_mirror``, whose handedness agrees), the candidate index
-    and the order. Returns (candidate, perm) arrays, best side agreement first."""
-    o = obs_tri
-    obs_sides = np.array([np.linalg.norm(o[0] - o[1]), np.linalg.norm(o[1] - o[2]),
-                          np.linalg.norm(o[0] - o[2])])
-    obs_hand = handedness(o[0], o[1], o[2])
-    cat_hand = handedness(cat_vectors[:, 0], cat_vectors[:, 1], cat_vectors[:, 2])
-    cands, perms, errs = [], [], []
-    for k, p in enumerate(_PERMS):
-        c = cat_vectors[:, p]
-        sides = np.column_stack([np.linalg.norm(c[:, 0] - c[:, 1], axis=1),
-                                 np.linalg.norm(c[:, 1] - c[:, 2], axis=1),
-                                 np.linalg.norm(c[:, 0] - c[:, 2], axis=1)])
-        err = np.max(np.abs(sides - obs_sides), axis=1)
-        ok = err <= side_tol
-        if check_mirror:
-            ok &= (cat_hand * (-1.0 if _ODD[k] else 1.0)) == obs_hand
-        idx = np.flatnonzero(ok)
-        cands.append(idx)
-        perms.append(np.full(len(idx), k))
-        errs.append(err[idx])
-    cand, perm, err = (np.concatenate(x) for x in (cands, perms, errs))
-    order = np.argsort(err, kind="stable")
-    return cand[order], perm[order]
+@cache
+def _triples(n: int) -> np.ndarray:
+    return np.array(brightness_triples(n), np.int64).reshape(-1, 3)
 
 
 @register
@@ -75,56 +52,61 @@ class PlanarTriangleMatcher(Matcher):
         # one lookup, removes most chance matches, and a hypothesis spread over more of the
         # frame gives verification a better first attitude.
         self.min_stars = min_stars
+        self._buffers: list[tuple[np.ndarray, ...]] = []  # the searches' memo buffers
 
-    def _lookup(self, obs_tri: np.ndarray, features: tuple[float, ...], sigma: float,
-                diag: MatchDiagnostics) -> np.ndarray:
-        """Catalog rows (K x 3) matching the observed triangle, in its vertex order."""
-        k = self.config.tolerance_sigma
-        area, polar, s_area, s_polar = features
+    def _table(self) -> tuple[np.ndarray, ...]:
+        """The triangle table as the compiled search reads it."""
         table = self.database.triangles
-        idx, n_area = table.query(area - k * s_area, area + k * s_area,
-                                  polar - k * s_polar, polar + k * s_polar)
-        diag.candidates += n_area
-        diag.extra["polar_kept"] = diag.extra.get("polar_kept", 0) + len(idx)
-        rows = table.rows[idx]
-        side_tol = k * np.sqrt(2.0) * sigma
-        cand, perm = map_vertices(obs_tri, self.database.vectors[rows], side_tol,
-                                  check_mirror=area > k * s_area)
-        return np.take_along_axis(rows[cand], _PERMS[perm], axis=1).astype(np.int64)
+        cache_ = table.__dict__.setdefault("_search_arrays", {})
+        if "t" not in cache_:  # kept on the (frozen) table: lives and dies with it
+            kv = table.kvector
+            cache_["t"] = (np.ascontiguousarray(kv.values, dtype=np.float64),
+                           np.ascontiguousarray(kv.k, dtype=np.int64), float(kv.m),
+                           float(kv.q), np.ascontiguousarray(table.polar, dtype=np.float64),
+                           np.ascontiguousarray(table.rows),
+                           np.ascontiguousarray(self.database.vectors, dtype=np.float64))
+        return cache_["t"]
+
+    def prepare(self) -> None:
+        super().prepare()
+        self._table()
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         n = min(self.config.max_stars, len(obs))
         if n < 3:
             return
+        k = self.config.tolerance_sigma
         vec = obs.vectors[:n]
-        sigma = feature_sigma(obs, self.config.tolerance_sigma, self.config.min_tolerance_rad)
-        triples = brightness_triples(n)
-        feats = observed_features(vec, triples, sigma)
+        sigma = feature_sigma(obs, k, self.config.min_tolerance_rad)
+        triples = _triples(n)
+        frame = tl.frame_tuple(vec, triples, feature_table(vec, triples, sigma), k,
+                               k * np.sqrt(2.0) * sigma)
+        # A generator still running elsewhere keeps its buffers: this one takes others.
+        memo = [tl.frame_memo(n, self._buffers.pop() if self._buffers else None)]
+        try:
+            yield from self._search(triples, frame, memo, diag)
+        finally:
+            buffers = tl.memo_buffers(memo[0])
+            if sum(b.nbytes for b in buffers) <= _KEEP_BYTES:
+                self._buffers.append(buffers)
 
-        @cache
-        def lookup(a: int, b: int, c: int) -> np.ndarray:
-            # Area, moment and their sigmas do not depend on the vertex order.
-            return self._lookup(vec[[a, b, c]], feats[tuple(sorted((a, b, c)))], sigma, diag)
-
-        for a, b, c in triples:
-            hyps = lookup(a, b, c)
-            if len(hyps) == 0:
-                continue  # a false star, or a star outside the pattern set
-            stars, last = [a, b, c], (a, b, c)
-            while len(hyps) > 1 or len(stars) < self.min_stars:
-                p, q = last[1], last[2]
-                for extra in (s for s in range(n) if s not in stars):
-                    diag.pivots += 1
-                    joined = join_sorted(hyps, (stars.index(p), stars.index(q)),
-                                         lookup(p, q, extra))
-                    if len(joined):
-                        hyps, last = joined, (p, q, extra)
-                        stars.append(extra)
-                        break
-                else:
-                    break  # stars ran out: the survivors go to verification
-            for row in hyps[: self.max_ambiguous]:
-                yield Hypothesis(np.array(stars), row)
+    def _search(self, triples: np.ndarray, frame: tuple, memo: list[tuple],
+                diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+        """The compiled search's answers; ``memo[0]`` is its memo, as grown."""
+        table = self._table()
+        state = np.zeros(6, np.int64)
+        base = (diag.candidates, diag.pivots, diag.extra.get("polar_kept", 0))
+        t = 0
+        while t < len(triples):
+            t, stars, rows, memo[0] = next_answer(t, triples, frame, table, memo[0], state,
+                                                  self.min_stars, self.max_ambiguous)
+            diag.candidates = base[0] + int(state[tl.CANDIDATES])
+            diag.pivots = base[1] + int(state[tl.PIVOTS])
+            if state[tl.LOOKUPS]:
+                diag.extra["polar_kept"] = base[2] + int(state[tl.POLAR_KEPT])
+            for row in rows if t < len(triples) else ():
+                yield Hypothesis(stars.copy(), row)
+            t += 1
 
 
 register_variant(PlanarTriangleMatcher, "triangle_nopivot",
