@@ -1,8 +1,8 @@
 """The compiled triangle search (startrack.matching.triangle_lookup, triangle_search)
 against the numpy and Python search it replaced (tests/triangle_reference.py): the same
 hypotheses in the same order and the same diagnostics at every step, on frames with false
-and missing stars and on random centroids (no star pattern); and its parts (k-vector
-range, vertex mapping, pivot join) against their numpy counterparts."""
+and missing stars and on random centroids (no star pattern); and its parts (features,
+k-vector range, vertex mapping, pivot join) against their numpy counterparts."""
 
 from __future__ import annotations
 
@@ -17,6 +17,8 @@ from triangle_reference import reference_hypotheses
 from startrack.database.kvector import KVector
 from startrack.matchers import MatcherConfig
 from startrack.matching import triangle_lookup as tl
+from startrack.matching.feature_kernels import features
+from startrack.matching.features import observed_features
 from startrack.matching.pairs import join_sorted
 from startrack.matching.triangle_search import join_pivot
 from startrack.types import MatchDiagnostics, Observation
@@ -92,6 +94,20 @@ def test_kvector_range_matches_the_python_k_vector():
     for lo, hi in [(0.1, 0.2), (-1.0, 0.0), (3.0, 2.0), (0.5, 0.5), (10.0, 99.0),
                    (values[7], values[7]), *rng.uniform(0, 3, (40, 2)).tolist()]:
         assert tl.kvector_range(kv.values, kv.k, kv.m, kv.q, lo, hi) == kv.range(lo, hi)
+
+
+def test_triple_features_are_the_batch_features_to_the_bit():
+    """Computed triple by triple, only when looked up, the windows must be the batch's."""
+    rng = np.random.default_rng(3)
+    triples = list(itertools.combinations(range(8), 3))
+    for spread in (0.01, 0.1, None):
+        v = rng.normal(size=(8, 3)) if spread is None else rng.normal([0, 0, 1], spread,
+                                                                      size=(8, 3))
+        v /= np.linalg.norm(v, axis=1, keepdims=True)
+        sigma = float(rng.uniform(1e-6, 1e-4))
+        want = observed_features(v, triples, sigma)
+        for a, b, c in triples:
+            assert features(v[a], v[b], v[c], sigma) == want[a, b, c]
 
 
 def _sky_triangles(rng, m: int) -> tuple[np.ndarray, np.ndarray]:

@@ -22,7 +22,7 @@ import numpy as np
 from startrack.database import StarDatabase
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
 from startrack.matching import triangle_lookup as tl
-from startrack.matching.features import feature_sigma, feature_table
+from startrack.matching.features import feature_sigma
 from startrack.matching.triangle_search import next_answer
 from startrack.matching.triples import brightness_triples
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
@@ -79,8 +79,7 @@ class PlanarTriangleMatcher(Matcher):
         vec = obs.vectors[:n]
         sigma = feature_sigma(obs, k, self.config.min_tolerance_rad)
         triples = _triples(n)
-        frame = tl.frame_tuple(vec, triples, feature_table(vec, triples, sigma), k,
-                               k * np.sqrt(2.0) * sigma)
+        frame = tl.frame_tuple(vec, triples, k, k * np.sqrt(2.0) * sigma, sigma)
         # A generator still running elsewhere keeps its buffers: this one takes others.
         memo = [tl.frame_memo(n, self._buffers.pop() if self._buffers else None)]
         try:

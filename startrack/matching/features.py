@@ -15,16 +15,10 @@ def feature_sigma(obs: Observation, tolerance_sigma: float, min_tolerance_rad: f
     return max(obs.sigma_rad, floor)
 
 
-def feature_table(vectors: np.ndarray, triples: np.ndarray, sigma: float) -> np.ndarray:
-    """(area, polar, sigma_area, sigma_polar) of every observed triple (rows of
-    ``triples``, T x 3), in one batch: a (T x 4) array."""
-    idx = np.asarray(triples, dtype=np.int64).reshape(-1, 3)
-    verts = [vectors[idx[:, m]] for m in range(3)]
-    return np.column_stack([*triangle_features(*verts), *feature_sigmas(*verts, sigma)])
-
-
 def observed_features(vectors: np.ndarray, triples: list[tuple[int, int, int]],
                       sigma: float) -> dict[tuple[int, int, int], tuple[float, ...]]:
-    """:func:`feature_table` as a dict by triple."""
-    feats = feature_table(vectors, np.array(triples, dtype=np.int64), sigma)
+    """(area, polar, sigma_area, sigma_polar) of every observed triple, in one batch."""
+    idx = np.array(triples, dtype=np.int64).reshape(-1, 3)
+    verts = [vectors[idx[:, m]] for m in range(3)]
+    feats = np.column_stack([*triangle_features(*verts), *feature_sigmas(*verts, sigma)])
     return dict(zip(triples, map(tuple, feats.tolist()), strict=True))

@@ -17,6 +17,8 @@ import math
 import numpy as np
 from numba import njit
 
+from startrack.matching.feature_kernels import features
+
 #: ``state`` entries: database candidates (area window sizes), triangles the polar-moment
 #: filter kept, pivots, lookups made, rows used in the two memos.
 CANDIDATES, POLAR_KEPT, PIVOTS, LOOKUPS, KEPT_FILL, STORE_FILL = range(6)
@@ -119,18 +121,19 @@ def map_vertices(obs_tri, tri_rows, vectors, side_tol, check_mirror):
     return map_sides(obs_tri, sides, hand, side_tol, check_mirror)
 
 
-def frame_tuple(vectors: np.ndarray, triples: np.ndarray, feats: np.ndarray,
-                tolerance_sigma: float, side_tol: float) -> tuple:
+def frame_tuple(vectors: np.ndarray, triples: np.ndarray, tolerance_sigma: float,
+                side_tol: float, sigma: float) -> tuple:
     """The per-frame arguments of the lookups: the observed vectors (n x 3); each sorted
-    triple's (area, polar, sigma_area, sigma_polar) (T x 4, rows as ``triples``) and the
-    row of each triple code (a * n + b) * n + c; the window half-width in sigmas; the
-    side tolerance of the vertex mapping."""
+    triple's (area, polar, sigma_area, sigma_polar) (T x 4, rows as ``triples``, NaN
+    until a lookup needs them) and the row of each triple code (a * n + b) * n + c; the
+    window half-width in sigmas; the side tolerance of the vertex mapping; the per-axis
+    centroid sigma the feature sigmas are propagated from."""
     n = len(vectors)
     lut = np.full(n ** 3, -1, np.int64)
     lut[(triples[:, 0] * n + triples[:, 1]) * n + triples[:, 2]] = np.arange(len(triples))
     return (np.ascontiguousarray(vectors, dtype=np.float64),
-            np.ascontiguousarray(feats, dtype=np.float64), lut, float(tolerance_sigma),
-            float(side_tol))
+            np.full((len(triples), 4), np.nan), lut, float(tolerance_sigma),
+            float(side_tol), float(sigma))
 
 
 def frame_memo(n: int, buffers: tuple[np.ndarray, ...] | None = None,
@@ -169,11 +172,14 @@ def _grown(arr, fill, need):
 def _kept(code, frame, table, memo, state):
     """The polar-kept triangles of sorted triple ``code`` (rows of ``memo[1]``), found
     the first time they are asked for: (start, length, area window size, memo)."""
-    feats, lut, k = frame[1], frame[2], frame[3]
+    vec, feats, lut, k = frame[0], frame[1], frame[2], frame[3]
     area_v, kk, km, kq, polar_v, rows, cat = table
     kept_info, kept, info, store, scratch = memo
     if kept_info[code, 0] < 0:
+        n = vec.shape[0]
         f = feats[lut[code]]
+        f[0], f[1], f[2], f[3] = features(vec[code // (n * n)], vec[code // n % n],
+                                          vec[code % n], frame[5])
         start, stop = kvector_range(area_v, kk, km, kq, f[0] - k * f[2], f[0] + k * f[2])
         p_lo, p_hi = f[1] - k * f[3], f[1] + k * f[3]
         # Reused across windows: a fresh window-sized array is a page fault per 4 kB.
