@@ -137,7 +137,7 @@ def frame_tuple(vectors: np.ndarray, triples: np.ndarray, tolerance_sigma: float
 
 
 def frame_memo(n: int, buffers: tuple[np.ndarray, ...] | None = None,
-               rows: int = 1 << 16) -> tuple[np.ndarray, ...]:
+               rows: int = 1 << 12) -> tuple[np.ndarray, ...]:
     """Per-frame memo of the lookups: (kept_info, kept, info, store, scratch). For each
     sorted triple code, kept_info holds (start, length, area window size) in ``kept``
     (start -1 until looked up), whose rows are (catalog rows x 3, sides x 3, handedness)
