@@ -116,12 +116,29 @@ def pairs_within(ox, oy, x, y, radius2):
     nx = int(min((x1 - x0) / size, cells)) + 1
     ny = int(min((y1 - y0) / size, cells)) + 1
     start_c, order = _grid_finite(x, y, finite, x0, y0, size, nx, ny)
+    grid = (x0, y0, size, nx, ny)
     cap = n + 16
-    e_obs = np.empty(cap, np.int64)
-    e_cat = np.empty(cap, np.int64)
-    e_d2 = np.empty(cap)
-    start = np.zeros(n + 1, np.int64)
-    count = 0
+    while True:  # a second pass only when the first guess of the pair count was short
+        e_obs = np.empty(cap, np.int64)
+        e_cat = np.empty(cap, np.int64)
+        e_d2 = np.empty(cap)
+        start = np.zeros(n + 1, np.int64)
+        count = _scan_cells(ox, oy, x, y, radius2, half, grid, start_c, order, e_obs, e_cat,
+                            e_d2, start)
+        if count <= cap:
+            return e_obs[:count], e_cat[:count], e_d2[:count], start
+        cap = count
+
+
+@njit(cache=True)
+def _scan_cells(ox, oy, x, y, radius2, half, grid, start_c, order, e_obs, e_cat, e_d2,
+                start):
+    """:func:`pairs_within`'s pairs written into the given arrays (insertion by catalog
+    index: a star has few pairs); returns how many there are, which may exceed the
+    arrays (then only the count is right). Arrays are never reassigned here, which
+    keeps numba's reference counting out of the loop."""
+    x0, y0, size, nx, ny = grid
+    cap, count, n = e_obs.shape[0], 0, ox.shape[0]
     for i in range(n):
         start[i] = count
         if half < 0.0 or np.isnan(ox[i]) or np.isnan(oy[i]):
@@ -138,18 +155,15 @@ def pairs_within(ox, oy, x, y, radius2):
                     d2 = dx * dx + dy * dy
                     if not d2 <= radius2:
                         continue
-                    if count == cap:
-                        cap *= 2
-                        e_obs, e_cat, e_d2 = (_grow(e_obs, cap), _grow(e_cat, cap),
-                                              _grow(e_d2, cap))
-                    k = count  # insertion by catalog index: a star has few pairs
-                    while k > start[i] and e_cat[k - 1] > j:
-                        e_obs[k], e_cat[k], e_d2[k] = e_obs[k - 1], e_cat[k - 1], e_d2[k - 1]
-                        k -= 1
-                    e_obs[k], e_cat[k], e_d2[k] = i, j, d2
+                    if count < cap:
+                        k = count
+                        while k > start[i] and e_cat[k - 1] > j:
+                            e_obs[k], e_cat[k], e_d2[k] = e_obs[k - 1], e_cat[k - 1], e_d2[k - 1]
+                            k -= 1
+                        e_obs[k], e_cat[k], e_d2[k] = i, j, d2
                     count += 1
     start[n] = count
-    return e_obs[:count], e_cat[:count], e_d2[:count], start
+    return count
 
 
 @njit(cache=True)
