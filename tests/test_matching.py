@@ -276,3 +276,27 @@ def test_pairs_within_grid_is_the_strip_search():
         for got, want in zip(pairs_within(ox, oy, cx, cy, radius2),
                              _pairs_strip(ox, oy, cx, cy, radius2), strict=True):
             np.testing.assert_array_equal(got, want)
+
+
+def test_nearest_scanning_only_the_reached_cells_is_the_3x3_search():
+    """Scanning only the cells a star's radius reaches finds what the 3 x 3 cell search
+    finds, at every scale, with ties, rounded positions and stars off the catalog's
+    extent."""
+    from startrack.matching.nearest_kernels import _nearest, _nearest_cells
+
+    rng = np.random.default_rng(29)
+    for t in range(3000):
+        m, n = int(rng.integers(1, 60)), int(rng.integers(1, 60))
+        scale = (1.0, 1024.0, 1e5, 1e-2)[t % 4]
+        cx, cy = rng.uniform(0, scale, m), rng.uniform(0, scale, m)
+        if t % 3 == 0:
+            cx, cy = np.round(cx), np.round(cy)
+        k = min(m, n)
+        ox = np.concatenate([cx[:k] + rng.normal(0, scale / 200, k),
+                             rng.uniform(-0.1 * scale, 1.1 * scale, n - k)])
+        oy = np.concatenate([cy[:k] + rng.normal(0, scale / 200, k),
+                             rng.uniform(-0.1 * scale, 1.1 * scale, n - k)])
+        radius = (0.0, scale / 100, scale / 20, 3 * scale)[t % 4]
+        for got, want in zip(_nearest(ox, oy, cx, cy, radius),
+                             _nearest_cells(ox, oy, cx, cy, radius), strict=True):
+            np.testing.assert_array_equal(got, want)
