@@ -117,13 +117,15 @@ def _verdict(obs_vectors, ox, oy, flux, hyp_obs, matrix, rows, vectors, mags, ge
         prob = binomial_tail(confirmed - 1, ox.shape[0] - hyp_obs.shape[0], p)
     if not (confirmed >= params[_MIN_CONFIRMED] and prob <= params[_MAX_PROB]):
         return NOT_ACCEPTED, obs_m, rows[pos], prob, confirmed, matrix, none_f, none_f
-    obs_r, pos_r, refined = kern.refine(obs_vectors, ox, oy, vectors, geometry, params[_RADIUS],
-                                   params[_CAPTURE], obs_m, pos, int(params[_ROUNDS]))
+    obs_r, pos_r, refined, px, py, valid, projected = kern.refine_projected(
+        obs_vectors, ox, oy, vectors, geometry, params[_RADIUS], params[_CAPTURE], obs_m, pos,
+        int(params[_ROUNDS]))
     drift = refined[0, 2] * matrix[0, 2] + refined[1, 2] * matrix[1, 2] \
         + refined[2, 2] * matrix[2, 2]
     if drift < params[_MARGIN_COS]:  # beyond the cone's margin: the caller goes step by step
         return BEYOND_CONE, obs_m, rows[pos], prob, confirmed, matrix, none_f, none_f
-    px, py, inside = kern.project(vectors, refined, geometry, params[_RADIUS])
+    px, py, inside = kern.project_refined(vectors, geometry, params[_RADIUS], refined, px, py,
+                                          valid, projected)
     sel = np.flatnonzero(inside)
     obs_i, cat_pos, _, _, _, _ = label_kernel(
         ox, oy, px[sel], py[sel], mags[sel], sel, flux, params[_HAS_FLUX] > 0.0,

@@ -117,8 +117,22 @@ def join_extend(hyps, col, head, nxt, val, max_rows):
     (head, nxt, val; see :func:`group_window`), the partner appended; partners already in
     the row are refused. Returns (rows, total): total counts every joined row, rows holds
     at most ``max_rows`` of them."""
+    cap = min(max_rows, 1024)
+    while True:  # a second pass only when the first guess of the row count was short
+        out = np.empty((cap, hyps.shape[1] + 1), np.int64)
+        count = _join_fill(hyps, col, head, nxt, val, out)
+        if count <= cap or cap == max_rows:
+            return out[:min(count, cap)], count
+        cap = min(count, max_rows)
+
+
+@njit(cache=True)
+def _join_fill(hyps, col, head, nxt, val, out):
+    """:func:`join_extend`'s rows written into ``out`` while it has room; returns how
+    many there are in all (``out`` is never reassigned here, which keeps numba's
+    reference counting out of the loop)."""
     m, w = hyps.shape
-    out = np.empty((min(max_rows, 1024), w + 1), np.int64)
+    cap = out.shape[0]
     count = 0
     for r in range(m):
         p = head[hyps[r, col]]
@@ -127,19 +141,15 @@ def join_extend(hyps, col, head, nxt, val, max_rows):
             p = nxt[p]
             clash = False
             for c in range(w):
-                if hyps[r, c] == new:
-                    clash = True
+                clash |= hyps[r, c] == new
             if clash:
                 continue
-            if count < max_rows:
-                if count >= len(out):
-                    grown = np.empty((min(2 * len(out), max_rows), w + 1), np.int64)
-                    grown[:count] = out[:count]
-                    out = grown
-                out[count, :w] = hyps[r]
+            if count < cap:
+                for c in range(w):
+                    out[count, c] = hyps[r, c]
                 out[count, w] = new
             count += 1
-    return out[:min(count, max_rows)], count
+    return count
 
 
 @njit(cache=True)

@@ -39,14 +39,20 @@ def project(vectors, matrix, geometry, margin):
     """Pixel positions of catalog vectors (n, 3) at the attitude ``matrix`` (camera to sky)
     and whether each falls in the image widened by ``margin`` pixels (negative: narrowed).
     A star behind the camera, or beyond the radius where the lens model folds back, is out."""
-    f, cx, cy, width, height = geometry[0], geometry[1], geometry[2], geometry[3], geometry[4]
+    px, py, valid = project_valid(vectors, matrix, geometry)
+    return px, py, within(px, py, valid, geometry, margin)
+
+
+@njit(cache=True)
+def project_valid(vectors, matrix, geometry):
+    """:func:`project`'s positions (0 where there is none) and which stars have one: in
+    front of the camera and inside the lens model's fold radius."""
+    f, cx, cy = geometry[0], geometry[1], geometry[2]
     k1, k2, k3, max_r2 = geometry[5], geometry[6], geometry[7], geometry[8]
     n = vectors.shape[0]
     px = np.zeros(n)
     py = np.zeros(n)
-    inside = np.zeros(n, np.bool_)
-    lo_x, hi_x = -0.5 - margin, width - 0.5 + margin
-    lo_y, hi_y = -0.5 - margin, height - 0.5 + margin
+    valid = np.zeros(n, np.bool_)
     for i in range(n):
         a, b, c = vectors[i, 0], vectors[i, 1], vectors[i, 2]  # R^T v: in the camera frame
         vx = a * matrix[0, 0] + b * matrix[1, 0] + c * matrix[2, 0]
@@ -60,8 +66,20 @@ def project(vectors, matrix, geometry, margin):
             continue
         s = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
         px[i], py[i] = cx + f * (u * s), cy + f * (w * s)
-        inside[i] = lo_x <= px[i] <= hi_x and lo_y <= py[i] <= hi_y
-    return px, py, inside
+        valid[i] = True
+    return px, py, valid
+
+
+@njit(cache=True)
+def within(px, py, valid, geometry, margin):
+    """Which projected stars fall in the image widened by ``margin`` pixels."""
+    width, height = geometry[3], geometry[4]
+    lo_x, hi_x = -0.5 - margin, width - 0.5 + margin
+    lo_y, hi_y = -0.5 - margin, height - 0.5 + margin
+    inside = np.zeros(px.shape[0], np.bool_)
+    for i in range(px.shape[0]):
+        inside[i] = valid[i] and lo_x <= px[i] <= hi_x and lo_y <= py[i] <= hi_y
+    return inside
 
 
 @njit(cache=True)
@@ -69,8 +87,15 @@ def match(vectors, matrix, ox, oy, geometry, radius):
     """Observed stars paired with the catalog vectors that fall in the image widened by
     ``radius`` (a star just beyond the edge can still be an observed star's) at ``matrix``:
     (observed index ascending, vector position, how many vectors fall in it)."""
-    px, py, inside = project(vectors, matrix, geometry, radius)
-    where = np.flatnonzero(inside)
+    px, py, valid = project_valid(vectors, matrix, geometry)
+    return match_projected(px, py, valid, ox, oy, geometry, radius)
+
+
+@njit(cache=True)
+def match_projected(px, py, valid, ox, oy, geometry, radius):
+    """:func:`match` on positions :func:`project_valid` gave (one projection serves
+    several radii)."""
+    where = np.flatnonzero(within(px, py, valid, geometry, radius))
     obs_idx, pos = nearest_matches(ox, oy, px[where], py[where], radius)
     return obs_idx, where[pos], where.shape[0]
 
@@ -139,13 +164,29 @@ def refine(obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m
     when a plain refit changes nothing, refit once on the matches within ``capture``
     match radii and keep that only if it then matches more stars (see
     :func:`startrack.verify.refine`). Returns (observed index, vector position, matrix)."""
+    obs_m, pos_m, matrix, _, _, _, _ = refine_projected(
+        obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m, max_rounds)
+    return obs_m, pos_m, matrix
+
+
+@njit(cache=True)
+def refine_projected(obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m,
+                     max_rounds):
+    """:func:`refine`, plus the vectors as :func:`project_valid` projects them at the
+    returned matrix and whether that projection is there (it is when the refinement
+    stopped because nothing changed; the labelling then need not project again)."""
     matrix = wahba(obs_vectors[obs_m], vectors[pos_m])
+    px, py, valid = np.zeros(0), np.zeros(0), np.zeros(0, np.bool_)
+    projected = False
     for _ in range(max_rounds):
-        obs_new, pos_new, _ = match(vectors, matrix, ox, oy, geometry, radius)
+        px, py, valid = project_valid(vectors, matrix, geometry)
+        projected = True
+        obs_new, pos_new, _ = match_projected(px, py, valid, ox, oy, geometry, radius)
         changed = obs_new.shape[0] > obs_m.shape[0] or (
             obs_new.shape[0] == obs_m.shape[0] and not _same(obs_new, pos_new, obs_m, pos_m))
         if not changed:
-            obs_w, pos_w, _ = match(vectors, matrix, ox, oy, geometry, capture * radius)
+            obs_w, pos_w, _ = match_projected(px, py, valid, ox, oy, geometry,
+                                              capture * radius)
             if obs_w.shape[0] < 2 or _same(obs_w, pos_w, obs_m, pos_m):
                 break  # the same pairs refit to the same attitude: nothing would change
             wide = wahba(obs_vectors[obs_w], vectors[pos_w])
@@ -154,7 +195,17 @@ def refine(obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m
                 break
         obs_m, pos_m = obs_new, pos_new
         matrix = wahba(obs_vectors[obs_m], vectors[pos_m])
-    return obs_m, pos_m, matrix
+        projected = False
+    return obs_m, pos_m, matrix, px, py, valid, projected
+
+
+@njit(cache=True)
+def project_refined(vectors, geometry, radius, matrix, px, py, valid, projected):
+    """:func:`project` at a refined ``matrix`` with margin ``radius``, reusing the
+    refinement's own projection when it has one (:func:`refine_projected`)."""
+    if projected:
+        return px, py, within(px, py, valid, geometry, radius)
+    return project(vectors, matrix, geometry, radius)
 
 
 @njit(cache=True)
@@ -166,9 +217,10 @@ def refine_and_label(obs_vectors, ox, oy, vectors, mags, geometry, radius, captu
     refined attitude (:func:`startrack.matching.labelling_kernels.label_kernel`, whose parameters
     follow ``max_rounds``) and the attitude refitted to the labels when there are three or
     more. Returns (observed index, vector position, refined matrix, final matrix)."""
-    obs_m, pos_m, matrix = refine(obs_vectors, ox, oy, vectors, geometry, radius, capture,
-                                  obs_m, pos_m, max_rounds)
-    px, py, inside = project(vectors, matrix, geometry, radius)
+    obs_m, pos_m, matrix, px, py, valid, projected = refine_projected(
+        obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m, max_rounds)
+    px, py, inside = project_refined(vectors, geometry, radius, matrix, px, py, valid,
+                                     projected)
     sel = np.flatnonzero(inside)
     obs_index, cat_pos, _, _, _, _ = label_kernel(
         ox, oy, px[sel], py[sel], mags[sel], sel, flux, has_flux, radius2, sigma0, area, gap,
