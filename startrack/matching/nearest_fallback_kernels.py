@@ -93,11 +93,7 @@ def _pairs_strip(ox, oy, x, y, radius2):
             if count == cap:
                 cap *= 2
                 e_obs, e_cat, e_d2 = _grow(e_obs, cap), _grow(e_cat, cap), _grow(e_d2, cap)
-            k = count  # insertion by catalog index: a star has few pairs
-            while k > start[i] and e_cat[k - 1] > j:
-                e_obs[k], e_cat[k], e_d2[k] = e_obs[k - 1], e_cat[k - 1], e_d2[k - 1]
-                k -= 1
-            e_obs[k], e_cat[k], e_d2[k] = i, j, d2
+            insert_pair(e_obs, e_cat, e_d2, start[i], count, i, j, d2)
             count += 1
     start[n] = count
     return e_obs[:count], e_cat[:count], e_d2[:count], start
@@ -124,3 +120,15 @@ def _best_in_cells(x, y, cx, cy, start, order, nx, gx0, gx1, gy0, gy1):
                 if d < best_d or (d == best_d and j < best):
                     best, best_d = j, d
     return best, best_d
+
+
+@njit(cache=True)
+def insert_pair(e_obs, e_cat, e_d2, first, count, i, j, d2):
+    """Pair (i, j, d2) written at position ``count``, moved down past the pairs of the
+    same observed star (from ``first`` on) with a higher catalog index: a star has few
+    pairs, so insertion keeps each star's pairs sorted by catalog index."""
+    k = count
+    while k > first and e_cat[k - 1] > j:
+        e_obs[k], e_cat[k], e_d2[k] = e_obs[k - 1], e_cat[k - 1], e_d2[k - 1]
+        k -= 1
+    e_obs[k], e_cat[k], e_d2[k] = i, j, d2

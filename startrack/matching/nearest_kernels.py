@@ -9,7 +9,12 @@ import math
 import numpy as np
 from numba import njit
 
-from startrack.matching.nearest_fallback_kernels import _best_in_cells, _nearest_cells, _pairs_strip
+from startrack.matching.nearest_fallback_kernels import (
+    _best_in_cells,
+    _nearest_cells,
+    _pairs_strip,
+    insert_pair,
+)
 
 
 @njit(cache=True)
@@ -145,11 +150,7 @@ def _scan_cells(ox, oy, x, y, radius2, half, grid, start_c, order, e_obs, e_cat,
                     if not d2 <= radius2:
                         continue
                     if count < cap:
-                        k = count
-                        while k > start[i] and e_cat[k - 1] > j:
-                            e_obs[k], e_cat[k], e_d2[k] = e_obs[k - 1], e_cat[k - 1], e_d2[k - 1]
-                            k -= 1
-                        e_obs[k], e_cat[k], e_d2[k] = i, j, d2
+                        insert_pair(e_obs, e_cat, e_d2, start[i], count, i, j, d2)
                     count += 1
     start[n] = count
     return count
