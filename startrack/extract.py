@@ -192,7 +192,7 @@ def _sky_model(image: np.ndarray, tile: int, fast: bool, threads: int) -> tuple:
     raw = np.empty((lay[0], lay[1]))
     fill = _dead_pixel_fill(image)
     par.run(blocks.sky_rows, [(image, fill, lay, block_w, a, b, means, raw)
-                              for a, b in _tile_bands(lay, threads, image.size)])
+                              for a, b in _tile_bands(lay, threads, image.size)], threads)
     grid = _sky_grid(means, lay, block_w, _NO_MASK, 0.0, raw, threads)
     if not fast:
         # Twice: the second sky model ignores the blocks the first showed to hold
@@ -232,7 +232,8 @@ def _tile_medians(means: np.ndarray, ignore: np.ndarray, lay: tuple, grid: np.nd
     """``extract_blocks.tile_medians``, bands of tile rows on ``threads`` threads."""
     out = np.empty((lay[0], lay[1]))
     par.run(blocks.tile_rows, [(means, ignore, lay[7], lay[8], grid, block_w, known, a, b, out)
-                               for a, b in _tile_bands(lay, threads, 16 * means.size)])
+                               for a, b in _tile_bands(lay, threads, 16 * means.size)],
+            threads)
     return out
 
 
@@ -243,9 +244,9 @@ def _noise(image: np.ndarray, model: tuple, step: int, smooth: bool,
     n_rows, n_cols = -(-image.shape[0] // step), -(-image.shape[1] // step)
     res, det = np.empty(n_rows * n_cols), np.empty(n_rows * n_cols)
     parts = par.bands(n_rows, par.parts_for(threads, 9 * res.size))
-    par.run(kern.samples, [(image, model, step, smooth, a, b, res, det) for a, b in parts])
-    pairs = [(res, _MAD_TO_SIGMA), (det, _MAD_TO_SIGMA)]
-    sigmas = par.run(sky.mad_sigma, pairs) if threads > 1 else [sky.mad_sigma(*p) for p in pairs]
+    par.run(kern.samples, [(image, model, step, smooth, a, b, res, det) for a, b in parts],
+            threads)
+    sigmas = par.run(sky.mad_sigma, [(res, _MAD_TO_SIGMA), (det, _MAD_TO_SIGMA)], threads)
     return _mad_sigma(res, image.dtype, sigmas[0]), _mad_sigma(det, image.dtype, sigmas[1])
 
 
@@ -255,7 +256,7 @@ def _components(image: np.ndarray, model: tuple, threshold: float, smooth: bool,
     ``threads`` threads."""
     parts = par.bands(image.shape[0], par.parts_for(threads, image.size))
     pieces = par.run(runs.band_runs, [(image, model, threshold, smooth, sat_level, a, b)
-                                      for a, b in parts])
+                                      for a, b in parts], threads)
     found = np.concatenate([p[0] for p in pieces]) if len(pieces) > 1 else pieces[0][0]
     acc = np.concatenate([p[1] for p in pieces]) if len(pieces) > 1 else pieces[0][1]
     return runs.join_runs(found, acc)
