@@ -146,16 +146,10 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
         return _empty()
 
     box = kern.peak_boxes(image, model, comp[:, runs.PEAK_AT])
-    peak, sum_w, flux = comp[:, runs.PEAK], comp[:, runs.SW], comp[:, runs.FLUX]
-    area, saturated = comp[:, runs.AREA].astype(np.int64), comp[:, runs.SAT] > 0
     # A star's image spreads onto its neighbours; a hot pixel's does not (beyond noise).
-    hot = (peak > config.hot_pixel_fraction * box) | (box - peak < 2.0 * math.sqrt(8.0) * sigma)
-    max_area, max_saturated = config.area_limits(image.shape)
-    keep = (area >= config.min_area) & (area <= np.where(saturated, max_saturated, max_area)) \
-        & ~hot & (sum_w > 0) & (flux > 0)
-    safe = np.where(sum_w > 0, sum_w, 1.0)
-    out = Centroids(comp[keep, runs.SWX] / safe[keep], comp[keep, runs.SWY] / safe[keep],
-                    flux[keep], saturated[keep], area[keep])
+    out = Centroids(*runs.stars(comp, box, config.hot_pixel_fraction,
+                                2.0 * math.sqrt(8.0) * sigma, config.min_area,
+                                *config.area_limits(image.shape)))
     return out if config.max_stars is None else out.brightest(config.max_stars)
 
 
