@@ -17,12 +17,13 @@ read the frame in its own dtype: besides the frame, an extraction holds the bloc
 Threads: the passes over the pixels (block means and tile medians, the tile medians of
 the later passes, the noise samples and their MADs, the blob finder of
 ``startrack.extract_runs``) run on bands of rows at once, on ``CentroidConfig.threads``
-threads (default: numba's limit ``NUMBA_NUM_THREADS``, the cores this process may use);
-a frame under ~2 x 65536 px stays on one. The kernels release the GIL and a small pool
-of Python threads runs them (``startrack.extract_parallel``; no numba threading layer).
-Each band writes its own part of a result, and the blobs' runs are joined in raster
-order, so the centroids are the same, bit for bit and in the same order, whatever the
-thread count.
+threads (default: numba's limit ``NUMBA_NUM_THREADS``, the cores this process may use,
+or one when the load average says the cores are taken); a frame under ~2 x 65536 px
+stays on one. The kernels release the GIL and a few Python helper threads run them
+(``startrack.extract_parallel``; no numba threading layer); the caller and the helpers
+take the next band until none is left, so a helper that wakes late costs nothing. Each
+band writes its own part of a result, and the blobs' runs are joined in raster order, so
+the centroids are the same, bit for bit and in the same order, whatever the thread count.
 """
 
 from __future__ import annotations
@@ -70,8 +71,9 @@ class CentroidConfig:
         the cost of the faintest stars near bright ones (bright stars' wings leak into
         the sky model); ``FAST`` is this preset.
     threads: threads that the passes over the pixels run on (None = numba's limit,
-        ``NUMBA_NUM_THREADS``, by default the cores this process may use). The result is
-        the same, bit for bit, whatever the number.
+        ``NUMBA_NUM_THREADS``, by default the cores this process may use, or fewer when
+        other processes keep them busy). The result is the same, bit for bit, whatever
+        the number.
     """
 
     k_sigma: float = 5.0
