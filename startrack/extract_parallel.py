@@ -15,7 +15,6 @@ parent's threads is gone).
 from __future__ import annotations
 
 import _thread
-import itertools
 import os
 import threading
 from collections.abc import Callable, Sequence
@@ -77,28 +76,35 @@ def run(fn: Callable, args: Sequence[tuple], threads: int) -> list:
     if n == 1 or threads <= 1:
         return [fn(*a) for a in args]
     out: list = [None] * n
-    job = (fn, args, out, itertools.count())  # next() on a count is atomic (GIL)
+    job = (fn, args, out, [0, _thread.allocate_lock()])  # the next piece, and its lock
     queue = _helpers(threads - 1)
     states = []
     for _ in range(min(threads, n) - 1):
         done = _thread.allocate_lock()
         done.acquire()
-        state = [False, done, None]  # started, released when finished, its error
+        state = [False, done, None]  # claimed, released when finished, its error
         states.append(state)
         queue.put((job, state))
-    _work(job)
-    for started, done, _ in states:
-        if started:  # it may be on a piece: wait; one that has not started never will
-            done.acquire()
+    _work(job, None)
+    with job[3][1]:  # every piece is claimed: no helper that has not claimed yet will
+        waits = [state for state in states if state[0]]
+    for state in waits:  # those may be on a piece
+        state[1].acquire()
     for state in states:
         if state[2] is not None:
             raise state[2]
     return out
 
 
-def _work(job: tuple) -> None:
+def _work(job: tuple, state: list | None) -> None:
+    """Take pieces of ``job`` until none is left; a helper's ``state`` notes that it did."""
     fn, args, out, claim = job
-    for i in claim:
+    while True:
+        with claim[1]:
+            i = claim[0]
+            claim[0] = i + 1
+            if state is not None:
+                state[0] = True
         if i >= len(args):
             return
         out[i] = fn(*args[i])
@@ -107,9 +113,8 @@ def _work(job: tuple) -> None:
 def _helper(queue: SimpleQueue) -> None:
     while True:
         job, state = queue.get()
-        state[0] = True  # before any claim: the caller, done claiming, then sees it
         try:
-            _work(job)
+            _work(job, state)
         except BaseException as exc:  # noqa: BLE001 - handed to the caller, which raises it
             state[2] = exc
         finally:
