@@ -23,10 +23,21 @@ def predict_attitude(rot_a, rot_b, gap, steps, sig_a, sig_b, unknown_rate, accel
     rate = np.zeros(3)
     sig_w = unknown_rate
     if gap > 0:
-        rate = rotation_log(rot_a.T @ rot_b) / gap
+        rate = rotation_log(_mul(rot_a.T, rot_b)) / gap
         sig_w = (math.hypot(sig_a, sig_b) / gap + accel_fraction * np.linalg.norm(rate)
                  + rate_floor)
-    return rot_b @ rotation_exp(rate * steps), sig_b + steps * sig_w
+    return _mul(rot_b, rotation_exp(rate * steps)), sig_b + steps * sig_w
+
+
+@njit(cache=True)
+def _mul(a, b):
+    """a @ b for 3 x 3 matrices, written out (numba's @ calls BLAS, whose call costs
+    more than nine dot products)."""
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+    return out
 
 
 @njit(cache=True)
@@ -39,7 +50,7 @@ def rotation_exp(rotvec: np.ndarray) -> np.ndarray:
     kx = np.zeros((3, 3))
     kx[0, 1], kx[0, 2], kx[1, 2] = -k[2], k[1], -k[0]
     kx[1, 0], kx[2, 0], kx[2, 1] = k[2], -k[1], k[0]
-    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
+    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * _mul(kx, kx)
 
 
 @njit(cache=True)

@@ -33,10 +33,9 @@ from startrack.database import StarDatabase
 from startrack.identify import residuals_arcsec
 from startrack.labelling import kernel_params
 from startrack.matching.projector import CAPTURE, CONE_LOOKUP_MARGIN, MAX_REFINEMENTS, cone_radius
-from startrack.matching.wahba_kernels import matrix_to_quaternion
 from startrack.tracking_kernels import attempt, consistent_pairs, nearby
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
-from startrack.verify import VerifyConfig
+from startrack.verify import VerifyConfig, rotation_of
 
 # The vote looks for the densest spot of displacements within this many match radii: the
 # true pairs crowd there while chance pairs spread over the whole window.
@@ -204,7 +203,7 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
     order = np.argsort(obs_index)
     obs_index, cat_index = obs_index[order], cat_index[order]
     residuals = residuals_arcsec(matrix, obs, obs_index, database.vectors[cat_index])
-    rotation = Rotation.from_quat(matrix_to_quaternion(matrix))  # as Verification.rotation
+    rotation = rotation_of(matrix)  # as Verification.rotation builds it
     return Solution(True, method, rotation=rotation, obs_index=obs_index, cat_index=cat_index,
                     residual_arcsec=residuals, false_probability=float(prob),
                     diagnostics=diag, identify_ms=elapsed, mode="tracking")

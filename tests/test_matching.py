@@ -180,7 +180,7 @@ def test_nearest_matches_keep_the_nearest_claim(radius, spread):
 
 @pytest.mark.parametrize("radius2", [0.0, 9.0, 400.0, 1e8, np.inf, -1.0, np.nan])
 def test_pairs_within_is_the_brute_force_list(radius2):
-    """The strip search lists exactly the pairs a full observed x catalog table keeps, by
+    """The pair search lists exactly the pairs a full observed x catalog table keeps, by
     observed then catalog index; NaN positions pair with nothing."""
     from startrack.matching.nearest_kernels import pairs_within
 
@@ -245,3 +245,58 @@ def test_compiled_wahba_and_quaternion_agree_with_scipy():
         r = Rotation.from_rotvec(angle_axis)
         q = matrix_to_quaternion(r.as_matrix())
         assert Rotation.from_quat(q).approx_equal(r, atol=1e-12)
+
+
+def test_pairs_within_grid_is_the_strip_search():
+    """The grid search lists what the strip search lists, on frames at every scale, with
+    rounded (tied) positions, NaN and infinite coordinates and radii on the boundary."""
+    from startrack.matching.nearest_kernels import _pairs_strip, pairs_within
+
+    rng = np.random.default_rng(23)
+    for t in range(3000):
+        m, n = int(rng.integers(0, 50)), int(rng.integers(0, 50))
+        scale = (1.0, 200.0, 1e6, 1e-3)[t % 4]
+        cx, cy = rng.uniform(0, scale, m), rng.uniform(0, scale, m)
+        if t % 3 == 0:
+            cx, cy = np.round(cx), np.round(cy)
+        k = min(m, n)
+        ox = np.concatenate([cx[:k] + rng.normal(0, scale / 100, k), rng.uniform(0, scale, n - k)])
+        oy = np.concatenate([cy[:k] + rng.normal(0, scale / 100, k), rng.uniform(0, scale, n - k)])
+        if t % 5 == 0 and m:
+            cx[rng.integers(m)] = np.nan
+        if t % 7 == 0 and n:
+            ox[rng.integers(n)] = np.nan
+        if t % 11 == 0 and n:
+            ox[rng.integers(n)] = np.inf
+        if t % 17 == 0 and m:
+            cy[rng.integers(m)] = np.inf
+        radius2 = (0.0, (scale / 50) ** 2, (scale / 10) ** 2, (scale * 5) ** 2, -1.0)[t % 5]
+        if t % 19 == 0 and n and m:
+            ox[0], oy[0], radius2 = cx[0] + scale / 50, cy[0], (scale / 50) ** 2
+        for got, want in zip(pairs_within(ox, oy, cx, cy, radius2),
+                             _pairs_strip(ox, oy, cx, cy, radius2), strict=True):
+            np.testing.assert_array_equal(got, want)
+
+
+def test_nearest_scanning_only_the_reached_cells_is_the_3x3_search():
+    """Scanning only the cells a star's radius reaches finds what the 3 x 3 cell search
+    finds, at every scale, with ties, rounded positions and stars off the catalog's
+    extent."""
+    from startrack.matching.nearest_kernels import _nearest, _nearest_cells
+
+    rng = np.random.default_rng(29)
+    for t in range(3000):
+        m, n = int(rng.integers(1, 60)), int(rng.integers(1, 60))
+        scale = (1.0, 1024.0, 1e5, 1e-2)[t % 4]
+        cx, cy = rng.uniform(0, scale, m), rng.uniform(0, scale, m)
+        if t % 3 == 0:
+            cx, cy = np.round(cx), np.round(cy)
+        k = min(m, n)
+        ox = np.concatenate([cx[:k] + rng.normal(0, scale / 200, k),
+                             rng.uniform(-0.1 * scale, 1.1 * scale, n - k)])
+        oy = np.concatenate([cy[:k] + rng.normal(0, scale / 200, k),
+                             rng.uniform(-0.1 * scale, 1.1 * scale, n - k)])
+        radius = (0.0, scale / 100, scale / 20, 3 * scale)[t % 4]
+        for got, want in zip(_nearest(ox, oy, cx, cy, radius),
+                             _nearest_cells(ox, oy, cx, cy, radius), strict=True):
+            np.testing.assert_array_equal(got, want)

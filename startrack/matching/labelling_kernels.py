@@ -21,25 +21,13 @@ import numpy as np
 from numba import njit
 
 from startrack.matching.nearest_kernels import pairs_within
+from startrack.matching.stats_kernels import median as _median
+from startrack.matching.stats_kernels import ptp as _span
 
 _MAD_TO_SIGMA = 1.4826
 _MEDIAN_R2_TO_SIGMA2 = 1.0 / (2.0 * math.log(2.0))  # Rayleigh: median d^2 = 2 ln2 sigma^2
 #: The order of :data:`withheld`'s counts: brightness, unresolved, ambiguous, coincidence.
 N_REASONS = 4
-
-
-@njit(cache=True)
-def _median(values):
-    """numpy's median: NaN for no value or any NaN, the middle two averaged."""
-    n = len(values)
-    if n == 0:
-        return np.nan
-    s = np.sort(values)  # NaN sorts last
-    if np.isnan(s[n - 1]):
-        return np.nan
-    if n % 2:
-        return s[n // 2]
-    return (s[n // 2 - 1] + s[n // 2]) / 2.0
 
 
 @njit(cache=True)
@@ -96,17 +84,24 @@ def _brightness(flux, has_flux, e_obs, e_cat, mag, oi, ci, mag_sigmas, min_mag_s
         usable[i] = np.isfinite(flux[i]) and flux[i] > 0.0
         if usable[i]:
             inst[i] = -2.5 * math.log10(flux[i])
-    keep = np.flatnonzero(usable[oi])
-    if len(keep) < min_fit:
+    offset = np.empty(oi.shape[0])
+    n_fit = 0
+    for k in range(oi.shape[0]):
+        if usable[oi[k]]:
+            offset[n_fit] = inst[oi[k]] - mag[ci[k]]
+            n_fit += 1
+    if n_fit < min_fit:
         return ok, log_b, np.nan, False
-    offset = inst[oi[keep]] - mag[ci[keep]]
+    offset = offset[:n_fit]
     zero = _median(offset)
-    sigma = _MAD_TO_SIGMA * _median(np.abs(offset - zero))
+    for k in range(n_fit):
+        offset[k] = abs(offset[k] - zero)
+    sigma = _MAD_TO_SIGMA * _median(offset)
     if min_mag_sigma > sigma:
         sigma = min_mag_sigma
     if mag.shape[0] == 0:  # as numpy's ptp of nothing
         raise ValueError("zero-size array to reduction operation maximum which has no identity")
-    span = np.nan if np.isnan(mag).any() else mag.max() - mag.min()
+    span = _span(mag)
     if 2.0 * mag_sigmas * sigma > span:
         span = 2.0 * mag_sigmas * sigma
     if span == 0.0:  # as Python's float division
@@ -165,12 +160,18 @@ def _rivals(e_obs, e_cat, start, cand, log_g, gap, n_cat):
         # An observed star clearly matched to another catalog star is no rival here.
         if cand[k] and not (clear_o[i] and best_o[i] != k):
             rival[k] = log_g[k]
-    by_cat = np.argsort(e_cat * max(n_obs, 1) + e_obs)
     cat_start = np.zeros(n_cat + 1, np.int64)
     for k in range(n_pairs):
         cat_start[e_cat[k] + 1] += 1
     for j in range(n_cat):
         cat_start[j + 1] += cat_start[j]
+    # By catalog then observed index: a counting sort of the pairs, which come by
+    # observed index, is that order (each pair is unique, so any sort agrees).
+    by_cat = np.empty(n_pairs, np.int64)
+    fill = cat_start[:-1].copy()
+    for k in range(n_pairs):
+        by_cat[fill[e_cat[k]]] = k
+        fill[e_cat[k]] += 1
     best_c, top_c, next_c = _best_two(rival, cat_start, by_cat)
     clear_c = np.isfinite(top_c) & ~(next_c - top_c > gap)
     clear = np.zeros(n_obs, np.bool_)
@@ -185,11 +186,11 @@ def _rivals(e_obs, e_cat, start, cand, log_g, gap, n_cat):
 @njit(cache=True)
 def _unresolved(x, y, j, resolve2):
     """Whether another catalog star lies within ``sqrt(resolve2)`` of catalog star j."""
-    for k in range(len(x)):
+    hit = False
+    for k in range(len(x)):  # no early exit: the loop compiles to vector instructions
         dx, dy = x[j] - x[k], y[j] - y[k]
-        if k != j and dx * dx + dy * dy < resolve2:
-            return True
-    return False
+        hit |= (dx * dx + dy * dy < resolve2) & (k != j)
+    return hit
 
 
 @njit(cache=True)

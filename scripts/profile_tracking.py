@@ -1,0 +1,174 @@
+"""Where a tracked frame's time goes, against lost-in-space's on the same frames.
+
+The sequence is bench_tracking.py's first one (200 frames at 10 fps, (1, 0.5, 2) deg/s,
+0.5 px, 2 false stars, 10% missing; configs/hipparcos20.toml). Prints, as medians over
+the frames:
+
+1. In the flow (each frame once, as ``identify --track`` runs it): the tracked frame's
+   identify time, split into the compiled attempt and the Python around it (prediction
+   included); lost-in-space's (pyramid) identify time, split into its pattern search
+   and its verification.
+2. Each stage of the attempt alone, over the captured frames in turn (so no frame's
+   branches are learnt by repeating it): the window pairs and vote (tracking's own),
+   the first test, and the refinement and labelling (verification's, shared with
+   lost-in-space).
+3. What bounds the ratio: a tracked frame is verified as lost-in-space verifies it, so
+   tracking saves the search and nothing else: lost-in-space / tracking is at most
+   (search + verification) / verification.
+
+    .venv/bin/python scripts/profile_tracking.py [--frames 200] [--seed 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from startrack import tracking
+from startrack import tracking_kernels as tk
+from startrack.bench import tracking as tb
+from startrack.config import load_config
+from startrack.identifier import Identifier
+from startrack.matching import verify_kernels as vk
+from startrack.sky import load_sky, resolve_sky
+from startrack.tracker import Tracker
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+class _Clock:
+    """Seconds spent inside wrapped callables, per frame."""
+
+    def __init__(self) -> None:
+        self.spent = 0.0
+
+    def wrap(self, fn):
+        def timed(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                self.spent += time.perf_counter() - t0
+        return timed
+
+    def wrap_iter(self, fn):
+        def timed(*args, **kwargs):
+            it = iter(fn(*args, **kwargs))
+            while True:
+                t0 = time.perf_counter()
+                try:
+                    item = next(it)
+                except StopIteration:
+                    self.spent += time.perf_counter() - t0
+                    return
+                self.spent += time.perf_counter() - t0
+                yield item
+        return timed
+
+
+def _in_flow(seq, ident):
+    """Per frame: tracked identify ms, attempt ms, LIS identify ms, LIS search ms; and
+    the attempt's arguments of the frames tracking solved."""
+    tracker, captured = Tracker(), []
+    kernel, search = _Clock(), _Clock()
+    attempt = tracking.attempt
+
+    def capture(*args):
+        out = attempt(*args)
+        if out[0] == 1:
+            captured.append(args)
+        return out
+    tracking.attempt = kernel.wrap(capture)
+    matcher = ident.matcher
+    hypotheses = matcher.hypotheses
+    matcher.hypotheses = search.wrap_iter(hypotheses)
+    rows = []
+    try:
+        for frame in seq:
+            kernel.spent = search.spent = 0.0
+            tracked = tracker.step(frame.obs, ident.database, ident.verify_config,
+                                   ident.identify, "pyramid")
+            attempt_ms = kernel.spent * 1e3
+            search.spent = 0.0
+            lis = ident.identify(frame.obs)
+            if tracked.mode == "tracking" and lis.solved:
+                rows.append((tracked.identify_ms, attempt_ms, lis.identify_ms,
+                             search.spent * 1e3))
+    finally:
+        tracking.attempt = attempt
+        matcher.hypotheses = hypotheses
+    return np.array(rows), captured
+
+
+def _stages(captured, repeats=5):
+    """Median microseconds of each attempt stage, the captured frames taken in turn."""
+    prepared = []
+    for args in captured:
+        (vectors, mags, _, _, _, obs_v, ox, oy, geometry, prior, sigma, scan, flux, has_flux,
+         label, min_fit, _) = args
+        r = scan[tk.S_RADIUS]
+        window, tol = scan[tk.S_WINDOW] * sigma + r, scan[tk.S_KEEP] * sigma + r
+        m = min(len(ox), int(scan[tk.S_MAX_STARS]))
+        pairs = (vectors, prior, ox[:m], oy[:m], geometry, window,
+                 min(tol, scan[tk.S_VOTE_RADII] * r), tol, int(scan[tk.S_VOTE_CENTRES]))
+        oi, cj, _ = tk.consistent_pairs(*pairs)
+        first = (obs_v, ox, oy, oi[:3], vectors[cj[:3]], vectors, geometry, r,
+                 scan[tk.S_COS_RADIUS])
+        _, _, obs_m, pos, _, _ = vk.first_match_fixed(*first)
+        settle = (obs_v, ox, oy, vectors, mags, geometry, scan, flux, has_flux, label,
+                  min_fit, oi, obs_m, pos)
+        prepared.append((args, pairs, first, settle))
+    calls = {"attempt (whole)": lambda p: tk.attempt(*p[0]),
+             "window pairs + vote (tracking's own)": lambda p: tk.consistent_pairs(*p[1]),
+             "first test (verification's)": lambda p: vk.first_match_fixed(*p[2]),
+             "refine + label (verification's)": lambda p: tk._settle(*p[3])}
+    out = {}
+    for name, call in calls.items():
+        times = []
+        for _ in range(repeats):
+            for p in prepared:
+                t0 = time.perf_counter()
+                call(p)
+                times.append(time.perf_counter() - t0)
+        out[name] = float(np.median(times)) * 1e6
+    return out
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=200)
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    cfg = load_config(ROOT / "configs" / "hipparcos20.toml")
+    catalog = load_sky(resolve_sky(cfg.sky, cfg.camera), cfg.camera)
+    ident = Identifier(cfg.camera, catalog, "pyramid")
+    seq = tb.make_sequence(catalog, cfg.camera, tb.TrackCondition(), args.frames, 10.0,
+                           args.seed)
+    _in_flow(seq[:20], ident)  # compile and warm
+    rows, captured = _in_flow(seq, ident)
+    med = np.median(rows, axis=0) * 1e3
+    tracked, kernel, lis, search = med
+    print(f"{len(rows)} frames tracked and solved by lost-in-space; medians in us\n")
+    print("## 1. In the flow")
+    print(f"tracked frame: {tracked:.1f} (compiled attempt {kernel:.1f}, Python around it "
+          f"{tracked - kernel:.1f}, prediction included)")
+    print(f"lost-in-space: {lis:.1f} (pattern search {search:.1f}, verification and the "
+          f"rest {lis - search:.1f})")
+    print(f"lost-in-space / tracked: {lis / tracked:.2f}x\n")
+    print("## 2. The attempt's stages, frames in turn")
+    stages = _stages(captured)
+    for name, us in stages.items():
+        print(f"{name}: {us:.1f}")
+    shared = stages["first test (verification's)"] + stages["refine + label (verification's)"]
+    print("\n## 3. The bound")
+    print(f"were a tracked frame lost-in-space less its search: {lis / (lis - search):.1f}x")
+    print(f"were it nothing but verification's kernels ({shared:.1f}, timed alone): at most "
+          f"{lis / shared:.1f}x")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
