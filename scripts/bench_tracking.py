@@ -30,6 +30,9 @@ from startrack.config import load_config
 from startrack.identifier import Identifier
 from startrack.sky import load_sky, resolve_sky
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from profile_tracking import report as profile_report  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -101,6 +104,9 @@ def main() -> int:
     print("## 1. The issue's sequence\n" + base_md + "\n\nframes by mode:\n" + modes.to_string()
           + f"\n\nlost-in-space / tracking median identify time, same frames: {ratio}\n")
 
+    profile_md = profile_report(args.frames, args.seed)
+    print("## Where the time goes\n" + profile_md + "\n")
+
     ev = _events(catalog, camera, idents, peer, args.seed + 1)
     ev_md = _event_rows(ev)
     timeline = tr.plot_timeline(ev, figures / "tracking_gap_jump.png",
@@ -119,7 +125,7 @@ def main() -> int:
     ratio_md = tr.markdown_table_ratio(tr.time_ratios(sweep))
     print("## 3. Sweeps\n" + sweep_md + "\n\n" + ratio_md)
     _write_doc(args, commit, peer, base_md, modes_md, ratio, ev_md, sweep_md, ratio_md,
-               [base_plot, timeline, *plots])
+               [base_plot, timeline, *plots], profile_md)
     return 0
 
 
@@ -132,7 +138,8 @@ def _ratio_text(median_ms) -> str:
     return text
 
 
-def _write_doc(args, commit, peer, base_md, modes_md, ratio, ev_md, sweep_md, ratio_md, plots):
+def _write_doc(args, commit, peer, base_md, modes_md, ratio, ev_md, sweep_md, ratio_md, plots,
+               profile_md):
     cmd = "PYTHONPATH=. /work/peers-venv/bin/python scripts/bench_tracking.py"
     if (args.frames, args.sweep_frames, args.seed) != (200, 100, 0):
         cmd += f" --frames {args.frames} --sweep-frames {args.sweep_frames} --seed {args.seed}"
@@ -191,6 +198,12 @@ Both modes count the same span: the prediction (tracking), matching, verificatio
 the attitude, not the assembly of the result (residuals, the Rotation object); a tracked
 frame's verification, refinement and labelling are lost-in-space's own, so tracking saves
 the pattern search alone.
+
+## Where the time goes
+
+From `scripts/profile_tracking.py` (run here on the same sequence; pyramid):
+
+{profile_md}
 
 ## Lens cap and jump
 

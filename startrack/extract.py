@@ -17,12 +17,13 @@ read the frame in its own dtype: besides the frame, an extraction holds the bloc
 Threads: the passes over the pixels (block means and tile medians, the tile medians of
 the later passes, the noise samples and their MADs, the blob finder of
 ``startrack.extract_runs``) run on bands of rows at once, on ``CentroidConfig.threads``
-threads (default: numba's limit ``NUMBA_NUM_THREADS``, the cores this process may use);
-a frame under ~2 x 65536 px stays on one. The kernels release the GIL and a small pool
-of Python threads runs them (``startrack.extract_parallel``; no numba threading layer).
-Each band writes its own part of a result, and the blobs' runs are joined in raster
-order, so the centroids are the same, bit for bit and in the same order, whatever the
-thread count.
+threads (default: numba's limit ``NUMBA_NUM_THREADS``, the cores this process may use,
+or one when the load average says the cores are taken); a frame under ~2 x 65536 px
+stays on one. The kernels release the GIL and a few Python helper threads run them
+(``startrack.extract_parallel``; no numba threading layer); the caller and the helpers
+take the next band until none is left, so a helper that wakes late costs nothing. Each
+band writes its own part of a result, and the blobs' runs are joined in raster order, so
+the centroids are the same, bit for bit and in the same order, whatever the thread count.
 """
 
 from __future__ import annotations
@@ -70,8 +71,9 @@ class CentroidConfig:
         the cost of the faintest stars near bright ones (bright stars' wings leak into
         the sky model); ``FAST`` is this preset.
     threads: threads that the passes over the pixels run on (None = numba's limit,
-        ``NUMBA_NUM_THREADS``, by default the cores this process may use). The result is
-        the same, bit for bit, whatever the number.
+        ``NUMBA_NUM_THREADS``, by default the cores this process may use, or fewer when
+        other processes keep them busy). The result is the same, bit for bit, whatever
+        the number.
     """
 
     k_sigma: float = 5.0
@@ -146,16 +148,10 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
         return _empty()
 
     box = kern.peak_boxes(image, model, comp[:, runs.PEAK_AT])
-    peak, sum_w, flux = comp[:, runs.PEAK], comp[:, runs.SW], comp[:, runs.FLUX]
-    area, saturated = comp[:, runs.AREA].astype(np.int64), comp[:, runs.SAT] > 0
     # A star's image spreads onto its neighbours; a hot pixel's does not (beyond noise).
-    hot = (peak > config.hot_pixel_fraction * box) | (box - peak < 2.0 * math.sqrt(8.0) * sigma)
-    max_area, max_saturated = config.area_limits(image.shape)
-    keep = (area >= config.min_area) & (area <= np.where(saturated, max_saturated, max_area)) \
-        & ~hot & (sum_w > 0) & (flux > 0)
-    safe = np.where(sum_w > 0, sum_w, 1.0)
-    out = Centroids(comp[keep, runs.SWX] / safe[keep], comp[keep, runs.SWY] / safe[keep],
-                    flux[keep], saturated[keep], area[keep])
+    out = Centroids(*runs.stars(comp, box, config.hot_pixel_fraction,
+                                2.0 * math.sqrt(8.0) * sigma, config.min_area,
+                                *config.area_limits(image.shape)))
     return out if config.max_stars is None else out.brightest(config.max_stars)
 
 
@@ -192,7 +188,7 @@ def _sky_model(image: np.ndarray, tile: int, fast: bool, threads: int) -> tuple:
     raw = np.empty((lay[0], lay[1]))
     fill = _dead_pixel_fill(image)
     par.run(blocks.sky_rows, [(image, fill, lay, block_w, a, b, means, raw)
-                              for a, b in _tile_bands(lay, threads, image.size)])
+                              for a, b in _tile_bands(lay, threads, image.size)], threads)
     grid = _sky_grid(means, lay, block_w, _NO_MASK, 0.0, raw, threads)
     if not fast:
         # Twice: the second sky model ignores the blocks the first showed to hold
@@ -232,7 +228,8 @@ def _tile_medians(means: np.ndarray, ignore: np.ndarray, lay: tuple, grid: np.nd
     """``extract_blocks.tile_medians``, bands of tile rows on ``threads`` threads."""
     out = np.empty((lay[0], lay[1]))
     par.run(blocks.tile_rows, [(means, ignore, lay[7], lay[8], grid, block_w, known, a, b, out)
-                               for a, b in _tile_bands(lay, threads, 16 * means.size)])
+                               for a, b in _tile_bands(lay, threads, 16 * means.size)],
+            threads)
     return out
 
 
@@ -243,9 +240,9 @@ def _noise(image: np.ndarray, model: tuple, step: int, smooth: bool,
     n_rows, n_cols = -(-image.shape[0] // step), -(-image.shape[1] // step)
     res, det = np.empty(n_rows * n_cols), np.empty(n_rows * n_cols)
     parts = par.bands(n_rows, par.parts_for(threads, 9 * res.size))
-    par.run(kern.samples, [(image, model, step, smooth, a, b, res, det) for a, b in parts])
-    pairs = [(res, _MAD_TO_SIGMA), (det, _MAD_TO_SIGMA)]
-    sigmas = par.run(sky.mad_sigma, pairs) if threads > 1 else [sky.mad_sigma(*p) for p in pairs]
+    par.run(kern.samples, [(image, model, step, smooth, a, b, res, det) for a, b in parts],
+            threads)
+    sigmas = par.run(sky.mad_sigma, [(res, _MAD_TO_SIGMA), (det, _MAD_TO_SIGMA)], threads)
     return _mad_sigma(res, image.dtype, sigmas[0]), _mad_sigma(det, image.dtype, sigmas[1])
 
 
@@ -255,7 +252,7 @@ def _components(image: np.ndarray, model: tuple, threshold: float, smooth: bool,
     ``threads`` threads."""
     parts = par.bands(image.shape[0], par.parts_for(threads, image.size))
     pieces = par.run(runs.band_runs, [(image, model, threshold, smooth, sat_level, a, b)
-                                      for a, b in parts])
+                                      for a, b in parts], threads)
     found = np.concatenate([p[0] for p in pieces]) if len(pieces) > 1 else pieces[0][0]
     acc = np.concatenate([p[1] for p in pieces]) if len(pieces) > 1 else pieces[0][1]
     return runs.join_runs(found, acc)

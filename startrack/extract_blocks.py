@@ -17,7 +17,7 @@ import math
 import numpy as np
 from numba import njit
 
-from startrack.extract_sky import median
+from startrack.extract_sky import middle
 
 BLOCK = 4  # px, side of a block where tiles are at least two blocks across
 
@@ -155,7 +155,7 @@ def tile_rows(means, ignore, nb_r, nb_c, grid, block_w, known, i_start, i_stop, 
     ``out``."""
     r0, r1, fr, c0, c1, fc = block_w
     n_c = means.shape[1] // nb_c
-    buf, sub = np.empty(nb_r * nb_c), np.empty(nb_r * nb_c)
+    buf = np.empty(nb_r * nb_c)
     counts = np.empty(256, np.int64)
     use_ignore, subtract = ignore.shape[0] > 0, grid.shape[0] > 0
     row, bg = np.empty(grid.shape[1]), np.zeros((nb_r, means.shape[1]))
@@ -174,4 +174,4 @@ def tile_rows(means, ignore, nb_r, nb_c, grid, block_w, known, i_start, i_stop, 
                 for m in range(j * nb_c, (j + 1) * nb_c):
                     buf[n] = means[i * nb_r + k, m] - bg[k, m]
                     n += not (use_ignore and ignore[i * nb_r + k, m])  # no branch on it
-            out[i, j] = median(buf[:n], counts, sub) if n > 0 else np.nan
+            out[i, j] = middle(buf, n, counts) if n > 0 else np.nan

@@ -154,3 +154,22 @@ def join_runs(runs, acc):
             parent[max(a, b)] = min(a, b)
             m += 1
     return _merge(acc, parent, n_runs)
+
+
+@njit(cache=True, nogil=True)
+def stars(comp, box, hot_fraction, hot_margin, min_area, max_area, max_saturated):
+    """The components of ``comp`` that are stars, as (x, y, flux, saturated, area) arrays
+    in their order: area within [min_area, max_area] (``max_saturated`` with a saturated
+    pixel), positive weight and flux, and not a hot pixel: the peak holds no more than
+    ``hot_fraction`` of the 3 x 3 ``box`` around it, whose other pixels hold at least
+    ``hot_margin``."""
+    keep = np.zeros(len(comp), np.bool_)
+    for i in range(len(comp)):
+        peak, area, sat = comp[i, PEAK], np.int64(comp[i, AREA]), comp[i, SAT] > 0
+        hot = (peak > hot_fraction * box[i]) | (box[i] - peak < hot_margin)
+        keep[i] = (area >= min_area) & (area <= (max_saturated if sat else max_area)) \
+            & (not hot) & (comp[i, SW] > 0) & (comp[i, FLUX] > 0)
+    at = np.nonzero(keep)[0]
+    sw = comp[at, SW]
+    return (comp[at, SWX] / sw, comp[at, SWY] / sw, comp[at, FLUX], comp[at, SAT] > 0,
+            comp[at, AREA].astype(np.int64))

@@ -48,8 +48,15 @@ def median(a, counts, sub):
     ``counts`` is the histogram's scratch, ``sub`` scratch of ``len(a)`` (see ``_middle``).
     """
     n = len(a)
-    sub[:n] = a
-    return _middle(sub, n, (n - 1) // 2, n // 2, counts)
+    for i in range(n):  # a loop: numba's slice copy costs more than a short copy
+        sub[i] = a[i]
+    return middle(sub, n, counts)
+
+
+@njit(cache=True, nogil=True)
+def middle(a, n, counts):
+    """``median`` of ``a[:n]``, in place (``a`` is reordered)."""
+    return _middle(a, n, (n - 1) // 2, n // 2, counts)
 
 
 @njit(cache=True, nogil=True)
@@ -72,7 +79,8 @@ def _middle(a, n, k1, k2, counts):
             break
         nb = min(len(counts), max(16, n // 2))  # ~2 values a bin: cheap to clear and scan
         scale, top = nb / (hi - lo) if hi > lo else 0.0, nb - 1.0
-        counts[:nb] = 0
+        for b in range(nb):
+            counts[b] = 0
         for i in range(n):
             counts[int(min(max((a[i] - lo) * scale, 0.0), top))] += 1
         cum, b1, b2, below = 0, -1, -1, 0
@@ -122,7 +130,9 @@ def mad_sigma(sample, to_sigma):
     counts = np.empty(4096, np.int64)
     sub = np.empty(len(sample))
     med = median(sample, counts, sub)
-    return to_sigma * median(np.abs(sample - med), counts, sub)
+    for i in range(len(sample)):  # no temporaries
+        sub[i] = abs(sample[i] - med)
+    return to_sigma * middle(sub, len(sample), counts)
 
 
 @njit(cache=True, nogil=True)

@@ -105,6 +105,12 @@ def test_thread_count_and_bands(monkeypatch):
 
     monkeypatch.setattr(config, "NUMBA_NUM_THREADS", 1)
     assert par.thread_count(None) == 1 and par.thread_count(3) == 3
+    monkeypatch.setattr(config, "NUMBA_NUM_THREADS", 4)
+    monkeypatch.setattr(par.os, "cpu_count", lambda: 4)
+    monkeypatch.setattr(par.os, "getloadavg", lambda: (1.2, 0.0, 0.0))
+    assert par.thread_count(None) == 4  # the load is this process's own thread
+    monkeypatch.setattr(par.os, "getloadavg", lambda: (3.6, 0.0, 0.0))
+    assert par.thread_count(None) == 1 and par.thread_count(4) == 4  # busy: one, if free
     assert par.bands(10, 3) == [(0, 3), (3, 6), (6, 10)]
     assert par.bands(2, 5) == [(0, 1), (1, 2)]
     assert par.parts_for(8, 100) == 1  # a small frame stays on one thread
@@ -128,3 +134,29 @@ def test_threads_work_in_a_forked_child():
         child.kill()
         pytest.fail("the forked child hung on the parent's thread pool")
     assert queue.get(timeout=5) > 100
+
+
+def test_run_keeps_order_and_raises_a_helpers_error():
+    args = [(i,) for i in range(11)]
+    for threads in (1, 2, 5):
+        assert par.run(lambda i: i * i, args, threads) == [i * i for i in range(11)]
+
+    def fails_late(i):
+        if i == 10:
+            raise KeyError("piece 10")
+        return i
+
+    for _ in range(5):  # whoever takes the last piece, the caller raises its error
+        with pytest.raises(KeyError, match="piece 10"):
+            par.run(fails_late, args, 3)
+
+
+def test_callers_on_their_own_threads_get_the_same_centroids():
+    from concurrent.futures import ThreadPoolExecutor
+
+    image = starry_frame()
+    one = extract_centroids(image, CentroidConfig(threads=1))
+    with ThreadPoolExecutor(3) as pool:
+        found = list(pool.map(lambda t: extract_centroids(image, CentroidConfig(threads=t)),
+                              [2, 3, 2, 4, 1, 2]))
+    assert all(same(f, one) for f in found)

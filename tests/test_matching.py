@@ -247,31 +247,42 @@ def test_compiled_wahba_and_quaternion_agree_with_scipy():
         assert Rotation.from_quat(q).approx_equal(r, atol=1e-12)
 
 
-def test_pairs_within_grid_is_the_strip_search():
-    """The grid search lists what the strip search lists, on frames at every scale, with
-    rounded (tied) positions, NaN and infinite coordinates and radii on the boundary."""
-    from startrack.matching.nearest_kernels import _pairs_strip, pairs_within
-
-    rng = np.random.default_rng(23)
-    for t in range(3000):
-        m, n = int(rng.integers(0, 50)), int(rng.integers(0, 50))
-        scale = (1.0, 200.0, 1e6, 1e-3)[t % 4]
+def _random_frames(seed, count, scales):
+    """Catalog and observed positions at every scale: ties (rounded positions), stars
+    near their catalog star and stars anywhere, some off the catalog's extent."""
+    rng = np.random.default_rng(seed)
+    for t in range(count):
+        m, n = int(rng.integers(1, 60)), int(rng.integers(0, 60))
+        scale = scales[t % len(scales)]
         cx, cy = rng.uniform(0, scale, m), rng.uniform(0, scale, m)
         if t % 3 == 0:
             cx, cy = np.round(cx), np.round(cy)
         k = min(m, n)
-        ox = np.concatenate([cx[:k] + rng.normal(0, scale / 100, k), rng.uniform(0, scale, n - k)])
-        oy = np.concatenate([cy[:k] + rng.normal(0, scale / 100, k), rng.uniform(0, scale, n - k)])
-        if t % 5 == 0 and m:
+        ox = np.concatenate([cx[:k] + rng.normal(0, scale / 100, k),
+                             rng.uniform(-0.1 * scale, 1.1 * scale, n - k)])
+        oy = np.concatenate([cy[:k] + rng.normal(0, scale / 100, k),
+                             rng.uniform(-0.1 * scale, 1.1 * scale, n - k)])
+        yield t, rng, scale, cx, cy, ox, oy
+
+
+def test_pairs_within_grid_is_the_strip_search():
+    """The grid search lists what the strip search lists, on frames at every scale, with
+    rounded (tied) positions, NaN and infinite coordinates and radii on the boundary."""
+    from startrack.matching.nearest_fallback_kernels import _pairs_strip
+    from startrack.matching.nearest_kernels import pairs_within
+
+    for t, rng, scale, cx, cy, ox, oy in _random_frames(23, 3000, (1.0, 200.0, 1e6, 1e-3)):
+        m, n = len(cx), len(ox)
+        if t % 5 == 0:
             cx[rng.integers(m)] = np.nan
         if t % 7 == 0 and n:
             ox[rng.integers(n)] = np.nan
         if t % 11 == 0 and n:
             ox[rng.integers(n)] = np.inf
-        if t % 17 == 0 and m:
+        if t % 17 == 0:
             cy[rng.integers(m)] = np.inf
         radius2 = (0.0, (scale / 50) ** 2, (scale / 10) ** 2, (scale * 5) ** 2, -1.0)[t % 5]
-        if t % 19 == 0 and n and m:
+        if t % 19 == 0 and n:
             ox[0], oy[0], radius2 = cx[0] + scale / 50, cy[0], (scale / 50) ** 2
         for got, want in zip(pairs_within(ox, oy, cx, cy, radius2),
                              _pairs_strip(ox, oy, cx, cy, radius2), strict=True):
@@ -282,20 +293,10 @@ def test_nearest_scanning_only_the_reached_cells_is_the_3x3_search():
     """Scanning only the cells a star's radius reaches finds what the 3 x 3 cell search
     finds, at every scale, with ties, rounded positions and stars off the catalog's
     extent."""
-    from startrack.matching.nearest_kernels import _nearest, _nearest_cells
+    from startrack.matching.nearest_fallback_kernels import _nearest_cells
+    from startrack.matching.nearest_kernels import _nearest
 
-    rng = np.random.default_rng(29)
-    for t in range(3000):
-        m, n = int(rng.integers(1, 60)), int(rng.integers(1, 60))
-        scale = (1.0, 1024.0, 1e5, 1e-2)[t % 4]
-        cx, cy = rng.uniform(0, scale, m), rng.uniform(0, scale, m)
-        if t % 3 == 0:
-            cx, cy = np.round(cx), np.round(cy)
-        k = min(m, n)
-        ox = np.concatenate([cx[:k] + rng.normal(0, scale / 200, k),
-                             rng.uniform(-0.1 * scale, 1.1 * scale, n - k)])
-        oy = np.concatenate([cy[:k] + rng.normal(0, scale / 200, k),
-                             rng.uniform(-0.1 * scale, 1.1 * scale, n - k)])
+    for t, _, scale, cx, cy, ox, oy in _random_frames(29, 3000, (1.0, 1024.0, 1e5, 1e-2)):
         radius = (0.0, scale / 100, scale / 20, 3 * scale)[t % 4]
         for got, want in zip(_nearest(ox, oy, cx, cy, radius),
                              _nearest_cells(ox, oy, cx, cy, radius), strict=True):
