@@ -81,13 +81,19 @@ class PlanarTriangleMatcher(Matcher):
         triples = _triples(n)
         frame = tl.frame_tuple(vec, triples, k, k * np.sqrt(2.0) * sigma, sigma)
         # A generator still running elsewhere keeps its buffers: this one takes others.
-        memo = [tl.frame_memo(n, self._buffers.pop() if self._buffers else None)]
+        memo = [tl.frame_memo(n, self._spare_buffers())]
         try:
             yield from self._search(triples, frame, memo, diag)
         finally:
             buffers = tl.memo_buffers(memo[0])
             if sum(b.nbytes for b in buffers) <= _KEEP_BYTES:
                 self._buffers.append(buffers)
+
+    def _spare_buffers(self) -> tuple[np.ndarray, ...] | None:
+        try:  # pop() alone: another thread may take the last one between a test and it
+            return self._buffers.pop()
+        except IndexError:
+            return None
 
     def _search(self, triples: np.ndarray, frame: tuple, memo: list[tuple],
                 diag: MatchDiagnostics) -> Iterator[Hypothesis]:
