@@ -162,8 +162,11 @@ def _verify_steps(obs_h: np.ndarray, cat_h: np.ndarray, obs: Observation,
 
 
 def _rejected() -> Verification:
-    none = np.zeros(0, np.int64)
-    return Verification(False, None, none, none, 1.0, 0)
+    return _REJECTED
+
+
+_NONE = np.zeros(0, np.int64)  # empty, so sharing it across refusals is safe
+_REJECTED = Verification(False, None, _NONE, _NONE, 1.0, 0)
 
 
 def _final_labels(project: CatalogProjector,

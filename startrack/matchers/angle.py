@@ -137,15 +137,21 @@ def _count(state: np.ndarray, base: tuple, diag: MatchDiagnostics) -> None:
     """The search's counters (:mod:`startrack.matching.angle_search`) into ``diag``, on
     top of what it held before the search (``base``), keys in the order they arose."""
     pivots, candidates, extra = base
-    diag.pivots = pivots + int(state[angle_search.PIVOTS])
-    diag.candidates = candidates + int(state[angle_search.CANDIDATES])
-    events = ["chains", "lookups", "skipped", "ambiguous"]
-    if state[angle_search.FIRST_EVENT] == angle_search.AMBIGUOUS:
-        events[2:] = events[:1:-1]
-    for key in events:
-        value = int(state[getattr(angle_search, key.upper())])
+    counts = state.tolist()
+    diag.pivots = pivots + counts[angle_search.PIVOTS]
+    diag.candidates = candidates + counts[angle_search.CANDIDATES]
+    events = (_EVENTS_AMBIGUOUS_FIRST if counts[angle_search.FIRST_EVENT] == angle_search.AMBIGUOUS
+              else _EVENTS)
+    for key, at in events:
+        value = counts[at]
         if value:
             diag.extra[key] = extra.get(key, 0) + value if key != "chains" else value
+
+
+# The search's counters by key, in the order they arise (ambiguous answers may come first).
+_EVENTS = (("chains", angle_search.CHAINS), ("lookups", angle_search.LOOKUPS),
+           ("skipped", angle_search.SKIPPED), ("ambiguous", angle_search.AMBIGUOUS))
+_EVENTS_AMBIGUOUS_FIRST = (*_EVENTS[:2], _EVENTS[3], _EVENTS[2])
 
 
 register_variant(AngleMatcher, "angle_closed",
