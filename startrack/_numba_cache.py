@@ -8,7 +8,8 @@ start a fresh cache (an installed release compiles once per version, as before);
 of the last few versions are kept, and no folder used within the last day is removed, so
 checkouts side by side (or a long run of an older install) never lose their kernels while
 they run.
-An explicit ``NUMBA_CACHE_DIR`` is left alone.
+An explicit ``NUMBA_CACHE_DIR`` is left alone; when numba was imported first (and so has
+read its settings already), it is told the folder too.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import os
 import shutil
+import sys
 import time
 from pathlib import Path
 
@@ -43,6 +45,11 @@ def configure() -> None:
     except OSError:  # no writable cache: numba's own default applies
         return
     os.environ["NUMBA_CACHE_DIR"] = str(folder)
+    config = sys.modules.get("numba.core.config")
+    if config is not None:
+        # numba was imported first and read its settings then; each kernel reads the
+        # folder when its module defines it (after this), so telling numba now is enough.
+        config.CACHE_DIR = str(folder)
 
 
 def _source_stamp(package: Path | None = None) -> str:

@@ -69,3 +69,15 @@ def test_import_points_numba_at_the_versioned_folder(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], env=env, text=True,
                          capture_output=True, check=True).stdout.split()
     assert out == [str(tmp_path / "mine")] * 2
+
+
+def test_numba_imported_first_still_uses_the_versioned_folder(tmp_path):
+    """A script that imports numba before startrack (numba has read its settings by then)
+    still caches startrack's kernels in the versioned folder, not beside the sources."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["XDG_CACHE_HOME"] = str(tmp_path)
+    code = ("import numba.core.config as c, startrack, os; "
+            "print(os.environ['NUMBA_CACHE_DIR']); print(c.CACHE_DIR)")
+    out = subprocess.run([sys.executable, "-c", code], env=env, text=True,
+                         capture_output=True, check=True).stdout.split()
+    assert out[0] == out[1] and out[0].startswith(str(tmp_path / "startrack" / "numba"))
