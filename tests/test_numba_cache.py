@@ -57,27 +57,27 @@ def test_prune_spares_folders_in_use(tmp_path):
     assert left == sorted(f"{_numba_cache.PREFIX}{k}" for k in range(recent))
 
 
-def test_import_points_numba_at_the_versioned_folder(tmp_path):
+def _cache_dirs(tmp_path, imports: str, explicit: str | None = None) -> list[str]:
+    """NUMBA_CACHE_DIR and numba's own setting in a fresh interpreter after ``imports``."""
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
     env["XDG_CACHE_HOME"] = str(tmp_path)
-    code = ("import startrack, os, numba.core.config as c; "
+    if explicit is not None:
+        env["NUMBA_CACHE_DIR"] = explicit
+    code = (f"import {imports}, os, numba.core.config as c; "
             "print(os.environ['NUMBA_CACHE_DIR']); print(c.CACHE_DIR)")
-    out = subprocess.run([sys.executable, "-c", code], env=env, text=True,
-                         capture_output=True, check=True).stdout.split()
+    return subprocess.run([sys.executable, "-c", code], env=env, text=True,
+                          capture_output=True, check=True).stdout.split()
+
+
+def test_import_points_numba_at_the_versioned_folder(tmp_path):
+    out = _cache_dirs(tmp_path, "startrack")
     assert out[0] == out[1] and out[0].startswith(str(tmp_path / "startrack" / "numba"))
-    env["NUMBA_CACHE_DIR"] = str(tmp_path / "mine")
-    out = subprocess.run([sys.executable, "-c", code], env=env, text=True,
-                         capture_output=True, check=True).stdout.split()
-    assert out == [str(tmp_path / "mine")] * 2
+    assert _cache_dirs(tmp_path, "startrack", str(tmp_path / "mine")) == [
+        str(tmp_path / "mine")] * 2
 
 
 def test_numba_imported_first_still_uses_the_versioned_folder(tmp_path):
     """A script that imports numba before startrack (numba has read its settings by then)
     still caches startrack's kernels in the versioned folder, not beside the sources."""
-    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
-    env["XDG_CACHE_HOME"] = str(tmp_path)
-    code = ("import numba.core.config as c, startrack, os; "
-            "print(os.environ['NUMBA_CACHE_DIR']); print(c.CACHE_DIR)")
-    out = subprocess.run([sys.executable, "-c", code], env=env, text=True,
-                         capture_output=True, check=True).stdout.split()
+    out = _cache_dirs(tmp_path, "numba.core.config, startrack")
     assert out[0] == out[1] and out[0].startswith(str(tmp_path / "startrack" / "numba"))

@@ -14,7 +14,8 @@ from synth import frames, prepared_matcher
 from triangle_reference import map_vertices as reference_map_vertices
 from triangle_reference import reference_hypotheses
 
-from startrack.database.kvector import KVector
+from startrack.database.kvector import KVector, binary_search_range
+from startrack.database.sort_kernels import kvector_range
 from startrack.matchers import MatcherConfig
 from startrack.matching import triangle_lookup as tl
 from startrack.matching.feature_kernels import features
@@ -87,13 +88,17 @@ def test_interleaved_searches_keep_their_own_memo(random_db):
     assert _same(matcher, b) == len(want_b)
 
 
-def test_kvector_range_matches_the_python_k_vector():
+def test_kvector_range_is_the_binary_search():
+    """The compiled k-vector range the triangle lookup uses answers as a binary search
+    does, empty and NaN ranges included."""
     rng = np.random.default_rng(1)
     values = np.sort(rng.exponential(1.0, 5000))
     kv = KVector.build(values)
     for lo, hi in [(0.1, 0.2), (-1.0, 0.0), (3.0, 2.0), (0.5, 0.5), (10.0, 99.0),
                    (values[7], values[7]), *rng.uniform(0, 3, (40, 2)).tolist()]:
-        assert tl.kvector_range(kv.values, kv.k, kv.m, kv.q, lo, hi) == kv.range(lo, hi)
+        want = binary_search_range(values, lo, hi) if lo <= hi else (0, 0)
+        assert kvector_range(kv.values, kv.k, kv.m, kv.q, lo, hi) == want
+    assert kvector_range(kv.values, kv.k, kv.m, kv.q, np.nan, 1.0) == (0, 0)
 
 
 def test_triple_features_are_the_batch_features_to_the_bit():

@@ -46,28 +46,11 @@ class KVector:
         return len(self.values)
 
     def range(self, lo: float, hi: float) -> tuple[int, int]:
-        """Positions [start, stop) of the sorted values within [lo, hi]."""
-        n = len(self.values)
-        if n == 0 or hi < lo:
-            return 0, 0
-        jb = int(np.floor((lo - self.q) / self.m))
-        jt = int(np.ceil((hi - self.q) / self.m))
-        jb = min(max(jb, 0), n - 1)
-        jt = min(max(jt, 0), n - 1)
-        # k[jb] values lie at or below z(jb) <= lo, so the answer starts at or after it;
-        # k[jt] values lie at or below z(jt) >= hi, so it ends at or before it.
-        start, stop = int(self.k[jb]), int(self.k[jt])
-        s = self.values
-        # Trim the two ends: at most about one bin's worth of values on each side.
-        while start > 0 and s[start - 1] >= lo:
-            start -= 1
-        while start < n and s[start] < lo:  # not bounded by stop: it may still be short
-            start += 1
-        while stop < n and s[stop] <= hi:
-            stop += 1
-        while stop > start and s[stop - 1] > hi:
-            stop -= 1
-        return start, stop
+        """Positions [start, stop) of the sorted values within [lo, hi]
+        (:func:`startrack.database.sort_kernels.kvector_range`)."""
+        start, stop = sort_kernels.kvector_range(self.values, self.k, self.m, self.q,
+                                                 float(lo), float(hi))
+        return int(start), int(stop)
 
 
 def binary_search_range(sorted_values: np.ndarray, lo: float, hi: float) -> tuple[int, int]:

@@ -4,6 +4,8 @@ bisection of a sorted range that the lookups share."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -139,3 +141,28 @@ def count_at_most(values, m, q):
             p += 1
         k[e] = p
     return k
+
+
+@njit(cache=True)
+def kvector_range(values, kk, m, q, lo, hi):
+    """Positions [start, stop) of the sorted ``values`` within [lo, hi], from the k-vector
+    ``kk`` on the line m*i + q (:class:`startrack.database.kvector.KVector`): two entries
+    of ``kk``, then the slice trimmed at its ends (at most about one bin's worth of values
+    on each side). An empty or NaN range is (0, 0)."""
+    n = len(values)
+    if n == 0 or not hi >= lo:
+        return 0, 0
+    jb = int(min(max(math.floor((lo - q) / m), 0.0), n - 1.0))
+    jt = int(min(max(math.ceil((hi - q) / m), 0.0), n - 1.0))
+    # kk[jb] values lie at or below z(jb) <= lo, so the answer starts at or after it;
+    # kk[jt] values lie at or below z(jt) >= hi, so it ends at or before it.
+    start, stop = kk[jb], kk[jt]
+    while start > 0 and values[start - 1] >= lo:
+        start -= 1
+    while start < n and values[start] < lo:  # not bounded by stop: it may still be short
+        start += 1
+    while stop < n and values[stop] <= hi:
+        stop += 1
+    while stop > start and values[stop - 1] > hi:
+        stop -= 1
+    return start, stop

@@ -17,6 +17,7 @@ import math
 import numpy as np
 from numba import njit
 
+from startrack.database.sort_kernels import kvector_range
 from startrack.matching.feature_kernels import features
 
 #: ``state`` entries: database candidates (area window sizes), triangles the polar-moment
@@ -29,27 +30,6 @@ ODD = np.array([False, True, True, False, False, True])
 # The side between vertices i and j of a triangle, by i + j: (0, 1) -> 0, (0, 2) -> 2,
 # (1, 2) -> 1 (sides are |v0 - v1|, |v1 - v2|, |v0 - v2|).
 _SIDE_OF_SUM = np.array([-1, 0, 2, 1], np.int64)
-
-
-@njit(cache=True)
-def kvector_range(values, kk, m, q, lo, hi):
-    """:meth:`startrack.database.kvector.KVector.range` compiled: positions [start, stop)
-    of the sorted ``values`` within [lo, hi], from the k-vector ``kk`` on the line m*i + q."""
-    n = len(values)
-    if n == 0 or hi < lo:
-        return 0, 0
-    jb = int(min(max(math.floor((lo - q) / m), 0.0), n - 1.0))
-    jt = int(min(max(math.ceil((hi - q) / m), 0.0), n - 1.0))
-    start, stop = kk[jb], kk[jt]
-    while start > 0 and values[start - 1] >= lo:
-        start -= 1
-    while start < n and values[start] < lo:
-        start += 1
-    while stop < n and values[stop] <= hi:
-        stop += 1
-    while stop > start and values[stop - 1] > hi:
-        stop -= 1
-    return start, stop
 
 
 @njit(cache=True, inline="always")
