@@ -13,6 +13,8 @@ import math
 import numpy as np
 from numba import njit
 
+from startrack.database.build_kernels import triangle_features_one
+
 _H = 1e-6  # feature_sigmas' central-difference step
 
 
@@ -28,14 +30,6 @@ def _norm(u):
 
 
 @njit(cache=True)
-def area_polar(v1, v2, v3):
-    """(area, polar moment) of the planar triangle through unit vectors v1, v2, v3."""
-    area = 0.5 * _norm(_cross(v2 - v1, v3 - v1))
-    a, b, c = _norm(v1 - v2), _norm(v2 - v3), _norm(v1 - v3)
-    return area, area * (a * a + b * b + c * c) / 36.0
-
-
-@njit(cache=True)
 def _tangent_basis(v):
     helper = np.zeros(3)
     helper[np.argmin(np.abs(v))] = 1.0
@@ -46,25 +40,23 @@ def _tangent_basis(v):
 
 @njit(cache=True)
 def features(v1, v2, v3, sigma):
-    """(area, polar, sigma_area, sigma_polar) of one triple: first-order propagation of
-    ``sigma`` per tangent axis by central differences, as ``feature_sigmas``."""
-    verts = (v1, v2, v3)
+    """(area, polar, sigma_area, sigma_polar) of one triple: the database build's own
+    :func:`~startrack.database.build_kernels.triangle_features_one`, and first-order
+    propagation of ``sigma`` per tangent axis by central differences, as
+    ``feature_sigmas``."""
+    verts = np.empty((3, 3))
+    verts[0], verts[1], verts[2] = v1, v2, v3
     var_a = var_j = 0.0
     for n in range(3):
-        t1, t2 = _tangent_basis(verts[n])
-        for t in (t1, t2):
-            plus, minus = verts[n] + _H * t, verts[n] - _H * t
-            if n == 0:
-                ap, jp = area_polar(plus, v2, v3)
-                am, jm = area_polar(minus, v2, v3)
-            elif n == 1:
-                ap, jp = area_polar(v1, plus, v3)
-                am, jm = area_polar(v1, minus, v3)
-            else:
-                ap, jp = area_polar(v1, v2, plus)
-                am, jm = area_polar(v1, v2, minus)
+        v = verts[n].copy()
+        for t in _tangent_basis(v):
+            verts[n] = v + _H * t
+            ap, jp = triangle_features_one(verts, 0, 1, 2)
+            verts[n] = v - _H * t
+            am, jm = triangle_features_one(verts, 0, 1, 2)
             da, dj = (ap - am) / (2 * _H), (jp - jm) / (2 * _H)
             var_a += da * da
             var_j += dj * dj
-    area, polar = area_polar(v1, v2, v3)
+        verts[n] = v
+    area, polar = triangle_features_one(verts, 0, 1, 2)
     return area, polar, sigma * math.sqrt(var_a), sigma * math.sqrt(var_j)

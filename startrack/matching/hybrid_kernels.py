@@ -8,6 +8,7 @@ import numpy as np
 from numba import njit
 
 from startrack.database.build_kernels import triangle_features_one
+from startrack.matching.feature_kernels import features
 
 
 @njit(cache=True)
@@ -128,39 +129,12 @@ def angle_votes(pi, pj, windows, n_catalog):
 
 
 @njit(cache=True)
-def _tangent_basis(v):
-    """:func:`startrack.database.triangles._tangent_basis` for one unit vector."""
-    axis = np.argmin(np.abs(v))
-    helper = np.zeros(3)
-    helper[axis] = 1.0
-    t1 = np.cross(v, helper)
-    t1 /= np.sqrt(np.sum(t1 * t1))
-    return t1, np.cross(v, t1)
-
-
-@njit(cache=True)
 def triple_features(vectors, triples, sigma):
     """(area, polar, sigma_area, sigma_polar) of each observed triple (rows of
-    ``triples``): :func:`startrack.database.triangles.triangle_features` and
-    :func:`~startrack.database.triangles.feature_sigmas` (central differences along two
-    tangent directions per vertex), compiled for one frame's few triples."""
-    h = 1e-6
+    ``triples``): :func:`startrack.matching.feature_kernels.features`, for one frame's
+    few triples."""
     out = np.empty((len(triples), 4))
-    verts = np.empty((3, 3))
     for t in range(len(triples)):
-        for n in range(3):
-            verts[n] = vectors[triples[t, n]]
-        out[t, 0], out[t, 1] = triangle_features_one(verts, 0, 1, 2)
-        var_a = var_j = 0.0
-        for n in range(3):
-            v = verts[n].copy()
-            for step in _tangent_basis(v):
-                verts[n] = v + h * step
-                ap, jp = triangle_features_one(verts, 0, 1, 2)
-                verts[n] = v - h * step
-                am, jm = triangle_features_one(verts, 0, 1, 2)
-                var_a += ((ap - am) / (2 * h)) ** 2
-                var_j += ((jp - jm) / (2 * h)) ** 2
-            verts[n] = v
-        out[t, 2], out[t, 3] = sigma * np.sqrt(var_a), sigma * np.sqrt(var_j)
+        out[t, 0], out[t, 1], out[t, 2], out[t, 3] = features(
+            vectors[triples[t, 0]], vectors[triples[t, 1]], vectors[triples[t, 2]], sigma)
     return out
