@@ -52,13 +52,18 @@ def catalog_sides(tri_rows, vectors):
     """Side lengths (M x 3: |v0 - v1|, |v1 - v2|, |v0 - v2|) and handedness (M) of the
     catalog triangles ``tri_rows`` (M x 3 rows of ``vectors``) in their table order."""
     m = len(tri_rows)
-    sides = np.empty((m, 3))
-    hand = np.empty(m)
+    out = np.empty((m, 4))
     for r in range(m):
-        v0, v1, v2 = vectors[tri_rows[r, 0]], vectors[tri_rows[r, 1]], vectors[tri_rows[r, 2]]
-        sides[r, 0], sides[r, 1], sides[r, 2] = _dist(v0, v1), _dist(v1, v2), _dist(v0, v2)
-        hand[r] = _hand(v0, v1, v2)
-    return sides, hand
+        _describe(vectors[tri_rows[r, 0]], vectors[tri_rows[r, 1]], vectors[tri_rows[r, 2]],
+                  out[r])
+    return out[:, :3], out[:, 3]
+
+
+@njit(cache=True, inline="always")
+def _describe(v0, v1, v2, out):
+    """A triangle's sides |v0 - v1|, |v1 - v2|, |v0 - v2| and handedness into out[:4]."""
+    out[0], out[1], out[2], out[3] = _dist(v0, v1), _dist(v1, v2), _dist(v0, v2), \
+        _hand(v0, v1, v2)
 
 
 @njit(cache=True)
@@ -173,10 +178,9 @@ def _kept(code, frame, table, memo, state):
         kept = _grown(kept, fill, m)
         for r in range(m):
             i, j, l = rows[scratch[r], 0], rows[scratch[r], 1], rows[scratch[r], 2]
-            v0, v1, v2 = cat[i], cat[j], cat[l]
             out = kept[fill + r]
-            out[0], out[1], out[2], out[6] = i, j, l, _hand(v0, v1, v2)
-            out[3], out[4], out[5] = _dist(v0, v1), _dist(v1, v2), _dist(v0, v2)
+            out[0], out[1], out[2] = i, j, l
+            _describe(cat[i], cat[j], cat[l], out[3:7])
         kept_info[code, 0], kept_info[code, 1], kept_info[code, 2] = fill, m, stop - start
         state[KEPT_FILL] = fill + m
     return kept_info[code, 0], kept_info[code, 1], kept_info[code, 2], (
