@@ -104,7 +104,7 @@ def main() -> int:
     print("## 1. The issue's sequence\n" + base_md + "\n\nframes by mode:\n" + modes.to_string()
           + f"\n\nlost-in-space / tracking median identify time, same frames: {ratio}\n")
 
-    profile_md = profile_report(args.frames, args.seed)
+    profile_md = profile_report(catalog, camera, args.frames, args.seed)
     print("## Where the time goes\n" + profile_md + "\n")
 
     ev = _events(catalog, camera, idents, peer, args.seed + 1)

@@ -137,12 +137,11 @@ def _stages(captured, repeats=5):
     return out
 
 
-def report(frames: int = 200, seed: int = 0) -> str:
-    """The three sections as markdown lines (what :func:`main` prints)."""
-    cfg = load_config(ROOT / "configs" / "hipparcos20.toml")
-    catalog = load_sky(resolve_sky(cfg.sky, cfg.camera), cfg.camera)
-    ident = Identifier(cfg.camera, catalog, "pyramid")
-    seq = tb.make_sequence(catalog, cfg.camera, tb.TrackCondition(), frames, 10.0, seed)
+def report(catalog, camera, frames: int = 200, seed: int = 0) -> str:
+    """The three sections as markdown lines (what :func:`main` prints), on
+    configs/hipparcos20.toml's catalog and camera."""
+    ident = Identifier(camera, catalog, "pyramid")
+    seq = tb.make_sequence(catalog, camera, tb.TrackCondition(), frames, 10.0, seed)
     _in_flow(seq[:20], ident)  # compile and warm
     rows, captured = _in_flow(seq, ident)
     tracked, kernel, lis, search = np.median(rows, axis=0) * 1e3
@@ -173,7 +172,9 @@ def main() -> int:
     parser.add_argument("--frames", type=int, default=200)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    print(report(args.frames, args.seed))
+    cfg = load_config(ROOT / "configs" / "hipparcos20.toml")
+    catalog = load_sky(resolve_sky(cfg.sky, cfg.camera), cfg.camera)
+    print(report(catalog, cfg.camera, args.frames, args.seed))
     return 0
 
 
