@@ -1,16 +1,17 @@
 """Tracking: solve a frame near a predicted attitude, held to lost-in-space's proof.
 
 A star tracker runs lost-in-space once and then tracks. :class:`startrack.tracker.Tracker`
-predicts each frame's attitude and its uncertainty from the frames before it;
-:func:`track` pairs the brightest observed stars with the catalog stars projected at the
-prediction inside a window sized from that uncertainty, keeps the pairs that agree on one
-image displacement (a vote, so a false star or a neighbour inside the window cannot pull
-the match), and tests three-star hypotheses from them exactly as
-:func:`startrack.verify.verify` does: the same Wahba fit, the same match radius and the
-same binomial false-match bound, with evidence only from stars outside the hypothesis
-(scipy decides wherever the compiled screen is within 1% of the bound), then the same
-labelling. All of it is one compiled call
-(:func:`startrack.tracking_kernels.attempt`) over catalog rows that a
+predicts each frame's attitude and its uncertainty from the frames before it; :func:`track`
+first tests the prediction itself as the hypothesis: the frame's stars matched to the
+catalog stars projected at it within a window sized from that uncertainty, accepted only
+when so many matches would come from an unrelated frame with no more than verification's
+false-match probability, then refined and labelled as verification does
+(:mod:`startrack.prior_kernels`). Where the window is too wide for that test to have power
+(after unsolved frames, say), a vote on the image displacement picks consistent pairs,
+and three-star hypotheses from them are tested exactly as :func:`startrack.verify.verify`
+tests them: the same Wahba fit, the same match radius and the same binomial bound, with
+evidence only from stars outside the hypothesis, then the same labelling
+(:func:`startrack.tracking_kernels.attempt`). Both run compiled over catalog rows that a
 :class:`CatalogCone` keeps from frame to frame. A tracked attitude is therefore never
 easier to accept wrongly than a lost-in-space one. When tracking fails, the frame falls
 back to lost-in-space.
@@ -33,6 +34,7 @@ from startrack.database import StarDatabase
 from startrack.identify import residuals_arcsec
 from startrack.labelling import kernel_params
 from startrack.matching.projector import CAPTURE, CONE_LOOKUP_MARGIN, MAX_REFINEMENTS, cone_radius
+from startrack.prior_kernels import attempt_at_prior
 from startrack.tracking_kernels import attempt, consistent_pairs, nearby
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
 from startrack.verify import VerifyConfig, rotation_of
@@ -127,8 +129,8 @@ class CatalogCone:
 
     def setup(self, obs: Observation, vc: VerifyConfig, config: TrackConfig) -> tuple:
         """What stays from frame to frame of one camera and centroid error: the match
-        radius, the attempt kernel's ``scan`` and the labelling's floats and ``min_fit``
-        (:func:`startrack.labelling.kernel_params`)."""
+        radius, the attempt kernel's ``scan``, the labelling's floats and ``min_fit``
+        (:func:`startrack.labelling.kernel_params`) and the camera's geometry."""
         key = (obs.camera, obs.sigma_rad, vc, config)
         if key != self._key:
             cam = obs.camera
@@ -152,7 +154,7 @@ class CatalogCone:
             scan[tk.S_HALF_SIDE], scan[tk.S_SETTLE_MISSES] = half, SETTLE_MISSES
             scan[tk.S_VOTE_CENTRES], scan[tk.S_CONE_REUSE] = VOTE_CENTRES, CONE_REUSE_RAD
             self._setup = (radius_px, scan, np.array(label[2:11], dtype=np.float64),
-                           label[11])
+                           label[11], cam.geometry)
             self._key = key
         return self._setup
 
@@ -186,11 +188,11 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
     cone = cone or CatalogCone()
     t0 = time.perf_counter()
     result, counts = None, (0, 0)
-    radius_px, scan, floats, min_fit = cone.setup(obs, verify_config, config)
+    setup = cone.setup(obs, verify_config, config)
+    radius_px, scan = setup[0], setup[1]
     window = scan[tk.S_WINDOW] * prior.sigma_rad + radius_px
     if len(obs) >= 3 and window <= config.max_window_px:
-        result, counts = _attempt(obs, database, prior, cone, window,
-                                  (radius_px, scan, floats, min_fit))
+        result, counts = _attempt(obs, database, prior, cone, window, setup)
     # The time of matching, verification and the attitude, as identify() counts it (the
     # Solution's residuals and Rotation are not).
     elapsed = (time.perf_counter() - t0) * 1000.0
@@ -209,33 +211,54 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
                     diagnostics=diag, identify_ms=elapsed, mode="tracking")
 
 
-def _attempt(obs, database, prior, cone, window, setup, start=0):
-    """The compiled attempt (:func:`startrack.tracking_kernels.attempt`), with the held
-    rows looked up again where they do not cover the prediction. Returns ((attitude,
-    observed index, catalog rows, bound) or None, (pairs in the window, hypotheses));
-    ``start``: the first hypothesis tried (tests)."""
-    radius_px, scan, floats, min_fit = setup
-    cam = obs.camera
-    matrix = np.ascontiguousarray(prior.matrix, dtype=np.float64)
+def frame_args(obs: Observation, prior: Prior, setup: tuple) -> tuple:
+    """The frame's arguments of the attempt kernels, after the held rows' (``obs``'s
+    vectors, x, y, camera geometry, the prior's matrix and sigma, then ``setup``'s scan,
+    the flux (x when there is none) and whether there is one, the labelling's floats and
+    ``min_fit``), as :func:`startrack.labelling.kernel_params` passes them."""
+    radius_px, scan, floats, min_fit, geometry = setup
+    has_flux = obs.flux is not None
+    flux = np.ascontiguousarray(obs.flux if has_flux else obs.x, dtype=np.float64)
+    return (np.ascontiguousarray(obs.vectors, dtype=np.float64),
+            np.ascontiguousarray(obs.x, dtype=np.float64),
+            np.ascontiguousarray(obs.y, dtype=np.float64), geometry,
+            np.ascontiguousarray(prior.matrix, dtype=np.float64), float(prior.sigma_rad),
+            scan, flux, has_flux, floats, min_fit)
+
+
+def _attempt(obs, database, prior, cone, window, setup, start=0, test_prior=True):
+    """The compiled attempts: the prediction tested as its own hypothesis
+    (:func:`startrack.prior_kernels.attempt_at_prior`), then, when that is not accepted,
+    the vote and three-star hypotheses (:func:`startrack.tracking_kernels.attempt`), with
+    the held rows looked up again where they do not cover the prediction. Returns
+    ((attitude, observed index, catalog rows, bound) or None, (pairs in the window,
+    hypotheses, the prediction counted as one when tested)); ``start``: the first
+    three-star hypothesis tried; ``test_prior``: whether the prediction is tested first
+    (tests of the three-star attempt alone set it False)."""
+    radius_px, scan = setup[0], setup[1]
+    args = frame_args(obs, prior, setup)
+    matrix, turn = args[4], window / scan[tk.S_HALF_SIDE]
     looked_up = cone.database is not database
     if looked_up:
-        cone.look_up(database, cam, matrix, window / scan[tk.S_HALF_SIDE], radius_px)
-    has_flux = obs.flux is not None  # as kernel_params passes them
-    flux = np.ascontiguousarray(obs.flux if has_flux else obs.x, dtype=np.float64)
-    args = (np.ascontiguousarray(obs.vectors, dtype=np.float64),
-            np.ascontiguousarray(obs.x, dtype=np.float64),
-            np.ascontiguousarray(obs.y, dtype=np.float64), cam.geometry, matrix,
-            float(prior.sigma_rad), scan, flux, has_flux, floats, min_fit)
+        cone.look_up(database, obs.camera, matrix, turn, radius_px)
+    tested = int(test_prior)
     while True:
-        status, _, tried, n_pairs, _, _, prob, obs_i, rows, final = attempt(
-            cone.vectors, cone.mags, cone.rows, cone.matrix, cone.turn, *args, start)
-        if status == 1:
-            return (final, obs_i, rows, prob), (n_pairs, tried)
+        held = (cone.vectors, cone.mags, cone.rows, cone.matrix, cone.turn)
+        status, n_pairs, tried = 0, 0, 0
+        if tested:
+            status, n_pairs, _, prob, obs_i, rows, final = attempt_at_prior(*held, *args)
+            if status == 1:
+                return (final, obs_i, rows, prob), (n_pairs, tested)
+        if status != 4:
+            status, _, tried, n_pairs, _, _, prob, obs_i, rows, final = attempt(
+                *held, *args, start)
+            if status == 1:
+                return (final, obs_i, rows, prob), (n_pairs, tried + tested)
         if status == 4 and not looked_up:  # once: fresh rows cover it
-            cone.look_up(database, cam, matrix, window / scan[tk.S_HALF_SIDE], radius_px)
+            cone.look_up(database, obs.camera, matrix, turn, radius_px)
             looked_up = True
             continue
-        return None, (n_pairs, tried)
+        return None, (n_pairs, tried + tested)
 
 
 def hypotheses(obs: Observation, database: StarDatabase, prior: Prior,
@@ -244,7 +267,7 @@ def hypotheses(obs: Observation, database: StarDatabase, prior: Prior,
     """The three-star hypotheses :func:`track` tries on ``obs`` near ``prior``, in its
     order (to check its decisions against :func:`startrack.verify.verify`'s)."""
     vc, config, cone = verify_config or VerifyConfig(), config or TrackConfig(), CatalogCone()
-    radius_px, scan, _, _ = cone.setup(obs, vc, config)
+    radius_px, scan = cone.setup(obs, vc, config)[:2]
     window = scan[tk.S_WINDOW] * prior.sigma_rad + radius_px
     tol = scan[tk.S_KEEP] * prior.sigma_rad + radius_px
     matrix = np.ascontiguousarray(prior.matrix, dtype=np.float64)

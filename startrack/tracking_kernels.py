@@ -122,7 +122,7 @@ def _triples(n, limit):
 
 
 @njit(cache=True)
-def _near(a, b, min_trace):
+def near(a, b, min_trace):
     """Whether attitudes ``a`` and ``b`` differ by at most the angle whose
     ``1 + 2 cos`` is ``min_trace`` (the trace of a^T b)."""
     t = 0.0
@@ -170,11 +170,11 @@ def _settle(obs_vectors, ox, oy, vectors, mags, geometry, scan, flux, has_flux, 
 
 
 @njit(cache=True)
-def _covers(cone_matrix, cone_turn, prior, turn, reuse):
+def covers(cone_matrix, cone_turn, prior, turn, reuse):
     """Whether rows held for attitudes within ``cone_turn`` of ``cone_matrix`` cover those
     within ``turn`` of ``prior`` (rotation angles add up), and are not far wider."""
     spare = cone_turn - turn
-    return 0.0 <= spare <= 2.0 * reuse and _near(cone_matrix, prior,
+    return 0.0 <= spare <= 2.0 * reuse and near(cone_matrix, prior,
                                                   1.0 + 2.0 * math.cos(spare))
 
 
@@ -212,7 +212,7 @@ def attempt(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, ox, oy, ge
     window, tol = scan[S_WINDOW] * sigma + r, scan[S_KEEP] * sigma + r
     turn = window / scan[S_HALF_SIDE]
     none = np.zeros(0, np.int64)
-    if not _covers(cone_matrix, cone_turn, prior, turn, scan[S_CONE_REUSE]):
+    if not covers(cone_matrix, cone_turn, prior, turn, scan[S_CONE_REUSE]):
         return 4, -1, 0, 0, 0, 0, 1.0, none, none, prior
     turn_trace = 1.0 + 2.0 * math.cos(min(turn, math.pi))
     m = min(ox.shape[0], int(scan[S_MAX_STARS]))
@@ -226,7 +226,7 @@ def attempt(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, ox, oy, ge
         fits, matrix, obs_m, pos, n_in, confirmed = verify_kernels.first_match_fixed(
             obs_vectors, ox, oy, oi[triples[h]], vectors[cj[triples[h]]], vectors,
             geometry, r, scan[S_COS_RADIUS])
-        if not fits or not _near(matrix, prior, turn_trace) \
+        if not fits or not near(matrix, prior, turn_trace) \
                 or confirmed < int(scan[S_MIN_CONFIRMED]):
             continue
         prob = binomial_tail(confirmed - 1, ox.shape[0] - 3,
@@ -236,7 +236,7 @@ def attempt(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, ox, oy, ge
         obs_i, pos_i, refined, final = _settle(obs_vectors, ox, oy, vectors, mags, geometry,
                                                scan, flux, has_flux, label, min_fit, oi,
                                                obs_m, pos)
-        status = 1 if _near(refined, prior, turn_trace) else 3
+        status = 1 if near(refined, prior, turn_trace) else 3
         return status, h, tried, n_pairs, confirmed, n_in, prob, obs_i, rows[pos_i], final
     return 0, -1, tried, n_pairs, 0, 0, 1.0, none, none, prior
 

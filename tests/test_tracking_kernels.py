@@ -32,7 +32,7 @@ def _run_from(obs, db, prior, config, start):
     cone = CatalogCone()
     setup = cone.setup(obs, config, TrackConfig())
     window = setup[1][0] * prior.sigma_rad + setup[0]
-    return _attempt(obs, db, prior, cone, window, setup, start)
+    return _attempt(obs, db, prior, cone, window, setup, start, test_prior=False)
 
 
 def test_attempt_accepts_and_rejects_as_verify_does(hip_db):
