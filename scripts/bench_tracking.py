@@ -179,8 +179,13 @@ solver.reset()                                        # a new sequence
 
 Inputs of a sequence are taken as evenly spaced in time, in the order given. Each frame is
 predicted from the last two solved ones; the match window comes from the prediction's
-uncertainty; a hypothesis from it must pass the same binomial false-match test as a
-lost-in-space one (`startrack/tracking.py`), else the frame falls back to lost-in-space.
+uncertainty. The prediction is tested as its own hypothesis: every star of the frame is
+evidence for it, and the number within the window of a catalog star must be one that an
+unrelated frame gives with no more than verification's false-match probability (the same
+binomial bound, over the window's area). When the window is too wide for that, three-star
+hypotheses from a vote on the image displacement pass lost-in-space's own test
+(`startrack/tracking.py`). Either way the frame is then refined and labelled as
+lost-in-space's accepted hypothesis is; failing both, it falls back to lost-in-space.
 
 ## The issue's sequence
 
@@ -195,9 +200,9 @@ Frames by mode:
 
 Median identify time, lost-in-space over tracking, on the same frames: {ratio}.
 Both modes count the same span: the prediction (tracking), matching, verification and
-the attitude, not the assembly of the result (residuals, the Rotation object); a tracked
-frame's verification, refinement and labelling are lost-in-space's own, so tracking saves
-the pattern search alone.
+the attitude, not the assembly of the result (residuals, the Rotation object). A tracked
+frame's refinement and labelling are lost-in-space's own; tracking saves the pattern
+search and the hypotheses' first tests.
 
 ## Where the time goes
 
