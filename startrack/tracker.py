@@ -23,8 +23,7 @@ import numpy as np
 
 from startrack.database import StarDatabase
 from startrack.prediction_kernels import predict_attitude
-from startrack.tracking import CatalogCone, Prior, TrackConfig, track
-from startrack.tracking_kernels import warm_up
+from startrack.tracking import CatalogCone, Prior, TrackConfig, track, warm_up
 from startrack.types import Observation, Solution
 from startrack.verify import VerifyConfig
 

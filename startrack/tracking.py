@@ -28,6 +28,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from startrack import prior_kernels
 from startrack import tracking_kernels as tk
 from startrack.camera import Camera
 from startrack.database import StarDatabase
@@ -279,3 +280,10 @@ def hypotheses(obs: Observation, database: StarDatabase, prior: Prior,
     picks = itertools.islice(itertools.combinations(range(min(len(oi), HYPOTHESIS_PAIRS)), 3),
                              config.max_hypotheses)
     return [Hypothesis(oi[list(p)], cone.rows[cj[list(p)]]) for p in picks]
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every kernel a tracked frame runs, so that the
+    first frame of a sequence is not timed with the compilation."""
+    tk.warm_up()
+    prior_kernels.warm_up()
