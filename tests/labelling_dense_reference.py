@@ -20,8 +20,18 @@ from startrack.matching.labelling_kernels import (
     N_REASONS,
     _log,
     _median,
-    _unresolved,
 )
+
+
+@njit(cache=True)
+def _unresolved(x, y, j, resolve2):
+    """Whether another catalog star lies within ``sqrt(resolve2)`` of catalog star j: the
+    direct scan (the kernel sweeps the catalog once, sorted along x)."""
+    hit = False
+    for k in range(len(x)):
+        dx, dy = x[j] - x[k], y[j] - y[k]
+        hit |= (dx * dx + dy * dy < resolve2) & (k != j)
+    return hit
 
 
 @njit(cache=True)

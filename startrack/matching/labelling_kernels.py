@@ -184,13 +184,28 @@ def _rivals(e_obs, e_cat, start, cand, log_g, gap, n_cat):
 
 
 @njit(cache=True)
-def _unresolved(x, y, j, resolve2):
-    """Whether another catalog star lies within ``sqrt(resolve2)`` of catalog star j."""
-    hit = False
-    for k in range(len(x)):  # no early exit: the loop compiles to vector instructions
-        dx, dy = x[j] - x[k], y[j] - y[k]
-        hit |= (dx * dx + dy * dy < resolve2) & (k != j)
-    return hit
+def _crowded(x, y, resolve2):
+    """Per catalog star, whether another lies closer than ``sqrt(resolve2)`` (squared
+    distance below ``resolve2``; NaN is no neighbour): a sweep along x, in x order, that
+    stops where the x gap alone reaches the limit, so a frame costs O(m log m) and not
+    O(n m)."""
+    m = x.shape[0]
+    crowded = np.zeros(m, np.bool_)
+    if not resolve2 > 0.0:
+        return crowded  # no squared distance is below it
+    order = np.argsort(x)
+    for a in range(m):
+        i = order[a]
+        for b in range(a + 1, m):
+            j = order[b]
+            gap = x[j] - x[i]
+            # Later stars are farther along x, and dy^2 only adds: none is closer.
+            if gap * gap >= resolve2:
+                break
+            dx, dy = x[i] - x[j], y[i] - y[j]
+            if dx * dx + dy * dy < resolve2:
+                crowded[i] = crowded[j] = True
+    return crowded
 
 
 @njit(cache=True)
@@ -234,6 +249,7 @@ def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area,
         if cand[k]:
             log_g[k] = -e_d2[k] / (2.0 * (sigma * sigma))
     best, top, clear = _rivals(e_obs, e_cat, start, cand, log_g, gap, n_cat)
+    crowded = _crowded(x, y, resolve2)
     withheld = np.zeros(N_REASONS, np.int64)
     ok = np.zeros(n_obs, np.bool_)
     best_cat = np.zeros(n_obs, np.int64)  # numpy's argmax of an all -inf row: 0
@@ -249,7 +265,7 @@ def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area,
             log_true = log_true + _log_b_at(e_cat, log_b, start[i], start[i + 1], 0)
         if not cand[start[i]:start[i + 1]].any():
             withheld[0] += 1
-        elif n_cat and _unresolved(x, y, best_cat[i], resolve2):
+        elif n_cat and crowded[best_cat[i]]:
             withheld[1] += 1
         elif not clear[i]:
             withheld[2] += 1
