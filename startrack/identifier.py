@@ -56,6 +56,12 @@ class FrameResult:
                                fov_deg=self.camera.fov_deg)
 
 
+def observation(centroids: Centroids, camera: Camera, sigma_px: float) -> Observation:
+    """The centroids seen through ``camera`` (their flux with them when it is measured)."""
+    flux = centroids.flux if centroids.photometric else None
+    return Observation.from_pixels(centroids.x, centroids.y, camera, sigma_px, flux=flux)
+
+
 class Identifier:
     """A loaded catalog, database and matcher for one camera and sky."""
 
@@ -85,9 +91,7 @@ class Identifier:
         self.load_seconds = time.perf_counter() - t0
 
     def observation(self, centroids: Centroids) -> Observation:
-        flux = centroids.flux if centroids.photometric else None
-        return Observation.from_pixels(centroids.x, centroids.y, self.camera, self.sigma_px,
-                                       flux=flux)
+        return observation(centroids, self.camera, self.sigma_px)
 
     def identify(self, obs: Observation, deadline: Deadline | None = None) -> Solution:
         """Identify the stars of an observation made elsewhere (the bench's frames), by

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from startrack.camera import Camera
 from startrack.centroids import DEFAULT_SIGMA_PX
+from startrack.database import StarDatabase
 from startrack.deadline import Deadline
 from startrack.errors import InputError
 from startrack.fov import DEFAULT_FOV_TOLERANCE, BlindSolver, refit_fov, solve_approximate
@@ -113,9 +114,12 @@ class Pipeline:
     def solve(self, frame: FrameInput) -> FrameResult:
         """Identify one input that is already read (startrack.fov: a nominal or unknown
         field of view), its attitude corrected for aberration when the time is known."""
-        return self.correct_aberration(frame, self._identify(frame))
+        return self.correct_aberration(frame, self.identify_frame(frame))
 
-    def _identify(self, frame: FrameInput) -> FrameResult:
+    def identify_frame(self, frame: FrameInput) -> FrameResult:
+        """:meth:`solve` without the aberration correction: the attitude in the catalog's
+        frame (what a tracker predicts from), through the fitted camera when the field
+        of view was nominal or unknown."""
         camera, sky = self.setup_for(frame)
         x, y = frame.centroids.x, frame.centroids.y
         # One deadline for every stage below; it starts with the configured stage loaded
@@ -188,6 +192,13 @@ class Pipeline:
         except InputError:
             return False
         return True
+
+    def database_of(self, catalog: Catalog) -> StarDatabase | None:
+        """The database an identifier already holds for ``catalog``, if any."""
+        for ident in self._identifiers.values():
+            if ident.catalog is catalog:
+                return ident.database
+        return None
 
     def catalog(self, sky: SkySpec, camera: Camera | None) -> Catalog:
         """The catalog of ``sky`` (for ``camera``: its close stars merged), loaded once."""

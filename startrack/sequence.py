@@ -11,14 +11,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 from startrack.attitude import from_radec_roll
+from startrack.camera import Camera
+from startrack.database import StarDatabase
 from startrack.errors import InputError
-from startrack.identifier import FrameResult
+from startrack.identifier import FrameResult, observation
 from startrack.pipeline import FrameInput, Pipeline, read_input
+from startrack.sky import Catalog, SkySpec
 from startrack.tracker import Tracker
 from startrack.tracking import Prior, TrackConfig
+from startrack.types import Solution, Timing
+from startrack.verify import VerifyConfig
 
 DEFAULT_PRIOR_SIGMA_DEG = 1.0
 
@@ -37,23 +43,41 @@ def prior_from_radec_roll(ra_deg: float, dec_deg: float, roll_deg: float,
                                math.radians(sigma_deg))
 
 
+@dataclass(frozen=True)
+class _Held:
+    """What a frame is tracked with: the camera of the last lost-in-space solution (the
+    fitted one where the field of view was nominal or unknown), the catalog its rows
+    index, a database of it for cone lookups, and the method named on tracked frames."""
+
+    camera: Camera
+    catalog: Catalog
+    database: StarDatabase
+    method: str
+
+
 class SequenceSolver:
     """Solve inputs as one sequence (``track=True``) or each alone near ``prior``.
 
     With ``track`` the first input is solved lost-in-space (or near ``prior``), each later
-    one by tracking from the attitudes before it, falling back to lost-in-space; without
-    it every input is solved near ``prior`` alone (and falls back the same way).
+    one by tracking from the attitudes before it, through the camera that lost-in-space
+    established, falling back to lost-in-space; without it every input is solved near
+    ``prior`` alone (and falls back the same way). Lost-in-space is the pipeline's own
+    (:meth:`startrack.pipeline.Pipeline.identify_frame`): a nominal or unknown field of
+    view and a deep narrow-field sky are solved as a single input is.
     """
 
     def __init__(self, pipeline: Pipeline, *, track: bool = True, prior: Prior | None = None,
                  config: TrackConfig | None = None) -> None:
         self.pipeline, self.track, self.prior, self.config = pipeline, track, prior, config
         self.tracker = Tracker(config, initial=prior)
+        self.verify_config = VerifyConfig()
         self._setup = None
+        self._held: _Held | None = None
 
     def reset(self) -> None:
         """Start a new sequence: the next input is solved lost-in-space (or near prior)."""
         self.tracker.reset()
+        self._held = None
 
     def skip(self) -> None:
         """An input of the sequence that could not be read: a frame with no solution."""
@@ -63,18 +87,50 @@ class SequenceSolver:
     def solve(self, frame: FrameInput) -> FrameResult:
         """Solve the next input of the sequence, already read."""
         setup = self.pipeline.setup_for(frame)
-        ident = self.pipeline.identifier(*setup)
         if not self.track or setup != self._setup:
-            self.tracker.reset()  # a single frame, or another camera: no state carries
+            self.reset()  # a single frame, or another camera: no state carries
         self._setup = setup
-
-        def step(obs):
-            solution = self.tracker.step(obs, ident.database, ident.verify_config,
-                                         ident.identify, ident.matcher.name)
-            return solution if self.track else dataclasses.replace(solution, lock=None)
-
-        return self.pipeline.correct_aberration(frame, ident.solve(frame, identify=step))
+        held = self._held or self._seeded(*setup)
+        spent = 0.0
+        if held is not None and frame.size in (None, (held.camera.width, held.camera.height)):
+            obs = observation(frame.centroids, held.camera, self.pipeline.options.sigma_px)
+            tracked = self.tracker.attempt(obs, held.database, self.verify_config, held.method)
+            if tracked is not None and tracked.solved:
+                solution = self._lock(self.tracker.record(tracked, obs, "tracking"))
+                return self.pipeline.correct_aberration(frame, FrameResult(
+                    frame.name, solution, obs, frame.centroids, _timing(frame, solution),
+                    held.camera, held.catalog, self.pipeline.options.sigma_px,
+                    self.verify_config.radius_px(obs), frame.image))
+            spent = 0.0 if tracked is None else tracked.identify_ms
+        found = self.pipeline.identify_frame(frame)
+        solution = dataclasses.replace(found.solution,
+                                       identify_ms=found.solution.identify_ms + spent)
+        solution = self._lock(self.tracker.record(solution, found.obs, "lost_in_space"))
+        if solution.solved:
+            self._held = self._holding(found.camera, found.catalog, solution.method)
+        return self.pipeline.correct_aberration(frame, dataclasses.replace(
+            found, solution=solution, timing=_timing(frame, solution)))
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` and solve it as the next input of the sequence."""
         return self.solve(read_input(path))
+
+    def _lock(self, solution: Solution) -> Solution:
+        return solution if self.track else dataclasses.replace(solution, lock=None)
+
+    def _seeded(self, camera: Camera | None, sky: SkySpec) -> _Held | None:
+        """Before any solution, a prior is tracked through the camera as given."""
+        if camera is None or self.tracker.predict() is None:
+            return None
+        return self._holding(camera, self.pipeline.catalog(sky, camera),
+                             self.pipeline.options.method)
+
+    def _holding(self, camera: Camera, catalog: Catalog, method: str) -> _Held:
+        database = (self._held.database if self._held and self._held.catalog is catalog
+                    else self.pipeline.database_of(catalog) or StarDatabase(catalog, camera))
+        return _Held(camera, catalog, database, method)
+
+
+def _timing(frame: FrameInput, solution: Solution) -> Timing:
+    return Timing(frame.centroid_ms, solution.identify_ms,
+                  frame.read_ms + frame.centroid_ms + solution.identify_ms)

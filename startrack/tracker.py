@@ -78,25 +78,39 @@ class Tracker:
                                          cfg.rate_floor_rad)
         return Prior(matrix, sigma)
 
-    def step(self, obs: Observation, database: StarDatabase, verify_config: VerifyConfig,
-             lost_in_space: Callable[[Observation], Solution], method: str) -> Solution:
-        """Solve the next frame of the sequence; the Solution carries ``mode`` and
-        ``lock``, and ``identify_ms`` covers the tracking attempt and any fallback."""
+    def attempt(self, obs: Observation, database: StarDatabase, verify_config: VerifyConfig,
+                method: str) -> Solution | None:
+        """The next frame solved by tracking alone, or tried: its Solution, solved or not
+        (``identify_ms`` covers the prediction and the attempt), None when there is no
+        prediction or too few stars. Nothing is recorded: :meth:`record` the answer."""
         t0 = time.perf_counter()
         prior = self.predict()
-        # Counted as identify() counts lost-in-space: the prediction, then each stage's
-        # matching, verification and attitude.
+        # Counted as identify() counts lost-in-space: the prediction, then matching,
+        # verification and the attitude.
         elapsed = (time.perf_counter() - t0) * 1000.0
-        solution = None
-        if prior is not None and len(obs) >= 3:
-            solution = track(obs, database, prior, verify_config, self.config, method, self.cone)
-            elapsed += solution.identify_ms
-        mode = "tracking"
-        if solution is None or not solution.solved:
-            solution, mode = lost_in_space(obs), "lost_in_space"
-            elapsed += solution.identify_ms
-        lock = self._advance(solution, obs, mode)
-        return dataclasses.replace(solution, mode=mode, identify_ms=elapsed, lock=lock)
+        if prior is None or len(obs) < 3:
+            return None
+        solution = track(obs, database, prior, verify_config, self.config, method, self.cone)
+        return dataclasses.replace(solution, identify_ms=solution.identify_ms + elapsed)
+
+    def record(self, solution: Solution, obs: Observation, mode: str) -> Solution:
+        """Take ``solution`` (``mode``: "tracking" or "lost_in_space") as the answer for
+        the next frame: the sequence moves on, and the Solution carries ``mode`` and
+        ``lock``."""
+        return dataclasses.replace(solution, mode=mode, lock=self._advance(solution, obs, mode))
+
+    def step(self, obs: Observation, database: StarDatabase, verify_config: VerifyConfig,
+             lost_in_space: Callable[[Observation], Solution], method: str) -> Solution:
+        """Solve the next frame of the sequence: by tracking, else by ``lost_in_space``;
+        the Solution carries ``mode`` and ``lock``, and ``identify_ms`` covers the
+        tracking attempt and any fallback."""
+        tracked = self.attempt(obs, database, verify_config, method)
+        if tracked is not None and tracked.solved:
+            return self.record(tracked, obs, "tracking")
+        solution = lost_in_space(obs)
+        spent = 0.0 if tracked is None else tracked.identify_ms
+        return self.record(dataclasses.replace(solution, identify_ms=solution.identify_ms
+                                               + spent), obs, "lost_in_space")
 
     def skip(self) -> None:
         """A frame of the sequence that could not be read: time passes, nothing solved."""

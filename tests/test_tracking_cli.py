@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from click.testing import CliRunner
 from scipy.spatial.transform import Rotation
@@ -57,6 +59,35 @@ def test_identify_track_on_csv_sequence(csv_sequence):
     # Without --track every frame is lost-in-space and carries no lock.
     code, out, _ = invoke("identify", *HIP, "--format", "json", *paths[:2])
     assert [(r["mode"], "lock" in r) for r in _records(out)] == [("lost_in_space", False)] * 2
+
+
+def _assert_true_identities(records, seq, catalog):
+    """Every record solved, pointing within 30", each star named its true catalog star."""
+    for r, frame in zip(records, seq, strict=True):
+        assert r["status"] == "solved"
+        rot = from_quaternion(r["attitude"]["quaternion"])
+        assert boresight_error_arcsec(rot, frame.rotation) < 30.0
+        for star in r["stars"]:  # the centroid it names, as written to the CSV
+            d2 = (frame.obs.x - star["x"]) ** 2 + (frame.obs.y - star["y"]) ** 2
+            assert d2.min() < 1e-4
+            row = frame.truth_rows[np.argmin(d2)]
+            assert row >= 0 and catalog.ids[row] == star["catalog_id"]
+
+
+@pytest.mark.parametrize("fov", ["20.8", None])
+def test_track_through_the_camera_lost_in_space_fitted(csv_sequence, hip_db, fov):
+    """A field of view 4% off, or none at all: the first frame is solved as a single input
+    is (its FOV fitted, or searched for), and the later ones are tracked through the
+    camera that fit found."""
+    paths, seq = csv_sequence
+    size = ["--sky", "hipparcos", "--size", "1024x1024"]
+    code, out, err = invoke("identify", "--track", *size, *(["--fov", fov] if fov else []),
+                            "--format", "json", *paths)
+    assert code == 0, err
+    records = _records(out)
+    assert [r["mode"] for r in records] == ["lost_in_space"] + ["tracking"] * 5
+    assert all(r["fov_deg"] == pytest.approx(20.0, abs=0.05) for r in records)
+    _assert_true_identities(records, seq, hip_db.catalog)
 
 
 def test_unreadable_frame_in_a_sequence_is_a_frame_without_answer(csv_sequence, tmp_path):
@@ -166,3 +197,28 @@ def test_compare_tracking_mode(tmp_path):
     assert (summary[summary["method"] == "pyramid"]["tracked_rate"] == 0).all()
     assert (out / "report.md").read_text().startswith("# Tracking comparison")
     assert (out / "tracking_rate_dps.png").is_file() and "pyramid+track" in stdout
+
+
+@pytest.mark.slow
+def test_track_a_narrow_field_on_the_deep_sky(tmp_path):
+    """A 3 deg camera on the Gaia sky (configs/narrow_gaia.toml), whose pair table is over
+    budget: lost-in-space by the quad search, as a single frame, then tracking, every
+    star named right. Builds Gaia pattern tables on a fresh cache."""
+    out = tmp_path / "narrow"
+    config = Path(__file__).resolve().parents[1] / "configs" / "narrow_gaia.toml"
+    code, _, err = invoke("simulate", "--config", config, "--frames", "4", "--fps", "5",
+                          "--rate", "0.05,0.02,0.3", "--seed", "3", "--out", out)
+    assert code == 0, err
+    frames = sorted(out.glob("frame_*.png"))
+    code, stdout, err = invoke("identify", "--track", "--format", "json", *frames)
+    assert code == 0, err
+    records = _records(stdout)
+    assert [r["mode"] for r in records] == ["lost_in_space"] + ["tracking"] * 3
+    truth = pd.read_csv(out / "stars.csv", dtype={"catalog_id": str})
+    for k, r in enumerate(records):
+        stars = truth[truth.frame == k]
+        for star in r["stars"]:
+            d2 = (stars.x - star["x"]) ** 2 + (stars.y - star["y"]) ** 2
+            nearest = stars.iloc[int(np.argmin(d2.to_numpy()))]
+            assert d2.min() < 9.0 and not nearest.is_false
+            assert nearest.catalog_id == str(star["catalog_id"])
