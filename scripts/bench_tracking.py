@@ -186,6 +186,9 @@ binomial bound, over the window's area). When the window is too wide for that, t
 hypotheses from a vote on the image displacement pass lost-in-space's own test
 (`startrack/tracking.py`). Either way the frame is then refined and labelled as
 lost-in-space's accepted hypothesis is; failing both, it falls back to lost-in-space.
+Lost-in-space frames of `identify --track` are solved as a single input is (a nominal FOV
+refitted, an unknown one searched for, a deep narrow-field sky by the quad search), and
+the frames after one are tracked through the camera it fitted.
 
 ## The sequence
 
