@@ -14,6 +14,9 @@ from numba import njit
 
 _MAD_TO_SIGMA = 1.4826
 _SAMPLED = 1024  # values; a longer array's first histogram spans a sample of it
+_PIVOTED = 128  # values; a shorter array's median is narrowed by pivots (_pivot_middle)
+_PIVOTS = 6  # at most; then the histograms go on
+_FEW = 8  # values, so few that an insertion sort finishes
 
 
 @njit(cache=True, nogil=True)
@@ -56,7 +59,63 @@ def median(a, counts, sub):
 @njit(cache=True, nogil=True)
 def middle(a, n, counts):
     """``median`` of ``a[:n]``, in place (``a`` is reordered)."""
+    if n <= _PIVOTED:
+        return _pivot_middle(a, n, counts)
     return _middle(a, n, (n - 1) // 2, n // 2, counts)
+
+
+@njit(cache=True, nogil=True)
+def _pivot_middle(a, n, counts):
+    """``middle`` of a short array (a tile's block means): pivots narrow [low, high), the
+    values among which the two middle ranks lie, until few are left, which are sorted.
+
+    Each pivot is placed by linear interpolation of the ranks between the bounds, and
+    costs one pass that counts the values below it (a compare and add that vectorises,
+    unlike a histogram's scattered increments). Ties that no pivot splits, or a slow
+    narrowing, end it early: ``_middle`` finishes on what is left.
+    """
+    k1, k2 = (n - 1) // 2, n // 2
+    lo = hi = a[0]
+    for i in range(n):
+        lo = min(lo, a[i])
+        hi = max(hi, a[i])
+    if lo == hi:
+        return lo
+    low, high, top = lo, np.inf, hi  # top: the largest value below high
+    below, under = 0, n  # the counts of values below low and below high
+    for _ in range(_PIVOTS):
+        if under - below <= _FEW:
+            break
+        p = low + (top - low) * ((k1 + 1.0 - below) / (under - below))
+        if not low < p < top:
+            break
+        c = 0
+        for i in range(n):
+            c += a[i] < p
+        if c > k2:
+            high, top, under = p, p, c
+        elif c <= k1:
+            low, below = p, c
+        else:  # c = k2 = k1 + 1: the largest value below p and the smallest from p up
+            v1, v2 = -np.inf, np.inf
+            for i in range(n):
+                v1 = max(v1, a[i] if a[i] < p else -np.inf)
+                v2 = min(v2, a[i] if a[i] >= p else np.inf)
+            return 0.5 * (v1 + v2)
+    m = 0
+    for i in range(n):  # those in [low, high), in place, no branch
+        x = a[i]
+        a[m] = x
+        m += (x >= low) & (x < high)
+    if m > _FEW:
+        return _middle(a, m, k1 - below, k2 - below, counts)
+    for i in range(1, m):  # an insertion sort
+        x, j = a[i], i
+        while j > 0 and a[j - 1] > x:
+            a[j] = a[j - 1]
+            j -= 1
+        a[j] = x
+    return a[k1 - below] if k1 == k2 else 0.5 * (a[k1 - below] + a[k2 - below])
 
 
 @njit(cache=True, nogil=True)

@@ -256,6 +256,26 @@ def test_fast_mode_finds_the_bright_stars_as_accurately():
     assert err.max() < 0.1
 
 
+@pytest.mark.parametrize("n", [3, 8, 9, 55, 56, 57, 128, 129])
+def test_pivot_median_of_a_tile_is_exact(n):
+    """Tile-sized arrays (pivots narrow the middle ranks): ties that no pivot splits,
+    outliers that throw the interpolation off, the two middle values either side of a
+    pivot."""
+    from startrack.extract_sky import middle
+
+    rng = np.random.default_rng(n)
+    counts = np.empty(256, np.int64)
+    for trial in range(300):
+        values = rng.normal(100.0, 5.0, n).round(trial % 3)
+        if trial % 4 == 1:
+            values[:n // 3] = 1e9  # bright stars
+        if trial % 5 == 2:
+            values = np.where(rng.random(n) < 0.5, 7.0, 7.0625)  # quantised block means
+        if trial % 7 == 3:
+            values[rng.random(n) < 0.6] = 100.0  # a run of ties across the middle
+        assert middle(values.copy(), n, counts) == np.median(values), trial
+
+
 @pytest.mark.parametrize("n", [1, 2, 7, 64, 255, 256, 5000])
 def test_histogram_median_is_exact(n):
     from startrack.extract_sky import mad_sigma, median
