@@ -41,6 +41,21 @@ def test_block_means_match_numpy(shape, tile):
                                reference_means(floats, lay, 42.0), rtol=1e-6)
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16])
+def test_integer_block_sums_equal_the_float_ones_bit_for_bit(dtype):
+    """Integer frames are summed in integers: the same block means as the frame in floats,
+    to the last bit, at the dtype's extremes too."""
+    rng = np.random.default_rng(7)
+    info = np.iinfo(dtype)
+    image = rng.integers(info.min, info.max, (131, 170), endpoint=True).astype(dtype)
+    image[:40, :40] = info.max
+    image[40:80, :40] = info.min
+    for tile in (31, 7):
+        lay = blocks.layout(image.shape, tile)
+        np.testing.assert_array_equal(blocks.block_means(image, 0.0, lay),
+                                      blocks.block_means(image.astype(np.float64), 0.0, lay))
+
+
 def test_tile_medians_match_numpy_with_mask_model_and_known():
     rng = np.random.default_rng(5)
     shape, tile = (200, 260), 31
