@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from startrack import extract_blocks as blocks
+from startrack import extract_grid as tiles
 from startrack import extract_kernels as kern
 from startrack import extract_parallel as par
 from startrack import extract_runs as runs
@@ -214,9 +215,9 @@ def _sky_grid(means: np.ndarray, lay: tuple, block_w: tuple, ignore: np.ndarray,
     the sky glow from tile to tile. ``ignore``: blocks left out; ``fallback``: the value
     when every block is.
     """
-    grid = sky.clean_grid(raw, True, fallback)
+    grid = tiles.clean_grid(raw, True, fallback)
     extra = _tile_medians(means, ignore, lay, grid, block_w, _NO_GRID, threads)
-    return grid + sky.clean_grid(extra, False, 0.0)
+    return grid + tiles.clean_grid(extra, False, 0.0)
 
 
 def _tile_bands(lay: tuple, threads: int, pixels: int) -> list[tuple[int, int]]:
