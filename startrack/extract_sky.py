@@ -54,6 +54,12 @@ def median(a, counts, sub):
 
 
 @njit(cache=True, nogil=True)
+def median_of(values):
+    """``median`` of ``values`` (no NaN), with scratch of its own."""
+    return median(values, np.empty(256, np.int64), np.empty(len(values)))
+
+
+@njit(cache=True, nogil=True)
 def middle(a, n, counts):
     """``median`` of ``a[:n]``, in place (``a`` is reordered)."""
     if n <= _PIVOTED:
