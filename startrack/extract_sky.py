@@ -84,7 +84,7 @@ def _pivot_middle(a, n, counts):
         hi = max(hi, a[i])
     if lo == hi:
         return lo
-    low, high, top = lo, np.inf, hi  # top: the largest value below high
+    low, high, top = lo, np.inf, hi  # top: no value below high is above it
     below, under = 0, n  # the counts of values below low and below high
     for _ in range(_PIVOTS):
         if under - below <= _FEW:
