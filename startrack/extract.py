@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from startrack import extract_blocks as blocks
+from startrack import extract_grid as tiles
 from startrack import extract_kernels as kern
 from startrack import extract_parallel as par
 from startrack import extract_runs as runs
@@ -194,13 +195,11 @@ def _sky_model(image: np.ndarray, tile: int, fast: bool, threads: int) -> tuple:
         # Twice: the second sky model ignores the blocks the first showed to hold
         # sources, so bright stars and glows do not leak into it (nor, extrapolated, to
         # the border). A block mean is already smoothed: 3 of its sigmas mark a source.
-        import cv2
-
         resid = blocks.residual(means, grid, *block_w)
-        sources = (resid > _MASK_SIGMA * _mad_sigma(resid[::2, ::2].ravel(), image.dtype))
-        sources = cv2.dilate(sources.astype(np.uint8), np.ones((3, 3), np.uint8))
+        sources = blocks.sources(resid, _MASK_SIGMA * _mad_sigma(resid[::2, ::2].ravel(),
+                                                                 image.dtype))
         masked = _tile_medians(means, sources, lay, _NO_GRID, block_w, raw, threads)
-        grid = _sky_grid(means, lay, block_w, sources, float(np.median(grid)), masked,
+        grid = _sky_grid(means, lay, block_w, sources, sky.median_of(grid.ravel()), masked,
                          threads)
     return (grid,) + pixel_w + (kern.column_rows(grid, *pixel_w[3:]),)
 
@@ -214,9 +213,9 @@ def _sky_grid(means: np.ndarray, lay: tuple, block_w: tuple, ignore: np.ndarray,
     the sky glow from tile to tile. ``ignore``: blocks left out; ``fallback``: the value
     when every block is.
     """
-    grid = sky.clean_grid(raw, True, fallback)
+    grid = tiles.clean_grid(raw, True, fallback)
     extra = _tile_medians(means, ignore, lay, grid, block_w, _NO_GRID, threads)
-    return grid + sky.clean_grid(extra, False, 0.0)
+    return grid + tiles.clean_grid(extra, False, 0.0)
 
 
 def _tile_bands(lay: tuple, threads: int, pixels: int) -> list[tuple[int, int]]:

@@ -256,6 +256,48 @@ def test_fast_mode_finds_the_bright_stars_as_accurately():
     assert err.max() < 0.1
 
 
+def test_grid_window_median_matches_nanmedian():
+    """The 3 x 3 window medians of the grid clean-up (a median network, or a sort when a
+    NaN is in the window): numpy's nanmedian, ties, infinities and NaNs included."""
+    from startrack.extract_grid import _window_median
+
+    rng = np.random.default_rng(3)
+    buf = np.empty(9)
+    for trial in range(3000):
+        # + 0.0: no -0.0, which equals 0.0 in any sort, so either may come out of a tie
+        window = np.pad(rng.normal(0, 1, (3, 3)).round(trial % 2) + 0.0, 1)
+        inner = window[1:4, 1:4]
+        if trial % 4 == 0:
+            inner[rng.random((3, 3)) < 0.3] = np.inf
+        if trial % 5 == 0:
+            inner[rng.random((3, 3)) < 0.2] = -np.inf
+        if trial % 7 == 0:
+            inner[rng.random((3, 3)) < 0.4] = np.nan
+        finite = inner[~np.isnan(inner)]
+        want = np.median(finite) if len(finite) else np.nan
+        np.testing.assert_equal(_window_median(window, 1, 1, buf), want)
+
+
+@pytest.mark.parametrize("n", [3, 8, 9, 55, 56, 57, 128, 129])
+def test_pivot_median_of_a_tile_is_exact(n):
+    """Tile-sized arrays (pivots narrow the middle ranks): ties that no pivot splits,
+    outliers that throw the interpolation off, the two middle values either side of a
+    pivot."""
+    from startrack.extract_sky import middle
+
+    rng = np.random.default_rng(n)
+    counts = np.empty(256, np.int64)
+    for trial in range(300):
+        values = rng.normal(100.0, 5.0, n).round(trial % 3)
+        if trial % 4 == 1:
+            values[:n // 3] = 1e9  # bright stars
+        if trial % 5 == 2:
+            values = np.where(rng.random(n) < 0.5, 7.0, 7.0625)  # quantised block means
+        if trial % 7 == 3:
+            values[rng.random(n) < 0.6] = 100.0  # a run of ties across the middle
+        assert middle(values.copy(), n, counts) == np.median(values), trial
+
+
 @pytest.mark.parametrize("n", [1, 2, 7, 64, 255, 256, 5000])
 def test_histogram_median_is_exact(n):
     from startrack.extract_sky import mad_sigma, median

@@ -41,6 +41,36 @@ def test_block_means_match_numpy(shape, tile):
                                reference_means(floats, lay, 42.0), rtol=1e-6)
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16])
+def test_integer_block_sums_equal_the_float_ones_bit_for_bit(dtype):
+    """Integer frames are summed in integers: the same block means as the frame in floats,
+    to the last bit, at the dtype's extremes too."""
+    rng = np.random.default_rng(7)
+    info = np.iinfo(dtype)
+    image = rng.integers(info.min, info.max, (131, 170), endpoint=True).astype(dtype)
+    image[:40, :40] = info.max
+    image[40:80, :40] = info.min
+    for tile in (31, 7):
+        lay = blocks.layout(image.shape, tile)
+        np.testing.assert_array_equal(blocks.block_means(image, 0.0, lay),
+                                      blocks.block_means(image.astype(np.float64), 0.0, lay))
+
+
+def test_source_mask_is_the_dilated_comparison():
+    """blocks.sources: numpy's float32 comparison, grown by cv2.dilate's 3 x 3 square (up
+    to the edges), including a value between the threshold and its float32 rounding."""
+    import cv2
+
+    rng = np.random.default_rng(11)
+    threshold = 2.7000000001  # not a float32: compared in float64, float32(it) > it
+    for shape in ((1, 1), (2, 7), (40, 53)):
+        resid = rng.normal(0.0, 1.0, shape).astype(np.float32)
+        resid.flat[::5] = np.float32(threshold)
+        resid[0, 0], resid[-1, -1] = 9.0, 9.0  # corners
+        want = cv2.dilate((resid > threshold).astype(np.uint8), np.ones((3, 3), np.uint8))
+        np.testing.assert_array_equal(blocks.sources(resid, threshold), want)
+
+
 def test_tile_medians_match_numpy_with_mask_model_and_known():
     rng = np.random.default_rng(5)
     shape, tile = (200, 260), 31
