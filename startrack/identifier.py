@@ -56,6 +56,13 @@ class FrameResult:
                                fov_deg=self.camera.fov_deg)
 
 
+def frame_timing(frame: FrameInput, identify_ms: float) -> Timing:
+    """An input's stage times: its centroiding, ``identify_ms``, and the total with its
+    reading."""
+    return Timing(frame.centroid_ms, identify_ms,
+                  frame.read_ms + frame.centroid_ms + identify_ms)
+
+
 def observation(centroids: Centroids, camera: Camera, sigma_px: float) -> Observation:
     """The centroids seen through ``camera`` (their flux with them when it is measured)."""
     flux = centroids.flux if centroids.photometric else None
@@ -110,8 +117,7 @@ class Identifier:
                              f"but the camera is {self.camera.width} x {self.camera.height}")
         obs = self.observation(frame.centroids)
         solution = (identify or self.identify)(obs)
-        timing = Timing(frame.centroid_ms, solution.identify_ms,
-                        frame.read_ms + frame.centroid_ms + solution.identify_ms)
+        timing = frame_timing(frame, solution.identify_ms)
         return FrameResult(frame.name, solution, obs, frame.centroids, timing, self.camera,
                            self.catalog, self.sigma_px, self.verify_config.radius_px(obs),
                            frame.image)

@@ -24,7 +24,7 @@ from startrack.deadline import Deadline
 from startrack.errors import InputError
 from startrack.fov import DEFAULT_FOV_TOLERANCE, BlindSolver, refit_fov, solve_approximate
 from startrack.frame_input import FrameInput, read_input
-from startrack.identifier import FrameResult, Identifier
+from startrack.identifier import FrameResult, Identifier, frame_timing
 from startrack.matchers import get_matcher
 from startrack.sidecar import find_sidecar, read_sidecar
 from startrack.sky import (
@@ -35,7 +35,6 @@ from startrack.sky import (
     load_sky,
     resolve_sky,
 )
-from startrack.types import Timing
 
 # The most reliable method measured (scripts/bench_identify.py, the real-sky frames and
 # scripts/false_positives.py; docs/results.md has the figures).
@@ -134,9 +133,8 @@ class Pipeline:
         else:
             return self.identifier(camera, sky).solve(frame)
         sol = found.solution
-        timing = Timing(frame.centroid_ms, sol.identify_ms,
-                        frame.read_ms + frame.centroid_ms + sol.identify_ms)
-        return FrameResult(frame.name, sol, found.obs, frame.centroids, timing, found.camera,
+        return FrameResult(frame.name, sol, found.obs, frame.centroids,
+                           frame_timing(frame, sol.identify_ms), found.camera,
                            found.catalog, self.options.sigma_px, found.match_radius_px,
                            frame.image)
 

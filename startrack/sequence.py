@@ -18,12 +18,12 @@ from startrack.attitude import from_radec_roll
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.errors import InputError
-from startrack.identifier import FrameResult, observation
+from startrack.identifier import FrameResult, frame_timing, observation
 from startrack.pipeline import FrameInput, Pipeline, read_input
 from startrack.sky import Catalog, SkySpec
 from startrack.tracker import Tracker
 from startrack.tracking import Prior, TrackConfig
-from startrack.types import Solution, Timing
+from startrack.types import Solution
 from startrack.verify import VerifyConfig
 
 DEFAULT_PRIOR_SIGMA_DEG = 1.0
@@ -97,9 +97,10 @@ class SequenceSolver:
             tracked = self.tracker.attempt(obs, held.database, self.verify_config, held.method)
             if tracked is not None and tracked.solved:
                 solution = self._lock(self.tracker.record(tracked, obs, "tracking"))
+                timing = frame_timing(frame, solution.identify_ms)
                 return self.pipeline.correct_aberration(frame, FrameResult(
-                    frame.name, solution, obs, frame.centroids, _timing(frame, solution),
-                    held.camera, held.catalog, self.pipeline.options.sigma_px,
+                    frame.name, solution, obs, frame.centroids, timing, held.camera,
+                    held.catalog, self.pipeline.options.sigma_px,
                     self.verify_config.radius_px(obs), frame.image))
             spent = 0.0 if tracked is None else tracked.identify_ms
         found = self.pipeline.identify_frame(frame)
@@ -109,7 +110,7 @@ class SequenceSolver:
         if solution.solved:
             self._held = self._holding(found.camera, found.catalog, solution.method)
         return self.pipeline.correct_aberration(frame, dataclasses.replace(
-            found, solution=solution, timing=_timing(frame, solution)))
+            found, solution=solution, timing=frame_timing(frame, solution.identify_ms)))
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` and solve it as the next input of the sequence."""
@@ -130,7 +131,3 @@ class SequenceSolver:
                     else self.pipeline.database_of(catalog) or StarDatabase(catalog, camera))
         return _Held(camera, catalog, database, method)
 
-
-def _timing(frame: FrameInput, solution: Solution) -> Timing:
-    return Timing(frame.centroid_ms, solution.identify_ms,
-                  frame.read_ms + frame.centroid_ms + solution.identify_ms)
