@@ -34,6 +34,7 @@ from startrack.tracking_kernels import (
     S_WINDOW,
     covers,
     near,
+    warm_up_args,
 )
 
 # Stars of a hypothesis built from the frame itself; a prediction must match at least
@@ -88,12 +89,4 @@ def attempt_at_prior(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, o
 
 def warm_up() -> None:
     """Compile (or load from numba's cache) the kernel on a tiny input."""
-    v = np.array([[0.0, 0.0, 1.0], [0.01, 0.0, 1.0], [0.0, 0.01, 1.0]])
-    v /= np.sqrt((v * v).sum(axis=1))[:, None]
-    m, xy = np.eye(3), np.array([1.0, 2.0, 3.0])
-    geometry = np.array([100.0, 1.0, 1.0, 4.0, 4.0, 0.0, 0.0, 0.0, np.inf])
-    scan = np.array([1e4, 1e4, 3.0, 1.0, 3.0, 0.9, 64, 5, 2, 24, 12, 1e-9, 1e-4, 2.0, 2.9,
-                     24, 0.01])
-    label = np.array([1.0, 1.0, 1e4, -6.9, -6.9, 4.0, 5.0, 0.03, 0.02])
-    attempt_at_prior(v, xy, np.arange(3), m, 0.01, v, xy, xy, geometry, m, 1e-4, scan, xy,
-                     True, label, 5)
+    attempt_at_prior(*warm_up_args())

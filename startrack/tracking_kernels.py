@@ -241,22 +241,30 @@ def attempt(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, ox, oy, ge
     return 0, -1, tried, n_pairs, 0, 0, 1.0, none, none, prior
 
 
-def warm_up() -> None:
-    """Compile (or load from numba's cache) every kernel on a tiny input, so that the first
-    frame of a sequence is not timed with the compilation."""
+def warm_up_args() -> tuple:
+    """A tiny tracked frame as the attempt kernels take it (``start`` aside): three stars,
+    held rows, prior, ``scan`` and labelling floats; for compiling them before timing."""
     v = np.array([[0.0, 0.0, 1.0], [0.01, 0.0, 1.0], [0.0, 0.01, 1.0]])
     v /= np.sqrt((v * v).sum(axis=1))[:, None]
     m, xy = np.eye(3), np.array([1.0, 2.0, 3.0])
     geometry = np.array([100.0, 1.0, 1.0, 4.0, 4.0, 0.0, 0.0, 0.0, np.inf])
+    scan = np.array([1e4, 1e4, 3.0, 1.0, 3.0, 0.9, 64, 5, 2, 24, 12, 1e-9, 1e-4, 2.0, 2.9,
+                     24, 0.01])
+    label = np.array([1.0, 1.0, 1e4, -6.9, -6.9, 4.0, 5.0, 0.03, 0.02])
+    return (v, xy, np.arange(3), m, 0.01, v, xy, xy, geometry, m, 1e-4, scan, xy, True,
+            label, 5)
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every kernel on a tiny input, so that the first
+    frame of a sequence is not timed with the compilation."""
+    args = warm_up_args()
+    v, xy, m, geometry = args[0], args[1], args[3], args[8]
     verify_kernels.warm_up()
     oi, cj, dx, dy = window_pairs(v, m, xy, xy, geometry, 50.0)
     consistent(oi, cj, dx, dy, 1.0, 2.0, 24)
     consistent_pairs(v, m, xy, xy, geometry, 50.0, 1.0, 2.0, 24)
-    scan = np.array([1e4, 1e4, 3.0, 1.0, 3.0, 0.9, 64, 5, 2, 24, 12, 1e-9, 1e-4, 2.0, 2.9,
-                     24, 0.01])
-    label = np.array([1.0, 1.0, 1e4, -6.9, -6.9, 4.0, 5.0, 0.03, 0.02])
-    attempt(v, xy, np.arange(3), m, 0.01, v, xy, xy, geometry, m, 1e-4, scan, xy, True,
-            label, 5, 0)
+    attempt(*args, 0)
     nearby(v, m, geometry, 9.0)
     prediction_kernels.warm_up()
     _warm_up_labelling()  # a tracked frame's labelling
