@@ -49,7 +49,8 @@ def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = N
     timed_out = False
     if len(obs) >= 3:
         timed_out = deadline.passed()  # spent by the stages before this one
-        for hyp in [] if timed_out else matcher.hypotheses(obs, diag):
+        screen_rad = config.radius_px(obs) / obs.camera.f_px  # verify()'s first test
+        for hyp in [] if timed_out else matcher.hypotheses(obs, diag, screen_rad):
             if deadline.passed():
                 timed_out = True
                 break

@@ -40,7 +40,7 @@ class _Slow:
     name = "slow"
     database = "db"
 
-    def hypotheses(self, obs, diag):
+    def hypotheses(self, obs, diag, screen_rad=None):
         for k in range(3):
             CLOCK[0] += 0.010  # 10 ms of matching per hypothesis
             diag.pivots += 1

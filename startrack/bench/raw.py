@@ -124,8 +124,9 @@ class TimedMatcher:
     def __getattr__(self, name: str):
         return getattr(self._matcher, name)
 
-    def hypotheses(self, obs: Observation, diag: MatchDiagnostics):
-        it = self._matcher.hypotheses(obs, diag)
+    def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
+                   screen_rad: float | None = None):
+        it = self._matcher.hypotheses(obs, diag, screen_rad)
         while True:
             t0 = time.perf_counter()
             try:

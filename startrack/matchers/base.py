@@ -58,8 +58,16 @@ class Matcher(ABC):
                 pair_index(loaded, len(self.database.vectors))
 
     @abstractmethod
-    def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
-        """Yield hypotheses, most promising first; yield nothing when there is no match."""
+    def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
+                   screen_rad: float | None = None) -> Iterator[Hypothesis]:
+        """Yield hypotheses, most promising first; yield nothing when there is no match.
+
+        ``screen_rad``: the match radius (radians) of verification's first test, when the
+        caller verifies with it (:func:`startrack.identify.identify` does). A matcher may
+        then drop the hypotheses that test would refuse
+        (:func:`startrack.matching.verify_kernels.fits_hypothesis`) instead of handing
+        them over one by one: the angle matcher does, inside its compiled search. None:
+        every hypothesis is handed over."""
 
     def angle_tolerance(self, obs: Observation) -> float:
         """Half-width of an inter-star angle window: the angle between two centroids has a

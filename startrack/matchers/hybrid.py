@@ -107,7 +107,8 @@ class HybridMatcher(Matcher):
         super().prepare()
         pair_index(self._table(), len(self.database.vectors))
 
-    def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+    def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
+                   screen_rad: float | None = None) -> Iterator[Hypothesis]:
         first = min(self.config.max_stars, len(obs))
         if first < 3:
             return

@@ -104,7 +104,8 @@ class PyramidMatcher(Matcher):
                        self.fallback_triples if k else self.max_triples)
                       for k, table in enumerate(self._tables())]
 
-    def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+    def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
+                   screen_rad: float | None = None) -> Iterator[Hypothesis]:
         n = min(self.config.max_stars + max(self.extra_stars, 0), len(obs))
         if n < 3:
             return

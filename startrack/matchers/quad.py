@@ -202,7 +202,8 @@ class QuadMatcher(Matcher):
         return [ScaledHypothesis(Hypothesis(obs_q[k], cat_q[k]), float(f[k]), float(error[k]),
                                  int(count[k])) for k in order]
 
-    def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+    def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
+                   screen_rad: float | None = None) -> Iterator[Hypothesis]:
         f = obs.camera.f_px
         for h in self.scaled(obs.x, obs.y, obs.camera, f / (1 + self.tolerance),
                              f * (1 + self.tolerance), diag):

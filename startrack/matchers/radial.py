@@ -172,7 +172,8 @@ class RadialMatcher(Matcher):
             lists.append(rows.astype(np.int64))
         return lists
 
-    def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+    def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
+                   screen_rad: float | None = None) -> Iterator[Hypothesis]:
         n = min(len(obs), self.config.max_stars)
         if n < 3:
             return

@@ -89,7 +89,8 @@ class Tetra3Matcher(PeerMatcher):
         path = cached_file("tetra3", params, ".npz", build)
         self._solver = tetra3.Tetra3(load_database=path)
 
-    def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+    def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
+                   screen_rad: float | None = None) -> Iterator[Hypothesis]:
         self.prepare()
         cam = obs.camera
         centroids = tetra3_centroids(obs)

@@ -93,7 +93,8 @@ class Tetra3rsMatcher(PeerMatcher):
             self._camera_model = (key, model)
         return self._camera_model[1]
 
-    def hypotheses(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+    def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
+                   screen_rad: float | None = None) -> Iterator[Hypothesis]:
         self.prepare()
         centroids = tetra3rs_centroids(obs)
         model = self._camera_for(obs)

@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from startrack.matching.kernels import group_window, join_close, join_extend, linked
+from startrack.matching.verify_kernels import fitting_rows
 
 #: ``state`` entries: lookup budget left, last chain started (1-based), pivots, database
 #: candidates, distinct pair lookups, stars skipped, ambiguous answers, and which of the
@@ -21,16 +22,6 @@ from startrack.matching.kernels import group_window, join_close, join_extend, li
 BUDGET, CHAINS, PIVOTS, CANDIDATES, LOOKUPS, SKIPPED, AMBIGUOUS, FIRST_EVENT = range(8)
 #: ``closing`` codes, in the order of :data:`startrack.matchers.angle.CLOSING`.
 UNTIL_ONE, ALL, NONE = range(3)
-
-
-def compact_pairs(pi: np.ndarray, pj: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The pair table's stars renumbered 0, 1, ... (their "slots"): (pi, pj) as slots, and
-    the catalog row of each slot. The search runs on slots, so that its per-pair grouping
-    heads span the table's stars, not the whole catalog; equality of stars, all the joins
-    ask of them, is the same on either numbering."""
-    rows, inverse = np.unique(np.concatenate([pi, pj]), return_inverse=True)
-    inverse = inverse.astype(np.int32)
-    return inverse[:len(pi)].copy(), inverse[len(pi):].copy(), rows.astype(np.int64)
 
 
 def frame_arrays(windows: np.ndarray, n_slots: int, store_rows: int = 1 << 14,
@@ -268,10 +259,14 @@ def _chain(order, frame, groups, memo, params):
 
 
 @njit(cache=True)
-def next_chain(start, triples, first, windows, seen, state, pi, pj, groups, memo, params):
+def next_chain(start, triples, first, windows, seen, state, pi, pj, groups, memo, params,
+               screen):
     """From chain ``start`` on, the first chain that leaves an answer: (its index, chain
     stars, rows of stars (slots of ``pi``, ``pj``), one per hypothesis); the index is
-    len(triples) when none is left or the lookup budget ``state[BUDGET]`` is spent.
+    len(triples) when none is left or the lookup budget ``state[BUDGET]`` is spent. An
+    answer is only its rows that pass verification's first test (``screen``: observed
+    vectors, catalog vectors by slot, the test's cosine; below -1: no test;
+    :func:`~startrack.matching.verify_kernels.fitting_rows`).
 
     Chain t starts from ``triples[t]`` and goes on with the stars below max(``first``,
     its faintest + 1) by brightness. ``windows`` (n x n x 2) holds each observed pair's
@@ -294,5 +289,7 @@ def next_chain(start, triples, first, windows, seen, state, pi, pj, groups, memo
                 m += 1
         n_cols, cols, rows = _chain(order[:m], frame, groups, memo, params)
         if n_cols:
-            return t, cols[:n_cols].copy(), rows.copy()
+            rows = fitting_rows(screen[0], cols[:n_cols], rows, screen[1], screen[2])
+            if rows.shape[0]:
+                return t, cols[:n_cols].copy(), rows.copy()
     return len(triples), order[:0].copy(), np.empty((0, 0), np.int64)

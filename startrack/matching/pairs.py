@@ -164,3 +164,13 @@ def member_pairs(a: np.ndarray, b: np.ndarray, pairs: np.ndarray) -> np.ndarray:
     want = np.asarray(a, np.int64) * base + b
     pos = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
     return keys[pos] == want
+
+
+def compact_pairs(pi: np.ndarray, pj: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pair table's stars renumbered 0, 1, ... (their "slots"): (pi, pj) as slots, and
+    the catalog row of each slot. The angle search runs on slots, so that its per-pair
+    grouping heads span the table's stars, not the whole catalog; equality of stars, all
+    the joins ask of them, is the same on either numbering."""
+    rows, inverse = np.unique(np.concatenate([pi, pj]), return_inverse=True)
+    inverse = inverse.astype(np.int32)
+    return inverse[:len(pi)].copy(), inverse[len(pi):].copy(), rows.astype(np.int64)

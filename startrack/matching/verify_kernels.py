@@ -35,6 +35,32 @@ def fits_within(cam, sky, matrix, cos_radius):
 
 
 @njit(cache=True)
+def fits_hypothesis(obs_vectors, hyp_obs, sky, cos_radius):
+    """Verification's first test of a hypothesis (observed ``hyp_obs[k]`` is the catalog
+    vector ``sky[k]``) on its own: whether every pair lies within the match radius of the
+    other at their Wahba fit. A matcher that screens its hypotheses with it hands
+    verification none that this test would refuse."""
+    cam = obs_vectors[hyp_obs]
+    return fits_within(cam, sky, wahba(cam, sky), cos_radius)
+
+
+@njit(cache=True)
+def fitting_rows(obs_vectors, hyp_obs, rows, row_vectors, cos_radius):
+    """The hypotheses (``rows``: one per hypothesis, its catalog stars for the observed
+    ``hyp_obs``, as rows of ``row_vectors``) that pass :func:`fits_hypothesis`; all of
+    them when ``cos_radius`` is below -1 (no test)."""
+    if cos_radius < -1.0:
+        return rows
+    keep = np.zeros(rows.shape[0], np.bool_)
+    sky = np.empty((hyp_obs.shape[0], 3))
+    for h in range(rows.shape[0]):
+        for k in range(hyp_obs.shape[0]):
+            sky[k] = row_vectors[rows[h, k]]
+        keep[h] = fits_hypothesis(obs_vectors, hyp_obs, sky, cos_radius)
+    return rows[keep]
+
+
+@njit(cache=True)
 def project(vectors, matrix, geometry, margin):
     """Pixel positions of catalog vectors (n, 3) at the attitude ``matrix`` (camera to sky)
     and whether each falls in the image widened by ``margin`` pixels (negative: narrowed).
