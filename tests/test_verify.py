@@ -201,3 +201,31 @@ def test_refinement_beyond_the_cone_margin_gives_the_same_answer(random_db, monk
         np.testing.assert_array_equal(a.cat_index, b.cat_index)
         if a.accepted:
             np.testing.assert_allclose(a.matrix, b.matrix, atol=1e-9)
+
+
+def test_frame_constants_kept_across_frames_give_each_frame_its_own_answer(random_db):
+    """The check kernels' constants are kept from frame to frame of one camera, noise and
+    config; each frame's fluxes and a change of config still come through: every answer
+    equals the one computed with nothing kept."""
+    from startrack.matching import projector
+
+    cases = []
+    for frame, rng in _frames(random_db, 8, seed=6, noise_px=0.4, false_stars=2):
+        if np.all(frame.truth_rows[:3] >= 0):
+            flux = rng.uniform(1e3, 1e5, len(frame.obs))  # each frame its own fluxes
+            obs = Observation.from_pixels(frame.obs.x, frame.obs.y, frame.obs.camera, 0.4,
+                                          flux)
+            cases.append((Hypothesis(np.arange(3), frame.truth_rows[:3]), obs))
+    configs = [CONFIG, VerifyConfig(match_radius_px=3.0), CONFIG]
+    kept = [verify(h, obs, random_db, c) for h, obs in cases for c in configs]
+    fresh = []
+    for h, obs in cases:
+        for c in configs:
+            projector._last_params[:] = [None, None]
+            fresh.append(verify(h, obs, random_db, c))
+    assert sum(v.accepted for v in kept) >= len(cases)
+    for a, b in zip(kept, fresh, strict=True):
+        assert a.accepted == b.accepted and a.false_probability == b.false_probability
+        np.testing.assert_array_equal(a.obs_index, b.obs_index)
+        np.testing.assert_array_equal(a.cat_index, b.cat_index)
+        np.testing.assert_array_equal(a.matrix, b.matrix)

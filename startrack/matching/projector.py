@@ -52,6 +52,9 @@ def _camera_constants(camera: Camera) -> tuple[np.ndarray, float]:
     return _last_camera[1]
 
 
+_last_params: list = [None, None]  # the last frame constants' key and the packed array
+
+
 class CatalogProjector:
     """The catalog stars around one attitude, projected into the image of ``obs``.
 
@@ -87,16 +90,26 @@ class CatalogProjector:
 
     def _params(self, config, kernel_params: Callable) -> np.ndarray:
         """The frame's constants for the check kernels under ``config`` (kept for the
-        config last asked for: a frame's hypotheses share one)."""
+        config last asked for: a frame's hypotheses share one; and across frames of one
+        camera, noise and config, whose constants are the same but for the fluxes)."""
         if config is not self._config:
-            radius = config.radius_px(self.obs)
-            label = kernel_params(self.obs, radius)
-            self._flux = label[0]
-            self._packed = check_kernels.pack_params(
-                self.radius_px, math.cos(radius / self.obs.camera.f_px),
-                self.cone_rad * CONE_LOOKUP_MARGIN, -2.0 if self.fixed else self.margin_cos,
-                CAPTURE, MAX_REFINEMENTS, config.min_confirmed, config.max_false_probability,
-                label)
+            obs = self.obs
+            radius = config.radius_px(obs)
+            margin = -2.0 if self.fixed else self.margin_cos
+            key = (obs.camera, obs.sigma_rad, obs.flux is None, config, self.radius_px,
+                   self.cone_rad * CONE_LOOKUP_MARGIN, margin, CAPTURE, MAX_REFINEMENTS,
+                   kernel_params)
+            if _last_params[0] != key:
+                label = kernel_params(obs, radius)
+                packed = check_kernels.pack_params(
+                    self.radius_px, math.cos(radius / obs.camera.f_px), key[5], margin,
+                    CAPTURE, MAX_REFINEMENTS, config.min_confirmed,
+                    config.max_false_probability, label)
+                _last_params[:] = [key, packed]
+            self._packed = _last_params[1]
+            # kernel_params' first value: the fluxes, the x positions standing in for none
+            self._flux = np.ascontiguousarray(obs.x if obs.flux is None else obs.flux,
+                                              dtype=np.float64)
             if not self.fixed:
                 self.mags = np.ascontiguousarray(self.database.catalog.mag, dtype=np.float64)
             self._config = config
