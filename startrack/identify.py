@@ -32,6 +32,10 @@ def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = N
              timeout_ms: float | None = None, deadline: Deadline | None = None) -> Solution:
     """Try the matcher's hypotheses in order; return the first one verification accepts.
 
+    The matcher is told verification's first-test radius (``screen_rad``), so that it
+    may drop the hypotheses that test would refuse before they reach this loop: the
+    answer is the same either way (unless the refused ones would have used up
+    ``config.max_hypotheses``), and ``hypotheses`` counts only those handed over.
     The work is bounded on every machine alike by the matcher's own budgets (patterns
     tried) and ``config.max_hypotheses``; ``timeout_ms`` adds a wall-clock limit, checked
     between hypotheses: when it trips the frame is not solved, with reason "timeout".
