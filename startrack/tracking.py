@@ -34,6 +34,7 @@ from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.identify import residuals_arcsec
 from startrack.labelling import kernel_params
+from startrack.matching.check_kernels import scipy_quaternion
 from startrack.matching.projector import CAPTURE, CONE_LOOKUP_MARGIN, MAX_REFINEMENTS, cone_radius
 from startrack.prior_kernels import attempt_at_prior
 from startrack.tracking_kernels import attempt, consistent_pairs, nearby
@@ -194,19 +195,22 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
     window = scan[tk.S_WINDOW] * prior.sigma_rad + radius_px
     if len(obs) >= 3 and window <= config.max_window_px:
         result, counts = _attempt(obs, database, prior, cone, window, setup)
-    # The time of matching, verification and the attitude, as identify() counts it (the
-    # Solution's residuals and Rotation are not).
+    if result is not None:
+        matrix, obs_index, cat_index, prob = result
+        order = np.argsort(obs_index)
+        obs_index, cat_index = obs_index[order], cat_index[order]
+        residuals = residuals_arcsec(matrix, obs, obs_index, database.vectors[cat_index])
+        quat = scipy_quaternion(matrix)
+    # The time of matching, verification, the attitude, its quaternion and residuals, as
+    # identify() counts lost-in-space's (verification's one-call path computes them; the
+    # Solution's Rotation is built from them after the clock stops in both).
     elapsed = (time.perf_counter() - t0) * 1000.0
     diag = MatchDiagnostics(candidates=counts[0], hypotheses=counts[1])
     if result is None:
         return Solution(False, method, diagnostics=diag, identify_ms=elapsed,
                         reason="no_track" if len(obs) >= 3 else "too_few_stars",
                         mode="tracking")
-    matrix, obs_index, cat_index, prob = result
-    order = np.argsort(obs_index)
-    obs_index, cat_index = obs_index[order], cat_index[order]
-    residuals = residuals_arcsec(matrix, obs, obs_index, database.vectors[cat_index])
-    rotation = rotation_of(matrix)  # as Verification.rotation builds it
+    rotation = rotation_of(matrix, quat)  # as Verification.rotation builds it
     return Solution(True, method, rotation=rotation, obs_index=obs_index, cat_index=cat_index,
                     residual_arcsec=residuals, false_probability=float(prob),
                     diagnostics=diag, identify_ms=elapsed, mode="tracking")
