@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from startrack.matching import verify_kernels
-from startrack.matching.check_kernels import binomial_tail
+from startrack.matching.check_kernels import binomial_tail, scipy_quaternion
 from startrack.tracking_kernels import (
     S_AREA,
     S_CAPTURE,
@@ -40,6 +40,7 @@ from startrack.tracking_kernels import (
 # Stars of a hypothesis built from the frame itself; a prediction must match at least
 # this many more than verification's ``min_confirmed``, as a three-star hypothesis must.
 HYPOTHESIS_STARS = 3
+ARCSEC = 180.0 / math.pi * 3600.0
 
 
 @njit(cache=True)
@@ -62,20 +63,22 @@ def attempt_at_prior(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, o
 
     Returns (status: 0 not accepted, 1 accepted, 3 the refined attitude left the allowed
     turn, 4 the rows do not cover it; stars matched in the window; catalog stars in the
-    image; bound; observed index; catalog rows; attitude)."""
+    image; bound; observed index (ascending); catalog rows; attitude; when accepted, the
+    residuals in arcseconds and scipy's quaternion of the attitude, as verification's
+    one-call path gives them)."""
     r = scan[S_RADIUS]
     window = scan[S_WINDOW] * sigma + r
     turn = window / scan[S_HALF_SIDE]
-    none = np.zeros(0, np.int64)
+    none, none_f = np.zeros(0, np.int64), np.zeros(0)
     if not covers(cone_matrix, cone_turn, prior, turn, scan[S_CONE_REUSE]):
-        return 4, 0, 0, 1.0, none, none, prior
+        return 4, 0, 0, 1.0, none, none, prior, none_f, none_f
     obs_m, pos_m, n_in = verify_kernels.match(vectors, prior, ox, oy, geometry, window)
     matched = obs_m.shape[0]
     if matched < HYPOTHESIS_STARS + scan[S_MIN_CONFIRMED]:
-        return 0, matched, n_in, 1.0, none, none, prior
+        return 0, matched, n_in, 1.0, none, none, prior, none_f, none_f
     prob = prior_bound(matched, ox.shape[0], n_in, window, scan[S_AREA])
     if prob > scan[S_MAX_FALSE]:
-        return 0, matched, n_in, prob, none, none, prior
+        return 0, matched, n_in, prob, none, none, prior, none_f, none_f
     # No refinement rounds: the labelling's radius test at the fit of every matched pair
     # is refinement's first round, and the attitude reported is refitted to the labels.
     obs_i, pos_i, refined, final = verify_kernels.refine_and_label(
@@ -83,8 +86,10 @@ def attempt_at_prior(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, o
         flux, has_flux, label[0], label[1], label[2], label[3], label[4], label[5],
         label[6], label[7], label[8], min_fit)
     turn_trace = 1.0 + 2.0 * math.cos(min(turn, math.pi))
-    status = 1 if near(refined, prior, turn_trace) else 3
-    return status, matched, n_in, prob, obs_i, rows[pos_i], final
+    if not near(refined, prior, turn_trace):
+        return 3, matched, n_in, prob, obs_i, rows[pos_i], final, none_f, none_f
+    resid = verify_kernels.residual_angles(obs_vectors, obs_i, final, vectors[pos_i]) * ARCSEC
+    return 1, matched, n_in, prob, obs_i, rows[pos_i], final, resid, scipy_quaternion(final)
 
 
 def warm_up() -> None:

@@ -196,11 +196,12 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
     if len(obs) >= 3 and window <= config.max_window_px:
         result, counts = _attempt(obs, database, prior, cone, window, setup)
     if result is not None:
-        matrix, obs_index, cat_index, prob = result
-        order = np.argsort(obs_index)
-        obs_index, cat_index = obs_index[order], cat_index[order]
-        residuals = residuals_arcsec(matrix, obs, obs_index, database.vectors[cat_index])
-        quat = scipy_quaternion(matrix)
+        matrix, obs_index, cat_index, prob, residuals, quat = result
+        if residuals is None:  # the three-star attempt: its identities by observed index
+            order = np.argsort(obs_index)
+            obs_index, cat_index = obs_index[order], cat_index[order]
+            residuals = residuals_arcsec(matrix, obs, obs_index, database.vectors[cat_index])
+            quat = scipy_quaternion(matrix)
     # The time of matching, verification, the attitude, its quaternion and residuals, as
     # identify() counts lost-in-space's (verification's one-call path computes them; the
     # Solution's Rotation is built from them after the clock stops in both).
@@ -236,8 +237,9 @@ def _attempt(obs, database, prior, cone, window, setup, start=0, test_prior=True
     (:func:`startrack.prior_kernels.attempt_at_prior`), then, when that is not accepted,
     the vote and three-star hypotheses (:func:`startrack.tracking_kernels.attempt`), with
     the held rows looked up again where they do not cover the prediction. Returns
-    ((attitude, observed index, catalog rows, bound) or None, (pairs in the window,
-    hypotheses, the prediction counted as one when tested)); ``start``: the first
+    ((attitude, observed index, catalog rows, bound, residuals, quaternion: the last two
+    None from the three-star attempt) or None, (pairs in the window, hypotheses, the
+    prediction counted as one when tested)); ``start``: the first
     three-star hypothesis tried; ``test_prior``: whether the prediction is tested first
     (tests of the three-star attempt alone set it False)."""
     radius_px, scan = setup[0], setup[1]
@@ -251,14 +253,15 @@ def _attempt(obs, database, prior, cone, window, setup, start=0, test_prior=True
         held = (cone.vectors, cone.mags, cone.rows, cone.matrix, cone.turn)
         status, n_pairs, tried = 0, 0, 0
         if tested:
-            status, n_pairs, _, prob, obs_i, rows, final = attempt_at_prior(*held, *args)
+            status, n_pairs, _, prob, obs_i, rows, final, resid, quat = attempt_at_prior(
+                *held, *args)
             if status == 1:
-                return (final, obs_i, rows, prob), (n_pairs, tested)
+                return (final, obs_i, rows, prob, resid, quat), (n_pairs, tested)
         if status != 4:
             status, _, tried, n_pairs, _, _, prob, obs_i, rows, final = attempt(
                 *held, *args, start)
             if status == 1:
-                return (final, obs_i, rows, prob), (n_pairs, tried + tested)
+                return (final, obs_i, rows, prob, None, None), (n_pairs, tried + tested)
         if status == 4 and not looked_up:  # once: fresh rows cover it
             cone.look_up(database, obs.camera, matrix, turn, radius_px)
             looked_up = True

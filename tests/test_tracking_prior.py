@@ -14,6 +14,7 @@ from scipy.stats import binom
 
 from startrack.attitude import boresight_error_arcsec
 from startrack.bench.tracking import TrackCondition, make_sequence
+from startrack.identify import residuals_arcsec
 from startrack.prior_kernels import attempt_at_prior, prior_bound
 from startrack.tracking import CatalogCone, Prior, TrackConfig, frame_args, track
 from startrack.tracking_kernels import S_HALF_SIDE, S_WINDOW
@@ -23,7 +24,8 @@ from startrack.verify import VerifyConfig
 
 def _prior_attempt(obs, db, prior):
     """attempt_at_prior on ``obs`` near ``prior``, its rows looked up for it: (status,
-    matched, catalog stars in the image, bound, observed index, catalog rows, attitude)."""
+    matched, catalog stars in the image, bound, observed index, catalog rows, attitude,
+    residuals, quaternion)."""
     cone = CatalogCone()
     setup = cone.setup(obs, VerifyConfig(), TrackConfig())
     radius_px, scan = setup[0], setup[1]
@@ -51,13 +53,18 @@ def test_a_true_prediction_is_accepted_with_the_true_identities(hip_db):
         # A prediction 2 px off with a 1 px sigma, as a tracked sequence gives.
         off = Rotation.from_rotvec([4e-4, -5e-4, 3e-4])
         prior = Prior.from_rotation(frame.rotation * off, 1.0 / hip_db.camera.f_px)
-        status, matched, _, prob, obs_i, rows, matrix = _prior_attempt(frame.obs, hip_db,
-                                                                       prior)
+        status, matched, _, prob, obs_i, rows, matrix, resid, quat = _prior_attempt(
+            frame.obs, hip_db, prior)
         assert status == 1 and prob <= VerifyConfig().max_false_probability
         assert len(obs_i) >= 0.8 * (frame.truth_rows >= 0).sum()
         np.testing.assert_array_equal(rows, frame.truth_rows[obs_i])
         error = boresight_error_arcsec(Rotation.from_matrix(matrix), frame.rotation)
         assert error < 10.0
+        # The residuals and quaternion come from the kernel, as verification's one-call
+        # path gives them.
+        np.testing.assert_allclose(resid, residuals_arcsec(matrix, frame.obs, obs_i,
+                                                           hip_db.vectors[rows]), rtol=1e-12)
+        np.testing.assert_allclose(Rotation.from_quat(quat).as_matrix(), matrix, atol=1e-12)
         solution = track(frame.obs, hip_db, prior)
         assert solution.solved and solution.diagnostics.hypotheses == 1
         np.testing.assert_array_equal(solution.cat_index, frame.truth_rows[solution.obs_index])
