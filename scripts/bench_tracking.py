@@ -202,10 +202,12 @@ Frames by mode:
 {modes_md}
 
 Median identify time, lost-in-space over tracking, on the same frames: {ratio}.
-Both modes count the same span: the prediction (tracking), matching, verification and
-the attitude, not the assembly of the result (residuals, the Rotation object). A tracked
-frame's refinement and labelling are lost-in-space's own; tracking saves the pattern
-search and the hypotheses' first tests.
+Both modes count the same span: the prediction (tracking), matching, verification, the
+attitude, its quaternion and the residuals, not the building of the Solution and its
+Rotation object. A tracked frame's refinement and labelling are lost-in-space's own;
+tracking saves the pattern search and the hypotheses' first tests. The methods run one
+after the other on each frame, so each finds the processor's caches holding the others'
+work, as a tracker finds them after the image has been read and centroided.
 
 ## Where the time goes
 
