@@ -115,7 +115,8 @@ def pairs_off(observed: np.ndarray, catalog: np.ndarray, tol: float) -> int:
 
 class TimedMatcher:
     """A matcher seen through a stopwatch: ``ms`` is the time spent inside its
-    hypotheses() generator (matching alone), the rest of identify() is verification."""
+    hypotheses() generator (matching, with the first-test screening a matcher may do
+    there: the angle matcher's), the rest of identify() is verification."""
 
     def __init__(self, matcher: Matcher) -> None:
         self._matcher = matcher
