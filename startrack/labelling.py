@@ -110,10 +110,9 @@ def kernel_params(obs: Observation, radius_px: float, config: LabelConfig | None
     label_kernel` takes them after its positions (``flux`` ... ``min_fit``): for compiled
     callers that label inside a larger kernel."""
     config = config or LabelConfig()
-    has_flux = obs.flux is not None
-    flux = np.ascontiguousarray(obs.flux if has_flux else obs.x, dtype=np.float64)
-    return (flux, has_flux, float(radius_px) ** 2, float(obs.sigma_rad * obs.camera.f_px),
-            float(obs.camera.width * obs.camera.height), math.log(config.ambiguity),
+    return (obs.kernel_flux(), obs.flux is not None, float(radius_px) ** 2,
+            float(obs.sigma_rad * obs.camera.f_px), float(obs.camera.width * obs.camera.height),
+            math.log(config.ambiguity),
             math.log(config.false_odds), float(config.resolve_px) ** 2,
             float(config.mag_sigmas), float(config.min_mag_sigma), float(config.min_sigma_px),
             int(config.min_fit))

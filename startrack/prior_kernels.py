@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from startrack.matching import verify_kernels
-from startrack.matching.check_kernels import binomial_tail, scipy_quaternion
+from startrack.matching.check_kernels import binomial_tail, reported
 from startrack.tracking_kernels import (
     S_AREA,
     S_CAPTURE,
@@ -40,7 +40,6 @@ from startrack.tracking_kernels import (
 # Stars of a hypothesis built from the frame itself; a prediction must match at least
 # this many more than verification's ``min_confirmed``, as a three-star hypothesis must.
 HYPOTHESIS_STARS = 3
-ARCSEC = 180.0 / math.pi * 3600.0
 
 
 @njit(cache=True)
@@ -88,8 +87,8 @@ def attempt_at_prior(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, o
     turn_trace = 1.0 + 2.0 * math.cos(min(turn, math.pi))
     if not near(refined, prior, turn_trace):
         return 3, matched, n_in, prob, obs_i, rows[pos_i], final, none_f, none_f
-    resid = verify_kernels.residual_angles(obs_vectors, obs_i, final, vectors[pos_i]) * ARCSEC
-    return 1, matched, n_in, prob, obs_i, rows[pos_i], final, resid, scipy_quaternion(final)
+    resid, quat = reported(obs_vectors, obs_i, final, vectors[pos_i])
+    return 1, matched, n_in, prob, obs_i, rows[pos_i], final, resid, quat
 
 
 def warm_up() -> None:

@@ -224,12 +224,11 @@ def frame_args(obs: Observation, prior: Prior, setup: tuple) -> tuple:
     ``min_fit``), as :func:`startrack.labelling.kernel_params` passes them."""
     radius_px, scan, floats, min_fit, geometry = setup
     has_flux = obs.flux is not None
-    flux = np.ascontiguousarray(obs.flux if has_flux else obs.x, dtype=np.float64)
     return (np.ascontiguousarray(obs.vectors, dtype=np.float64),
             np.ascontiguousarray(obs.x, dtype=np.float64),
             np.ascontiguousarray(obs.y, dtype=np.float64), geometry,
             np.ascontiguousarray(prior.matrix, dtype=np.float64), float(prior.sigma_rad),
-            scan, flux, has_flux, floats, min_fit)
+            scan, obs.kernel_flux(), has_flux, floats, min_fit)
 
 
 def _attempt(obs, database, prior, cone, window, setup, start=0, test_prior=True):

@@ -44,6 +44,12 @@ class Observation:
     def __len__(self) -> int:
         return len(self.x)
 
+    def kernel_flux(self) -> np.ndarray:
+        """The fluxes as the compiled kernels take them (float64, contiguous), the x
+        positions standing in when there are none (the kernels are told which)."""
+        return np.ascontiguousarray(self.x if self.flux is None else self.flux,
+                                    dtype=np.float64)
+
 
 @dataclass(frozen=True)
 class Hypothesis:

@@ -135,9 +135,17 @@ def _verdict(obs_vectors, ox, oy, flux, hyp_obs, matrix, rows, vectors, mags, ge
     final = refined
     if obs_i.shape[0] >= 3:
         final = wahba(obs_vectors[obs_i], vectors[cat_pos])
-    resid = kern.residual_angles(obs_vectors, obs_i, final, vectors[cat_pos]) * _ARCSEC
-    return (ACCEPTED, obs_i, rows[cat_pos], prob, confirmed, final, resid,
-            scipy_quaternion(final))
+    resid, quat = reported(obs_vectors, obs_i, final, vectors[cat_pos])
+    return ACCEPTED, obs_i, rows[cat_pos], prob, confirmed, final, resid, quat
+
+
+@njit(cache=True)
+def reported(obs_vectors, obs_index, matrix, cat_vectors):
+    """What an accepted attitude reports with its identities: each identified star's
+    residual in arcseconds (:func:`~startrack.matching.verify_kernels.residual_angles`)
+    and scipy's quaternion of ``matrix`` (:func:`scipy_quaternion`)."""
+    resid = kern.residual_angles(obs_vectors, obs_index, matrix, cat_vectors) * _ARCSEC
+    return resid, scipy_quaternion(matrix)
 
 
 @njit(cache=True)

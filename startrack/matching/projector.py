@@ -107,9 +107,7 @@ class CatalogProjector:
                     config.max_false_probability, label)
                 _last_params[:] = [key, packed]
             self._packed = _last_params[1]
-            # kernel_params' first value: the fluxes, the x positions standing in for none
-            self._flux = np.ascontiguousarray(obs.x if obs.flux is None else obs.flux,
-                                              dtype=np.float64)
+            self._flux = obs.kernel_flux()  # kernel_params' first value, per frame
             if not self.fixed:
                 self.mags = np.ascontiguousarray(self.database.catalog.mag, dtype=np.float64)
             self._config = config
