@@ -32,6 +32,7 @@ from startrack import prior_kernels
 from startrack import tracking_kernels as tk
 from startrack.camera import Camera
 from startrack.database import StarDatabase
+from startrack.database.cone import warm_up as warm_up_cone_lookup
 from startrack.identify import residuals_arcsec
 from startrack.labelling import kernel_params
 from startrack.matching.check_kernels import scipy_quaternion
@@ -293,3 +294,4 @@ def warm_up() -> None:
     first frame of a sequence is not timed with the compilation."""
     tk.warm_up()
     prior_kernels.warm_up()
+    warm_up_cone_lookup()  # the held rows' first lookup

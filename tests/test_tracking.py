@@ -195,3 +195,57 @@ def test_time_ratios_pair_each_tracking_mode_with_its_own_lost_in_space():
                              "time_median_ms": t} for m, t in rows])
     ratios = time_ratios(summary).set_index("method")["speed_up"]
     assert ratios.to_dict() == pytest.approx({"pyramid+track": 1.5, "tetra3rs+hint": 4.0})
+
+
+_NO_LOAD_SCRIPT = """
+import numba.core.dispatcher as dispatcher
+from startrack.bench.tracking import TrackCondition, make_sequence
+from startrack.camera import Camera
+from startrack.database import StarDatabase
+from startrack.identify import identify
+from startrack.matchers import get_matcher
+from startrack.sky import random_sky
+from startrack.tracker import Tracker
+from startrack import tracking
+from startrack.verify import VerifyConfig
+
+camera = Camera.from_fov(1024, 1024, 17.5)
+db = StarDatabase(random_sky(2000, seed=11), camera)
+matcher = get_matcher("pyramid")(db)
+matcher.prepare()
+config = VerifyConfig()
+seq = make_sequence(db.catalog, camera, TrackCondition(), 4, 10.0, seed=3)
+tracker = Tracker()
+loaded, inside = [], [False]
+compile_for_args = dispatcher.Dispatcher._compile_for_args
+def recording(self, *args, **kws):
+    if inside[0]:
+        loaded.append(self.py_func.__name__)
+    return compile_for_args(self, *args, **kws)
+dispatcher.Dispatcher._compile_for_args = recording
+track = tracking.track
+def tracked(*args, **kws):
+    inside[0] = True
+    try:
+        return track(*args, **kws)
+    finally:
+        inside[0] = False
+import startrack.tracker
+startrack.tracker.track = tracked
+modes = [tracker.step(f.obs, db, config, lambda o: identify(o, matcher, config),
+                      "pyramid").mode for f in seq]
+print(modes.count("tracking"), sorted(set(loaded)))
+"""
+
+
+def test_a_trackers_warm_up_leaves_no_kernel_to_load_in_a_timed_frame(tmp_path):
+    """Every kernel a tracked frame calls is compiled or loaded when the Tracker is made,
+    not inside the first frames' identify time (a fresh process: nothing loaded before)."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, STARTRACK_CACHE_DIR=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", _NO_LOAD_SCRIPT], env=env, text=True,
+                         capture_output=True, check=True).stdout.split()
+    assert out == ["3", "[]"]

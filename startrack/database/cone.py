@@ -106,3 +106,11 @@ class ConeIndex:
         direction = np.ascontiguousarray(direction, dtype=np.float64)
         return cone_rows(self.vectors, self.order, self.ra_sorted, self.band_start,
                          direction, min(float(radius_rad), math.pi))
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) the lookup on a tiny index, so that the first
+    timed lookup (a tracked sequence's first frame) does not load it."""
+    v = np.array([[0.0, 0.0, 1.0], [0.01, 0.0, 1.0], [0.0, 0.01, 1.0]])
+    ConeIndex.build(v / np.sqrt((v * v).sum(axis=1))[:, None]).rows(np.array([0.0, 0.0, 1.0]),
+                                                                     0.1)
