@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -40,13 +41,15 @@ class RadialDistortion:
         # d/dr of r * factor(r^2)
         return 1.0 + r2 * (3.0 * self.k1 + r2 * (5.0 * self.k2 + r2 * 7.0 * self.k3))
 
-    @property
+    @cached_property
     def max_r2(self) -> float:
         """Ideal r^2 up to which the observed radius still grows with the ideal one (the
-        model is invertible there); ``inf`` when it never folds back."""
+        model is invertible there); ``inf`` when it never folds back. Computed once per
+        model: every projection and inversion through it asks."""
         # Roots in r2 of 1 + 3 k1 s + 5 k2 s^2 + 7 k3 s^3 = 0; the smallest positive one.
-        roots = np.roots([7.0 * self.k3, 5.0 * self.k2, 3.0 * self.k1, 1.0]) \
-            if not self.is_identity else np.zeros(0)
+        if self.k2 == 0.0 and self.k3 == 0.0:  # k1 alone (a fitted lens): no polynomial
+            return -1.0 / (3.0 * self.k1) if self.k1 < 0.0 else math.inf
+        roots = np.roots([7.0 * self.k3, 5.0 * self.k2, 3.0 * self.k1, 1.0])
         real = roots[np.abs(roots.imag) < 1e-12].real
         positive = real[real > 0]
         return float(positive.min()) if len(positive) else math.inf

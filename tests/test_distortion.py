@@ -52,6 +52,26 @@ def test_beyond_the_fold_is_not_projected():
     assert not front[0]
 
 
+@pytest.mark.parametrize("k", [(-0.3, 0.0, 0.0), (-0.02, 0.0, 0.0), (0.2, 0.0, 0.0),
+                               (-0.3, 0.05, -0.01), (0.1, -0.05, 0.001), (0.0, 0.0, 0.0)])
+def test_the_fold_radius_is_where_the_observed_radius_stops_growing(k):
+    """max_r2 (a k1-only lens's in closed form, others' from the cubic): the observed
+    radius r (1 + k1 r^2 + ...) grows up to it and falls just past it; inf if never."""
+    dist = RadialDistortion(*k)
+    r2 = dist.max_r2
+    assert r2 is dist.max_r2  # computed once per model
+    if not math.isfinite(r2):
+        s = np.linspace(0.0, 100.0, 100001)
+        assert np.all(np.diff(np.sqrt(s) * dist.factor(s)) > 0)
+        return
+    slope = 1.0 + r2 * (3.0 * k[0] + r2 * (5.0 * k[1] + r2 * 7.0 * k[2]))
+    assert abs(slope) < 1e-12
+    below, above = np.sqrt(r2) * np.array([0.999, 1.0, 1.001])[[0, 2]]
+    rd = np.array([below, math.sqrt(r2), above]) * dist.factor(
+        np.array([below, math.sqrt(r2), above]) ** 2)
+    assert rd[0] < rd[1] and rd[2] < rd[1]
+
+
 def test_a_lens_that_folds_inside_the_image_is_refused():
     with pytest.raises(InputError, match="folds back"):
         Camera.from_fov(1024, 1024, 90.0, distortion=RadialDistortion(k1=-1.0))
