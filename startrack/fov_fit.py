@@ -9,11 +9,11 @@ import math
 
 import numpy as np
 
-from startrack.attitude import wahba_matrices
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.distortion import RadialDistortion
 from startrack.errors import InputError
+from startrack.fov_fit_kernels import BAD_FOCAL, fit_iterations
 from startrack.types import Hypothesis, Observation
 from startrack.verify import Verification, VerifyConfig, verify
 
@@ -37,37 +37,28 @@ def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.nda
                iterations: int = 12, lens: bool = True) -> Camera:
     """``camera`` with the focal length that, with its best attitude, fits the pixels
     ``x``, ``y`` to the catalog directions: alternate Wahba's problem and the linear least
-    squares of ``pixel - centre = f * D(tangent-plane position)`` (D the lens model).
+    squares of ``pixel - centre = f * D(tangent-plane position)`` (D the lens model), at
+    most ``iterations`` times (compiled: :func:`startrack.fov_fit_kernels.fit_iterations`).
     With ``lens``, a pinhole ``camera`` and at least ``LENS_MIN_STARS`` stars reaching
     ``LENS_MIN_R2``, the radial ``k1`` too (``f k1`` is linear as well): a lens nobody
-    described still has its wide-field stars fitted."""
-    f, k1, cam = camera.f_px, 0.0, camera
-    d = np.stack([np.asarray(x, float) - camera.cx, np.asarray(y, float) - camera.cy], 1)
-    with_k1 = lens and camera.distortion is None and len(d) >= LENS_MIN_STARS
-    for _ in range(iterations):
-        c = cat_vectors @ wahba_matrices(cam.pixel_to_vector(x, y), cat_vectors)
-        t = c[:, :2] / c[:, 2:3]  # rows R^T v: catalog directions in the camera frame
-        if camera.distortion is not None:  # the lens acts on the normalised plane: d = f D(t)
-            t = np.stack(camera.distortion.distort(t[:, 0], t[:, 1]), 1)
-        r2 = np.sum(t * t, axis=1, keepdims=True)
-        if with_k1 and r2.max() >= LENS_MIN_R2:
-            (f_new, g), *_ = np.linalg.lstsq(np.stack([t.ravel(), (t * r2).ravel()], 1),
-                                             d.ravel(), rcond=None)
-            k1_new = float(np.clip(g / f_new, -LENS_MAX_K1, LENS_MAX_K1)) if f_new > 0 else 0.0
-        elif float(np.sum(t * t)) > 0:
-            f_new, k1_new = float(np.sum(d * t) / np.sum(t * t)), 0.0
-        else:
-            break
-        done = abs(f_new - f) <= 1e-10 * abs(f) and abs(k1_new - k1) <= 1e-12
-        f, k1 = float(f_new), k1_new
-        if not (f > 0 and math.isfinite(f)):
-            return dataclasses.replace(camera, f_px=f)
-        cam = dataclasses.replace(camera, f_px=f)
-        if k1:
-            cam = cam.with_distortion(RadialDistortion(k1=k1))
-        if done:
-            break
-    return cam
+    described still has its wide-field stars fitted. A focal length that is not positive
+    and finite comes back as it is; a fitted lens that folds back inside the image is an
+    :class:`InputError`, as :meth:`Camera.with_distortion` makes it."""
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    described = camera.distortion
+    k = (np.zeros(3) if described is None
+         else np.array([described.k1, described.k2, described.k3], dtype=np.float64))
+    cap = math.inf if described is None else math.sqrt(described.max_r2)
+    with_k1 = lens and described is None and len(x) >= LENS_MIN_STARS
+    status, f, k1 = fit_iterations(x, y, np.ascontiguousarray(cat_vectors, dtype=np.float64),
+                                   camera.cx, camera.cy, camera.width, camera.height,
+                                   camera.f_px, k, cap, with_k1, iterations, LENS_MIN_R2,
+                                   LENS_MAX_K1)
+    cam = dataclasses.replace(camera, f_px=f)
+    if status == BAD_FOCAL or not k1:
+        return cam
+    return cam.with_distortion(RadialDistortion(k1=k1))  # FOLDS: its InputError
 
 
 def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,

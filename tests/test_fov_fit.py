@@ -51,3 +51,58 @@ def test_a_described_lens_is_kept():
     fitted = fit_camera(dataclasses.replace(true, f_px=true.f_px * 1.03), x, y, sky)
     assert fitted.distortion == lens
     assert fitted.f_px == pytest.approx(true.f_px, rel=1e-8)
+
+
+def _fit_or_error(fit, *args, **kwargs):
+    from startrack.errors import InputError
+
+    try:
+        return fit(*args, **kwargs)
+    except InputError as exc:
+        return str(exc)
+
+
+def test_the_compiled_fit_is_the_numpy_fit():
+    """The compiled iterations give the numpy fit's camera (tests/fov_fit_reference.py)
+    over cameras with and without a described lens, undescribed lenses whose k1 is
+    fitted, noisy and wrong pairs, few stars, iteration caps, and fits that fold the lens
+    back inside the image or lose the focal length (the same error, the same camera)."""
+    from fov_fit_reference import reference_fit_camera
+
+    rng = np.random.default_rng(41)
+    kinds = {"errors": 0, "k1": 0, "bad_f": 0}
+    for t in range(300):
+        fov = float(rng.choice([3.0, 12.0, 25.0, 45.0, 70.0]))
+        lens = (None, RadialDistortion(k1=float(rng.uniform(-0.2, 0.1))),
+                RadialDistortion(k1=-0.05, k2=0.01, k3=-0.002))[t % 3]
+        size = int(rng.integers(400, 3000)), int(rng.integers(300, 2000))
+        true = _fit_or_error(Camera.from_fov, *size, fov, distortion=lens)
+        if isinstance(true, str):  # a lens that folds inside this field: no such camera
+            continue
+        n = int(rng.integers(3, 60))
+        x, y, sky = _stars(true, n, t)
+        x = x + rng.normal(0.0, (0.0, 0.3, 3.0)[t % 3], n)
+        if t % 7 == 0:  # some wrong pairs
+            sky[: n // 3] = sky[rng.permutation(n // 3)]
+        told = dataclasses.replace(true if t % 2 else true.pinhole,
+                                   f_px=true.f_px * float(rng.uniform(0.85, 1.15)))
+        if t % 13 == 0:  # pixels that only a negative focal length fits
+            x = 2.0 * told.cx - x  # a mirror image: no rotation undoes it
+        iterations = (12, 3, 1)[t % 5 % 3]
+        lens_fit = t % 11 != 0
+        got = _fit_or_error(fit_camera, told, x, y, sky, iterations, lens_fit)
+        want = _fit_or_error(reference_fit_camera, told, x, y, sky, iterations, lens_fit)
+        if isinstance(want, str):  # the same refusal (its k1 printed to rounding)
+            assert isinstance(got, str) and "folds back inside the image" in got
+            assert "folds back inside the image" in want
+            kinds["errors"] += 1
+            continue
+        assert got.f_px == pytest.approx(want.f_px, rel=1e-9, abs=1e-9)
+        assert (got.distortion is None) == (want.distortion is None)
+        if want.distortion is not None:
+            assert got.distortion.k1 == pytest.approx(want.distortion.k1, rel=1e-7, abs=1e-9)
+            assert (got.distortion.k2, got.distortion.k3) == (want.distortion.k2,
+                                                              want.distortion.k3)
+            kinds["k1"] += want.distortion != true.distortion
+        kinds["bad_f"] += not want.f_px > 0
+    assert min(kinds.values()) > 0, kinds
