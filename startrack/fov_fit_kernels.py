@@ -4,9 +4,10 @@ the linear least squares of the focal length (and a fitted k1), until they settl
 
 The fit runs for every solved frame whose field of view was given as nominal, and for
 every hypothesis of a blind search; in numpy a few dozen stars spent half a millisecond an
-iteration in call overhead. Each step here is the numpy version's, operation for operation,
-except Wahba's problem (Davenport's q-method instead of an SVD, the same minimiser) and the
-two-column least squares (a Gram-Schmidt QR instead of LAPACK's SVD solver).
+iteration in call overhead. Each step here is the numpy fit's (kept as the tests' reference,
+``tests/fov_fit_reference.py``), operation for operation, except Wahba's problem
+(Davenport's q-method instead of an SVD, the same minimiser) and the two-column least
+squares (a Gram-Schmidt QR instead of LAPACK's SVD solver).
 """
 
 from __future__ import annotations
