@@ -82,7 +82,7 @@ def _in_flow(seq, ident):
     kernel, search = _Clock(), _Clock()
     attempts = {name: getattr(tracking, name) for name in ("attempt_at_prior", "attempt")}
 
-    def capture(*args):
+    def capture(*args):  # ``frame``: the loop's frame being stepped when this is called
         out = attempts["attempt_at_prior"](*args)
         if out[0] == 1:
             captured.append((args, frame.obs))

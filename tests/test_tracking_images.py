@@ -13,16 +13,13 @@ from startrack.bench.tracking_images import (
     run_images,
     summarise_images,
 )
-from startrack.camera import Camera
 from startrack.sensor import SensorModel
-from startrack.sky import SkySpec, load_sky
+from startrack.sky import SkySpec
 
 
 @pytest.fixture(scope="module")
-def hip_sky():
-    camera = Camera.from_fov(1024, 1024, 20.0)
-    spec = SkySpec(kind="hipparcos", mag_limit=6.5)
-    return spec, load_sky(spec, camera), camera
+def hip_sky(hip_db):
+    return SkySpec(kind="hipparcos", mag_limit=6.5), hip_db.catalog, hip_db.camera
 
 
 def test_rendered_sequence_is_reproducible_and_moves(hip_sky):

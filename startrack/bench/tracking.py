@@ -86,13 +86,19 @@ def sequence_rotations(r0: Rotation, rate_vector, fps: float, count: int,
     return Rotation.concatenate([rotations[:jump_at], rotations[jump_at:] * jump])
 
 
+def seeded_rotations(cond: TrackCondition, count: int, fps: float, seed: int,
+                     jump_at: int | None = None, jump_deg: float = 10.0) -> Rotation:
+    """The attitudes of the sequence ``seed`` names: a random start (from the seed) turning
+    at ``cond.rate_dps`` along :data:`RATE_AXIS` (:func:`sequence_rotations`)."""
+    r0 = random_attitudes(1, np.random.default_rng([seed, 0]))[0]
+    return sequence_rotations(r0, RATE_AXIS * cond.rate_dps, fps, count, jump_at, jump_deg)
+
+
 def make_sequence(catalog: Catalog, camera: Camera, cond: TrackCondition, count: int,
                   fps: float, seed: int, *, blank: tuple[int, int] | None = None,
                   jump_at: int | None = None, jump_deg: float = 10.0) -> list[SeqFrame]:
     """``count`` frames of one sequence; frames ``blank[0] <= k < blank[1]`` have no stars."""
-    r0 = random_attitudes(1, np.random.default_rng([seed, 0]))[0]
-    rotations = sequence_rotations(r0, RATE_AXIS * cond.rate_dps, fps, count, jump_at,
-                                   jump_deg)
+    rotations = seeded_rotations(cond, count, fps, seed, jump_at, jump_deg)
     sigma = max(cond.noise_px, 0.05)
     frames = []
     for k in range(count):  # one scene per frame; each is vectorised over its stars

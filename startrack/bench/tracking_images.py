@@ -16,8 +16,8 @@ import numpy as np
 import pandas as pd
 
 from startrack.api import Solver
-from startrack.attitude import boresight_error_arcsec, random_attitudes
-from startrack.bench.tracking import RATE_AXIS, TrackCondition, sequence_rotations
+from startrack.attitude import boresight_error_arcsec
+from startrack.bench.tracking import RATE_AXIS, TrackCondition, seeded_rotations
 from startrack.camera import Camera
 from startrack.fov import DEFAULT_FOV_TOLERANCE
 from startrack.render import render_frame
@@ -36,15 +36,13 @@ def rendered_sequence(catalog: Catalog, camera: Camera, sensor: SensorModel,
     """Yield (image, true rotation) for ``count`` frames of the bench's trajectory
     (:func:`startrack.bench.tracking.make_sequence`'s, from the same seed), each frame
     blurred by the rate over the sensor's exposure."""
-    r0 = random_attitudes(1, np.random.default_rng([seed, 0]))[0]
-    rate = RATE_AXIS * cond.rate_dps
-    rotations = sequence_rotations(r0, rate, fps, count)
+    rate = tuple(float(w) for w in RATE_AXIS * cond.rate_dps)
+    rotations = seeded_rotations(cond, count, fps, seed)
     for k in range(count):
         rng = np.random.default_rng([seed, k, 2])
         scene = observe(catalog, camera, rotations[k], rng, missing=cond.missing,
                         false_stars=int(cond.false_stars))
-        image = render_frame(scene, camera, sensor, rng,
-                             angular_rate_dps=tuple(float(w) for w in rate))
+        image = render_frame(scene, camera, sensor, rng, angular_rate_dps=rate)
         yield image, rotations[k]
 
 
