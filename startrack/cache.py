@@ -6,7 +6,10 @@ half-written: outputs (:func:`atomic_path`, :func:`atomic_text`) and cache entri
 Files are created with the permissions the umask allows, like any ``open()``.
 
 Cache entries carry an XXH3-128 hash of their arrays (xxhash), checked on every load, so an
-entry whose contents were damaged (not just torn) is rebuilt rather than trusted. XXH3 is
+entry whose contents were damaged (not just torn) is rebuilt rather than trusted. Each entry
+also stores its key (kind, cache version, parameters: for a parsed catalog its source file's
+path, size and modification time and the parser's version), covered by the hash and compared
+on load, so a valid entry of another catalog copied over this one is rebuilt, not trusted. XXH3 is
 not a cryptographic hash: it detects damage, not deliberate tampering; it reads ~10x
 faster than SHA-256, which had become the largest part of a warm start. The cache is
 bounded: after each write the least recently used entries are evicted until the total is
@@ -33,9 +36,10 @@ from pathlib import Path
 import numpy as np
 import xxhash
 
-CACHE_VERSION = 3  # 2: entries carry a checksum; 3: XXH3-128 instead of SHA-256
+CACHE_VERSION = 4  # 2: a checksum; 3: XXH3-128 instead of SHA-256; 4: the key inside
 DEFAULT_CACHE_MAX_MB = 2048  # room for a blind search's Gaia pattern tables beside the rest
 CHECKSUM_KEY = "__xxh3_128__"
+ENTRY_KEY = "__key__"  # the member holding the entry's own key (what the entry is)
 # What the cache writes: kind-<20 hex>.suffix; anything else in the folder is left alone.
 ENTRY_NAME = re.compile(r"^[a-z0-9_]+-[0-9a-f]{20}(\.[A-Za-z0-9]+)+$")
 TEMP_NAME = re.compile(r"^\.[a-z0-9_]+-[0-9a-f]{20}\.")
@@ -99,10 +103,14 @@ def cache_max_bytes() -> int:
     return int(max(mb, 0.0) * 1024 * 1024)
 
 
+def key_text(kind: str, params: dict) -> str:
+    """The canonical text of an entry's key: (kind, cache format version, params)."""
+    return json.dumps({"kind": kind, "v": CACHE_VERSION, **params}, sort_keys=True, default=str)
+
+
 def cache_key(kind: str, params: dict) -> str:
     """A file stem unique to (kind, params) and the cache format version."""
-    blob = json.dumps({"kind": kind, "v": CACHE_VERSION, **params}, sort_keys=True, default=str)
-    return f"{kind}-{hashlib.sha256(blob.encode()).hexdigest()[:20]}"
+    return f"{kind}-{hashlib.sha256(key_text(kind, params).encode()).hexdigest()[:20]}"
 
 
 def arrays_checksum(arrays: dict[str, np.ndarray]) -> str:
@@ -159,14 +167,18 @@ def _read_npz(path: Path) -> dict[str, np.ndarray]:
     return arrays
 
 
-def _load_checked(path: Path) -> dict[str, np.ndarray] | None:
-    """The arrays of a cache entry, or None when it is damaged or altered."""
+def _load_checked(path: Path, key: str) -> dict[str, np.ndarray] | None:
+    """The arrays of a cache entry, or None when it is damaged, altered or another entry
+    (its stored ``key`` differs: what the file name says is not what the entry holds)."""
     try:
         arrays = _read_npz(path)
     except Exception:  # any damage (truncation, bad zip, bad header) means a rebuild
         return None
     stored = arrays.pop(CHECKSUM_KEY, None)
     if not arrays or stored is None or str(stored) != arrays_checksum(arrays):
+        return None
+    stored_key = arrays.pop(ENTRY_KEY, None)
+    if stored_key is None or stored_key.shape != () or str(stored_key) != key or not arrays:
         return None
     return arrays
 
@@ -207,18 +219,19 @@ def cached_arrays(kind: str, params: dict,
                   build: Callable[[], dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     """Load the arrays for (kind, params) from the cache, or build and store them.
 
-    A damaged or altered entry (checksum mismatch) is rebuilt; a read-only cache only
-    costs the rebuild next time.
+    A damaged or altered entry (checksum mismatch), or one whose stored key is not
+    (kind, params), is rebuilt; a read-only cache only costs the rebuild next time.
     """
     path = cache_dir() / f"{cache_key(kind, params)}.npz"
+    key = key_text(kind, params)
     if path.exists():
-        arrays = _load_checked(path)
+        arrays = _load_checked(path, key)
         if arrays is not None:
             _touch(path)
             return arrays
     arrays = build()
     with contextlib.suppress(OSError), atomic_path(path) as tmp:
-        _write_npz(tmp, arrays)
+        _write_npz(tmp, {**arrays, ENTRY_KEY: np.array(key)})
     evict(keep=path)
     return arrays
 

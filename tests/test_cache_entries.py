@@ -90,3 +90,31 @@ def test_a_compressed_entry_with_a_good_checksum_is_used(tmp_path, monkeypatch):
     out = cached_arrays("t", {"k": 1}, build)
     assert len(calls) == 1
     np.testing.assert_array_equal(out["b"], np.arange(7, dtype=np.int32))
+
+
+def test_an_entry_of_another_catalog_copied_over_is_rebuilt(tmp_path, monkeypatch):
+    # Issue 31: the Gaia parse entry (same array names, a valid checksum) copied over the
+    # Hipparcos one was trusted, and Gaia source ids were reported as HIP numbers.
+    from startrack.sky.gaia import gaia_arrays
+    from startrack.sky.hipparcos import hipparcos_arrays
+
+    monkeypatch.setenv("STARTRACK_CACHE_DIR", str(tmp_path))
+    hip = hipparcos_arrays()
+    gaia_arrays()
+    entries = {p.name.split("-")[0]: p for p in tmp_path.glob("*.npz")}
+    entries["hipparcos"].write_bytes(entries["gaia"].read_bytes())
+    again = hipparcos_arrays()
+    np.testing.assert_array_equal(again["ids"], hip["ids"])
+    assert again["ids"].max() <= 120_404  # HIP numbers, not Gaia source ids
+    assert _read_npz(entries["hipparcos"])["ids"].shape == hip["ids"].shape  # rewritten
+
+
+def test_an_entry_whose_stored_key_differs_is_rebuilt(tmp_path, monkeypatch):
+    build, calls = _counting_build()
+    path = _entry(tmp_path, monkeypatch, build)
+    other = cache_dir() / f"{cache_key('t', {'k': 2})}.npz"
+    cached_arrays("t", {"k": 2}, lambda: {"a": np.zeros(3), "b": np.ones(2, np.int32)})
+    path.write_bytes(other.read_bytes())  # valid checksum, another key
+    out = cached_arrays("t", {"k": 1}, build)
+    assert len(calls) == 2
+    np.testing.assert_array_equal(out["b"], np.arange(7, dtype=np.int32))
