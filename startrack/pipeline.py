@@ -206,9 +206,13 @@ class Pipeline:
 
     def correct_aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
         """``result`` corrected for annual aberration when the time of observation is known
-        (``Options.time``, else a FITS input's DATE-OBS): startrack.aberration."""
+        (``Options.time``, else a FITS input's DATE-OBS): startrack.aberration. Every
+        answer passes here, so here an answer without its evidence is refused
+        (:func:`startrack.evidence.require_evidence`)."""
         from startrack.aberration import correct_result, fits_time
+        from startrack.evidence import require_evidence
 
+        result = require_evidence(result)
         when = self.options.time
         if when is None and frame.path is not None:
             when = fits_time(frame.path)
