@@ -26,9 +26,9 @@ import numpy as np
 from startrack.bench import tracking as tb
 from startrack.bench import tracking_images as ti
 from startrack.bench import tracking_report as tr
-from startrack.cache import atomic_text
 from startrack.config import load_config
 from startrack.identifier import Identifier
+from startrack.outputs import atomic_text
 from startrack.sky import load_sky, resolve_sky
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

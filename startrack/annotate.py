@@ -11,8 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.cache import atomic_path
-from startrack.errors import InputError
+from startrack.outputs import atomic_path
 
 #: catalog stars at least this bright get their IAU name beside the HIP number
 NAME_MAG_LIMIT = 5.5
@@ -186,7 +185,5 @@ def write_annotated(frame, path: str | Path) -> None:
     try:
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=dpi, format="png", facecolor="black")
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
     finally:
         plt.close(fig)

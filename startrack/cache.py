@@ -1,9 +1,8 @@
 """Files that appear only when complete: atomic output writes and the on-disk cache.
 
-Every file startrack writes goes through here, so an interrupted run never leaves one
-half-written: outputs (:func:`atomic_path`, :func:`atomic_text`) and cache entries
-(:func:`cached_arrays` for arrays, :func:`cached_file` for a peer's own file format).
-Files are created with the permissions the umask allows, like any ``open()``.
+Cache entries (:func:`cached_arrays` for arrays, :func:`cached_file` for a peer's own
+file format) are written as every output is (:func:`startrack.outputs.atomic_path`), so an
+interrupted run never leaves one half-written.
 
 Cache entries carry an XXH3-128 hash of their arrays (xxhash), checked on every load, so an
 entry whose contents were damaged (not just torn) is rebuilt rather than trusted. Each entry
@@ -26,15 +25,15 @@ import math
 import os
 import re
 import struct
-import tempfile
-import threading
 import time
 import zipfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import xxhash
+
+from startrack.outputs import atomic_path
 
 CACHE_VERSION = 4  # 2: a checksum; 3: XXH3-128 instead of SHA-256; 4: the key inside
 DEFAULT_CACHE_MAX_MB = 2048  # room for a blind search's Gaia pattern tables beside the rest
@@ -43,44 +42,6 @@ ENTRY_KEY = "__key__"  # the member holding the entry's own key (what the entry 
 # What the cache writes: kind-<20 hex>.suffix; anything else in the folder is left alone.
 ENTRY_NAME = re.compile(r"^[a-z0-9_]+-[0-9a-f]{20}(\.[A-Za-z0-9]+)+$")
 TEMP_NAME = re.compile(r"^\.[a-z0-9_]+-[0-9a-f]{20}\.")
-_UMASK_LOCK = threading.Lock()
-
-
-def current_umask() -> int:
-    """The process umask (read without changing it where /proc allows)."""
-    with contextlib.suppress(OSError, ValueError), open("/proc/self/status") as fh:
-        for line in fh:
-            if line.startswith("Umask:"):
-                return int(line.split()[1], 8)
-    with _UMASK_LOCK:
-        mask = os.umask(0o022)
-        os.umask(mask)
-    return mask
-
-
-@contextlib.contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; move it into place only on success."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    try:
-        os.fchmod(fd, 0o666 & ~current_umask())  # mkstemp makes 0600; follow the umask
-    finally:
-        os.close(fd)
-    try:
-        yield Path(tmp)
-        os.replace(tmp, path)
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-
-
-@contextlib.contextmanager
-def atomic_text(path: str | Path) -> Iterator:
-    """Open a text file for writing that appears at ``path`` only when complete."""
-    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
-        yield fh
 
 
 def cache_dir() -> Path:

@@ -9,8 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.cache import atomic_text
-from startrack.errors import InputError
+from startrack.outputs import atomic_text
 
 #: Columns; units are in the names (px: pixels as in docs/conventions.md, deg, arcsec).
 CORR_COLUMNS = [
@@ -51,10 +50,7 @@ def corr_rows(frame) -> list[list]:
 def write_corr(path: str | Path, rows: list[list]) -> None:
     """Write correspondence ``rows`` (:func:`corr_rows`) as a CSV, atomically."""
     path = Path(path)
-    try:
-        with atomic_text(path) as fh:
-            writer = csv.writer(fh, lineterminator="\n")
-            writer.writerow(CORR_COLUMNS)
-            writer.writerows(rows)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    with atomic_text(path) as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(CORR_COLUMNS)
+        writer.writerows(rows)

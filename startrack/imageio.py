@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.cache import atomic_path
 from startrack.errors import InputError
 from startrack.image_header import check_image_size, check_pixels
+from startrack.outputs import atomic_path
 
 PNG_SUFFIXES = (".png",)
 TIFF_SUFFIXES = (".tif", ".tiff")
@@ -185,11 +185,8 @@ def write_png16(path: str | Path, image: np.ndarray) -> None:
     ok, buf = cv2.imencode(".png", np.ascontiguousarray(image))
     if not ok:
         raise InputError(f"{path}: PNG encoding failed")
-    try:
-        with atomic_path(path) as tmp:
-            buf.tofile(tmp)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    with atomic_path(path) as tmp:
+        buf.tofile(tmp)
 
 
 def write_fits(path: str | Path, image: np.ndarray,
@@ -206,9 +203,6 @@ def write_fits(path: str | Path, image: np.ndarray,
     for key, value in (header or {}).items():
         if key.upper() not in _STRUCTURAL:  # astropy sets these from the data
             hdr[key] = value
-    try:
-        with atomic_path(path) as tmp:
-            fits.PrimaryHDU(data=np.ascontiguousarray(image), header=hdr).writeto(
-                tmp, overwrite=True)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    with atomic_path(path) as tmp:
+        fits.PrimaryHDU(data=np.ascontiguousarray(image), header=hdr).writeto(
+            tmp, overwrite=True)

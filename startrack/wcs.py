@@ -17,7 +17,6 @@ from astropy.wcs import WCS
 from scipy.spatial.transform import Rotation
 
 from startrack.camera import Camera
-from startrack.errors import InputError
 from startrack.sky.catalog import vectors_to_radec
 
 
@@ -263,14 +262,11 @@ def date_obs_of(path: str | Path | None) -> str | None:
 
 def write_wcs(path: str | Path, header: fits.Header) -> None:
     """Write ``header`` as a data-less FITS file (like solve-field's .wcs), atomically."""
-    from startrack.cache import atomic_path
+    from startrack.outputs import atomic_path
 
     path = Path(path)
-    try:
-        with atomic_path(path) as tmp:
-            fits.PrimaryHDU(header=header).writeto(tmp, overwrite=True)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    with atomic_path(path) as tmp:
+        fits.PrimaryHDU(header=header).writeto(tmp, overwrite=True)
 
 
 def solved_wcs_header(frame, extra: dict | None = None) -> fits.Header:

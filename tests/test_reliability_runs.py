@@ -104,7 +104,8 @@ def test_sigterm_stops_cleanly_and_what_was_done_is_right(reference, tmp_path):
     assert "Traceback" not in err and err.strip().splitlines()[-1].endswith(
         "nothing half-written was left")
     _wait_for(lambda: not any(_alive(w) for w in workers), timeout=15)
-    assert [q.name for q in out.iterdir() if q.name.startswith(".")] == [".lock"]
+    assert sorted(q.name for q in out.iterdir() if q.name.startswith(".")) == [
+        ".lock", ".startrack-files"]  # the lock and the manifest; no temporary file
     done = _numbers(read_done(out / "frames.csv", COLUMNS, ["angle"]))
     shared = set(done) & set(reference)
     assert shared and all(done[u] == reference[u] for u in shared)
@@ -140,7 +141,8 @@ def test_simulate_refuses_a_used_folder_and_overwrite_leaves_no_stale_frames(cam
     assert cli("simulate", "--camera", cam, "--frames", "1", "--out", out, "--overwrite") \
         .returncode == 0
     assert sorted(p.name for p in out.iterdir()) == [
-        "frame_0000.json", "frame_0000.png", "notes.txt", "stars.csv", "truth.csv"]
+        ".lock", ".startrack-files", "frame_0000.json", "frame_0000.png", "notes.txt",
+        "stars.csv", "truth.csv"]
     for name in ("stars.csv", "truth.csv"):
         assert b"\r" not in (out / name).read_bytes()
 

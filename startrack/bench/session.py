@@ -3,12 +3,8 @@ the canonical frames.csv, summary.csv, db.csv and the plots."""
 
 from __future__ import annotations
 
-import contextlib
 import csv
-import os
-import re
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,14 +26,11 @@ from startrack.bench.store import (
     write_canonical,
     write_run,
 )
-from startrack.cache import atomic_text
 from startrack.errors import InputError
-from startrack.outputs import check_out_folder
+from startrack.outputs import atomic_text
+from startrack.run_folder import RunFolder
 
 SUMMARY_FILE = "summary.csv"
-LOCK_FILE = ".lock"
-# mkstemp names of atomic writes: .<file>.<8 random chars><suffix>
-TEMP_NAME = re.compile(r"^\.[^.].*\.[A-Za-z0-9_]{8}(\.[A-Za-z0-9]+)?$")
 DB_FILE = "db.csv"
 GROUP_COLUMNS = ["condition", *VARIABLES, "method"]
 
@@ -58,31 +51,53 @@ class RunOutputs:
     wall_seconds: float
 
 
-def _resumable(spec: RunSpec, out: Path, resume: bool | None) -> dict:
-    """The complete units to keep from an earlier run in ``out`` (none: start over)."""
+def lost_in_space_identity(spec: RunSpec) -> dict:
+    """What run.json records of a lost-in-space comparison (its mode, options, code)."""
+    return run_identity({"mode": "lost_in_space", **spec.to_json()})
+
+
+def same_or_new(out: Path, identity: dict, resume: bool | None) -> bool:
+    """Whether ``out`` holds the run ``identity`` (False: none, or ``resume`` is False);
+    a different run of any mode is refused unless ``resume`` is False (--no-resume)."""
     if resume is False or not (out / RUN_FILE).exists():
-        return {}
+        return False
     stored = read_run(out)
-    identity = run_identity(spec.to_json())
     if stored is None or not same_run(stored, identity):
         what = ", ".join(differences(stored, identity)) if stored else "unreadable run.json"
         raise InputError(f"{out}: holds a different comparison run (differs in: {what}); "
                          "use --no-resume to start over or choose another --out")
+    return True
+
+
+def _resumable(spec: RunSpec, out: Path, resume: bool | None) -> dict:
+    """The complete units to keep from an earlier run in ``out`` (none: start over)."""
+    if not same_or_new(out, lost_in_space_identity(spec), resume):
+        return {}
     return read_done(out / FRAMES_FILE, COLUMNS, list(spec.methods))
 
 
-def _clear_outputs(out: Path) -> None:
-    for path in [out / SUMMARY_FILE, out / DB_FILE, out / "report.md",
-                 *out.glob("plot_*.png"), *out.glob("heatmap_*.png")]:
-        path.unlink(missing_ok=True)
+def run_in_folder(out: str | Path, identity: dict, run, *, resume: bool | None = None,
+                  overwrite: bool = False, inputs=()):
+    """``run(out)`` (a comparison that cannot resume: ``compare --mode tracking``) in the
+    folder ``out``, holding its lock; an earlier run's listed files are removed first, and
+    run.json records ``identity`` once it is done. Returns what ``run`` returns."""
+    folder = RunFolder(out, "compare", inputs, overwrite=overwrite)
+    folder.check()
+    with folder:
+        same_or_new(folder.out, identity, resume)
+        folder.remove_earlier()
+        result = run(folder.out)
+        write_run(folder.out, identity)
+    return result
 
 
-def _run_pending(spec: RunSpec, out: Path, done: dict, jobs: int, client,
+def _run_pending(spec: RunSpec, folder: RunFolder, done: dict, jobs: int, client,
                  progress: bool) -> tuple[int, int]:
     """Run the units not yet in frames.csv, appending each as it finishes."""
+    out = folder.out
     if not done:
-        _clear_outputs(out)
-    write_run(out, run_identity(spec.to_json()))
+        folder.remove_earlier()  # starting over: no earlier run's file outlives it
+    write_run(out, lost_in_space_identity(spec))
     writer = FramesWriter(out / FRAMES_FILE, COLUMNS, done)
     pending = [u for u in spec.units() if u not in done]
     bar = progress_bar(len(spec.units()), len(done), progress)
@@ -100,66 +115,44 @@ def _run_pending(spec: RunSpec, out: Path, done: dict, jobs: int, client,
 
 def run_comparison(spec: RunSpec, out: str | Path, *, jobs: int = 1,
                    scheduler: str | None = None, resume: bool | None = None,
-                   progress: bool = False, announce=None) -> RunOutputs:
+                   progress: bool = False, announce=None, overwrite: bool = False,
+                   inputs=(), finish=None) -> RunOutputs:
     """Run (or finish) the comparison ``spec`` into the folder ``out``.
 
     ``resume``: None resumes when ``out`` holds the same run and refuses a different one;
     True the same; False starts over. ``announce()`` is called once the run holds the
     folder's lock (a second run on one folder fails before it says anything).
+    ``overwrite``: use ``out`` although it holds files startrack did not write;
+    ``inputs``: files the run reads, never written (startrack.run_folder);
+    ``finish(result)`` writes more files (report.md) while the run still holds the folder.
     """
     t0 = time.perf_counter()
     out = Path(out)
-    check_out_folder(out, overwrite=True)
+    folder = RunFolder(out, "compare", inputs, overwrite=overwrite)
+    folder.check()
     # Load in this process first: a bad method or sky fails before anything is written,
     # and the database load times are measured once, here.
     bench = load_bench(spec)
     client = connect(scheduler) if scheduler is not None else None
     try:
-        with exclusive_lock(out):
-            return _locked_run(spec, out, bench, jobs, client, resume, progress, t0,
-                               announce)
+        with folder:
+            result = _locked_run(spec, folder, bench, jobs, client, resume, progress, t0,
+                                 announce)
+            if finish is not None:
+                finish(result)
+            return result
     finally:
         if client is not None:
             client.close()
 
 
-@contextlib.contextmanager
-def exclusive_lock(out: Path) -> Iterator[Path]:
-    """Hold ``out/.lock`` (flock) for the whole run: a second run on one folder would
-    interleave its rows with this one's."""
-    import fcntl
-
-    out.mkdir(parents=True, exist_ok=True)
-    lock = out / LOCK_FILE
-    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise InputError(f"--out {out}: another compare is running there (it holds "
-                             f"the lock {lock}); wait for it or choose another --out") \
-                from None
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode())
-        yield lock
-    finally:
-        os.close(fd)  # releases the lock; the file stays (unlinking it would race)
-
-
-def _remove_stale_temporaries(out: Path) -> None:
-    """Temporary files a killed run left (SIGKILL runs no clean-up); safe under the lock."""
-    for path in out.iterdir():
-        if TEMP_NAME.match(path.name) and path.is_file():
-            path.unlink(missing_ok=True)
-
-
-def _locked_run(spec: RunSpec, out: Path, bench, jobs: int, client, resume: bool | None,
-                progress: bool, t0: float, announce) -> RunOutputs:
-    _remove_stale_temporaries(out)
+def _locked_run(spec: RunSpec, folder: RunFolder, bench, jobs: int, client,
+                resume: bool | None, progress: bool, t0: float, announce) -> RunOutputs:
+    out = folder.out
     done = _resumable(spec, out, resume)
     if announce is not None:
         announce()
-    units_run, units_done = _run_pending(spec, out, done, jobs, client, progress)
+    units_run, units_done = _run_pending(spec, folder, done, jobs, client, progress)
     frames_csv = out / FRAMES_FILE
     write_canonical(frames_csv, COLUMNS, list(spec.methods))
 

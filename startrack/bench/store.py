@@ -14,8 +14,8 @@ import json
 import math
 from pathlib import Path
 
-from startrack.cache import atomic_text
 from startrack.errors import InputError
+from startrack.outputs import atomic_text
 
 RUN_FILE = "run.json"
 FRAMES_FILE = "frames.csv"

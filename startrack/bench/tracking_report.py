@@ -22,9 +22,9 @@ from startrack.bench.tracking import (
     peer_available,
     run_tracking_bench,
 )
-from startrack.cache import atomic_path, atomic_text
 from startrack.camera import Camera
 from startrack.errors import InputError
+from startrack.outputs import atomic_path, atomic_text
 from startrack.sky import SkySpec, load_sky
 
 BASE_RATE = f"{float(np.linalg.norm([1.0, 0.5, 2.0])):.4f}"

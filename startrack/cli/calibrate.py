@@ -9,12 +9,13 @@ from pathlib import Path
 
 import click
 
-from startrack.cache import atomic_text
 from startrack.camera_file import load_camera
 from startrack.cli import main
 from startrack.cli.identify import _finite, _size
 from startrack.errors import InputError
+from startrack.outputs import Writer
 from startrack.pipeline import DEFAULT_METHOD, read_input
+from startrack.sidecar import with_sidecars
 from startrack.sky import SKY_KINDS
 
 
@@ -28,6 +29,8 @@ from startrack.sky import SKY_KINDS
 @click.option("--size", callback=_size, help="Image size WxH for centroid CSVs with --fov.")
 @click.option("--output", required=True, type=click.Path(dir_okay=False),
               help="Camera file to write (JSON, interfaces.md keys).")
+@click.option("--overwrite", is_flag=True,
+              help="Replace an existing --output file (an input never).")
 @click.option("--terms", type=click.IntRange(0, 3), default=1, show_default=True,
               help="Radial distortion coefficients to fit: 0 none, 1 k1, 2 k1 k2, 3 k1-k3.")
 @click.option("--fix-center", is_flag=True, help="Keep the principal point of the nominal "
@@ -38,8 +41,8 @@ from startrack.sky import SKY_KINDS
 @click.option("--epoch", type=float, callback=_finite,
               help="Julian year to carry catalog positions to by proper motion.")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True, help="Matcher.")
-def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky, mag_limit,
-              epoch, method) -> None:
+def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_center, sky,
+              mag_limit, epoch, method) -> None:
     """Solve every INPUT (images or centroid CSVs from one camera), fit its focal length,
     principal point and radial distortion by least squares over all matched stars (with
     outlier rejection), write the camera file and print the residual RMS before and after.
@@ -51,6 +54,9 @@ def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky
     if (fov_deg is None) == (camera_path is None):
         raise InputError("calibrate: give exactly one of --fov DEG and --camera FILE")
     get_matcher(method)
+    writer = Writer([*with_sidecars(inputs), *([camera_path] if camera_path else [])],
+                    overwrite)
+    writer.check(output, "--output")  # before any work
     frames = [read_input(Path(name)) for name in inputs]
     nominal = _nominal(frames, fov_deg, camera_path, size)
     spec = SkySpec(kind=sky, mag_limit=mag_limit, epoch=epoch)
@@ -64,7 +70,7 @@ def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky
     for name in result.unsolved:
         click.echo(f"calibrate: {name}: not solved, left out", err=True)
     cam = result.camera
-    with atomic_text(output) as fh:
+    with writer.text(output, "--output") as fh:
         json.dump(cam.to_dict(), fh, indent=2)
         fh.write("\n")
     d = cam.distortion.to_dict() if cam.distortion else {"k1": 0.0, "k2": 0.0, "k3": 0.0}

@@ -143,6 +143,9 @@ def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
 @click.option("--resume/--no-resume", default=None,
               help="Continue a matching run in --out (default when there is one) or start "
               "over.")
+@click.option("--overwrite", is_flag=True,
+              help="Use an --out that holds files startrack did not write (they are kept; "
+              "docs/conventions.md).")
 @click.option("--mode", type=click.Choice(["lost_in_space", "tracking"]),
               default="lost_in_space", show_default=True,
               help="tracking: frame sequences solved frame after frame (each matcher "
@@ -158,8 +161,8 @@ def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
               "(report.md lists the command for every failed frame); writes nothing.")
 def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars, missing,
             mag_noise, fov_error, distortion_k1, modelled_k1, grid, max_stars, source,
-            threshold_arcsec, jobs, scheduler, out_dir, seed, resume, mode, rates, fps,
-            replay) -> None:
+            threshold_arcsec, jobs, scheduler, out_dir, seed, resume, overwrite, mode, rates,
+            fps, replay) -> None:
     """Compare methods on random frames under noise, false and missing stars and a wrong
     camera (FOV error, distortion); CSVs, plots, report.md in --out. docs/conventions.md."""
     from startrack.bench.conditions import build_conditions
@@ -171,12 +174,14 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec)
     cfg = (load_config(config_path) if config_path
            else config_from_dict(DEFAULT_CONFIG, "default config"))
+    inputs = [config_path] if config_path else []
     spec_sky = _sky(cfg, sky, mag_limit)
     if source == "images":  # frames are rendered at the camera's size
         _check_image_size(cfg, config_path)
     if mode == "tracking":  # frame sequences (startrack.bench.tracking_report)
         return _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars,
-                         missing, fps, seed, out_dir, threshold_arcsec)
+                         missing, fps, seed, out_dir, threshold_arcsec,
+                         dict(resume=resume, overwrite=overwrite, inputs=inputs))
     levels = _levels(noise_px, false_stars, missing, mag_noise, source, dict(
         fov_error=fov_error, distortion_k1=distortion_k1, modelled_k1=modelled_k1))
     spec = RunSpec(
@@ -198,9 +203,21 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
         click.echo(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
                    f"{frames} frame(s) from {source} ({n_units} units, {where})", err=True)
 
+    from startrack.bench.report import NOT_REPLAYED, command_line, write_report
+
+    ctx = click.get_current_context()
+    reports: list = []
+
+    def finish(result) -> None:  # report.md too is written while the run holds --out
+        reports.append(write_report(result, command_line(ctx),
+                                    command_line(ctx, drop=NOT_REPLAYED)))
+
     try:
         result = run_comparison(spec, out_dir, jobs=jobs, scheduler=scheduler, resume=resume,
-                                progress=sys.stderr.isatty(), announce=announce)
+                                progress=sys.stderr.isatty(), announce=announce,
+                                overwrite=overwrite, inputs=inputs, finish=finish)
+    except InputError:
+        raise
     except OSError as exc:  # every file is atomic or resumable: nothing is left torn
         raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
     if result.units_resumed:
@@ -208,10 +225,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     click.echo(format_table(result.summary))
     loads = ", ".join(f"{k} {v:.2f} s" for k, v in result.load_seconds.items())
     click.echo(f"\nload (sky, database+prepare per method): {loads}")
-    from startrack.bench.report import NOT_REPLAYED, command_line, write_report
-
-    ctx = click.get_current_context()
-    report = write_report(result, command_line(ctx), command_line(ctx, drop=NOT_REPLAYED))
+    report = reports[0]
     click.echo(f"wrote {report}, {result.frames_csv} (per frame), {result.summary_csv} "
                f"(per condition), {result.db_csv}, plots: "
                f"{', '.join(p.name for p in result.plots) or 'none (nothing swept)'} "
@@ -219,7 +233,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
 
 
 def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, missing, fps,
-              seed, out_dir, threshold_arcsec) -> None:
+              seed, out_dir, threshold_arcsec, folder: dict) -> None:
     """``--mode tracking``: the options as given (unset ones take the tracking defaults)."""
     from click.core import ParameterSource
 
@@ -232,12 +246,19 @@ def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, miss
     names = parse_methods(methods) if given["methods"] else (DEFAULT_METHOD,)
     levels = tr.parse_levels({"rate_dps": rates, "noise_px": noise_px,
                               "false_stars": false_stars, "missing": missing})
-    summary, _ = tr.compare_tracking(
-        cfg.camera, spec_sky, methods=names, levels=levels,
-        frames=frames if given["frames"] else tr.DEFAULT_FRAMES, fps=fps,
-        seed=cfg.frames.seed if seed is None else seed, out=Path(out_dir),
-        threshold_arcsec=threshold_arcsec,
-        progress=lambda m: click.echo(m, err=True) if sys.stderr.isatty() else None)
+    from startrack.bench.session import run_in_folder
+    from startrack.bench.store import run_identity
+
+    run = dict(methods=names, levels=levels,
+               frames=frames if given["frames"] else tr.DEFAULT_FRAMES, fps=fps,
+               seed=cfg.frames.seed if seed is None else seed,
+               threshold_arcsec=threshold_arcsec)
+    identity = run_identity({"mode": "tracking", "camera": cfg.camera.to_dict(),
+                             "sky": spec_sky.to_dict(), **run})
+    summary, _ = run_in_folder(out_dir, identity, lambda out: tr.compare_tracking(
+        cfg.camera, spec_sky, out=out, **run,
+        progress=lambda m: click.echo(m, err=True) if sys.stderr.isatty() else None),
+        **folder)
     click.echo(tr.markdown_table(summary))
     click.echo(f"wrote frames.csv, summary.csv, time_ratio.csv, report.md and plots in "
                f"{out_dir}/")

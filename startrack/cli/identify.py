@@ -19,7 +19,7 @@ from startrack.errors import InputError
 from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.matchers import available_methods
 from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
-from startrack.outputs import check_output, guarded_stdout, open_output, refuse_inputs
+from startrack.outputs import Writer, guarded_stdout
 from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
 from startrack.sequence import DEFAULT_PRIOR_SIGMA_DEG, SequenceSolver, prior_from_radec_roll
 from startrack.side_outputs import SideOutputs
@@ -108,6 +108,9 @@ def _finite(ctx, param, value):
               help="Write the solved WCS as a FITS header (a folder with several inputs).")
 @click.option("--corr", "corr_path", type=click.Path(dir_okay=False),
               help="Write matched stars (pixel, flux, catalog magnitude, residual) as CSV.")
+@click.option("--overwrite", is_flag=True,
+              help="Replace existing --output, --annotate, --wcs and --corr files (an input "
+                   "never; docs/conventions.md).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar or notes on stderr.")
 @click.option("-v", "--verbose", is_flag=True,
               help="One line per input and per file written on stderr.")
@@ -123,7 +126,7 @@ def _finite(ctx, param, value):
               help="1-sigma uncertainty of --prior, degrees.")
 def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, epoch,
              obs_time, method, max_stars, sigma_px, timeout_ms, fmt, output, annotate_path,
-             wcs_path, corr_path, quiet, verbose, track, prior, prior_sigma_deg) -> None:
+             wcs_path, corr_path, overwrite, quiet, verbose, track, prior, prior_sigma_deg) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
@@ -132,7 +135,11 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
     if camera_path and fov_deg is not None:
         raise click.UsageError("give --camera FILE or --fov DEG, not both (the camera file "
                                "sets the field of view)")
-    _check_output_paths(inputs, output, annotate_path, wcs_path, corr_path)
+    writer = Writer([*with_sidecars(inputs), *([camera_path] if camera_path else [])],
+                    overwrite)
+    if output:  # every output is checked before any work
+        writer.check(output, "--output")
+    side = SideOutputs(writer, list(inputs), annotate_path, wcs_path, corr_path)
     camera = load_camera(camera_path) if camera_path else None
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
@@ -141,13 +148,12 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
     if track or prior is not None:
         pipeline = SequenceSolver(pipeline, track=track, prior=None if prior is None
                                   else prior_from_radec_roll(*prior, prior_sigma_deg))
-    side = SideOutputs(annotate_path, wcs_path, corr_path, several=len(inputs) > 1)
     note = _notes(quiet, verbose)
     worst = 0
     pending: list[dict] = []  # error records held back until an input is answered
     try:
         with contextlib.ExitStack() as stack:
-            fh = (stack.enter_context(open_output(output, with_sidecars(inputs))) if output
+            fh = (stack.enter_context(writer.text(output, "--output")) if output
                   else guarded_stdout())
             emit = _writer(fh, fmt, several=len(inputs) > 1)
             todo = _progress(inputs, quiet, stack)
@@ -217,16 +223,6 @@ def _progress(inputs, quiet: bool, stack: contextlib.ExitStack):
 
     return stack.enter_context(tqdm(inputs, file=sys.stderr, unit="input", desc="identify",
                                     leave=False, dynamic_ncols=True))
-
-
-def _check_output_paths(inputs, output, annotate_path, wcs_path, corr_path) -> None:
-    """Refuse, before any work, an output that is one of the inputs (or their sidecars)."""
-    if output:
-        check_output(output, with_sidecars(inputs))
-    for what, path in (("--annotate", annotate_path), ("--wcs", wcs_path),
-                       ("--corr", corr_path)):
-        if path:
-            refuse_inputs(path, with_sidecars(inputs), what)
 
 
 class _NothingAnswered(Exception):

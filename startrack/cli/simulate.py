@@ -12,7 +12,6 @@ from pathlib import Path
 import click
 import numpy as np
 
-from startrack.cache import atomic_text
 from startrack.camera import Camera
 from startrack.camera_file import load_camera
 from startrack.cli import main
@@ -20,13 +19,13 @@ from startrack.cli.options import triple
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
 from startrack.image_header import check_pixels
-from startrack.outputs import check_out_folder, remove_own
+from startrack.outputs import atomic_text
+from startrack.run_folder import RunFolder
 from startrack.sensor import SensorModel
 from startrack.sidecar import sidecar_path_for
 from startrack.sky import SKY_KINDS, SkySpec, resolve_sky
 
 DEFAULT_OUT = Path("out/simulate")
-OWN_FILES = ("frame_*.png", "frame_*.json", "frame_*.fits", "truth.csv", "stars.csv")
 
 
 @main.command()
@@ -58,8 +57,8 @@ OWN_FILES = ("frame_*.png", "frame_*.json", "frame_*.fits", "truth.csv", "stars.
               help="Camera file (JSON or TOML), overrides the config's [camera]; its "
                    "distortion is rendered.")
 @click.option("--overwrite", is_flag=True,
-              help="Write into a non-empty --out, first removing the frames, sidecars and "
-                   "CSVs an earlier simulate left there.")
+              help="Write into a used --out: first remove the files an earlier run listed "
+                   "there (.startrack-files); files startrack did not write are kept.")
 @click.option("--time", "obs_time", help="Observation time, ISO 8601: stars are rendered "
               "where they appear from the moving Earth (annual aberration).")
 def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_stars,
@@ -96,18 +95,26 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
 
         obs_time = parse_time(obs_time)
     out = Path(out_dir)
-    check_out_folder(out, overwrite)
+    folder = RunFolder(out, "simulate", [p for p in (config_path, camera_path, profile_path)
+                                         if p], overwrite=overwrite, reuse=False)
+    folder.check()
+    from startrack.sky import load_sky
+
+    catalog = _apparent(load_sky(spec, camera), obs_time)  # a bad sky leaves no files
     try:
-        _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too, trajectory,
-             obs_time)
+        with folder:
+            _run(camera, catalog, spec, cfg.sensor, opts, folder, attitude, write_fits_too,
+                 trajectory, obs_time)
+    except InputError:
+        raise
     except OSError as exc:  # every file is atomic, so nothing half-written is left behind
         raise InputError(f"{out}: cannot write output ({exc.strerror or exc})") from None
     click.echo(f"wrote {opts.count} frame(s) to {out}/ (truth.csv, stars.csv, "
                f"frame_*.png{', frame_*.fits' if write_fits_too else ''}, frame_*.json)")
 
 
-def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions, out: Path,
-         attitude: tuple[float, float, float] | None, with_fits: bool,
+def _run(camera: Camera, catalog, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
+         folder: RunFolder, attitude: tuple[float, float, float] | None, with_fits: bool,
          trajectory=None, obs_time=None) -> None:
     from tqdm import tqdm
 
@@ -115,12 +122,10 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
     from startrack.imageio import write_fits, write_png16
     from startrack.render import render_frame
     from startrack.scene import observe
-    from startrack.sky import load_sky
     from startrack.wcs import wcs_header
 
-    # Before any output, so that a bad sky leaves no files.
-    catalog = _apparent(load_sky(spec, camera), obs_time)
-    remove_own(out, OWN_FILES)  # an earlier run's frames must not outlive it (--overwrite)
+    folder.remove_earlier()  # an earlier run's frames must not outlive it (--overwrite)
+    out = folder.out
     when = None if obs_time is None else obs_time.utc.isot
     fixed = from_radec_roll(*attitude) if attitude is not None else None
     truth_rows, star_rows = [], []
