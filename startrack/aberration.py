@@ -21,8 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.errors import InputError
-
 FITS_SUFFIXES = (".fits", ".fit", ".fts")
 C_KM_S = 299792.458
 
@@ -34,6 +32,8 @@ def parse_time(text, where: str = "--time"):
     read too; the year must lie in startrack.validate.EPOCH_YEAR."""
     from astropy.time import Time
 
+    from startrack.validate import EPOCH_YEAR, NumberError, check_number
+
     raw = str(text).strip()
     old_fits = _OLD_FITS_DATE.fullmatch(raw)
     if old_fits:  # FITS standard: DD/MM/YY, years 1900-1999
@@ -44,10 +44,8 @@ def parse_time(text, where: str = "--time"):
     except ValueError:
         moment = _leap_second(raw)
         if moment is None:
-            raise InputError(f"{where}: not an ISO 8601 time (e.g. 2019-07-29T20:47:26Z), "
+            raise NumberError(f"{where}: not an ISO 8601 time (e.g. 2019-07-29T20:47:26Z), "
                              f"got {_shown(text)}") from None
-    from startrack.validate import EPOCH_YEAR, check_number
-
     if isinstance(moment, datetime):
         if moment.tzinfo is not None:
             moment = moment.astimezone(UTC).replace(tzinfo=None)

@@ -24,11 +24,6 @@ NOTES = {
     "ErfaWarning": "a date far from the leap-second table: UTC is approximate there "
                    "(the aberration correction is unaffected at the arcsec level)",
 }
-# A warning whose text starts so is noted; the rest of its class is dropped.
-NOTED_TEXT = {
-    "File may have been truncated": "a FITS file is shorter than its header declares "
-                                    "(truncated?)",
-}
 
 
 def _note_for(message, category) -> str | None:
@@ -38,11 +33,9 @@ def _note_for(message, category) -> str | None:
     for cls in category.__mro__:
         if cls.__name__ in NOTES:
             return NOTES[cls.__name__]
-    text = str(message)
-    for start, note in NOTED_TEXT.items():
-        if text.startswith(start):
-            return note
-    return None  # numpy RuntimeWarnings, FITSFixedWarning, ...: our own checks say it
+    # numpy RuntimeWarnings, FITSFixedWarning, astropy's "File may have been truncated"
+    # (startrack.imageio refuses such a file itself), ...: our own checks say what matters
+    return None
 
 
 def _show_warning(seen: set[str]):
