@@ -14,30 +14,70 @@ time (a site, a solar elongation) and are below the centroid errors of a star tr
 from __future__ import annotations
 
 import dataclasses
+import re
+import warnings
 from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 
-from startrack.errors import InputError
-
 FITS_SUFFIXES = (".fits", ".fit", ".fts")
 C_KM_S = 299792.458
 
 
-def parse_time(text: str, where: str = "--time"):
+def parse_time(text, where: str = "--time"):
     """An astropy ``Time`` (UTC) from ISO 8601 text such as ``2019-07-29T20:47:26Z``; an
-    offset such as ``+02:00`` is honoured, no offset means UTC."""
+    offset such as ``+02:00`` is honoured, no offset means UTC. A leap second
+    (``2016-12-31T23:59:60.5``) and the old FITS date form ``DD/MM/YY`` (1900-1999) are
+    read too; the year must lie in startrack.validate.EPOCH_YEAR."""
     from astropy.time import Time
 
+    from startrack.validate import EPOCH_YEAR, NumberError, check_number
+
+    raw = str(text).strip()
+    old_fits = _OLD_FITS_DATE.fullmatch(raw)
+    if old_fits:  # FITS standard: DD/MM/YY, years 1900-1999
+        day, month, year = old_fits.groups()
+        raw = f"19{year}-{month}-{day}"
     try:
-        moment = datetime.fromisoformat(str(text).strip())
+        moment = datetime.fromisoformat(raw)
     except ValueError:
-        raise InputError(f"{where}: not an ISO 8601 time (e.g. 2019-07-29T20:47:26Z), "
-                         f"got {text!r}") from None
-    if moment.tzinfo is not None:
-        moment = moment.astimezone(UTC).replace(tzinfo=None)
-    return Time(moment, scale="utc")
+        moment = _leap_second(raw)
+        if moment is None:
+            raise NumberError(f"{where}: not an ISO 8601 time (e.g. 2019-07-29T20:47:26Z), "
+                             f"got {_shown(text)}") from None
+    if isinstance(moment, datetime):
+        if moment.tzinfo is not None:
+            moment = moment.astimezone(UTC).replace(tzinfo=None)
+        check_number(moment.year, f"{where}: year", EPOCH_YEAR)
+        moment = Time(moment, scale="utc")
+    return moment
+
+
+_OLD_FITS_DATE = re.compile(r"(\d{2})/(\d{2})/(\d{2})")
+_LEAP_SECOND = re.compile(r"(\d{4}-\d{2}-\d{2})[T ](23:59:60(?:\.\d+)?)(Z|[+-]00:?00)?")
+
+
+def _shown(text) -> str:
+    text = repr(text)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _leap_second(raw: str):
+    """A UTC leap second such as ``2016-12-31T23:59:60.5`` (Python's datetime has none),
+    as an astropy Time; None if ``raw`` is not one astropy knows."""
+    from astropy.time import Time
+
+    match = _LEAP_SECOND.fullmatch(raw)
+    if match is None:
+        return None
+    with warnings.catch_warnings():  # erfa warns of a 60th second that is none
+        warnings.simplefilter("ignore")
+        try:
+            moment = Time(f"{match.group(1)}T{match.group(2)}", format="isot", scale="utc")
+        except ValueError:
+            return None
+        return moment if moment.isot[17:19] == "60" else None
 
 
 def fits_time(path: str | Path):

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from startrack.api_checks import api_camera, api_prior, api_size, api_time, check_solver_numbers
 from startrack.attitude import to_quaternion, to_radec_roll
 from startrack.camera import Camera
 from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
@@ -21,6 +22,7 @@ from startrack.fov import DEFAULT_FOV_TOLERANCE
 from startrack.frame_input import FrameInput, image_input, read_input
 from startrack.identifier import FrameResult
 from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
+from startrack.validate import NumberTypeError
 
 STAR_COLUMNS = ["x", "y", "catalog_id", "ra_deg", "dec_deg", "residual_arcsec"]
 
@@ -114,14 +116,11 @@ class Solver:
                  track: bool = False, prior: tuple[float, float, float] | None = None,
                  prior_sigma_deg: float = 1.0, time: str | None = None,
                  fov_tolerance: float = DEFAULT_FOV_TOLERANCE) -> None:
-        if time is not None and isinstance(time, str):
-            from startrack.aberration import parse_time
-
-            time = parse_time(time, where="time")
-        if camera is not None and not isinstance(camera, Camera):
-            from startrack.camera_file import load_camera
-
-            camera = load_camera(camera)
+        check_solver_numbers(fov_deg=fov_deg, fov_tolerance=fov_tolerance, sigma_px=sigma_px,
+                             mag_limit=mag_limit, epoch=epoch, max_stars=max_stars,
+                             timeout_ms=timeout_ms, prior_sigma_deg=prior_sigma_deg)
+        time, camera = api_time(time), api_camera(camera)
+        size, prior = api_size(size), api_prior(prior)
         self._pipeline = Pipeline(Options(method=method, camera=camera, fov_deg=fov_deg,
                                           size=size, sky=sky, mag_limit=mag_limit,
                                           epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
@@ -161,7 +160,13 @@ def _as_input(source: str | Path | np.ndarray) -> FrameInput:
     if isinstance(source, str | Path):
         return read_input(source)
     array = np.asarray(source)
-    if array.ndim == 2 and array.shape[1] in (2, 3) and np.issubdtype(array.dtype, np.floating):
+    if array.dtype.kind not in "uif":
+        raise NumberTypeError(f"cannot solve an array of dtype {array.dtype}: give real numbers "
+                        "(a complex image's phase is not light)")
+    # Two or three columns are centroids whatever the dtype: no star can be found in an
+    # image two or three pixels wide (docs/conventions.md).
+    if array.ndim == 2 and array.shape[1] in (2, 3):
+        array = array.astype(np.float64)
         if array.shape[1] == 3:
             return FrameInput("<array>", Centroids(array[:, 0], array[:, 1], array[:, 2]))
         ranks = np.arange(len(array), 0, -1.0)  # listed brightest first
@@ -170,4 +175,4 @@ def _as_input(source: str | Path | np.ndarray) -> FrameInput:
     if array.ndim == 2:
         return image_input(array, "<array>")
     raise InputError(f"cannot solve an array of shape {array.shape}: give a 2-D image or "
-                     "an N x 2 / N x 3 float array of centroids")
+                     "an N x 2 / N x 3 array of centroids")

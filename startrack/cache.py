@@ -56,12 +56,10 @@ def cache_dir() -> Path:
 
 def cache_max_bytes() -> int:
     """The cache size cap: ``$STARTRACK_CACHE_MAX_MB`` megabytes (default 2048)."""
-    text = os.environ.get("STARTRACK_CACHE_MAX_MB", "")
-    try:
-        mb = float(text) if text else DEFAULT_CACHE_MAX_MB
-    except ValueError:
-        mb = DEFAULT_CACHE_MAX_MB
-    return int(max(mb, 0.0) * 1024 * 1024)
+    from startrack.validate import CACHE_MAX_MB, env_number
+
+    mb = env_number("STARTRACK_CACHE_MAX_MB", DEFAULT_CACHE_MAX_MB, CACHE_MAX_MB)
+    return int(mb * 1024 * 1024)
 
 
 def key_text(kind: str, params: dict) -> str:

@@ -14,21 +14,20 @@ from pathlib import Path
 
 from startrack.camera import Camera
 from startrack.distortion import distortion_from_dict
-from startrack.errors import InputError, check_number
+from startrack.errors import InputError
+from startrack.validate import FOV_DEG, IMAGE_SIDE_PX, check_number
 
 CAMERA_KEYS = {"width", "height", "fov_deg", "focal_length_mm", "pixel_size_um", "cx", "cy",
                "distortion"}
-MAX_SIDE_PX = 100_000  # image width or height
 FOCAL_LENGTH_MM = (1e-3, 1e5)  # 1 micron to 100 m
 PIXEL_SIZE_UM = (1e-2, 1e3)  # 10 nm to 1 mm
-FOV_DEG = (1e-3, 179.0)  # the horizontal field of view a camera file may give or imply
 
 
 def _size(data: dict, key: str, where: str) -> int:
     value = data[key]
     if isinstance(value, float) and math.isfinite(value) and value.is_integer():
         value = int(value)  # 1024.0 is 1024; 1024.5 is an error below
-    return int(check_number(value, f"{where}: {key}", integer=True, low=1, high=MAX_SIDE_PX))
+    return int(check_number(value, f"{where}: {key}", IMAGE_SIDE_PX))
 
 
 def _principal_point(data: dict, key: str, size: int, where: str) -> float | None:
@@ -43,8 +42,7 @@ def _focal_px(data: dict, width: int, where: str) -> float:
         if "focal_length_mm" in data or "pixel_size_um" in data:
             raise InputError(f"{where}: give fov_deg or focal_length_mm + pixel_size_um, "
                              "not both")
-        fov = check_number(data["fov_deg"], f"{where}: fov_deg", low=FOV_DEG[0],
-                           high=FOV_DEG[1])
+        fov = check_number(data["fov_deg"], f"{where}: fov_deg", FOV_DEG)
         return (width / 2.0) / math.tan(math.radians(fov) / 2.0)
     if "focal_length_mm" not in data or "pixel_size_um" not in data:
         raise InputError(f"{where}: needs fov_deg, or focal_length_mm and pixel_size_um")
@@ -54,10 +52,10 @@ def _focal_px(data: dict, width: int, where: str) -> float:
                          low=PIXEL_SIZE_UM[0], high=PIXEL_SIZE_UM[1])
     f_px = focal * 1000.0 / pixel
     fov = math.degrees(2.0 * math.atan((width / 2.0) / f_px))
-    if not FOV_DEG[0] <= fov <= FOV_DEG[1]:
+    if fov not in FOV_DEG:
         raise InputError(f"{where}: focal_length_mm {focal} and pixel_size_um {pixel} give a "
                          f"{fov:.4g} deg field of view across {width} px, outside "
-                         f"[{FOV_DEG[0]}, {FOV_DEG[1]}] deg")
+                         f"{FOV_DEG} deg")
     return f_px
 
 

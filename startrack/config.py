@@ -9,9 +9,18 @@ from pathlib import Path
 
 from startrack.camera import Camera
 from startrack.camera_file import camera_from_dict
-from startrack.errors import InputError, check_number
+from startrack.errors import InputError
 from startrack.sensor import SensorModel, sensor_from_dict
 from startrack.sky import SkySpec
+from startrack.validate import (
+    FALSE_STARS,
+    FRACTION,
+    FRAMES,
+    MAG_NOISE,
+    RATE_DPS,
+    SEED,
+    check_number,
+)
 
 TABLES = ("camera", "sky", "sensor", "frames")
 
@@ -48,17 +57,16 @@ def _frames_from_dict(data: dict, where: str) -> FrameOptions:
     unknown = set(data) - {f.name for f in dataclasses.fields(FrameOptions)}
     if unknown:
         raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
-    checks = {"count": dict(integer=True, low=1), "seed": dict(integer=True, low=0),
-              "missing": dict(low=0, high=1), "false_stars": dict(integer=True, low=0),
-              "mag_noise": dict(low=0), "hot_pixel_fraction": dict(low=0, high=1)}
-    for key, rule in checks.items():
+    checks = {"count": FRAMES, "seed": SEED, "missing": FRACTION, "false_stars": FALSE_STARS,
+              "mag_noise": MAG_NOISE, "hot_pixel_fraction": FRACTION}
+    for key, bounds in checks.items():
         if key in data:
-            check_number(data[key], f"{where}: {key}", **rule)
+            check_number(data[key], f"{where}: {key}", bounds)
     if "rate_dps" in data:
         rate = data["rate_dps"]
         if not isinstance(rate, list) or len(rate) != 3:
             raise InputError(f"{where}: rate_dps must be a list of 3 numbers (deg/s)")
-        rate = tuple(float(check_number(r, f"{where}: rate_dps")) for r in rate)
+        rate = tuple(float(check_number(r, f"{where}: rate_dps", RATE_DPS)) for r in rate)
         data = {**data, "rate_dps": rate}
     return FrameOptions(**data)
 

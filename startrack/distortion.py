@@ -82,11 +82,9 @@ class RadialDistortion:
 
 
 def _number(value, key: str, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{where}: distortion '{key}' must be a number, got {value!r}")
-    if not math.isfinite(value):
-        raise InputError(f"{where}: distortion '{key}' must be finite, got {value}")
-    return float(value)
+    from startrack.validate import check_number
+
+    return float(check_number(value, f"{where}: distortion '{key}'"))
 
 
 def distortion_from_dict(data, where: str = "camera") -> RadialDistortion | None:

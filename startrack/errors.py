@@ -1,7 +1,5 @@
 """Error types that the command line turns into a one-line message and exit code 2."""
 
-import math
-
 
 class InputError(Exception):
     """Bad usage or bad input: says what is wrong and where (exit code 2)."""
@@ -11,20 +9,3 @@ class StartrackWarning(UserWarning):
     """Something the user should know, the run going on (the command line prints it as
     one ``startrack: warning:`` line)."""
 
-
-def check_number(value, where: str, *, integer: bool = False, low: float | None = None,
-                 high: float | None = None) -> float | int:
-    """``value`` if it is a finite number (an integer if asked) within [low, high]."""
-    ok = isinstance(value, int) if integer else isinstance(value, int | float)
-    try:  # a 400-digit JSON integer overflows a float
-        ok = ok and not isinstance(value, bool) and math.isfinite(value)
-    except OverflowError:
-        ok = False
-    if not ok:
-        raise InputError(f"{where} must be {'an integer' if integer else 'a number'}, "
-                         f"got {value!r}")
-    if low is not None and value < low:
-        raise InputError(f"{where} must be >= {low}, got {value!r}")
-    if high is not None and value > high:
-        raise InputError(f"{where} must be <= {high}, got {value!r}")
-    return value

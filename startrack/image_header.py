@@ -20,10 +20,9 @@ _JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0
 
 def max_image_pixels() -> int:
     """The largest image (width x height) startrack reads or renders."""
-    try:
-        return max(1, int(os.environ.get("STARTRACK_MAX_IMAGE_PIXELS", "")))
-    except ValueError:
-        return DEFAULT_MAX_IMAGE_PIXELS
+    from startrack.validate import IMAGE_PIXELS, env_number
+
+    return int(env_number("STARTRACK_MAX_IMAGE_PIXELS", DEFAULT_MAX_IMAGE_PIXELS, IMAGE_PIXELS))
 
 
 def check_pixels(width: int, height: int, where: str) -> None:

@@ -116,12 +116,16 @@ def _read_fits(path: Path) -> np.ndarray:
 
     if path.stat().st_size == 0:
         raise InputError(f"{path}: empty file (0 bytes)")
+    size = path.stat().st_size
     try:
         with fits.open(path, memmap=False) as hdus:
-            for hdu in hdus:
-                if getattr(hdu, "is_image", False) and hdu.header.get("NAXIS", 0) >= 2:
+            for index, hdu in enumerate(hdus):
+                _check_declared_data(path, index, hdu, size)
+                if not getattr(hdu, "is_image", False):
+                    continue  # a table's data is never read
+                if hdu.header.get("NAXIS", 0) >= 2:
                     _check_fits_size(path, hdu.header)
-                if hdu.data is not None and getattr(hdu, "is_image", False):
+                if hdu.data is not None:
                     data = np.asarray(hdu.data)
                     if data.ndim == 2 or data.size == 0:
                         return data.copy()
@@ -137,6 +141,17 @@ def _read_fits(path: Path) -> np.ndarray:
     raise InputError(f"{path}: FITS file has no image data")
 
 
+def _check_declared_data(path: Path, index: int, hdu, file_size: int) -> None:
+    """Refuse an HDU whose header declares more data than the file holds, before any of
+    it is read (a 9 KB file may declare a 2e9-row table: gigabytes allocated)."""
+    info = hdu.fileinfo()
+    end = int(info["datLoc"]) + int(info["datSpan"])
+    if end > file_size:
+        raise InputError(f"{path}: FITS HDU {index} declares {int(info['datSpan']):,} bytes "
+                         f"of data but the file ends {end - file_size:,} bytes short "
+                         "(truncated or corrupt)")
+
+
 def _check_fits_size(path: Path, header) -> None:
     """The pixel limit from NAXISn, before astropy reads the data."""
     axes = [int(header.get(f"NAXIS{i}", 1) or 1) for i in range(1, int(header["NAXIS"]) + 1)]
@@ -147,6 +162,9 @@ def _check_fits_size(path: Path, header) -> None:
 def _as_grey_2d(image: np.ndarray, path: Path) -> np.ndarray:
     if image.size == 0:
         raise InputError(f"{path}: image has zero size {image.shape}")
+    if image.dtype.kind not in "biuf":  # a complex image's imaginary part is not light
+        raise InputError(f"{path}: pixel type {image.dtype} is not a real number "
+                         "(complex or structured images are refused)")
     if image.ndim == 3 and image.shape[2] in (3, 4):
         rgb = image[..., :3].astype(np.float64)
         grey = rgb @ np.array([0.299, 0.587, 0.114])

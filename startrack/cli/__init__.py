@@ -5,12 +5,12 @@ from __future__ import annotations
 import os
 import signal
 import sys
-import warnings
 
 import click
 
 from startrack import __version__
-from startrack.errors import InputError, StartrackWarning
+from startrack.cli.quiet import library_noise_captured
+from startrack.errors import InputError
 from startrack.outputs import OutputClosed
 
 
@@ -20,15 +20,6 @@ class Terminated(Exception):
 
 def _on_sigterm(signum, frame) -> None:
     raise Terminated()
-
-
-def _show_warning(show):
-    def showwarning(message, category, filename, lineno, file=None, line=None) -> None:
-        if issubclass(category, StartrackWarning):
-            click.echo(f"startrack: warning: {message}", err=True)
-        else:
-            show(message, category, filename, lineno, file, line)
-    return showwarning
 
 
 def _silence_stdout() -> None:
@@ -55,6 +46,18 @@ def _finish(code: int) -> int:
     return code
 
 
+def _check_environment() -> None:
+    """Read every numeric environment variable once, before any work: a bad value is one
+    line and exit 2 at the start, not a failure halfway (docs/limits.md)."""
+    from startrack.cache import cache_max_bytes
+    from startrack.image_header import max_image_pixels
+    from startrack.sky import max_pairs
+
+    cache_max_bytes()
+    max_image_pixels()
+    max_pairs()
+
+
 class StartrackGroup(click.Group):
     """A group that reports every usage or input error as one line and exit code 2."""
 
@@ -64,9 +67,7 @@ class StartrackGroup(click.Group):
         except ValueError:  # not the main thread (an embedding caller): leave signals be
             previous = None
         try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("always", StartrackWarning)
-                warnings.showwarning = _show_warning(warnings.showwarning)
+            with library_noise_captured():
                 code = _finish(self._run(args, prog_name, **extra))
         finally:
             if previous is not None:
@@ -75,6 +76,7 @@ class StartrackGroup(click.Group):
 
     def _run(self, args, prog_name, **extra) -> int:
         try:
+            _check_environment()
             super().main(args=args, prog_name=prog_name or "startrack",
                          standalone_mode=False, **extra)
             return 0

@@ -11,19 +11,21 @@ import click
 
 from startrack.camera_file import load_camera
 from startrack.cli import main
-from startrack.cli.identify import _finite, _size
+from startrack.cli.identify import _size
+from startrack.cli.options import Number
 from startrack.errors import InputError
 from startrack.outputs import Writer
 from startrack.pipeline import DEFAULT_METHOD, read_input
 from startrack.sidecar import with_sidecars
 from startrack.sky import SKY_KINDS
+from startrack.validate import EPOCH_YEAR, FOV_DEG, MAG_LIMIT
 
 
 @main.command()
 @click.argument("inputs", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--fov", "fov_deg", type=click.FloatRange(0, 180, min_open=True, max_open=True),
-              callback=_finite, help="Nominal horizontal field of view in degrees (a "
-              "datasheet value: up to 10% off is searched).")
+@click.option("--fov", "fov_deg", type=Number(FOV_DEG),
+              help="Nominal horizontal field of view in degrees (a datasheet "
+                   "value: up to 10% off is searched).")
 @click.option("--camera", "camera_path", type=click.Path(dir_okay=False),
               help="Nominal camera file instead of --fov (its distortion is the start).")
 @click.option("--size", callback=_size, help="Image size WxH for centroid CSVs with --fov.")
@@ -37,8 +39,8 @@ from startrack.sky import SKY_KINDS
               "camera instead of fitting it.")
 @click.option("--sky", type=click.Choice(SKY_KINDS), default="hipparcos", show_default=True,
               help="Catalog.")
-@click.option("--mag-limit", type=float, callback=_finite, help="Faintest catalog magnitude.")
-@click.option("--epoch", type=float, callback=_finite,
+@click.option("--mag-limit", type=Number(MAG_LIMIT), help="Faintest catalog magnitude.")
+@click.option("--epoch", type=Number(EPOCH_YEAR),
               help="Julian year to carry catalog positions to by proper motion.")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True, help="Matcher.")
 def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_center, sky,

@@ -8,7 +8,6 @@ hybrid, against centroid noise and false stars.
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 import sys
 from pathlib import Path
@@ -17,8 +16,19 @@ import click
 
 from startrack.bench.frames import SOURCES
 from startrack.cli import main
+from startrack.cli.options import Number
 from startrack.errors import InputError
 from startrack.sky import SKY_KINDS, resolve_sky
+from startrack.validate import (
+    FALSE_STARS,
+    FPS,
+    FRAMES,
+    JOBS,
+    MAG_LIMIT,
+    MAX_STARS,
+    SEED,
+    THRESHOLD_ARCSEC,
+)
 
 DEFAULT_OUT = Path("out/compare")
 DEFAULT_METHODS = "angle,triangle,hybrid"
@@ -61,7 +71,8 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str,
     text = {k: DEFAULT_LEVELS[k] if v is None else v for k, v in given.items()}
     return {
         "noise_px": parse_values(text["noise_px"], "--noise-px"),
-        "false_stars": parse_values(text["false_stars"], "--false-stars", integer=True),
+        "false_stars": parse_values(text["false_stars"], "--false-stars", integer=True,
+                                     high=FALSE_STARS.high),
         "missing": parse_values(text["missing"], "--missing", high=1.0),
         "mag_noise": parse_values(text["mag_noise"], "--mag-noise"),
         "fov_error": parse_values(text["fov_error"], "--fov-error", low=-0.5, high=0.5),
@@ -76,8 +87,6 @@ def _sky(cfg, sky: str | None, mag_limit: float | None):
     """The config's sky with the options applied and its defaults resolved."""
     spec_sky = cfg.sky if sky is None else dataclasses.replace(cfg.sky, kind=sky)
     if mag_limit is not None:
-        if not math.isfinite(mag_limit):
-            raise InputError(f"--mag-limit must be finite, got {mag_limit}")
         spec_sky = dataclasses.replace(spec_sky, mag_limit=mag_limit)
     return resolve_sky(spec_sky, cfg.camera)
 
@@ -88,17 +97,14 @@ def _check_image_size(cfg, config_path) -> None:
     check_pixels(cfg.camera.width, cfg.camera.height, f"{config_path or 'config'} [camera]")
 
 
-def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
-    if frames < 1:
-        raise InputError(f"--frames must be >= 1, got {frames}")
-    if max_stars < 3:
-        raise InputError(f"--max-stars must be >= 3, got {max_stars}")
-    if jobs is not None and jobs < 1:
-        raise InputError(f"--jobs must be >= 1, got {jobs}")
-    if seed is not None and seed < 0:
-        raise InputError(f"--seed must be >= 0, got {seed}")
-    if not (math.isfinite(threshold_arcsec) and threshold_arcsec > 0):
-        raise InputError(f"--threshold-arcsec must be > 0, got {threshold_arcsec}")
+def _workers(jobs: int | None) -> int:
+    """--jobs, at most the number of CPUs (each worker holds a database: more only add
+    memory), with a note when capped."""
+    cores = os.cpu_count() or 1
+    if jobs is not None and jobs > cores:
+        click.echo(f"note: --jobs {jobs} is more than the {cores} CPU(s); using {cores}",
+                   err=True)
+    return min(jobs or cores, cores)
 
 
 @main.command()
@@ -107,8 +113,8 @@ def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
 @click.option("--config", "config_path", type=click.Path(dir_okay=False),
               help="TOML preset (configs/); default: configs/paper2011.toml's setup.")
 @click.option("--sky", type=click.Choice(SKY_KINDS), help="Sky kind (overrides the config).")
-@click.option("--mag-limit", type=float, help="Faintest catalog magnitude to use.")
-@click.option("--frames", type=int, default=DEFAULT_FRAMES, show_default=True,
+@click.option("--mag-limit", type=Number(MAG_LIMIT), help="Faintest catalog magnitude to use.")
+@click.option("--frames", type=Number(FRAMES), default=DEFAULT_FRAMES, show_default=True,
               help="Frames per condition.")
 @click.option("--noise-px", help="Centroid noise levels, px (first = base) "
               f"[default: {DEFAULT_LEVELS['noise_px']}].")
@@ -125,20 +131,20 @@ def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
 @click.option("--grid", type=click.Choice(["oat", "full"]), default="oat", show_default=True,
               help="oat: vary one variable at a time around the base; full: every "
               "combination.")
-@click.option("--max-stars", type=int, default=5, show_default=True,
+@click.option("--max-stars", type=Number(MAX_STARS), default=5, show_default=True,
               help="Brightest stars a method may use to form patterns.")
 @click.option("--from", "source", type=click.Choice(SOURCES), default="centroids",
               show_default=True, help="centroids: perturb true positions (fast); images: "
               "render, extract centroids and match (the full pipeline).")
-@click.option("--threshold-arcsec", type=float, default=60.0, show_default=True,
+@click.option("--threshold-arcsec", type=Number(THRESHOLD_ARCSEC), default=60.0, show_default=True,
               help="Pointing error up to which a solution counts as correct (or 5 sigma of "
               "the centroid noise if larger).")
-@click.option("--jobs", type=int, default=None,
-              help="Local worker processes [default: the number of CPUs].")
+@click.option("--jobs", type=Number(JOBS), default=None,
+              help="Local worker processes [default, and at most: the number of CPUs].")
 @click.option("--scheduler", help="Dask scheduler address (needs startrack[dask]).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default=str(DEFAULT_OUT),
               show_default=True, help="Output folder.")
-@click.option("--seed", type=int, default=None, help="Seed of the frames [default: the "
+@click.option("--seed", type=Number(SEED), default=None, help="Seed of the frames [default: the "
               "config's [frames] seed, 0].")
 @click.option("--resume/--no-resume", default=None,
               help="Continue a matching run in --out (default when there is one) or start "
@@ -154,7 +160,7 @@ def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
               "[default pyramid].")
 @click.option("--rates", help="Tracking mode: rate magnitudes in deg/s along (1, 0.5, 2) "
               "(first = base) [default: 2.2913,0,1,5,10].")
-@click.option("--fps", type=float, default=10.0, show_default=True,
+@click.option("--fps", type=Number(FPS), default=10.0, show_default=True,
               help="Tracking mode: frames per second.")
 @click.option("--replay", metavar="CONDITION,FRAME",
               help="Rerun one frame of this run through every method and print each answer "
@@ -171,7 +177,6 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
 
     names = parse_methods(methods)
-    _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec)
     cfg = (load_config(config_path) if config_path
            else config_from_dict(DEFAULT_CONFIG, "default config"))
     inputs = [config_path] if config_path else []
@@ -192,7 +197,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     if replay is not None:
         _replay(spec, replay)
         return
-    jobs = jobs or os.cpu_count() or 1
+    jobs = _workers(jobs)
     n_units = len(spec.conditions) * frames
     if n_units > MAX_UNITS:  # the run's unit list alone would not fit in memory
         raise InputError(f"--frames {frames} x {len(spec.conditions)} condition(s) is "

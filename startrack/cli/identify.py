@@ -5,7 +5,6 @@ from __future__ import annotations
 import contextlib
 import csv
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -14,7 +13,7 @@ import click
 from startrack.camera_file import load_camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
-from startrack.cli.options import triple
+from startrack.cli.options import Number, triple
 from startrack.errors import InputError
 from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.matchers import available_methods
@@ -25,6 +24,18 @@ from startrack.sequence import DEFAULT_PRIOR_SIGMA_DEG, SequenceSolver, prior_fr
 from startrack.side_outputs import SideOutputs
 from startrack.sidecar import with_sidecars
 from startrack.sky import GAIA_BELOW_FOV_DEG, SKY_KINDS
+from startrack.validate import (
+    EPOCH_YEAR,
+    FOV_DEG,
+    FOV_TOLERANCE,
+    IMAGE_SIDE_PX,
+    MAG_LIMIT,
+    MAX_STARS,
+    PRIOR_SIGMA_DEG,
+    SIGMA_PX,
+    TIMEOUT_MS,
+    check_number,
+)
 
 #: a batch of at least this many inputs shows a progress bar (when stderr is a terminal)
 PROGRESS_MIN_INPUTS = 3
@@ -38,9 +49,8 @@ def _size(ctx, param, value):
     except ValueError:
         raise click.BadParameter(f"expected WxH in pixels, e.g. 1024x768, got {value!r}") \
             from None
-    if w < 1 or h < 1:
-        raise click.BadParameter(f"width and height must be positive, got {value!r}")
-    return w, h
+    return (int(check_number(w, "--size: width", IMAGE_SIDE_PX)),
+            int(check_number(h, "--size: height", IMAGE_SIDE_PX)))
 
 
 def _time(ctx, param, value):
@@ -51,20 +61,14 @@ def _time(ctx, param, value):
     return parse_time(value)
 
 
-def _finite(ctx, param, value):
-    if value is not None and not math.isfinite(value):
-        raise click.BadParameter(f"must be a finite number, got {value}")
-    return value
-
-
 @main.command()
 @click.argument("inputs", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--camera", "camera_path", type=click.Path(dir_okay=False),
               help="Camera file (JSON or TOML, keys in docs/conventions.md).")
-@click.option("--fov", "fov_deg", type=click.FloatRange(0, 180, min_open=True, max_open=True),
+@click.option("--fov", "fov_deg", type=Number(FOV_DEG),
               help="Horizontal field of view in degrees (image size from the image, or "
                    "--size for a CSV).")
-@click.option("--fov-tolerance", type=click.FloatRange(0, 0.5), default=DEFAULT_FOV_TOLERANCE,
+@click.option("--fov-tolerance", type=Number(FOV_TOLERANCE), default=DEFAULT_FOV_TOLERANCE,
               show_default=True,
               help="The true FOV may be this fraction above or below --fov (or the camera "
                    "file's); it is fitted and reported as fov_deg. 0: exactly as given. "
@@ -74,11 +78,11 @@ def _finite(ctx, param, value):
 @click.option("--sky", type=click.Choice(SKY_KINDS),
               help="Catalog: the frame sidecar's sky, else gaia below "
                    f"{GAIA_BELOW_FOV_DEG:g} deg or with no FOV, hipparcos otherwise.")
-@click.option("--mag-limit", type=float, callback=_finite,
+@click.option("--mag-limit", type=Number(MAG_LIMIT),
               help="Faintest catalog magnitude. Default for hipparcos: the faintest half "
                    "magnitude with <= 80 catalog stars in an average frame (20 deg -> 6.5, "
                    "11.4 deg -> 7.5).")
-@click.option("--epoch", type=float, callback=_finite,
+@click.option("--epoch", type=Number(EPOCH_YEAR),
               help="Julian year to carry Hipparcos positions to by proper motion "
                    "(default: the catalog epoch, J1991.25).")
 @click.option("--time", "obs_time", callback=_time,
@@ -88,12 +92,12 @@ def _finite(ctx, param, value):
 @click.option("--method", default=DEFAULT_METHOD, show_default=True,
               help=f"Matcher, one of: {', '.join(available_methods())} (docs/results.md "
                    "compares them).")
-@click.option("--max-stars", type=click.IntRange(min=3),
+@click.option("--max-stars", type=Number(MAX_STARS),
               help="Brightest stars the matcher may use to form patterns.")
-@click.option("--sigma-px", type=click.FloatRange(0, min_open=True), callback=_finite,
+@click.option("--sigma-px", type=Number(SIGMA_PX),
               default=DEFAULT_SIGMA_PX, show_default=True,
               help="1-sigma centroid error in pixels; sets match tolerances.")
-@click.option("--timeout-ms", type=click.FloatRange(0, min_open=True), callback=_finite,
+@click.option("--timeout-ms", type=Number(TIMEOUT_MS),
               help="Wall-clock limit per input, over all its stages (the method, the FOV "
                    "refit and search); past it the input is not solved, with reason "
                    "timeout (the work is bounded without it too).")
@@ -121,7 +125,7 @@ def _finite(ctx, param, value):
 @click.option("--prior", callback=triple("RA,DEC,ROLL"),
               help="Prior attitude RA,DEC,ROLL in degrees: each input (with --track, the "
                    "first) is solved near it first.")
-@click.option("--prior-sigma-deg", type=click.FloatRange(0, 90, min_open=True),
+@click.option("--prior-sigma-deg", type=Number(PRIOR_SIGMA_DEG),
               default=DEFAULT_PRIOR_SIGMA_DEG, show_default=True,
               help="1-sigma uncertainty of --prior, degrees.")
 def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, epoch,

@@ -5,7 +5,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -15,7 +14,7 @@ import numpy as np
 from startrack.camera import Camera
 from startrack.camera_file import load_camera
 from startrack.cli import main
-from startrack.cli.options import triple
+from startrack.cli.options import Number, triple
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
 from startrack.image_header import check_pixels
@@ -24,6 +23,16 @@ from startrack.run_folder import RunFolder
 from startrack.sensor import SensorModel
 from startrack.sidecar import sidecar_path_for
 from startrack.sky import SKY_KINDS, SkySpec, resolve_sky
+from startrack.validate import (
+    FALSE_STARS,
+    FPS,
+    FRACTION,
+    FRAMES,
+    MAG_LIMIT,
+    MAG_NOISE,
+    RATE_DPS,
+    SEED,
+)
 
 DEFAULT_OUT = Path("out/simulate")
 
@@ -33,20 +42,20 @@ DEFAULT_OUT = Path("out/simulate")
               help="TOML preset: a file, or a shipped preset by name (hipparcos20, "
                    "paper2011, radial_triangles, realsky); default: the 2011 paper's experiment.")
 @click.option("--sky", type=click.Choice(SKY_KINDS), help="Sky kind (overrides the config).")
-@click.option("--mag-limit", type=float, help="Faintest catalog magnitude to use.")
-@click.option("--frames", "count", type=click.IntRange(min=1), help="Number of frames.")
-@click.option("--seed", type=click.IntRange(min=0), help="Seed of attitudes and noise.")
+@click.option("--mag-limit", type=Number(MAG_LIMIT), help="Faintest catalog magnitude to use.")
+@click.option("--frames", "count", type=Number(FRAMES), help="Number of frames.")
+@click.option("--seed", type=Number(SEED), help="Seed of attitudes and noise.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default=str(DEFAULT_OUT),
               show_default=True, help="Output folder.")
 @click.option("--attitude", callback=triple("RA,DEC,ROLL"),
               help="Fixed attitude RA,DEC,ROLL in degrees (default: random per frame).")
-@click.option("--false-stars", type=click.IntRange(min=0), help="False stars per frame.")
-@click.option("--missing", type=click.FloatRange(0, 1), help="Star dropout probability.")
-@click.option("--mag-noise", type=click.FloatRange(min=0), help="Magnitude noise sigma.")
-@click.option("--rate", callback=triple("WX,WY,WZ"),
+@click.option("--false-stars", type=Number(FALSE_STARS), help="False stars per frame.")
+@click.option("--missing", type=Number(FRACTION), help="Star dropout probability.")
+@click.option("--mag-noise", type=Number(MAG_NOISE), help="Magnitude noise sigma.")
+@click.option("--rate", callback=triple("WX,WY,WZ", RATE_DPS),
               help="Angular rate in the camera frame, deg/s: motion blur, and with --fps "
                    "the frames form one trajectory (frame k at R0 exp(w k / fps)).")
-@click.option("--fps", type=click.FloatRange(0, min_open=True),
+@click.option("--fps", type=Number(FPS),
               help="Frames per second: the frames are one sequence (from --attitude, else "
                    "a random start), turning at --rate or following --profile.")
 @click.option("--profile", "profile_path", type=click.Path(dir_okay=False),
@@ -77,16 +86,11 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     if sky is not None:
         spec = dataclasses.replace(spec, kind=sky)
     if mag_limit is not None:
-        if not math.isfinite(mag_limit):
-            raise click.BadParameter("must be finite", param_hint="--mag-limit")
         spec = dataclasses.replace(spec, mag_limit=mag_limit)
     spec = resolve_sky(spec, camera)
     given = dict(count=count, seed=seed, false_stars=false_stars, missing=missing,
                  mag_noise=mag_noise, rate_dps=rate)
     opts = dataclasses.replace(cfg.frames, **{k: v for k, v in given.items() if v is not None})
-    if attitude is not None and not -90.0 <= attitude[1] <= 90.0:
-        raise click.BadParameter(f"Dec must be in [-90, 90], got {attitude[1]}",
-                                 param_hint="--attitude")
     trajectory = _trajectory(attitude, opts, fps, profile_path, count)
     if trajectory is not None:
         opts = dataclasses.replace(opts, count=len(trajectory))

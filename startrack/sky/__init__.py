@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from startrack.camera import Camera
-from startrack.errors import InputError, check_number
+from startrack.errors import InputError
 from startrack.sky.catalog import (
     Catalog,
     cut_magnitude,
@@ -18,6 +18,7 @@ from startrack.sky.catalog import (
     vectors_to_radec,
 )
 from startrack.sky.random_sky import random_sky
+from startrack.validate import EPOCH_YEAR, MAG_LIMIT, check_number
 
 SKY_KINDS = ("random", "hipparcos", "gaia")
 
@@ -47,7 +48,8 @@ class SkySpec:
         if data.get("kind", "random") not in SKY_KINDS:
             raise InputError(f"{where}: kind must be one of {', '.join(SKY_KINDS)}")
         rules = {"n_stars": dict(integer=True, low=1), "seed": dict(integer=True, low=0),
-                 "mag_limit": {}, "epoch": {}, "min_separation_deg": dict(low=0)}
+                 "mag_limit": dict(bounds=MAG_LIMIT), "epoch": dict(bounds=EPOCH_YEAR),
+                 "min_separation_deg": dict(low=0)}
         for key, rule in rules.items():
             if data.get(key) is not None:
                 check_number(data[key], f"{where}: {key}", **rule)
@@ -129,12 +131,9 @@ MAX_RANDOM_STARS = 5_000_000
 
 def max_pairs() -> int:
     """The pair budget: ``$STARTRACK_MAX_PAIRS``, else :data:`DEFAULT_MAX_PAIRS`."""
-    import os
+    from startrack.validate import PAIRS, env_number
 
-    try:
-        return max(1, int(float(os.environ.get("STARTRACK_MAX_PAIRS", ""))))
-    except ValueError:
-        return DEFAULT_MAX_PAIRS
+    return int(env_number("STARTRACK_MAX_PAIRS", DEFAULT_MAX_PAIRS, PAIRS))
 
 
 def estimated_pairs(n_stars: int, max_angle_rad: float) -> float:
