@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import sys
@@ -13,9 +14,9 @@ from startrack.cache import atomic_text
 from startrack.camera_file import load_camera
 from startrack.cli import main
 from startrack.cli.identify import _finite, _size
+from startrack.cli.options import SKY_HELP, SKY_NAME, index_dir_option
 from startrack.errors import InputError
 from startrack.pipeline import DEFAULT_METHOD, read_input
-from startrack.sky import SKY_KINDS
 
 
 @main.command()
@@ -32,8 +33,9 @@ from startrack.sky import SKY_KINDS
               help="Radial distortion coefficients to fit: 0 none, 1 k1, 2 k1 k2, 3 k1-k3.")
 @click.option("--fix-center", is_flag=True, help="Keep the principal point of the nominal "
               "camera instead of fitting it.")
-@click.option("--sky", type=click.Choice(SKY_KINDS), default="hipparcos", show_default=True,
-              help="Catalog.")
+@click.option("--sky", type=SKY_NAME, default="hipparcos", show_default=True,
+              help=SKY_HELP)
+@index_dir_option
 @click.option("--mag-limit", type=float, callback=_finite, help="Faintest catalog magnitude.")
 @click.option("--epoch", type=float, callback=_finite,
               help="Julian year to carry catalog positions to by proper motion.")
@@ -46,14 +48,14 @@ def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky
     Exit 1 when no input solves (nothing is written)."""
     from startrack.calibrate import calibrate as run
     from startrack.matchers import get_matcher
-    from startrack.sky import SkySpec, load_sky, resolve_sky
+    from startrack.sky import load_sky, resolve_sky, sky_spec
 
     if (fov_deg is None) == (camera_path is None):
         raise InputError("calibrate: give exactly one of --fov DEG and --camera FILE")
     get_matcher(method)
     frames = [read_input(Path(name)) for name in inputs]
     nominal = _nominal(frames, fov_deg, camera_path, size)
-    spec = SkySpec(kind=sky, mag_limit=mag_limit, epoch=epoch)
+    spec = dataclasses.replace(sky_spec(sky), mag_limit=mag_limit, epoch=epoch)
     catalog = load_sky(resolve_sky(spec, nominal), nominal)
     result = run(frames, nominal, catalog, method=method, terms=terms,
                  fit_center=not fix_center)

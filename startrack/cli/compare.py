@@ -17,8 +17,9 @@ import click
 
 from startrack.bench.frames import SOURCES
 from startrack.cli import main
+from startrack.cli.options import SKY_HELP, SKY_NAME, index_dir_option
 from startrack.errors import InputError
-from startrack.sky import SKY_KINDS, resolve_sky
+from startrack.sky import resolve_sky, with_sky
 
 DEFAULT_OUT = Path("out/compare")
 DEFAULT_METHODS = "angle,triangle,hybrid"
@@ -74,7 +75,7 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str,
 
 def _sky(cfg, sky: str | None, mag_limit: float | None):
     """The config's sky with the options applied and its defaults resolved."""
-    spec_sky = cfg.sky if sky is None else dataclasses.replace(cfg.sky, kind=sky)
+    spec_sky = cfg.sky if sky is None else with_sky(cfg.sky, sky)
     if mag_limit is not None:
         if not math.isfinite(mag_limit):
             raise InputError(f"--mag-limit must be finite, got {mag_limit}")
@@ -106,7 +107,8 @@ def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
               help="Comma-separated methods to compare.")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False),
               help="TOML preset (configs/); default: configs/paper2011.toml's setup.")
-@click.option("--sky", type=click.Choice(SKY_KINDS), help="Sky kind (overrides the config).")
+@click.option("--sky", type=SKY_NAME, help=f"{SKY_HELP} Overrides the config.")
+@index_dir_option
 @click.option("--mag-limit", type=float, help="Faintest catalog magnitude to use.")
 @click.option("--frames", type=int, default=DEFAULT_FRAMES, show_default=True,
               help="Frames per condition.")

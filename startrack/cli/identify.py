@@ -14,7 +14,7 @@ import click
 from startrack.camera_file import load_camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
-from startrack.cli.options import triple
+from startrack.cli.options import SKY_HELP, SKY_NAME, index_dir_option, triple
 from startrack.errors import InputError
 from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.matchers import available_methods
@@ -24,7 +24,7 @@ from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
 from startrack.sequence import DEFAULT_PRIOR_SIGMA_DEG, SequenceSolver, prior_from_radec_roll
 from startrack.side_outputs import SideOutputs
 from startrack.sidecar import with_sidecars
-from startrack.sky import GAIA_BELOW_FOV_DEG, SKY_KINDS
+from startrack.sky import GAIA_BELOW_FOV_DEG
 
 #: a batch of at least this many inputs shows a progress bar (when stderr is a terminal)
 PROGRESS_MIN_INPUTS = 3
@@ -71,9 +71,11 @@ def _finite(ctx, param, value):
                    "With no FOV at all (no --fov, camera file or sidecar) a blind search "
                    f"covers {BLIND_FOV_RANGE[0]:g} to {BLIND_FOV_RANGE[1]:g} deg.")
 @click.option("--size", callback=_size, help="Image size WxH for a centroid CSV with --fov.")
-@click.option("--sky", type=click.Choice(SKY_KINDS),
-              help="Catalog: the frame sidecar's sky, else gaia below "
-                   f"{GAIA_BELOW_FOV_DEG:g} deg or with no FOV, hipparcos otherwise.")
+@click.option("--sky", type=SKY_NAME,
+              help=f"{SKY_HELP} Default: the frame sidecar's sky, else hipparcos from "
+                   f"{GAIA_BELOW_FOV_DEG:g} deg, gaia below it, tycho2 (when installed) "
+                   "where gaia is too shallow or with no FOV (docs/conventions.md).")
+@index_dir_option
 @click.option("--mag-limit", type=float, callback=_finite,
               help="Faintest catalog magnitude. Default for hipparcos: the faintest half "
                    "magnitude with <= 80 catalog stars in an average frame (20 deg -> 6.5, "

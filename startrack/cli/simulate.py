@@ -16,14 +16,14 @@ from startrack.cache import atomic_text
 from startrack.camera import Camera
 from startrack.camera_file import load_camera
 from startrack.cli import main
-from startrack.cli.options import triple
+from startrack.cli.options import SKY_HELP, SKY_NAME, index_dir_option, triple
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
 from startrack.image_header import check_pixels
 from startrack.outputs import check_out_folder, remove_own
 from startrack.sensor import SensorModel
 from startrack.sidecar import sidecar_path_for
-from startrack.sky import SKY_KINDS, SkySpec, resolve_sky
+from startrack.sky import SkySpec, resolve_sky, with_sky
 
 DEFAULT_OUT = Path("out/simulate")
 OWN_FILES = ("frame_*.png", "frame_*.json", "frame_*.fits", "truth.csv", "stars.csv")
@@ -33,7 +33,8 @@ OWN_FILES = ("frame_*.png", "frame_*.json", "frame_*.fits", "truth.csv", "stars.
 @click.option("--config", "config_path", type=click.Path(dir_okay=False),
               help="TOML preset: a file, or a shipped preset by name (hipparcos20, "
                    "paper2011, radial_triangles, realsky); default: the 2011 paper's experiment.")
-@click.option("--sky", type=click.Choice(SKY_KINDS), help="Sky kind (overrides the config).")
+@click.option("--sky", type=SKY_NAME, help=f"{SKY_HELP} Overrides the config.")
+@index_dir_option
 @click.option("--mag-limit", type=float, help="Faintest catalog magnitude to use.")
 @click.option("--frames", "count", type=click.IntRange(min=1), help="Number of frames.")
 @click.option("--seed", type=click.IntRange(min=0), help="Seed of attitudes and noise.")
@@ -76,7 +77,7 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
                  camera_path or (f"{config_path} [camera]" if config_path else "camera"))
     spec = cfg.sky
     if sky is not None:
-        spec = dataclasses.replace(spec, kind=sky)
+        spec = with_sky(spec, sky)
     if mag_limit is not None:
         if not math.isfinite(mag_limit):
             raise click.BadParameter("must be finite", param_hint="--mag-limit")
