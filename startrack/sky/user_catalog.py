@@ -76,7 +76,8 @@ def _numbers(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     text = values.astype(str) if values.dtype == object else None
     empty = np.zeros(len(values), bool) if text is None else np.char.strip(
         text.astype("U")) == ""
-    return pd.to_numeric(pd.Series(values), errors="coerce").to_numpy(np.float64), empty
+    numbers = pd.to_numeric(pd.Series(values), errors="coerce").to_numpy(np.float64, copy=True)
+    return numbers, empty
 
 
 def _fail(path: Path, row: int, message: str) -> InputError:
