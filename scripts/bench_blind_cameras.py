@@ -1,10 +1,13 @@
 """Real-camera blind bench: cameras of 1 to 35 deg, the FOV 4 % off (either sign) or unknown.
 
-Each camera (:data:`CAMERAS`: FOV, sensor size, lens k1) sees the Gaia sky to the depth a
+Each camera (:data:`CAMERAS`: FOV, sensor size, lens k1) sees the sky to the depth a
 camera of that field reaches (:func:`camera_depth`: 6 at 35 deg, 4 mag deeper per decade
-narrower), cut at the catalog's G = 10; deeper than that it also records stars the
-catalog does not hold (:func:`faint_extras`, fainter than G = 10 and so last but for the
-magnitude noise). The lens has radial distortion ``k1`` that the solver is not told.
+narrower): the Gaia sky cut at its G = 10, or, for a camera whose default sky is Tycho-2
+(a field too narrow for Gaia's stars, when the index files are installed), the Tycho-2
+sky cut at VT = :data:`TYCHO2_FRAME_MAX` (about where Tycho-2 stops being complete);
+deeper than that it also records stars the catalog does not hold (:func:`faint_extras`,
+fainter than the cut and so last but for the magnitude noise). The lens has radial
+distortion ``k1`` that the solver is not told.
 Centroid noise 0.3 px, 3 false stars, 5 % dropouts, magnitude noise 0.3 (the bench's
 frames, :mod:`startrack.bench.frames`, seeded by (seed, frame)). Each frame is solved by
 the pipeline with the FOV told 4 % high (even frames) or low (odd frames), and with no
@@ -42,7 +45,7 @@ from startrack.bench.conditions import Condition  # noqa: E402
 from startrack.bench.frames import BenchFrame, make_frame  # noqa: E402
 from startrack.camera import Camera  # noqa: E402
 from startrack.pipeline import Options  # noqa: E402
-from startrack.sky import GAIA_MAG_MAX, SkySpec, load_sky  # noqa: E402
+from startrack.sky import GAIA_MAG_MAX, SkySpec, default_sky_kind, load_sky  # noqa: E402
 from startrack.types import Observation  # noqa: E402
 
 #: (horizontal FOV in deg, width, height, lens k1 the solver is not told)
@@ -53,6 +56,7 @@ FOV_ERROR = 0.04
 SETTINGS = (f"{FOV_ERROR:.0%} off", "no FOV")
 NOISE = dict(noise_px=0.3, false_stars=3, missing=0.05, mag_noise=0.3)
 MAX_EXTRAS = 60  # uncatalogued faint stars per frame, at most
+TYCHO2_FRAME_MAX = 12.0  # the frames' Tycho-2 sky is cut here; fainter stars are extras
 START, END = "<!-- bench_blind_cameras:start -->", "<!-- bench_blind_cameras:end -->"
 
 
@@ -63,20 +67,28 @@ def camera_depth(fov_deg: float) -> float:
     return 6.0 + 4.0 * math.log10(35.0 / fov_deg)
 
 
+def frame_sky(camera: Camera) -> tuple[str, float]:
+    """The sky the frames are drawn from and the magnitude it is cut at: Tycho-2 where it
+    is the solver's default sky for ``camera``, else Gaia."""
+    if default_sky_kind(camera) == "tycho2":
+        return "tycho2", TYCHO2_FRAME_MAX
+    return "gaia", GAIA_MAG_MAX
+
+
 def faint_extras(frame: BenchFrame, camera: Camera, depth: float, seed: int,
-                 index: int) -> BenchFrame:
-    """``frame`` with the stars between G = 10 and ``depth`` that the catalog lacks
+                 index: int, cut: float) -> BenchFrame:
+    """``frame`` with the stars between the catalog's ``cut`` and ``depth`` that it lacks
     (about 10**(0.45 dm) as many as it holds, at most :data:`MAX_EXTRAS`), uniform over
     the image, their magnitudes uniform in that range plus the magnitude noise; every star
     is then re-ordered by magnitude."""
     real = int(np.count_nonzero(frame.truth_rows >= 0))
-    n = min(MAX_EXTRAS, int(real * (10.0 ** (0.45 * (depth - GAIA_MAG_MAX)) - 1.0)))
+    n = min(MAX_EXTRAS, int(real * (10.0 ** (0.45 * (depth - cut)) - 1.0)))
     if n <= 0:
         return frame
     rng = np.random.default_rng([seed, index, 99])
     x = rng.uniform(-0.5, camera.width - 0.5, n)
     y = rng.uniform(-0.5, camera.height - 0.5, n)
-    mag = rng.uniform(GAIA_MAG_MAX, depth, n) + NOISE["mag_noise"] * rng.standard_normal(n)
+    mag = rng.uniform(cut, depth, n) + NOISE["mag_noise"] * rng.standard_normal(n)
     obs = frame.obs
     all_mag = np.concatenate([-2.5 * np.log10(obs.flux), mag])
     order = np.argsort(all_mag, kind="stable")
@@ -88,14 +100,15 @@ def faint_extras(frame: BenchFrame, camera: Camera, depth: float, seed: int,
 
 
 def camera_frames(spec: tuple, n: int, seed: int):
-    """The camera, its frames and the Gaia catalog they are drawn from."""
+    """The camera, its frames and the catalog they are drawn from (:func:`frame_sky`)."""
     fov, width, height, k1 = spec
     camera = Camera.from_fov(width, height, fov)
     depth = camera_depth(fov)
-    catalog = load_sky(SkySpec(kind="gaia", mag_limit=min(depth, GAIA_MAG_MAX)), camera)
+    kind, cut = frame_sky(camera)
+    catalog = load_sky(SkySpec(kind=kind, mag_limit=min(depth, cut)), camera)
     condition = Condition(distortion_k1=k1, **NOISE)
     frames = [faint_extras(make_frame(catalog, camera, condition, seed, i), camera, depth,
-                           seed, i) for i in range(n)]
+                           seed, i, cut) for i in range(n)]
     return camera, frames, catalog
 
 
@@ -133,8 +146,9 @@ def run_camera(spec: tuple, n: int, seed: int, only: list[int] | None = None,
                 continue
             solved += 1
             wrong += score(result, frame, catalog, camera)
+        kind, cut = frame_sky(camera)
         rows.append({"fov": spec[0], "size": f"{size[0]}x{size[1]}", "k1": spec[3],
-                     "depth": min(camera_depth(spec[0]), GAIA_MAG_MAX), "given": label,
+                     "sky": kind, "depth": min(camera_depth(spec[0]), cut), "given": label,
                      "solved": solved, "wrong": wrong, "frames": n,
                      "real": int(np.median(real)), "min_real": min(real),
                      "observed": int(np.median([len(f.obs) for _, f in picked])),
@@ -149,11 +163,11 @@ def run_camera(spec: tuple, n: int, seed: int, only: list[int] | None = None,
 
 
 def table(rows: list[dict]) -> str:
-    lines = ["| FOV (deg) | sensor | lens k1 (not told) | catalog depth (G) | FOV given | "
+    lines = ["| FOV (deg) | sensor | lens k1 (not told) | frames' sky, depth | FOV given | "
              "solved | wrong | real stars (median, min) | observed (median) | "
              "median ms | max ms |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
-    lines += [f"| {r['fov']:g} | {r['size']} | {r['k1']:g} | {r['depth']:.1f} | "
+    lines += [f"| {r['fov']:g} | {r['size']} | {r['k1']:g} | {r['sky']} {r['depth']:.1f} | "
               f"{r['given']} | {r['solved']}/{r['frames']} | {r['wrong']} | "
               f"{r['real']}, {r['min_real']} | {r['observed']} | {r['median_ms']:.0f} | "
               f"{r['max_ms']:.0f} |" for r in rows]

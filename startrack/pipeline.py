@@ -14,6 +14,7 @@ every stage of its identification (the configured method, the FOV refit, the FOV
 from __future__ import annotations
 
 import dataclasses
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,9 +32,11 @@ from startrack.sky import (
     Catalog,
     SkySpec,
     check_pair_budget,
+    deeper_sky_note,
     default_sky_kind,
     load_sky,
     resolve_sky,
+    sky_spec,
 )
 
 # The most reliable method measured (scripts/bench_identify.py, the real-sky frames and
@@ -75,6 +78,7 @@ class Pipeline:
         self._identifiers: dict[tuple[Camera, SkySpec, str], Identifier] = {}
         self._catalogs: dict[SkySpec, Catalog] = {}
         self._blind: dict[SkySpec, BlindSolver] = {}
+        self._notes: set[str] = set()
 
     def setup_for(self, frame: FrameInput) -> tuple[Camera | None, SkySpec]:
         """The camera and sky for one input: options, else sidecar, else defaults. No
@@ -92,8 +96,13 @@ class Pipeline:
                 raise InputError(f"{frame.name}: a centroid list with --fov needs the image "
                                  "size (--size WxH) or use --camera FILE")
             camera = Camera.from_fov(size[0], size[1], opt.fov_deg)
-        kind = opt.sky or (side_sky.kind if side_sky else default_sky_kind(camera))
-        sky = side_sky if side_sky is not None and side_sky.kind == kind else SkySpec(kind=kind)
+        given = sky_spec(opt.sky) if opt.sky else None
+        if given is None and side_sky is None:
+            given = SkySpec(kind=default_sky_kind(camera))
+            self._note_once(deeper_sky_note(camera, given.kind))
+        sky = side_sky if side_sky is not None and (
+            given is None or (side_sky.kind, side_sky.path) == (given.kind, given.path)) \
+            else given
         if opt.epoch is not None:
             sky = dataclasses.replace(sky, epoch=opt.epoch)
         if opt.mag_limit is not None:
@@ -162,16 +171,18 @@ class Pipeline:
 
     def _search(self, x, y, camera: Camera, sky: SkySpec, deadline: Deadline):
         """The quad search within the tolerance: on the chosen sky; with the default sky,
-        also (or, when that is Gaia, only) over the whole Gaia catalog cut per window,
-        whose brightest stars are ordered by Gaia's magnitudes, not Hipparcos's."""
+        also (or, when that is the deepest installed one, only) over the whole deepest
+        catalog (Tycho-2, else Gaia) cut per window, its brightest stars ordered by its
+        own magnitudes, not Hipparcos's."""
         tol, opt = self.options.fov_tolerance, self.options
         default = opt.sky is None and opt.mag_limit is None
         found = None
-        if not default or sky.kind != "gaia":
+        deep = default_sky_kind(None)  # the deepest installed sky (Tycho-2, else Gaia)
+        if not default or sky.kind != deep:
             found = solve_approximate(self.identifier(camera, sky, "quad"), x, y, tol, deadline)
             if not default or found.solution.solved or found.solution.reason == "timeout":
                 return found
-        again = self.blind_solver(SkySpec(kind="gaia", epoch=opt.epoch)).solve(
+        again = self.blind_solver(SkySpec(kind=deep, epoch=opt.epoch)).solve(
             x, y, (camera.width, camera.height), deadline, camera, tol)
         if found is None:
             return again
@@ -224,6 +235,12 @@ class Pipeline:
             raise InputError(f"{frame.name}: a centroid list with no camera needs the image "
                              "size (--size WxH), or give --camera FILE or --fov DEG")
         return size
+
+    def _note_once(self, note: str | None) -> None:
+        """Print ``note`` on stderr the first time this pipeline meets it."""
+        if note and note not in self._notes:
+            self._notes.add(note)
+            print(note, file=sys.stderr)
 
     def blind_solver(self, sky: SkySpec) -> BlindSolver:
         if sky not in self._blind:

@@ -45,8 +45,10 @@ def test_read_gaia_bin_refuses_a_damaged_file(tmp_path, damage):
         read_gaia_bin(path)
 
 
-def test_default_sky_is_gaia_for_narrow_or_unknown_fields():
+def test_default_sky_is_gaia_for_narrow_or_unknown_fields_without_tycho2(tmp_path, monkeypatch):
+    monkeypatch.setenv("STARTRACK_INDEX_DIR", str(tmp_path))  # no index file: no Tycho-2
     assert default_sky_kind(None) == "gaia"
+    assert default_sky_kind(Camera.from_fov(1024, 1024, 1.0)) == "gaia"
     assert default_sky_kind(Camera.from_fov(1024, 1024, 3.0)) == "gaia"
     assert default_sky_kind(Camera.from_fov(1024, 768, 11.42)) == "hipparcos"
     assert GAIA_BELOW_FOV_DEG > 5.0

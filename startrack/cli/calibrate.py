@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import sys
@@ -12,12 +13,11 @@ import click
 from startrack.camera_file import load_camera
 from startrack.cli import main
 from startrack.cli.identify import _size
-from startrack.cli.options import Number
+from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option
 from startrack.errors import InputError
 from startrack.outputs import Writer
 from startrack.pipeline import DEFAULT_METHOD, read_input
 from startrack.sidecar import with_sidecars
-from startrack.sky import SKY_KINDS
 from startrack.validate import EPOCH_YEAR, FOV_DEG, MAG_LIMIT
 
 
@@ -37,8 +37,9 @@ from startrack.validate import EPOCH_YEAR, FOV_DEG, MAG_LIMIT
               help="Radial distortion coefficients to fit: 0 none, 1 k1, 2 k1 k2, 3 k1-k3.")
 @click.option("--fix-center", is_flag=True, help="Keep the principal point of the nominal "
               "camera instead of fitting it.")
-@click.option("--sky", type=click.Choice(SKY_KINDS), default="hipparcos", show_default=True,
-              help="Catalog.")
+@click.option("--sky", type=SKY_NAME, default="hipparcos", show_default=True,
+              help=SKY_HELP)
+@index_dir_option
 @click.option("--mag-limit", type=Number(MAG_LIMIT), help="Faintest catalog magnitude.")
 @click.option("--epoch", type=Number(EPOCH_YEAR),
               help="Julian year to carry catalog positions to by proper motion.")
@@ -51,7 +52,7 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     Exit 1 when no input solves (nothing is written)."""
     from startrack.calibrate import calibrate as run
     from startrack.matchers import get_matcher
-    from startrack.sky import SkySpec, load_sky, resolve_sky
+    from startrack.sky import load_sky, resolve_sky, sky_spec
 
     if (fov_deg is None) == (camera_path is None):
         raise InputError("calibrate: give exactly one of --fov DEG and --camera FILE")
@@ -61,7 +62,7 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     writer.check(output, "--output")  # before any work
     frames = [read_input(Path(name)) for name in inputs]
     nominal = _nominal(frames, fov_deg, camera_path, size)
-    spec = SkySpec(kind=sky, mag_limit=mag_limit, epoch=epoch)
+    spec = dataclasses.replace(sky_spec(sky), mag_limit=mag_limit, epoch=epoch)
     catalog = load_sky(resolve_sky(spec, nominal), nominal)
     result = run(frames, nominal, catalog, method=method, terms=terms,
                  fit_center=not fix_center)

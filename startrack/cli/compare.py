@@ -16,9 +16,9 @@ import click
 
 from startrack.bench.frames import SOURCES
 from startrack.cli import main
-from startrack.cli.options import Number
+from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option
 from startrack.errors import InputError
-from startrack.sky import SKY_KINDS, resolve_sky
+from startrack.sky import resolve_sky, with_sky
 from startrack.validate import (
     FALSE_STARS,
     FPS,
@@ -85,7 +85,7 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str,
 
 def _sky(cfg, sky: str | None, mag_limit: float | None):
     """The config's sky with the options applied and its defaults resolved."""
-    spec_sky = cfg.sky if sky is None else dataclasses.replace(cfg.sky, kind=sky)
+    spec_sky = cfg.sky if sky is None else with_sky(cfg.sky, sky)
     if mag_limit is not None:
         spec_sky = dataclasses.replace(spec_sky, mag_limit=mag_limit)
     return resolve_sky(spec_sky, cfg.camera)
@@ -112,7 +112,8 @@ def _workers(jobs: int | None) -> int:
               help="Comma-separated methods to compare.")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False),
               help="TOML preset (configs/); default: configs/paper2011.toml's setup.")
-@click.option("--sky", type=click.Choice(SKY_KINDS), help="Sky kind (overrides the config).")
+@click.option("--sky", type=SKY_NAME, help=f"{SKY_HELP} Overrides the config.")
+@index_dir_option
 @click.option("--mag-limit", type=Number(MAG_LIMIT), help="Faintest catalog magnitude to use.")
 @click.option("--frames", type=Number(FRAMES), default=DEFAULT_FRAMES, show_default=True,
               help="Frames per condition.")

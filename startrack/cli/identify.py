@@ -13,7 +13,7 @@ import click
 from startrack.camera_file import load_camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
-from startrack.cli.options import Number, triple
+from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, triple
 from startrack.errors import InputError
 from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.matchers import available_methods
@@ -23,7 +23,7 @@ from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
 from startrack.sequence import DEFAULT_PRIOR_SIGMA_DEG, SequenceSolver, prior_from_radec_roll
 from startrack.side_outputs import SideOutputs
 from startrack.sidecar import with_sidecars
-from startrack.sky import GAIA_BELOW_FOV_DEG, SKY_KINDS
+from startrack.sky import GAIA_BELOW_FOV_DEG
 from startrack.validate import (
     EPOCH_YEAR,
     FOV_DEG,
@@ -75,9 +75,11 @@ def _time(ctx, param, value):
                    "With no FOV at all (no --fov, camera file or sidecar) a blind search "
                    f"covers {BLIND_FOV_RANGE[0]:g} to {BLIND_FOV_RANGE[1]:g} deg.")
 @click.option("--size", callback=_size, help="Image size WxH for a centroid CSV with --fov.")
-@click.option("--sky", type=click.Choice(SKY_KINDS),
-              help="Catalog: the frame sidecar's sky, else gaia below "
-                   f"{GAIA_BELOW_FOV_DEG:g} deg or with no FOV, hipparcos otherwise.")
+@click.option("--sky", type=SKY_NAME,
+              help=f"{SKY_HELP} Default: the frame sidecar's sky, else hipparcos from "
+                   f"{GAIA_BELOW_FOV_DEG:g} deg, gaia below it, tycho2 (when installed) "
+                   "where gaia is too shallow or with no FOV (docs/conventions.md).")
+@index_dir_option
 @click.option("--mag-limit", type=Number(MAG_LIMIT),
               help="Faintest catalog magnitude. Default for hipparcos: the faintest half "
                    "magnitude with <= 80 catalog stars in an average frame (20 deg -> 6.5, "

