@@ -14,7 +14,7 @@ from pathlib import Path
 
 from startrack.camera import Camera
 from startrack.distortion import distortion_from_dict
-from startrack.errors import InputError, check_number
+from startrack.errors import InputError, InputFileNotFoundError, check_number
 
 CAMERA_KEYS = {"width", "height", "fov_deg", "focal_length_mm", "pixel_size_um", "cx", "cy",
                "distortion"}
@@ -86,6 +86,8 @@ def load_camera(path: str | Path) -> Camera:
     path = Path(path)
     try:
         raw = path.read_bytes()
+    except FileNotFoundError:
+        raise InputFileNotFoundError(f"{path}: no such camera file") from None
     except OSError as exc:
         raise InputError(f"{path}: cannot read camera file ({exc.strerror})") from None
     try:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import contextlib
 import csv
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -14,6 +13,8 @@ import click
 from startrack.camera_file import load_camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
+from startrack.cli.hint_options import hint_options, hints_from
+from startrack.cli.options import finite as _finite
 from startrack.cli.options import triple
 from startrack.errors import InputError
 from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
@@ -49,12 +50,6 @@ def _time(ctx, param, value):
     from startrack.aberration import parse_time
 
     return parse_time(value)
-
-
-def _finite(ctx, param, value):
-    if value is not None and not math.isfinite(value):
-        raise click.BadParameter(f"must be a finite number, got {value}")
-    return value
 
 
 @main.command()
@@ -121,9 +116,17 @@ def _finite(ctx, param, value):
 @click.option("--prior-sigma-deg", type=click.FloatRange(0, 90, min_open=True),
               default=DEFAULT_PRIOR_SIGMA_DEG, show_default=True,
               help="1-sigma uncertainty of --prior, degrees.")
+@hint_options
+@click.option("--downsample", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Find the centroids on the image binned N x N (large frames); they are "
+                   "reported in full-resolution pixels.")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False),
+              help="A TOML preset (configs/*.toml, or its name): its [camera] and [sky] "
+                   "as defaults that the options override.")
 def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, epoch,
              obs_time, method, max_stars, sigma_px, timeout_ms, fmt, output, annotate_path,
-             wcs_path, corr_path, quiet, verbose, track, prior, prior_sigma_deg) -> None:
+             wcs_path, corr_path, quiet, verbose, track, prior, prior_sigma_deg, downsample,
+             config_path, **hint_values) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
@@ -134,9 +137,20 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
                                "sets the field of view)")
     _check_output_paths(inputs, output, annotate_path, wcs_path, corr_path)
     camera = load_camera(camera_path) if camera_path else None
+    hints = hints_from(hint_values, fov_given=camera is not None or fov_deg is not None)
+    sky_spec = None
+    if config_path:
+        from startrack.config import load_config
+
+        preset = load_config(config_path)
+        sky_spec = preset.sky
+        if camera is None and fov_deg is None and (hints is None or hints.scale is None):
+            camera = preset.camera  # --camera, --fov and a scale range override it
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
-                      timeout_ms=timeout_ms, time=obs_time, fov_tolerance=fov_tolerance)
+                      timeout_ms=timeout_ms, time=obs_time, fov_tolerance=fov_tolerance,
+                      hints=hints, header_hints=not hint_values["no_header_hints"],
+                      downsample=downsample, sky_spec=sky_spec)
     pipeline = Pipeline(options)
     if track or prior is not None:
         pipeline = SequenceSolver(pipeline, track=track, prior=None if prior is None

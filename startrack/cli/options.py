@@ -20,3 +20,10 @@ def triple(names: str):
             raise click.BadParameter(f"expected three numbers {names}, got {value!r}")
         return parts
     return parse
+
+
+def finite(ctx, param, value):
+    """A click callback refusing NaN and infinity (None stays None)."""
+    if value is not None and not math.isfinite(value):
+        raise click.BadParameter(f"must be a finite number, got {value}")
+    return value

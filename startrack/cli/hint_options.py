@@ -1,0 +1,60 @@
+"""The hint options that ``identify`` and ``calibrate`` share (startrack.hints)."""
+
+from __future__ import annotations
+
+import click
+
+from startrack.cli.options import finite as finite_number
+from startrack.hints import SCALE_UNITS, Hints, Pointing, Scale
+
+HINT_KEYS = ("ra", "dec", "radius", "scale_low", "scale_high", "scale_units", "pixel_size",
+             "no_header_hints")
+
+
+def hint_options(command):
+    """Add the hint options to a click command (they arrive as the :data:`HINT_KEYS`
+    keywords; :func:`hints_from` turns them into :class:`~startrack.hints.Hints`)."""
+    finite = dict(type=float, callback=finite_number)
+    options = [
+        click.option("--ra", **finite, help="The boresight lies within --radius of RA "
+                     "(deg) and --dec: only catalog stars around it are searched (no roll "
+                     "needed)."),
+        click.option("--dec", **finite, help="Dec (deg) of the pointing hint (with --ra, "
+                     "--radius)."),
+        click.option("--radius", **finite, help="Radius (deg) of the pointing hint."),
+        click.option("--scale-low", **finite, help="Smallest image scale (with "
+                     "--scale-high and --scale-units), instead of --fov."),
+        click.option("--scale-high", **finite, help="Largest image scale."),
+        click.option("--scale-units", type=click.Choice(SCALE_UNITS), default="degwidth",
+                     show_default=True, help="solve-field's units: image width in degrees, "
+                     "arcsec per pixel, or the lens focal length in mm (needs "
+                     "--pixel-size)."),
+        click.option("--pixel-size", **finite, help="Pixel size in micrometres (for "
+                     "--scale-units focalmm)."),
+        click.option("--no-header-hints", is_flag=True, help="Ignore a FITS input's "
+                     "header (its WCS pointing and scale, DATE-OBS, EXPTIME), used by "
+                     "default."),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command
+
+
+def hints_from(values: dict, fov_given: bool) -> Hints | None:
+    """The user's :class:`Hints` from the options' values; None when none was given."""
+    pointing = scale = None
+    radec = [values[k] for k in ("ra", "dec", "radius")]
+    if any(v is not None for v in radec):
+        if any(v is None for v in radec):
+            raise click.UsageError("give --ra, --dec and --radius together")
+        pointing = Pointing(*radec)
+    low, high = values["scale_low"], values["scale_high"]
+    if low is not None or high is not None:
+        if low is None or high is None:
+            raise click.UsageError("give --scale-low and --scale-high together")
+        if fov_given:
+            raise click.UsageError("give --fov/--camera or --scale-low/--scale-high, not "
+                                   "both")
+        scale = Scale(low, high, values["scale_units"], values["pixel_size"])
+    hints = Hints(pointing, scale)
+    return hints or None
