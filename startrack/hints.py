@@ -190,3 +190,38 @@ def header_time(path: Path | None):
 
         when = when + exptime / 2.0 * u.s
     return when
+
+
+def user_hints(ra=None, dec=None, radius=None, scale_low=None, scale_high=None,
+               scale_units: str = "degwidth", pixel_size_um: float | None = None, *,
+               fov_given: bool = False) -> Hints | None:
+    """The user's :class:`Hints` (``identify``'s options, the API's keywords); None when
+    none is given. The three of a pointing and the two bounds of a scale come together;
+    a scale range replaces a field of view, it does not add to one."""
+    pointing = scale = None
+    radec = (ra, dec, radius)
+    if any(v is not None for v in radec):
+        if any(v is None for v in radec):
+            raise InputError("give --ra, --dec and --radius together")
+        pointing = Pointing(*radec)
+    if scale_low is not None or scale_high is not None:
+        if scale_low is None or scale_high is None:
+            raise InputError("give --scale-low and --scale-high together")
+        if fov_given:
+            raise InputError("give --fov/--camera or --scale-low/--scale-high, not both")
+        scale = Scale(scale_low, scale_high, scale_units, pixel_size_um)
+    return Hints(pointing, scale) or None
+
+
+def preset(config, camera, fov_deg, hints: Hints | None):
+    """(camera, sky) of a ``--config`` preset: its camera unless a camera, a field of view
+    or a scale range is given; its sky (which ``--sky`` and ``--mag-limit`` override).
+    (camera, None) without a preset."""
+    if config is None:
+        return camera, None
+    from startrack.config import load_config
+
+    loaded = load_config(config)
+    if camera is None and fov_deg is None and (hints is None or hints.scale is None):
+        camera = loaded.camera
+    return camera, loaded.sky

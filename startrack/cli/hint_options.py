@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from startrack.cli.options import finite as finite_number
-from startrack.hints import SCALE_UNITS, Hints, Pointing, Scale
+from startrack.hints import SCALE_UNITS, Hints, user_hints
 
 HINT_KEYS = ("ra", "dec", "radius", "scale_low", "scale_high", "scale_units", "pixel_size",
              "no_header_hints")
@@ -42,19 +42,6 @@ def hint_options(command):
 
 def hints_from(values: dict, fov_given: bool) -> Hints | None:
     """The user's :class:`Hints` from the options' values; None when none was given."""
-    pointing = scale = None
-    radec = [values[k] for k in ("ra", "dec", "radius")]
-    if any(v is not None for v in radec):
-        if any(v is None for v in radec):
-            raise click.UsageError("give --ra, --dec and --radius together")
-        pointing = Pointing(*radec)
-    low, high = values["scale_low"], values["scale_high"]
-    if low is not None or high is not None:
-        if low is None or high is None:
-            raise click.UsageError("give --scale-low and --scale-high together")
-        if fov_given:
-            raise click.UsageError("give --fov/--camera or --scale-low/--scale-high, not "
-                                   "both")
-        scale = Scale(low, high, values["scale_units"], values["pixel_size"])
-    hints = Hints(pointing, scale)
-    return hints or None
+    return user_hints(values["ra"], values["dec"], values["radius"], values["scale_low"],
+                      values["scale_high"], values["scale_units"], values["pixel_size"],
+                      fov_given=fov_given)

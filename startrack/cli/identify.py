@@ -18,6 +18,7 @@ from startrack.cli.options import finite as _finite
 from startrack.cli.options import triple
 from startrack.errors import InputError
 from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
+from startrack.hints import preset
 from startrack.matchers import available_methods
 from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
 from startrack.outputs import check_output, guarded_stdout, open_output, refuse_inputs
@@ -138,14 +139,7 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
     _check_output_paths(inputs, output, annotate_path, wcs_path, corr_path)
     camera = load_camera(camera_path) if camera_path else None
     hints = hints_from(hint_values, fov_given=camera is not None or fov_deg is not None)
-    sky_spec = None
-    if config_path:
-        from startrack.config import load_config
-
-        preset = load_config(config_path)
-        sky_spec = preset.sky
-        if camera is None and fov_deg is None and (hints is None or hints.scale is None):
-            camera = preset.camera  # --camera, --fov and a scale range override it
+    camera, sky_spec = preset(config_path, camera, fov_deg, hints)
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
                       timeout_ms=timeout_ms, time=obs_time, fov_tolerance=fov_tolerance,
