@@ -17,7 +17,7 @@ from startrack.distortion import distortion_from_dict
 from startrack.errors import InputError, InputFileNotFoundError, check_number
 
 CAMERA_KEYS = {"width", "height", "fov_deg", "focal_length_mm", "pixel_size_um", "cx", "cy",
-               "distortion"}
+               "distortion", "uncertainty"}  # uncertainty: calibrate's report, not read
 MAX_SIDE_PX = 100_000  # image width or height
 FOCAL_LENGTH_MM = (1e-3, 1e5)  # 1 micron to 100 m
 PIXEL_SIZE_UM = (1e-2, 1e3)  # 10 nm to 1 mm
@@ -68,6 +68,8 @@ def camera_from_dict(data: dict, where: str = "camera") -> Camera:
     unknown = set(data) - CAMERA_KEYS
     if unknown:
         raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+    if not isinstance(data.get("uncertainty", {}), dict):
+        raise InputError(f"{where}: uncertainty must be a table")
     for key in ("width", "height"):
         if key not in data:
             raise InputError(f"{where}: missing key '{key}'")

@@ -64,8 +64,12 @@ def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky
     for name in result.unsolved:
         click.echo(f"calibrate: {name}: not solved, left out", err=True)
     cam = result.camera
+    from startrack.calibrate_sigma import format_parameters
+
     with atomic_text(output) as fh:
-        json.dump(cam.to_dict(), fh, indent=2)
+        json.dump({**cam.to_dict(), "uncertainty": {
+            p.name: {"sigma": p.sigma, "status": p.status, "fit": p.fit}
+            for p in result.parameters}}, fh, indent=2)
         fh.write("\n")
     d = cam.distortion.to_dict() if cam.distortion else {"k1": 0.0, "k2": 0.0, "k3": 0.0}
     click.echo(f"calibrate: {len(result.solved)} of {len(frames)} input(s) solved, "
@@ -76,6 +80,8 @@ def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky
     click.echo(f"fov_deg {cam.fov_deg:.4f} (nominal {nominal.fov_deg:.4f}), f {cam.f_px:.2f} px, "
                f"cx {cam.cx:.2f}, cy {cam.cy:.2f}, k1 {d['k1']:.5f}, k2 {d['k2']:.5f}, "
                f"k3 {d['k3']:.5f}")
+    for line in format_parameters(result.parameters):
+        click.echo(line)
     click.echo(f"wrote {output}")
 
 
