@@ -2,13 +2,14 @@
 data moved it at all.
 
 The covariance comes from the least-squares fit (its Jacobian, the noise estimated from
-its residuals). A parameter is **not constrained** when its 1-sigma moves a star at the
-image corner by more than the fit's RMS per star: the data cannot place it better than
-one star's noise, so it keeps its nominal value (0 for a lens coefficient). A parameter
-the fit moves by at most :data:`SIGNIFICANCE` sigma from its nominal value is **as
-given**: the data do not reject the nominal camera (a pinhole whose sidecar gave the
-exact camera stays exactly that camera). Otherwise it is **fitted**. The others are then
-fitted again with the held ones fixed (startrack.calibrate).
+its residuals). A parameter the fit moves by more than :data:`SIGNIFICANCE` sigma from
+its nominal value is **fitted**: the data reject the nominal value. Otherwise it keeps
+the nominal value, and is reported **not constrained** when its 1-sigma moves a star at
+the image corner by more than the fit's RMS per star (the data cannot place it better
+than one star's noise; a lens coefficient is then left at 0), else **as given** (the
+data agree with it: a pinhole whose sidecar gave the exact camera stays exactly that
+camera). The fitted ones are then fitted again with the held ones fixed
+(startrack.calibrate).
 """
 
 from __future__ import annotations
@@ -72,13 +73,13 @@ def parameters(fit, nominal: Camera) -> tuple[tuple[Parameter, ...], np.ndarray]
             report.append(Parameter(name, float(given[i]), float(given[i]), None, None,
                                     "not fitted"))
             continue
-        if not effect_px[i] <= fit.rms:  # NaN (a singular fit) is not constrained either
+        if abs(fitted[i] - given[i]) > SIGNIFICANCE * sigma[i]:
+            status, value = "fitted", fitted[i]
+        elif not effect_px[i] <= fit.rms:  # NaN (a singular fit) is not constrained either
             status, value = "not constrained", (0.0 if i >= 3 else given[i])
             hold[i] = True
-        elif abs(fitted[i] - given[i]) <= SIGNIFICANCE * sigma[i]:
-            status, value, hold[i] = "as given", given[i], True
         else:
-            status, value = "fitted", fitted[i]
+            status, value, hold[i] = "as given", given[i], True
         report.append(Parameter(name, float(value), float(given[i]), float(fitted[i]),
                                 float(sigma[i]), status))
     return tuple(report), hold
