@@ -132,3 +132,16 @@ def test_an_exact_pinhole_camera_is_reported_as_given_with_its_sigmas(tmp_path):
     path = tmp_path / "camera.json"
     path.write_text(json.dumps({**camera.to_dict(), "uncertainty": {}}))
     assert load_camera(path).fov_deg == pytest.approx(20.0)
+
+
+def test_calibrate_takes_a_scale_range_and_a_pointing_cone_instead_of_the_fov(tmp_path):
+    frames = _write_frames(tmp_path, 3, seed=5)
+    out = tmp_path / "camera.json"
+    run = _calibrate(*frames, "--scale-low", 19.5, "--scale-high", 21.5, "--size",
+                     "1024x1024", "--output", out)
+    assert run.returncode == 0, run.stderr
+    assert abs(json.loads(out.read_text())["fov_deg"] - 20.0) < 0.05
+    assert "+-" in run.stdout  # every fitted parameter with its 1-sigma
+    run = _calibrate(*frames, "--fov", 20.0, "--scale-low", 19.5, "--scale-high", 21.5,
+                     "--size", "1024x1024", "--output", out)
+    assert run.returncode == 2 and "not both" in run.stderr

@@ -12,6 +12,7 @@ import click
 from startrack.cache import atomic_text
 from startrack.camera_file import load_camera
 from startrack.cli import main
+from startrack.cli.hint_options import hint_options, hints_from
 from startrack.cli.identify import _finite, _size
 from startrack.errors import InputError
 from startrack.pipeline import DEFAULT_METHOD, read_input
@@ -38,8 +39,11 @@ from startrack.sky import SKY_KINDS
 @click.option("--epoch", type=float, callback=_finite,
               help="Julian year to carry catalog positions to by proper motion.")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True, help="Matcher.")
+@hint_options
+@click.option("--downsample", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Find the centroids on the images binned N x N.")
 def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky, mag_limit,
-              epoch, method) -> None:
+              epoch, method, downsample, **hint_values) -> None:
     """Solve every INPUT (images or centroid CSVs from one camera), fit its focal length,
     principal point and radial distortion by least squares over all matched stars (with
     outlier rejection), write the camera file and print the residual RMS before and after.
@@ -48,13 +52,21 @@ def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky
     from startrack.matchers import get_matcher
     from startrack.sky import SkySpec, load_sky, resolve_sky
 
-    if (fov_deg is None) == (camera_path is None):
+    hints = hints_from(hint_values, fov_given=fov_deg is not None or camera_path is not None)
+    if fov_deg is not None and camera_path is not None:
         raise InputError("calibrate: give exactly one of --fov DEG and --camera FILE")
     get_matcher(method)
-    frames = [read_input(Path(name)) for name in inputs]
+    frames = [read_input(Path(name), downsample=downsample) for name in inputs]
+    if fov_deg is None and camera_path is None:
+        fov_deg = hinted_fov(frames, hints, size, not hint_values["no_header_hints"])
     nominal = _nominal(frames, fov_deg, camera_path, size)
     spec = SkySpec(kind=sky, mag_limit=mag_limit, epoch=epoch)
     catalog = load_sky(resolve_sky(spec, nominal), nominal)
+    if hints is not None and hints.pointing is not None:
+        from startrack.hints import cone_radius_deg, cut_to_cone
+
+        catalog = cut_to_cone(catalog, hints.pointing,
+                              cone_radius_deg(hints.pointing, nominal, 0.1, 0.0))
     result = run(frames, nominal, catalog, method=method, terms=terms,
                  fit_center=not fix_center)
     if result is None:
@@ -83,6 +95,24 @@ def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky
     for line in format_parameters(result.parameters):
         click.echo(line)
     click.echo(f"wrote {output}")
+
+
+def hinted_fov(frames, hints, size, header: bool) -> float:
+    """The nominal FOV from a scale range (its middle), else the first FITS input's
+    header; an error naming the options when there is neither."""
+    from startrack.hints import fov_range_deg, header_hints
+
+    dims = size or next((f.size for f in frames if f.size is not None), None)
+    if hints is not None and hints.scale is not None:
+        if dims is None:
+            raise InputError("calibrate: centroid lists with a scale range need --size WxH")
+        return fov_range_deg(hints.scale, dims[0])[0]
+    for frame in frames if header else []:
+        found = header_hints(frame.path, dims)
+        if found is not None:
+            return fov_range_deg(found.scale, dims[0])[0]
+    raise InputError("calibrate: give exactly one of --fov DEG and --camera FILE (or a "
+                     "scale range, or FITS inputs with a WCS)")
 
 
 def _nominal(frames, fov_deg, camera_path, size):
