@@ -7,6 +7,7 @@ answer is a :class:`SolveResult` whose ``to_dict()`` is the JSON record that
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,7 +18,7 @@ from startrack.api_checks import api_camera, api_prior, api_size, api_time, chec
 from startrack.attitude import to_quaternion, to_radec_roll
 from startrack.camera import Camera
 from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
-from startrack.errors import InputError
+from startrack.errors import InputError, as_builtin
 from startrack.fov import DEFAULT_FOV_TOLERANCE
 from startrack.frame_input import FrameInput, image_input, read_input
 from startrack.identifier import FrameResult
@@ -81,6 +82,54 @@ class SolveResult:
         return self.frame.camera.fov_deg if self.solved else None
 
     @property
+    def rotation(self):
+        """The attitude as a scipy ``Rotation`` (camera to ICRS); None if not solved."""
+        return self.frame.solution.rotation if self.solved else None
+
+    @property
+    def boresight(self):
+        """The boresight as an astropy ``SkyCoord`` (ICRS); None if not solved."""
+        if not self.solved:
+            return None
+        from astropy.coordinates import SkyCoord
+
+        return SkyCoord(self.ra_deg, self.dec_deg, unit="deg", frame="icrs")
+
+    @property
+    def wcs(self):
+        """The solved frame's astropy ``WCS`` (TAN, with SIP terms when they are fitted
+        or the camera has lens distortion; ``startrack identify --wcs`` writes the same
+        header); None if not solved. Pixels are ours: ``all_pix2world(x, y, 0)``."""
+        if not self.solved:
+            return None
+        import warnings
+
+        from astropy.wcs import WCS, FITSFixedWarning
+
+        from startrack.wcs import solved_wcs_header
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", FITSFixedWarning)
+            return WCS(solved_wcs_header(self.frame))
+
+    @property
+    def quality(self) -> dict | None:
+        """The record's ``quality`` (docs/conventions.md): residuals, the attitude's
+        1-sigma, the false-match probability, the catalog; None if not solved."""
+        quality = self.frame.quality
+        return None if quality is None else quality.to_dict()
+
+    def __repr__(self) -> str:
+        name = "" if self.frame.input == "<array>" else f" {Path(self.frame.input).name}"
+        if not self.solved:
+            return f"<SolveResult{name}: not solved ({self.reason})>"
+        q = self.quality
+        return (f"<SolveResult{name}: solved by {self.frame.solution.method}, RA "
+                f"{self.ra_deg:.5f} Dec {self.dec_deg:+.5f} roll {self.roll_deg:.3f} deg, "
+                f"FOV {self.fov_deg:.3f} deg, {q['n_matched']} stars, rms "
+                f"{q['rms_arcsec']:.2f} arcsec>")
+
+    @property
     def stars(self) -> pd.DataFrame:
         """The identified stars: x, y, catalog_id, ra_deg, dec_deg, residual_arcsec."""
         return pd.DataFrame(self.to_dict()["stars"], columns=STAR_COLUMNS)
@@ -91,7 +140,7 @@ class SolveResult:
 
 
 class Solver:
-    """Loads catalog and database once; :meth:`solve` answers one frame at a time.
+    r"""Loads catalog and database once; :meth:`solve` answers one frame at a time.
 
     Give the camera as ``fov_deg`` (with ``size=(width, height)`` for centroid arrays;
     images give their own size) or ``camera`` (a :class:`Camera` or a camera file path);
@@ -99,6 +148,15 @@ class Solver:
     field of view is searched (:data:`startrack.fov.BLIND_FOV_RANGE`).
     The other keywords are ``startrack identify``'s options (``time``: ISO 8601 text or an
     astropy Time, for the aberration correction).
+
+    Hints (:mod:`startrack.hints`): ``ra``, ``dec``, ``radius`` (the boresight lies within
+    ``radius`` of (ra, dec)); ``scale_low``, ``scale_high`` in ``scale_units``
+    ("degwidth", "arcsecperpix" or "focalmm" with ``pixel_size_um``) instead of
+    ``fov_deg``; ``downsample`` (centroids found on the image binned N x N);
+    ``header_hints`` (a FITS input's WCS, DATE-OBS and EXPTIME; default on); ``config``,
+    a preset (``configs/*.toml`` or its name) whose camera and sky are the defaults.
+    Angles may be astropy Quantities. Errors are :class:`~startrack.errors.InputError`\ s
+    that are also ``FileNotFoundError`` (a missing file) or ``ValueError`` (bad values).
 
     Tracking (``identify --track``): with ``track=True`` the frames given to :meth:`solve`
     are one sequence, in order: the first is solved lost-in-space, each later one by
@@ -115,17 +173,41 @@ class Solver:
                  max_stars: int | None = None, timeout_ms: float | None = None,
                  track: bool = False, prior: tuple[float, float, float] | None = None,
                  prior_sigma_deg: float = 1.0, time: str | None = None,
-                 fov_tolerance: float = DEFAULT_FOV_TOLERANCE) -> None:
+                 fov_tolerance: float = DEFAULT_FOV_TOLERANCE, ra=None, dec=None,
+                 radius=None, scale_low=None, scale_high=None, scale_units: str = "degwidth",
+                 pixel_size_um: float | None = None, downsample: int = 1,
+                 header_hints: bool = True, config: str | Path | None = None) -> None:
+        with builtin_errors():
+            self._setup(**{k: v for k, v in locals().items() if k not in ("self", "__class__")})
+
+    def _setup(self, fov_deg, *, camera, size, method, sky, mag_limit, epoch, sigma_px,
+               max_stars, timeout_ms, track, prior, prior_sigma_deg, time, fov_tolerance,
+               ra, dec, radius, scale_low, scale_high, scale_units, pixel_size_um,
+               downsample, header_hints, config) -> None:
+        from startrack.hints import preset, user_hints
+        from startrack.units import degree_options, scale_value
+
+        deg = degree_options(dict(fov_deg=fov_deg, prior=prior, ra=ra, dec=dec,
+                                  radius=radius, prior_sigma_deg=prior_sigma_deg))
+        fov_deg, prior, prior_sigma_deg = deg["fov_deg"], deg["prior"], deg["prior_sigma_deg"]
         check_solver_numbers(fov_deg=fov_deg, fov_tolerance=fov_tolerance, sigma_px=sigma_px,
                              mag_limit=mag_limit, epoch=epoch, max_stars=max_stars,
                              timeout_ms=timeout_ms, prior_sigma_deg=prior_sigma_deg)
-        time, camera = api_time(time), api_camera(camera)
-        size, prior = api_size(size), api_prior(prior)
+        time, size, prior = api_time(time), api_size(size), api_prior(prior)
+        scale_low, scale_units = scale_value(scale_low, scale_units, "scale_low")
+        scale_high, scale_units = scale_value(scale_high, scale_units, "scale_high")
+        hints = user_hints(deg["ra"], deg["dec"], deg["radius"], scale_low, scale_high,
+                           scale_units, pixel_size_um,
+                           fov_given=fov_deg is not None or camera is not None)
+        camera, sky_spec = preset(config, camera, fov_deg, hints)
+        camera = api_camera(camera)
         self._pipeline = Pipeline(Options(method=method, camera=camera, fov_deg=fov_deg,
                                           size=size, sky=sky, mag_limit=mag_limit,
                                           epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
                                           timeout_ms=timeout_ms, time=time,
-                                          fov_tolerance=fov_tolerance))
+                                          fov_tolerance=fov_tolerance, hints=hints,
+                                          header_hints=bool(header_hints),
+                                          downsample=downsample, sky_spec=sky_spec))
         self._sequence = None
         if track or prior is not None:
             from startrack.sequence import SequenceSolver, prior_from_radec_roll
@@ -141,14 +223,15 @@ class Solver:
     def solve(self, source: str | Path | np.ndarray) -> SolveResult:
         """Solve a path (image or centroid CSV), a 2-D image array, or an N x 2 / N x 3
         array of centroids (x, y[, flux]; brightest first when there is no flux)."""
-        try:
-            frame = _as_input(source)
-        except InputError:
-            if self._sequence is not None:
-                self._sequence.skip()  # an unreadable frame of a sequence: time passes
-            raise
-        solver = self._sequence or self._pipeline
-        return SolveResult(solver.solve(frame))
+        with builtin_errors():
+            try:
+                frame = _as_input(source, self._pipeline.options.downsample)
+            except InputError:
+                if self._sequence is not None:
+                    self._sequence.skip()  # an unreadable frame of a sequence: time passes
+                raise
+            solver = self._sequence or self._pipeline
+            return SolveResult(solver.solve(frame))
 
 
 def solve(source: str | Path | np.ndarray, **options) -> SolveResult:
@@ -156,9 +239,21 @@ def solve(source: str | Path | np.ndarray, **options) -> SolveResult:
     return Solver(**options).solve(source)
 
 
-def _as_input(source: str | Path | np.ndarray) -> FrameInput:
+@contextlib.contextmanager
+def builtin_errors():
+    """The API's errors as built-in subclasses (:func:`startrack.errors.as_builtin`)."""
+    try:
+        yield
+    except InputError as exc:
+        raised = as_builtin(exc)
+        if raised is exc:
+            raise
+        raise raised from None
+
+
+def _as_input(source: str | Path | np.ndarray, downsample: int = 1) -> FrameInput:
     if isinstance(source, str | Path):
-        return read_input(source)
+        return read_input(source, downsample=downsample)
     array = np.asarray(source)
     if array.dtype.kind not in "uif":
         raise NumberTypeError(f"cannot solve an array of dtype {array.dtype}: give real numbers "
@@ -173,6 +268,6 @@ def _as_input(source: str | Path | np.ndarray) -> FrameInput:
         return FrameInput("<array>", Centroids(array[:, 0], array[:, 1], ranks,
                                                photometric=False))
     if array.ndim == 2:
-        return image_input(array, "<array>")
+        return image_input(array, "<array>", downsample=downsample)
     raise InputError(f"cannot solve an array of shape {array.shape}: give a 2-D image or "
                      "an N x 2 / N x 3 array of centroids")

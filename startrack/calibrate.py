@@ -53,7 +53,9 @@ class FrameStars:
 @dataclass(frozen=True)
 class Calibration:
     """The fitted camera and how well it fits: RMS in pixels per star (2-D) over the final
-    inliers, with the nominal camera (attitudes refitted) and with the fitted one."""
+    inliers, with the nominal camera (attitudes refitted) and with the fitted one;
+    ``parameters``: each camera parameter's value, 1-sigma and whether the data moved it
+    (:mod:`startrack.calibrate_sigma`)."""
 
     camera: Camera
     nominal: Camera
@@ -64,6 +66,7 @@ class Calibration:
     solved: tuple[str, ...]
     unsolved: tuple[str, ...]
     frames: tuple[FrameStars, ...]
+    parameters: tuple = ()
 
 
 def calibrate(frames, nominal: Camera, catalog: Catalog, *, method: str = "pyramid",
@@ -74,13 +77,31 @@ def calibrate(frames, nominal: Camera, catalog: Catalog, *, method: str = "pyram
     solved = _solve_all(frames, nominal, catalog, method)
     if not solved:
         return None
-    camera, stars, inliers = _fit_loop(solved, nominal, catalog, terms, fit_center)
+    _, stars, inliers = _fit_loop(solved, nominal, catalog, terms, fit_center)
+    camera, parameters = _settle(stars, nominal, catalog, terms, fit_center, inliers)
     before = _fit(stars, nominal, catalog, terms=0, fit_camera=False, keep=inliers)
     after = _fit(stars, camera, catalog, terms=0, fit_camera=False, keep=inliers)
     names = {s.name for s in stars}
     return Calibration(camera, nominal, before.rms, after.rms, int(inliers.sum()),
                        int((~inliers).sum()), tuple(s.name for s in stars),
-                       tuple(f.name for f in frames if f.name not in names), tuple(stars))
+                       tuple(f.name for f in frames if f.name not in names), tuple(stars),
+                       parameters)
+
+
+def _settle(stars, nominal: Camera, catalog: Catalog, terms: int, fit_center: bool,
+            inliers: np.ndarray):
+    """The camera fitted from ``nominal`` over the inliers, each parameter the data do not
+    move (:func:`startrack.calibrate_sigma.parameters`) held at its nominal value and the
+    rest refitted; and the parameters' report."""
+    from startrack.calibrate_sigma import parameters, with_final
+
+    full = _fit(stars, nominal, catalog, terms, fit_center=fit_center, keep=inliers)
+    report, hold = parameters(full, nominal)
+    if not hold.any():
+        return full.camera, report
+    held = _fit(stars, nominal, catalog, terms, fit_center=fit_center, keep=inliers,
+                hold=hold)
+    return held.camera, with_final(report, held.camera)
 
 
 def _solve_all(frames, nominal: Camera, catalog: Catalog, method: str) -> list[FrameStars]:
@@ -180,20 +201,30 @@ class _Fit:
     rotations: list[Rotation]
     keep: np.ndarray  # inlier mask over the stacked matches
     rms: float
+    #: which of :data:`CAMERA_PARAMETERS` were fitted, and their covariance (internal
+    #: units: log focal-length ratio, pixels, k), NaN where not fitted
+    free: np.ndarray | None = None
+    cov: np.ndarray | None = None
+
+
+#: the camera parameters a fit may free, in the model's order
+CAMERA_PARAMETERS = ("f", "cx", "cy", "k1", "k2", "k3")
 
 
 def _fit(stars: list[FrameStars], camera: Camera, catalog: Catalog, terms: int, *,
          fit_center: bool = True, fit_camera: bool = True,
-         keep: np.ndarray | None = None) -> _Fit:
-    """Least squares over every matched star; outliers cut unless ``keep`` is given."""
+         keep: np.ndarray | None = None, hold: np.ndarray | None = None) -> _Fit:
+    """Least squares over every matched star; outliers cut unless ``keep`` is given;
+    ``hold`` (over :data:`CAMERA_PARAMETERS`) keeps parameters at ``camera``'s values."""
     frame = np.concatenate([np.full(len(s.obs_index), i) for i, s in enumerate(stars)])
     xo = np.concatenate([s.x[s.obs_index] for s in stars])
     yo = np.concatenate([s.y[s.obs_index] for s in stars])
     # Catalog stars in each frame's camera frame at its starting attitude.
     w = np.concatenate([s.rotation.inv().apply(catalog.vectors[s.cat_index]).reshape(-1, 3)
                         for s in stars])
-    model = _Model(camera, terms if fit_camera else 0, fit_center and fit_camera,
-                   fit_camera, len(stars))
+    free = np.array([fit_camera, fit_center and fit_camera, fit_center and fit_camera,
+                     *(fit_camera and terms > i for i in range(3))])
+    model = _Model(camera, free & (True if hold is None else ~hold), len(stars))
     fixed_keep = keep is not None
     keep = np.ones(len(xo), bool) if keep is None else keep.copy()
     p = model.start()
@@ -202,7 +233,8 @@ def _fit(stars: list[FrameStars], camera: Camera, catalog: Catalog, terms: int, 
             x, y = model.project(q, w[sel], frame[sel])
             return np.concatenate([x - xo[sel], y - yo[sel]])
 
-        p = least_squares(residuals, p, x_scale="jac", method="trf").x
+        fitted = least_squares(residuals, p, x_scale="jac", method="trf")
+        p = fitted.x
         x, y = model.project(p, w, frame)
         norm = np.hypot(x - xo, y - yo)
         if fixed_keep:
@@ -215,38 +247,42 @@ def _fit(stars: list[FrameStars], camera: Camera, catalog: Catalog, terms: int, 
     rms = float(np.sqrt(np.mean(norm[keep] ** 2))) if keep.any() else float("nan")
     rotations = [s.rotation * Rotation.from_rotvec(model.rotvec(p, i))
                  for i, s in enumerate(stars)]
-    return _Fit(model.camera(p), rotations, keep, rms)
+    cov = _covariance(fitted, model.n_cam) if model.n_cam else None
+    return _Fit(model.camera(p), rotations, keep, rms, model.free, cov)
+
+
+def _covariance(fitted, n_cam: int) -> np.ndarray:
+    """The camera parameters' covariance from the fit's Jacobian, the noise per
+    coordinate estimated from its residuals (6 x 6 over the model's values, NaN where a
+    parameter was not fitted is left to the caller)."""
+    jac, res = np.asarray(fitted.jac), np.asarray(fitted.fun)
+    dof = max(len(res) - jac.shape[1], 1)
+    noise2 = float(res @ res) / dof
+    return noise2 * np.linalg.pinv(jac.T @ jac)[:n_cam, :n_cam]
 
 
 class _Model:
-    """The parameter vector: log focal-length ratio, principal point offset, free radial
-    coefficients (each only when fitted), then a small rotation vector per frame."""
+    """The parameter vector: the free ones of the camera's values (log focal-length ratio,
+    principal point offset, radial coefficients; ``free`` over
+    :data:`CAMERA_PARAMETERS`), then a small rotation vector per frame."""
 
-    def __init__(self, camera: Camera, terms: int, fit_center: bool, fit_f: bool,
-                 n_frames: int) -> None:
+    def __init__(self, camera: Camera, free: np.ndarray, n_frames: int) -> None:
         self.base = camera
         d = camera.distortion or RadialDistortion()
-        self.k = np.array([d.k1, d.k2, d.k3])
-        self.terms, self.fit_center, self.fit_f = int(terms), fit_center, fit_f
-        self.n_cam = int(fit_f) + 2 * int(fit_center) + self.terms
+        self.values = np.array([0.0, 0.0, 0.0, d.k1, d.k2, d.k3])
+        self.free = np.asarray(free, dtype=bool)
+        self.n_cam = int(self.free.sum())
         self.n_frames = n_frames
 
     def start(self) -> np.ndarray:
         p = np.zeros(self.n_cam + 3 * self.n_frames)
-        p[int(self.fit_f) + 2 * int(self.fit_center):self.n_cam] = self.k[:self.terms]
+        p[:self.n_cam] = self.values[self.free]
         return p
 
     def _camera_values(self, p: np.ndarray):
-        i = 0
-        f = self.base.f_px
-        if self.fit_f:
-            f, i = f * np.exp(p[0]), 1
-        cx, cy = self.base.cx, self.base.cy
-        if self.fit_center:
-            cx, cy, i = cx + p[i], cy + p[i + 1], i + 2
-        k = self.k.copy()
-        k[:self.terms] = p[i:i + self.terms]
-        return f, cx, cy, k
+        v = self.values.copy()
+        v[self.free] = p[:self.n_cam]
+        return self.base.f_px * np.exp(v[0]), self.base.cx + v[1], self.base.cy + v[2], v[3:]
 
     def rotvec(self, p: np.ndarray, i: int) -> np.ndarray:
         return p[self.n_cam + 3 * i:self.n_cam + 3 * i + 3]

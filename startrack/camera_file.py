@@ -14,11 +14,11 @@ from pathlib import Path
 
 from startrack.camera import Camera
 from startrack.distortion import distortion_from_dict
-from startrack.errors import InputError
+from startrack.errors import InputError, InputFileNotFoundError
 from startrack.validate import FOV_DEG, IMAGE_SIDE_PX, check_number
 
 CAMERA_KEYS = {"width", "height", "fov_deg", "focal_length_mm", "pixel_size_um", "cx", "cy",
-               "distortion"}
+               "distortion", "uncertainty"}  # uncertainty: calibrate's report, not read
 FOCAL_LENGTH_MM = (1e-3, 1e5)  # 1 micron to 100 m
 PIXEL_SIZE_UM = (1e-2, 1e3)  # 10 nm to 1 mm
 
@@ -66,6 +66,8 @@ def camera_from_dict(data: dict, where: str = "camera") -> Camera:
     unknown = set(data) - CAMERA_KEYS
     if unknown:
         raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+    if not isinstance(data.get("uncertainty", {}), dict):
+        raise InputError(f"{where}: uncertainty must be a table")
     for key in ("width", "height"):
         if key not in data:
             raise InputError(f"{where}: missing key '{key}'")
@@ -84,6 +86,8 @@ def load_camera(path: str | Path) -> Camera:
     path = Path(path)
     try:
         raw = path.read_bytes()
+    except FileNotFoundError:
+        raise InputFileNotFoundError(f"{path}: no such camera file") from None
     except OSError as exc:
         raise InputError(f"{path}: cannot read camera file ({exc.strerror})") from None
     try:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.errors import InputError, StartrackWarning
+from startrack.errors import InputError, InputFileNotFoundError, StartrackWarning
 
 # 1-sigma centroid error assumed when none is given: rendered and real frames centroid to
 # a few tenths of a pixel (scripts/bench_centroid.py); 0.5 px also leaves room for small
@@ -70,7 +70,7 @@ def _csv_columns(path: Path) -> dict[str, str]:
     try:
         header = pd.read_csv(path, nrows=0)
     except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
+        raise InputFileNotFoundError(f"{path}: no such file") from None
     except (OSError, ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"{path}: not a readable CSV ({first})") from None

@@ -24,6 +24,7 @@ from startrack.frame_input import FrameInput
 from startrack.identify import identify
 from startrack.matchers import MatcherConfig, get_matcher
 from startrack.output import solution_record
+from startrack.quality import Quality, solution_quality
 from startrack.sky import Catalog, check_pair_budget
 from startrack.types import Observation, Solution, Timing
 from startrack.verify import VerifyConfig
@@ -48,12 +49,33 @@ class FrameResult:
     def record(self, with_input: bool = True) -> dict:
         """The interfaces.md solution record of this input."""
         extra = {"sigma_px": self.sigma_px, "match_radius_px": self.match_radius_px,
-                 "sky": self.catalog.source, "camera": self.camera.to_dict()}
+                 "sky": sky_record(self.catalog.source), "camera": self.camera.to_dict()}
         if self.time_utc is not None:
             extra["time_utc"] = self.time_utc
-        return solution_record(self.solution, self.obs, self.catalog, self.timing,
-                               input_name=self.input if with_input else None, extra=extra,
-                               fov_deg=self.camera.fov_deg)
+        record = solution_record(self.solution, self.obs, self.catalog, self.timing,
+                                 input_name=self.input if with_input else None, extra=extra,
+                                 fov_deg=self.camera.fov_deg)
+        quality = self.quality
+        if quality is not None:
+            record["quality"] = quality.to_dict()
+        return record
+
+    @property
+    def quality(self) -> Quality | None:
+        """Residuals, the attitude's 1-sigma and the catalog used (None: not solved)."""
+        return solution_quality(self.solution, self.obs, self.catalog)
+
+
+#: the sky keys that describe only a random sky (its size and seed)
+RANDOM_SKY_KEYS = ("n_stars", "seed")
+
+
+def sky_record(source: dict) -> dict:
+    """``diagnostics.sky``: the sky's specification, without a random sky's size and seed
+    for a real catalog."""
+    if source.get("kind", "random") == "random":
+        return source
+    return {k: v for k, v in source.items() if k not in RANDOM_SKY_KEYS}
 
 
 def frame_timing(frame: FrameInput, identify_ms: float) -> Timing:

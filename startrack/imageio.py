@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.errors import InputError
+from startrack.errors import InputError, InputFileNotFoundError
 from startrack.image_header import check_image_size, check_pixels
 from startrack.outputs import atomic_path
 
@@ -54,7 +54,7 @@ def read_image(path: str | Path) -> np.ndarray:
         raise InputError(f"{path}: unsupported image type '{path.suffix or '(none)'}' "
                          f"(use PNG, TIFF or FITS)")
     if not path.exists():
-        raise InputError(f"{path}: no such file")
+        raise InputFileNotFoundError(f"{path}: no such file")
     if path.is_dir():
         raise InputError(f"{path}: is a directory, not an image")
     try:

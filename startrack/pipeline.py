@@ -25,6 +25,7 @@ from startrack.deadline import Deadline
 from startrack.errors import InputError
 from startrack.fov import DEFAULT_FOV_TOLERANCE, BlindSolver, refit_fov, solve_approximate
 from startrack.frame_input import FrameInput, read_input
+from startrack.hints import Hints
 from startrack.identifier import FrameResult, Identifier, frame_timing
 from startrack.matchers import get_matcher
 from startrack.sidecar import find_sidecar, read_sidecar
@@ -60,14 +61,22 @@ class Options:
     #: wall-clock limit per input, over all its stages (reason "timeout")
     timeout_ms: float | None = None
     #: observation time (astropy Time) for the aberration correction; None: a FITS
-    #: input's DATE-OBS, else no correction
+    #: input's DATE-OBS (plus half its EXPTIME), else no correction
     time: object | None = None
+    #: the user's hints (startrack.hints); a FITS header's complete them unless
+    #: ``header_hints`` is False
+    hints: Hints | None = None
+    header_hints: bool = True
+    #: centroids found on the image binned this many pixels square
+    downsample: int = 1
+    #: a config preset's sky (``--config``), taken before the sidecar's
+    sky_spec: SkySpec | None = None
 
 
 class Pipeline:
     """Solve many inputs, each with its own camera and sky, sharing loaded databases."""
 
-    def __init__(self, options: Options) -> None:
+    def __init__(self, options: Options, catalogs: dict | None = None) -> None:
         if options.camera is not None and options.fov_deg is not None:
             raise InputError("give a camera or a field of view, not both (the camera sets "
                              "the field of view)")
@@ -76,7 +85,10 @@ class Pipeline:
         self.options = options
         get_matcher(options.method)  # an unknown method fails before any work
         self._identifiers: dict[tuple[Camera, SkySpec, str], Identifier] = {}
-        self._catalogs: dict[SkySpec, Catalog] = {}
+        self.catalogs: dict[SkySpec, Catalog] = {} if catalogs is None else catalogs
+        #: (Pointing, radius_deg): the catalogs are cut to this cone (startrack.hinted)
+        self.cone = None
+        self._cut: dict[SkySpec, Catalog] = {}
         self._blind: dict[SkySpec, BlindSolver] = {}
         self._notes: set[str] = set()
 
@@ -88,6 +100,7 @@ class Pipeline:
         sidecar = find_sidecar(frame.path) if frame.path is not None else None
         if sidecar is not None:
             side_camera, side_sky, _ = read_sidecar(sidecar)
+        side_sky = opt.sky_spec or side_sky
         camera = opt.camera or (side_camera if opt.fov_deg is None else None)
         if camera is None and opt.fov_deg is not None:  # --fov overrides the sidecar's
             side_size = (side_camera.width, side_camera.height) if side_camera else None
@@ -127,7 +140,16 @@ class Pipeline:
     def identify_frame(self, frame: FrameInput) -> FrameResult:
         """:meth:`solve` without the aberration correction: the attitude in the catalog's
         frame (what a tracker predicts from), through the fitted camera when the field
-        of view was nominal or unknown."""
+        of view was nominal or unknown; with hints, through :mod:`startrack.hinted`."""
+        from startrack.hinted import frame_hints, solve_hinted
+
+        hints = frame_hints(self, frame)
+        if hints is not None:
+            return solve_hinted(self, frame, hints)
+        return self.identify_unhinted(frame)
+
+    def identify_unhinted(self, frame: FrameInput) -> FrameResult:
+        """:meth:`identify_frame` with no hint (a hinted child pipeline's own solve)."""
         camera, sky = self.setup_for(frame)
         x, y = frame.centroids.x, frame.centroids.y
         # One deadline for every stage below; it starts with the configured stage loaded
@@ -210,23 +232,31 @@ class Pipeline:
         return None
 
     def catalog(self, sky: SkySpec, camera: Camera | None) -> Catalog:
-        """The catalog of ``sky`` (for ``camera``: its close stars merged), loaded once."""
-        if sky not in self._catalogs:
-            self._catalogs[sky] = load_sky(sky, camera)
-        return self._catalogs[sky]
+        """The catalog of ``sky`` (for ``camera``: its close stars merged), loaded once;
+        cut to :attr:`cone` when there is one."""
+        if sky not in self.catalogs:
+            self.catalogs[sky] = load_sky(sky, camera)
+        if self.cone is None:
+            return self.catalogs[sky]
+        if sky not in self._cut:
+            from startrack.hints import cut_to_cone
+
+            self._cut[sky] = cut_to_cone(self.catalogs[sky], *self.cone)
+        return self._cut[sky]
 
     def correct_aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
         """``result`` corrected for annual aberration when the time of observation is known
         (``Options.time``, else a FITS input's DATE-OBS): startrack.aberration. Every
         answer passes here, so here an answer without its evidence is refused
         (:func:`startrack.evidence.require_evidence`)."""
-        from startrack.aberration import correct_result, fits_time
+        from startrack.aberration import correct_result
         from startrack.evidence import require_evidence
+        from startrack.hints import header_time
 
         result = require_evidence(result)
         when = self.options.time
-        if when is None and frame.path is not None:
-            when = fits_time(frame.path)
+        if when is None and frame.path is not None and self.options.header_hints:
+            when = header_time(frame.path)
         return result if when is None else correct_result(result, when)
 
     def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
@@ -249,4 +279,4 @@ class Pipeline:
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` (image or centroid CSV) once and identify its stars."""
-        return self.solve(read_input(path))
+        return self.solve(read_input(path, downsample=self.options.downsample))

@@ -66,6 +66,10 @@ PRIOR_SIGMA_DEG = Bounds(0.0, 90.0, low_open=True)
 RA_DEG = Bounds(-360.0, 360.0)
 DEC_DEG = Bounds(-90.0, 90.0)
 ROLL_DEG = Bounds(-360.0, 360.0)
+RADIUS_DEG = Bounds(0.0, 180.0, low_open=True)  # a pointing hint's cone
+SCALE = Bounds(0.0, 1e6, low_open=True)  # a scale hint, in any of its units
+PIXEL_SIZE_UM = Bounds(1e-2, 1e3)  # 10 nm to 1 mm
+DOWNSAMPLE = Bounds(1, 64, integer=True)
 IMAGE_SIDE_PX = Bounds(1, 100_000, integer=True)  # an image's width or height
 FRAMES = Bounds(1, 1_000_000_000, integer=True)
 SEED = Bounds(0, 2**63 - 1, integer=True)

@@ -12,7 +12,7 @@ import pytest
 from startrack.attitude import random_attitudes
 from startrack.camera import Camera
 from startrack.distortion import RadialDistortion
-from startrack.scene import observe
+from startrack.scene import observe, stars_in_view
 from startrack.sky import SkySpec, load_sky, resolve_sky
 
 REAL_SKY = Path(__file__).resolve().parents[1].parent.parent / "shared" / "real-sky"
@@ -49,7 +49,7 @@ def test_calibrate_recovers_fov_and_k1_from_a_fov_four_percent_off(tmp_path):
     run = _calibrate(*frames, "--fov", 20.8, "--size", "1024x1024", "--output", out)
     assert run.returncode == 0, run.stderr
     data = json.loads(out.read_text())
-    assert set(data) == {"width", "height", "fov_deg", "cx", "cy", "distortion"}
+    assert set(data) == {"width", "height", "fov_deg", "cx", "cy", "distortion", "uncertainty"}
     assert set(data["distortion"]) == {"model", "k1", "k2", "k3"}
     assert abs(data["fov_deg"] - 20.0) < 0.02
     assert abs(data["distortion"]["k1"] - (-0.3)) < 0.03
@@ -84,7 +84,6 @@ def test_calibrate_real_frames_recovers_their_fov(tmp_path):
 
 def test_the_fit_cuts_outliers_and_recovers_the_camera():
     from startrack.calibrate import FrameStars, _fit
-    from startrack.scene import stars_in_view
     from startrack.sky import random_sky
 
     sky = random_sky(4000, seed=3)
@@ -105,3 +104,44 @@ def test_the_fit_cuts_outliers_and_recovers_the_camera():
     assert abs(fit.camera.fov_deg - 20.0) < 0.01
     assert abs(fit.camera.distortion.k1 + 0.3) < 0.01
     assert fit.rms < 0.25
+
+
+def test_an_exact_pinhole_camera_is_reported_as_given_with_its_sigmas(tmp_path):
+    """A pinhole frame set calibrated from the exact camera: the data do not reject it, so
+    it is written unchanged (no 20.0011 deg or k1 0.002 as if measured), each fitted
+    parameter with its 1-sigma; the file reads back as a camera."""
+    import startrack.calibrate as cal
+    from startrack.camera_file import load_camera
+
+    pinhole = Camera.from_fov(1024, 1024, 20.0)
+    catalog = load_sky(resolve_sky(SkySpec(kind="hipparcos"), pinhole), pinhole)
+    rng = np.random.default_rng(12)
+    frames = []
+    for i, rotation in enumerate(random_attitudes(3, rng)):
+        rows, x, y = stars_in_view(catalog, pinhole, rotation)
+        x, y = x + rng.normal(0, 0.2, len(x)), y + rng.normal(0, 0.2, len(y))
+        frames.append(cal.FrameStars(f"f{i}", x, y, rotation, np.arange(len(x)), rows))
+    camera, report = cal._settle(frames, pinhole, catalog, 1, True,
+                                 np.ones(sum(len(f.x) for f in frames), bool))
+    assert camera.fov_deg == pinhole.fov_deg and camera.distortion is None
+    assert (camera.cx, camera.cy) == (pinhole.cx, pinhole.cy)
+    by_name = {p.name: p for p in report}
+    assert by_name["fov_deg"].status == "as given" and 0 < by_name["fov_deg"].sigma < 0.01
+    assert by_name["k1"].status == "as given" and by_name["k1"].sigma > 0
+    assert by_name["k2"].status == "not fitted"
+    path = tmp_path / "camera.json"
+    path.write_text(json.dumps({**camera.to_dict(), "uncertainty": {}}))
+    assert load_camera(path).fov_deg == pytest.approx(20.0)
+
+
+def test_calibrate_takes_a_scale_range_and_a_pointing_cone_instead_of_the_fov(tmp_path):
+    frames = _write_frames(tmp_path, 3, seed=5)
+    out = tmp_path / "camera.json"
+    run = _calibrate(*frames, "--scale-low", 19.5, "--scale-high", 21.5, "--size",
+                     "1024x1024", "--output", out)
+    assert run.returncode == 0, run.stderr
+    assert abs(json.loads(out.read_text())["fov_deg"] - 20.0) < 0.05
+    assert "+-" in run.stdout  # every fitted parameter with its 1-sigma
+    run = _calibrate(*frames, "--fov", 20.0, "--scale-low", 19.5, "--scale-high", 21.5,
+                     "--size", "1024x1024", "--output", out)
+    assert run.returncode == 2 and "not both" in run.stderr

@@ -12,13 +12,14 @@ import click
 
 from startrack.camera_file import load_camera
 from startrack.cli import main
+from startrack.cli.hint_options import hint_options, hints_from
 from startrack.cli.identify import _size
 from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option
 from startrack.errors import InputError
 from startrack.outputs import Writer
 from startrack.pipeline import DEFAULT_METHOD, read_input
 from startrack.sidecar import with_sidecars
-from startrack.validate import EPOCH_YEAR, FOV_DEG, MAG_LIMIT
+from startrack.validate import DOWNSAMPLE, EPOCH_YEAR, FOV_DEG, MAG_LIMIT
 
 
 @main.command()
@@ -44,8 +45,11 @@ from startrack.validate import EPOCH_YEAR, FOV_DEG, MAG_LIMIT
 @click.option("--epoch", type=Number(EPOCH_YEAR),
               help="Julian year to carry catalog positions to by proper motion.")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True, help="Matcher.")
+@hint_options
+@click.option("--downsample", type=Number(DOWNSAMPLE), default=1, show_default=True,
+              help="Find the centroids on the images binned N x N.")
 def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_center, sky,
-              mag_limit, epoch, method) -> None:
+              mag_limit, epoch, method, downsample, **hint_values) -> None:
     """Solve every INPUT (images or centroid CSVs from one camera), fit its focal length,
     principal point and radial distortion by least squares over all matched stars (with
     outlier rejection), write the camera file and print the residual RMS before and after.
@@ -54,16 +58,24 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     from startrack.matchers import get_matcher
     from startrack.sky import load_sky, resolve_sky, sky_spec
 
-    if (fov_deg is None) == (camera_path is None):
+    hints = hints_from(hint_values, fov_given=fov_deg is not None or camera_path is not None)
+    if fov_deg is not None and camera_path is not None:
         raise InputError("calibrate: give exactly one of --fov DEG and --camera FILE")
     get_matcher(method)
     writer = Writer([*with_sidecars(inputs), *([camera_path] if camera_path else [])],
                     overwrite)
     writer.check(output, "--output")  # before any work
-    frames = [read_input(Path(name)) for name in inputs]
+    frames = [read_input(Path(name), downsample=downsample) for name in inputs]
+    if fov_deg is None and camera_path is None:
+        fov_deg = hinted_fov(frames, hints, size, not hint_values["no_header_hints"])
     nominal = _nominal(frames, fov_deg, camera_path, size)
     spec = dataclasses.replace(sky_spec(sky), mag_limit=mag_limit, epoch=epoch)
     catalog = load_sky(resolve_sky(spec, nominal), nominal)
+    if hints is not None and hints.pointing is not None:
+        from startrack.hints import cone_radius_deg, cut_to_cone
+
+        catalog = cut_to_cone(catalog, hints.pointing,
+                              cone_radius_deg(hints.pointing, nominal, 0.1, 0.0))
     result = run(frames, nominal, catalog, method=method, terms=terms,
                  fit_center=not fix_center)
     if result is None:
@@ -73,8 +85,12 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     for name in result.unsolved:
         click.echo(f"calibrate: {name}: not solved, left out", err=True)
     cam = result.camera
+    from startrack.calibrate_sigma import format_parameters
+
     with writer.text(output, "--output") as fh:
-        json.dump(cam.to_dict(), fh, indent=2)
+        json.dump({**cam.to_dict(), "uncertainty": {
+            p.name: {"sigma": p.sigma, "status": p.status, "fit": p.fit}
+            for p in result.parameters}}, fh, indent=2)
         fh.write("\n")
     d = cam.distortion.to_dict() if cam.distortion else {"k1": 0.0, "k2": 0.0, "k3": 0.0}
     click.echo(f"calibrate: {len(result.solved)} of {len(frames)} input(s) solved, "
@@ -85,7 +101,27 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     click.echo(f"fov_deg {cam.fov_deg:.4f} (nominal {nominal.fov_deg:.4f}), f {cam.f_px:.2f} px, "
                f"cx {cam.cx:.2f}, cy {cam.cy:.2f}, k1 {d['k1']:.5f}, k2 {d['k2']:.5f}, "
                f"k3 {d['k3']:.5f}")
+    for line in format_parameters(result.parameters):
+        click.echo(line)
     click.echo(f"wrote {output}")
+
+
+def hinted_fov(frames, hints, size, header: bool) -> float:
+    """The nominal FOV from a scale range (its middle), else the first FITS input's
+    header; an error naming the options when there is neither."""
+    from startrack.hints import fov_range_deg, header_hints
+
+    dims = size or next((f.size for f in frames if f.size is not None), None)
+    if hints is not None and hints.scale is not None:
+        if dims is None:
+            raise InputError("calibrate: centroid lists with a scale range need --size WxH")
+        return fov_range_deg(hints.scale, dims[0])[0]
+    for frame in frames if header else []:
+        found = header_hints(frame.path, dims)
+        if found is not None:
+            return fov_range_deg(found.scale, dims[0])[0]
+    raise InputError("calibrate: give exactly one of --fov DEG and --camera FILE (or a "
+                     "scale range, or FITS inputs with a WCS)")
 
 
 def _nominal(frames, fov_deg, camera_path, size):

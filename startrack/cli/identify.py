@@ -13,9 +13,11 @@ import click
 from startrack.camera_file import load_camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
+from startrack.cli.hint_options import hint_options, hints_from
 from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, triple
 from startrack.errors import InputError
 from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
+from startrack.hints import preset
 from startrack.matchers import available_methods
 from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
 from startrack.outputs import Writer, guarded_stdout
@@ -25,6 +27,7 @@ from startrack.side_outputs import SideOutputs
 from startrack.sidecar import with_sidecars
 from startrack.sky import GAIA_BELOW_FOV_DEG
 from startrack.validate import (
+    DOWNSAMPLE,
     EPOCH_YEAR,
     FOV_DEG,
     FOV_TOLERANCE,
@@ -130,9 +133,17 @@ def _time(ctx, param, value):
 @click.option("--prior-sigma-deg", type=Number(PRIOR_SIGMA_DEG),
               default=DEFAULT_PRIOR_SIGMA_DEG, show_default=True,
               help="1-sigma uncertainty of --prior, degrees.")
+@hint_options
+@click.option("--downsample", type=Number(DOWNSAMPLE), default=1, show_default=True,
+              help="Find the centroids on the image binned N x N (large frames); they are "
+                   "reported in full-resolution pixels.")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False),
+              help="A TOML preset (configs/*.toml, or its name): its [camera] and [sky] "
+                   "as defaults that the options override.")
 def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, epoch,
              obs_time, method, max_stars, sigma_px, timeout_ms, fmt, output, annotate_path,
-             wcs_path, corr_path, overwrite, quiet, verbose, track, prior, prior_sigma_deg) -> None:
+             wcs_path, corr_path, overwrite, quiet, verbose, track, prior, prior_sigma_deg,
+             downsample, config_path, **hint_values) -> None:
     """Identify the stars of each INPUT (PNG, TIFF, FITS image or centroid CSV) and solve
     its attitude. Camera and sky come from the JSON sidecar beside the input when present
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
@@ -147,9 +158,13 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
         writer.check(output, "--output")
     side = SideOutputs(writer, list(inputs), annotate_path, wcs_path, corr_path)
     camera = load_camera(camera_path) if camera_path else None
+    hints = hints_from(hint_values, fov_given=camera is not None or fov_deg is not None)
+    camera, sky_spec = preset(config_path, camera, fov_deg, hints)
     options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
                       mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
-                      timeout_ms=timeout_ms, time=obs_time, fov_tolerance=fov_tolerance)
+                      timeout_ms=timeout_ms, time=obs_time, fov_tolerance=fov_tolerance,
+                      hints=hints, header_hints=not hint_values["no_header_hints"],
+                      downsample=downsample, sky_spec=sky_spec)
     pipeline = Pipeline(options)
     if track or prior is not None:
         pipeline = SequenceSolver(pipeline, track=track, prior=None if prior is None
