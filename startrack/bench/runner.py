@@ -266,7 +266,8 @@ def _execute_dask(spec: RunSpec, units: list, client) -> Iterator:
 
 
 def progress_bar(total: int, initial: int, enabled: bool):
-    from tqdm import tqdm
+    """The run's progress on stderr (:func:`startrack.progress.progress`: a bar on a
+    terminal, a line every few seconds otherwise); silent unless ``enabled``."""
+    from startrack.progress import progress
 
-    return tqdm(total=total, initial=initial, file=sys.stderr, unit="frame", desc="compare",
-                disable=not enabled, dynamic_ncols=True)
+    return progress(total, initial=initial, desc="compare", unit="frame", quiet=not enabled)

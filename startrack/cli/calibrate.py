@@ -13,6 +13,7 @@ from startrack.cache import atomic_text
 from startrack.camera_file import load_camera
 from startrack.cli import main
 from startrack.cli.identify import _finite, _size
+from startrack.cli.options import notes, verbosity
 from startrack.errors import InputError
 from startrack.pipeline import DEFAULT_METHOD, read_input
 from startrack.sky import SKY_KINDS
@@ -27,7 +28,7 @@ from startrack.sky import SKY_KINDS
               help="Nominal camera file instead of --fov (its distortion is the start).")
 @click.option("--size", callback=_size, help="Image size WxH for centroid CSVs with --fov.")
 @click.option("--output", required=True, type=click.Path(dir_okay=False),
-              help="Camera file to write (JSON, interfaces.md keys).")
+              help="Camera file to write (JSON, keys in docs/conventions.md).")
 @click.option("--terms", type=click.IntRange(0, 3), default=1, show_default=True,
               help="Radial distortion coefficients to fit: 0 none, 1 k1, 2 k1 k2, 3 k1-k3.")
 @click.option("--fix-center", is_flag=True, help="Keep the principal point of the nominal "
@@ -38,8 +39,9 @@ from startrack.sky import SKY_KINDS
 @click.option("--epoch", type=float, callback=_finite,
               help="Julian year to carry catalog positions to by proper motion.")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True, help="Matcher.")
+@verbosity
 def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky, mag_limit,
-              epoch, method) -> None:
+              epoch, method, quiet, verbose) -> None:
     """Solve every INPUT (images or centroid CSVs from one camera), fit its focal length,
     principal point and radial distortion by least squares over all matched stars (with
     outlier rejection), write the camera file and print the residual RMS before and after.
@@ -51,6 +53,7 @@ def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky
     if (fov_deg is None) == (camera_path is None):
         raise InputError("calibrate: give exactly one of --fov DEG and --camera FILE")
     get_matcher(method)
+    note, detail = notes(quiet, verbose)
     frames = [read_input(Path(name)) for name in inputs]
     nominal = _nominal(frames, fov_deg, camera_path, size)
     spec = SkySpec(kind=sky, mag_limit=mag_limit, epoch=epoch)
@@ -58,11 +61,13 @@ def calibrate(inputs, fov_deg, camera_path, size, output, terms, fix_center, sky
     result = run(frames, nominal, catalog, method=method, terms=terms,
                  fit_center=not fix_center)
     if result is None:
-        click.echo(f"calibrate: none of the {len(frames)} input(s) solved within 10% of the "
-                   "nominal field of view; nothing written", err=True)
+        note(f"calibrate: none of the {len(frames)} input(s) solved within 10% of the "
+             "nominal field of view; nothing written")
         sys.exit(1)
     for name in result.unsolved:
-        click.echo(f"calibrate: {name}: not solved, left out", err=True)
+        note(f"calibrate: {name}: not solved, left out")
+    for name in result.solved:
+        detail(f"calibrate: {name}: solved")
     cam = result.camera
     with atomic_text(output) as fh:
         json.dump(cam.to_dict(), fh, indent=2)

@@ -10,13 +10,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import sys
 from pathlib import Path
 
 import click
 
 from startrack.bench.frames import SOURCES
 from startrack.cli import main
+from startrack.cli.options import notes, verbosity
 from startrack.errors import InputError
 from startrack.sky import SKY_KINDS, resolve_sky
 
@@ -156,12 +156,17 @@ def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
 @click.option("--replay", metavar="CONDITION,FRAME",
               help="Rerun one frame of this run through every method and print each answer "
               "(report.md lists the command for every failed frame); writes nothing.")
+@verbosity
 def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars, missing,
             mag_noise, fov_error, distortion_k1, modelled_k1, grid, max_stars, source,
             threshold_arcsec, jobs, scheduler, out_dir, seed, resume, mode, rates, fps,
-            replay) -> None:
-    """Compare methods on random frames under noise, false and missing stars and a wrong
-    camera (FOV error, distortion); CSVs, plots, report.md in --out. docs/conventions.md."""
+            replay, quiet, verbose) -> None:
+    """Compare identification methods on the same random frames under centroid noise,
+    false and missing stars and a wrong camera (FOV error, distortion).
+
+    Writes frames.csv, summary.csv, db.csv, plots and report.md in --out; their columns
+    and the other conventions are in docs/conventions.md. Progress goes to stderr: a bar
+    on a terminal, a line every few seconds otherwise (-q: none)."""
     from startrack.bench.conditions import build_conditions
     from startrack.bench.runner import RunSpec
     from startrack.bench.session import format_table, run_comparison
@@ -174,9 +179,10 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     spec_sky = _sky(cfg, sky, mag_limit)
     if source == "images":  # frames are rendered at the camera's size
         _check_image_size(cfg, config_path)
+    note, detail = notes(quiet, verbose)
     if mode == "tracking":  # frame sequences (startrack.bench.tracking_report)
         return _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars,
-                         missing, fps, seed, out_dir, threshold_arcsec)
+                         missing, fps, seed, out_dir, threshold_arcsec, note)
     levels = _levels(noise_px, false_stars, missing, mag_noise, source, dict(
         fov_error=fov_error, distortion_k1=distortion_k1, modelled_k1=modelled_k1))
     spec = RunSpec(
@@ -195,16 +201,18 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     where = f"Dask at {scheduler}" if scheduler else f"{jobs} process(es)"
 
     def announce() -> None:
-        click.echo(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
-                   f"{frames} frame(s) from {source} ({n_units} units, {where})", err=True)
+        note(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
+             f"{frames} frame(s) from {source} ({n_units} units, {where})")
+        for k, condition in enumerate(spec.conditions):
+            detail(f"  condition {k}: {condition.to_dict()}")
 
     try:
         result = run_comparison(spec, out_dir, jobs=jobs, scheduler=scheduler, resume=resume,
-                                progress=sys.stderr.isatty(), announce=announce)
+                                progress=not quiet, announce=announce)
     except OSError as exc:  # every file is atomic or resumable: nothing is left torn
         raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
     if result.units_resumed:
-        click.echo(f"resumed: {result.units_resumed} unit(s) were already done", err=True)
+        note(f"resumed: {result.units_resumed} unit(s) were already done")
     click.echo(format_table(result.summary))
     loads = ", ".join(f"{k} {v:.2f} s" for k, v in result.load_seconds.items())
     click.echo(f"\nload (sky, database+prepare per method): {loads}")
@@ -219,7 +227,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
 
 
 def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, missing, fps,
-              seed, out_dir, threshold_arcsec) -> None:
+              seed, out_dir, threshold_arcsec, note) -> None:
     """``--mode tracking``: the options as given (unset ones take the tracking defaults)."""
     from click.core import ParameterSource
 
@@ -237,7 +245,7 @@ def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, miss
         frames=frames if given["frames"] else tr.DEFAULT_FRAMES, fps=fps,
         seed=cfg.frames.seed if seed is None else seed, out=Path(out_dir),
         threshold_arcsec=threshold_arcsec,
-        progress=lambda m: click.echo(m, err=True) if sys.stderr.isatty() else None)
+        progress=note)
     click.echo(tr.markdown_table(summary))
     click.echo(f"wrote frames.csv, summary.csv, time_ratio.csv, report.md and plots in "
                f"{out_dir}/")

@@ -6,7 +6,6 @@ import csv
 import dataclasses
 import json
 import math
-import sys
 from pathlib import Path
 
 import click
@@ -16,7 +15,7 @@ from startrack.cache import atomic_text
 from startrack.camera import Camera
 from startrack.camera_file import load_camera
 from startrack.cli import main
-from startrack.cli.options import triple
+from startrack.cli.options import notes, triple, verbosity
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
 from startrack.image_header import check_pixels
@@ -62,9 +61,10 @@ OWN_FILES = ("frame_*.png", "frame_*.json", "frame_*.fits", "truth.csv", "stars.
                    "CSVs an earlier simulate left there.")
 @click.option("--time", "obs_time", help="Observation time, ISO 8601: stars are rendered "
               "where they appear from the moving Earth (annual aberration).")
+@verbosity
 def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_stars,
              missing, mag_noise, rate, fps, profile_path, write_fits_too, camera_path,
-             overwrite, obs_time) -> None:
+             overwrite, obs_time, quiet, verbose) -> None:
     """Render frames of a sky, with truth.csv, stars.csv and a JSON sidecar per frame.
     --out must be empty or new (or give --overwrite); frames are at most
     STARTRACK_MAX_IMAGE_PIXELS (default 8192 x 8192).
@@ -99,7 +99,7 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     check_out_folder(out, overwrite)
     try:
         _run(camera, spec, cfg.sensor, opts, out, attitude, write_fits_too, trajectory,
-             obs_time)
+             obs_time, quiet, notes(quiet, verbose)[1])
     except OSError as exc:  # every file is atomic, so nothing half-written is left behind
         raise InputError(f"{out}: cannot write output ({exc.strerror or exc})") from None
     click.echo(f"wrote {opts.count} frame(s) to {out}/ (truth.csv, stars.csv, "
@@ -108,11 +108,10 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
 
 def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions, out: Path,
          attitude: tuple[float, float, float] | None, with_fits: bool,
-         trajectory=None, obs_time=None) -> None:
-    from tqdm import tqdm
-
+         trajectory=None, obs_time=None, quiet: bool = False, detail=None) -> None:
     from startrack.attitude import from_radec_roll, to_quaternion, to_radec_roll
     from startrack.imageio import write_fits, write_png16
+    from startrack.progress import iterate
     from startrack.render import render_frame
     from startrack.scene import observe
     from startrack.sky import load_sky
@@ -124,9 +123,7 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
     when = None if obs_time is None else obs_time.utc.isot
     fixed = from_radec_roll(*attitude) if attitude is not None else None
     truth_rows, star_rows = [], []
-    bar = tqdm(range(opts.count), file=sys.stderr, unit="frame", desc="simulate",
-               disable=not sys.stderr.isatty())
-    for i in bar:
+    for i in iterate(range(opts.count), desc="simulate", unit="frame", quiet=quiet):
         rng = np.random.default_rng([opts.seed, i])  # each frame reproducible on its own
         rotation, rate_dps = _attitude_and_rate(i, rng, fixed, trajectory, opts)
         scene = observe(catalog, camera, rotation, rng, missing=opts.missing,
@@ -156,6 +153,9 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
             json.dump(sidecar, fh, indent=2)
             fh.write("\n")
         truth_rows.append([i, png.name, *q, ra, dec, roll])
+        if detail is not None:
+            detail(f"{png.name}: RA {ra:.4f} Dec {dec:+.4f} roll {roll:.3f} deg, "
+                   f"{len(scene)} spots")
         flux = sensor.electrons_from_mag(scene.mag)
         for j in range(len(scene)):  # a few dozen rows per frame, for the CSV writer
             star_rows.append([i, float(scene.x[j]), float(scene.y[j]), float(flux[j]),
