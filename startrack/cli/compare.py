@@ -156,11 +156,15 @@ def _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec) -> None:
 @click.option("--replay", metavar="CONDITION,FRAME",
               help="Rerun one frame of this run through every method and print each answer "
               "(report.md lists the command for every failed frame); writes nothing.")
+@click.option("--frames-dir", type=click.Path(file_okay=False),
+              help="Run every method on this folder's frames (images or centroid CSVs) "
+              "instead of generated ones, scored against its truth.csv, stars.csv and "
+              "sidecars (the format simulate writes); the levels options do not apply.")
 @verbosity
 def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars, missing,
             mag_noise, fov_error, distortion_k1, modelled_k1, grid, max_stars, source,
             threshold_arcsec, jobs, scheduler, out_dir, seed, resume, mode, rates, fps,
-            replay, quiet, verbose) -> None:
+            replay, frames_dir, quiet, verbose) -> None:
     """Compare identification methods on the same random frames under centroid noise,
     false and missing stars and a wrong camera (FOV error, distortion).
 
@@ -169,17 +173,20 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     on a terminal, a line every few seconds otherwise (-q: none)."""
     from startrack.bench.conditions import build_conditions
     from startrack.bench.runner import RunSpec
-    from startrack.bench.session import format_table, run_comparison
+    from startrack.bench.session import run_comparison
     from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
 
     names = parse_methods(methods)
     _check_numbers(frames, max_stars, jobs, seed, threshold_arcsec)
+    note, detail = notes(quiet, verbose)
+    if frames_dir is not None:
+        return _frames_dir(frames_dir, names, out_dir, max_stars, threshold_arcsec, quiet,
+                           note)
     cfg = (load_config(config_path) if config_path
            else config_from_dict(DEFAULT_CONFIG, "default config"))
     spec_sky = _sky(cfg, sky, mag_limit)
     if source == "images":  # frames are rendered at the camera's size
         _check_image_size(cfg, config_path)
-    note, detail = notes(quiet, verbose)
     if mode == "tracking":  # frame sequences (startrack.bench.tracking_report)
         return _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars,
                          missing, fps, seed, out_dir, threshold_arcsec, note)
@@ -213,17 +220,47 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
         raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
     if result.units_resumed:
         note(f"resumed: {result.units_resumed} unit(s) were already done")
+    _finish(result)
+
+
+def _finish(result, replay_for=None) -> None:
+    """Print the tables and where the files are; write report.md."""
+    from startrack.bench.report import NOT_REPLAYED, command_line, write_report
+    from startrack.bench.session import format_table
+
     click.echo(format_table(result.summary))
     loads = ", ".join(f"{k} {v:.2f} s" for k, v in result.load_seconds.items())
     click.echo(f"\nload (sky, database+prepare per method): {loads}")
-    from startrack.bench.report import NOT_REPLAYED, command_line, write_report
-
     ctx = click.get_current_context()
-    report = write_report(result, command_line(ctx), command_line(ctx, drop=NOT_REPLAYED))
+    report = write_report(result, command_line(ctx), command_line(ctx, drop=NOT_REPLAYED),
+                          replay_for)
     click.echo(f"wrote {report}, {result.frames_csv} (per frame), {result.summary_csv} "
                f"(per condition), {result.db_csv}, plots: "
                f"{', '.join(p.name for p in result.plots) or 'none (nothing swept)'} "
                f"in {result.out}/ ({result.wall_seconds:.1f} s)")
+
+
+def _frames_dir(folder, names, out_dir, max_stars, threshold_arcsec, quiet, note) -> None:
+    """``--frames-dir``: every method on the folder's frames (startrack.bench.frames_dir)."""
+    from startrack.bench.frames_dir import compare_frames_folder
+
+    def announce(data) -> None:
+        note(f"compare: {', '.join(names)} on {len(data.truth)} frame(s) of {folder}")
+
+    try:
+        result = compare_frames_folder(folder, names, out_dir, max_stars=max_stars,
+                                       threshold_arcsec=threshold_arcsec, quiet=quiet,
+                                       announce=announce)
+    except OSError as exc:
+        raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
+    import pandas as pd
+
+    truth = pd.read_csv(Path(folder) / "truth.csv")
+    files = {int(f): str(Path(folder) / str(n)) for f, n in zip(truth["frame"], truth["file"],
+                                                                strict=True)}
+    # a frame of the folder is replayed by identifying its file (its sidecar beside it)
+    _finish(result, lambda r: ["startrack", "identify", files[int(r["frame"])],
+                               "--method", str(r["method"])])
 
 
 def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, missing, fps,

@@ -21,7 +21,7 @@ from startrack.errors import InputError
 from startrack.image_header import check_pixels
 from startrack.outputs import check_out_folder, remove_own
 from startrack.sensor import SensorModel
-from startrack.sidecar import sidecar_path_for
+from startrack.sidecar import STARS_COLUMNS, TRUTH_COLUMNS, sidecar_path_for
 from startrack.sky import SKY_KINDS, SkySpec, resolve_sky
 
 DEFAULT_OUT = Path("out/simulate")
@@ -161,10 +161,8 @@ def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
             star_rows.append([i, float(scene.x[j]), float(scene.y[j]), float(flux[j]),
                               float(scene.mag[j]), int(scene.catalog_id[j]),
                               int(scene.is_false[j])])
-    _write_csv(out / "truth.csv", ["frame", "file", "qw", "qx", "qy", "qz", "ra_deg",
-                                   "dec_deg", "roll_deg"], truth_rows)
-    _write_csv(out / "stars.csv", ["frame", "x", "y", "flux", "magnitude", "catalog_id",
-                                   "is_false"], star_rows)
+    _write_csv(out / "truth.csv", TRUTH_COLUMNS, truth_rows)
+    _write_csv(out / "stars.csv", STARS_COLUMNS, star_rows)
 
 
 def _attitude_and_rate(i: int, rng, fixed, trajectory, opts: FrameOptions):
