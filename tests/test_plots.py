@@ -67,3 +67,15 @@ def test_every_plot_is_written_with_a_heatmap(tmp_path):
     heat = cv2.imread(str(tmp_path / "heatmap_correct.png"))
     # no empty quarter: the right quarter of the heat map holds drawing, not white
     assert (heat[:, 3 * heat.shape[1] // 4:] < 200).mean() > 0.05
+
+
+def test_wilson_is_scipys_interval():
+    from scipy.stats import binomtest
+
+    k = np.array([0, 1, 17, 96, 99, 100, 5])
+    n = np.array([20, 7, 40, 100, 100, 100, 5])
+    low, high = wilson(k, n)
+    for i in range(len(k)):
+        ci = binomtest(int(k[i]), int(n[i])).proportion_ci(0.95, method="wilson")
+        assert low[i] == pytest.approx(ci.low, abs=1e-12)
+        assert high[i] == pytest.approx(ci.high, abs=1e-12)
