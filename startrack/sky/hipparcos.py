@@ -68,6 +68,10 @@ def _column(raw: np.ndarray, start: int, stop: int) -> np.ndarray:
 def parse_hip2(path: Path) -> dict[str, np.ndarray]:
     """HIP, J1991.25 position, proper motion and Hp of every usable record in ``path``.
 
+    The fixed-width fields are read by the compiled parser (:mod:`parse_kernels`), not
+    ``pandas.read_fwf`` or ``astropy.io.ascii``: the same numbers many times faster, which
+    counts on a first run that has no cache yet (scripts/bench_library_fits.py).
+
     Rows without a finite position or magnitude are dropped; a missing proper motion
     is taken as zero so the star stays at its catalog position.
     """
