@@ -202,7 +202,7 @@ def test_unsolved_centroid_list_is_annotated_but_has_no_wcs(tmp_path):
     assert lines == [",".join(CORR_COLUMNS)]  # header only: nothing matched
 
 
-def test_progress_bar_only_on_a_terminal_and_not_with_quiet(monkeypatch):
+def test_progress_bar_on_a_terminal_lines_otherwise_none_with_quiet(monkeypatch):
     import contextlib
     import io
     import sys
@@ -216,7 +216,10 @@ def test_progress_bar_only_on_a_terminal_and_not_with_quiet(monkeypatch):
     inputs = ("a", "b", "c")
     monkeypatch.setattr(sys, "stderr", io.StringIO())
     with contextlib.ExitStack() as stack:
-        assert cli_identify._progress(inputs, False, stack) is inputs
+        assert cli_identify._progress(inputs, True, stack) is inputs
+        # not a terminal: the inputs counted for progress lines (none in a short run)
+        assert list(cli_identify._progress(inputs, False, stack)) == list(inputs)
+    assert sys.stderr.getvalue() == ""
     monkeypatch.setattr(sys, "stderr", Terminal())
     with contextlib.ExitStack() as stack:
         assert cli_identify._progress(inputs, True, stack) is inputs

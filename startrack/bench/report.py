@@ -102,7 +102,10 @@ def _pct(rate: float, low: float, high: float) -> str:
 
 
 def summary_table(summary: pd.DataFrame) -> str:
-    """A Markdown table: one row per (condition, method), rates with 95% intervals."""
+    """A Markdown table: one row per (condition, method), rates with 95% intervals.
+
+    Built here rather than by ``DataFrame.to_markdown``: that needs ``tabulate`` (not a
+    dependency) for a table whose cells are formatted strings anyway."""
     head = ("| cond | noise px | false | missing | mag noise | method | frames | solved "
             "[95% CI] | correct [95% CI] | wrong [95% CI] | star precision | error median "
             "arcsec | error p95 arcsec | time median ms | time p95 ms |")
