@@ -1,7 +1,9 @@
 """Where startrack keeps its own code beside a maintained library, the figures that say
 why: the TAN-SIP fit against astropy's ``fit_wcs_from_points`` (time and residuals on
 the real test frame), the Wilson interval against scipy's ``binomtest`` (time per
-summary), and the Hipparcos parser against ``pandas.read_fwf`` (time, same numbers).
+summary), the Hipparcos parser against ``pandas.read_fwf`` (time, same numbers), proper
+motion against ``SkyCoord.apply_space_motion`` and annual aberration against astropy's
+ICRS to GCRS transform (time, differences).
 
     .venv/bin/python scripts/bench_library_fits.py
 
@@ -104,7 +106,64 @@ def hipparcos_parser() -> None:
           f"pandas.read_fwf {t_pandas * 1e3:.0f} ms; same magnitudes: {same}")
 
 
+def proper_motion() -> None:
+    import astropy.units as u
+    from astropy.coordinates import SkyCoord
+    from astropy.time import Time
+
+    from startrack.sky.hipparcos import CATALOG_EPOCH, hipparcos_arrays, propagate
+
+    a = hipparcos_arrays()
+    years = 2019.6 - CATALOG_EPOCH
+    t_ours = _best(lambda: propagate(a["ra_deg"], a["dec_deg"], a["pm_ra"], a["pm_dec"],
+                                     years))
+    ra, dec = propagate(a["ra_deg"], a["dec_deg"], a["pm_ra"], a["pm_dec"], years)
+
+    def astropy_motion():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # no distances: astropy says so
+            sky = SkyCoord(ra=a["ra_deg"] * u.deg, dec=a["dec_deg"] * u.deg,
+                           pm_ra_cosdec=a["pm_ra"] * u.mas / u.yr,
+                           pm_dec=a["pm_dec"] * u.mas / u.yr,
+                           obstime=Time(CATALOG_EPOCH, format="jyear"))
+            return sky.apply_space_motion(new_obstime=Time(2019.6, format="jyear"))
+
+    t_astropy = _best(astropy_motion)
+    moved = astropy_motion()
+    sep = SkyCoord(ra * u.deg, dec * u.deg).separation(SkyCoord(moved.ra, moved.dec))
+    print(f"proper motion of {len(ra)} Hipparcos stars to 2019.6: startrack "
+          f"{t_ours * 1e3:.0f} ms, astropy apply_space_motion {t_astropy * 1e3:.0f} ms; "
+          f"largest difference {sep.arcsec.max():.5f} arcsec")
+
+
+def aberration() -> None:
+    from astropy.coordinates import GCRS, CartesianRepresentation, SkyCoord
+
+    from startrack.aberration import aberrate, earth_velocity, parse_time
+
+    when = parse_time("2019-07-29T20:47:26Z")
+    for n in (60, 100_000):  # one frame's matched stars; a whole catalog (simulate)
+        v = np.random.default_rng(0).normal(size=(n, 3))
+        v /= np.linalg.norm(v, axis=1, keepdims=True)
+        ours = aberrate(v, earth_velocity(when))
+
+        def gcrs(v=v):
+            c = SkyCoord(CartesianRepresentation(v.T), frame="icrs")
+            return c.transform_to(GCRS(obstime=when)).cartesian.xyz.value.T
+
+        g = gcrs()
+        g /= np.linalg.norm(g, axis=1, keepdims=True)
+        diff = np.degrees(np.arccos(np.clip(np.sum(ours * g, axis=1), -1, 1))) * 3600
+        t_ours = _best(lambda v=v: aberrate(v, earth_velocity(when)))
+        t_astropy = _best(gcrs)
+        print(f"annual aberration, {n} stars: startrack {t_ours * 1e3:.1f} ms, astropy "
+              f"ICRS->GCRS {t_astropy * 1e3:.1f} ms; difference median "
+              f"{np.median(diff):.4f}, max {diff.max():.3f} arcsec (light deflection)")
+
+
 if __name__ == "__main__":
     wilson_interval()
     hipparcos_parser()
+    proper_motion()
+    aberration()
     sip_fit()
