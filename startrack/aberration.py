@@ -66,8 +66,8 @@ def aberrate(vectors: np.ndarray, beta: np.ndarray) -> np.ndarray:
     factor. The inverse is the same map with ``-beta``.
 
     Kept rather than astropy's ICRS to GCRS transform, which adds light deflection (up to
-    ~1.5 arcsec near the Sun) but costs milliseconds per frame where this costs well under
-    one, inside identify's timed call (scripts/bench_library_fits.py)."""
+    ~1.5 arcsec near the Sun) but takes several times as long, per frame inside
+    identify's timed call (scripts/bench_library_fits.py)."""
     u = np.asarray(vectors, dtype=np.float64)
     b = np.asarray(beta, dtype=np.float64)
     gamma = 1.0 / np.sqrt(1.0 - b @ b)
