@@ -64,3 +64,17 @@ def test_simulate_quiet_and_verbose(tmp_path):
     assert loud.exit_code == 0
     assert [line.split(":")[0] for line in loud.stderr.splitlines()] == [
         "frame_0000.png", "frame_0001.png"]
+
+
+def test_compare_quiet_and_verbose(tmp_path):
+    args = ["compare", "--frames", "3", "--methods", "pyramid", "--noise-px", "0,1",
+            "--false-stars", "0", "--jobs", "1", "--out"]
+    quiet = CliRunner().invoke(main, [*args, str(tmp_path / "q"), "-q"])
+    assert quiet.exit_code == 0, quiet.output
+    assert quiet.stderr == "" and "pyramid" in quiet.stdout
+    loud = CliRunner().invoke(main, [*args, str(tmp_path / "v"), "-v"])
+    assert loud.exit_code == 0, loud.output
+    lines = loud.stderr.splitlines()
+    assert lines[0].startswith("compare: pyramid on 2 condition(s)")
+    assert [line.split(":")[0].strip() for line in lines[1:3]] == ["condition 0",
+                                                                  "condition 1"]
