@@ -122,7 +122,12 @@ def held_text(conditions: list[Condition], varied: tuple[str, ...]) -> str:
 
 def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str], held: str):
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import FormatStrFormatter, NullFormatter, ScalarFormatter
+    from matplotlib.ticker import (
+        FormatStrFormatter,
+        LogLocator,
+        NullFormatter,
+        ScalarFormatter,
+    )
 
     fig, axes = plt.subplots(1, 4, figsize=(16, 4.2))
     fig.subplots_adjust(left=0.04, right=0.99, bottom=0.14, top=0.80, wspace=0.25)
@@ -160,7 +165,8 @@ def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str], held: str):
     if len(times) and times.max() < 10.0 * times.min():  # under a decade: label 2, 3, 5
         axes[2].yaxis.set_minor_formatter(FormatStrFormatter("%g"))
         axes[2].tick_params(axis="y", which="minor", labelsize=7)
-    else:  # several decades: minor labels would pile up below each power of ten
+    else:  # several decades: 1-2-5 labels; every minor label would pile up
+        axes[2].yaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
         axes[2].yaxis.set_minor_formatter(NullFormatter())
     plain = ScalarFormatter(useOffset=False)
     plain.set_scientific(False)  # no exponent above the panel, where it hit the title
