@@ -103,7 +103,11 @@ def earth_velocity(time) -> np.ndarray:
 def aberrate(vectors: np.ndarray, beta: np.ndarray) -> np.ndarray:
     """Apparent directions (N x 3) of barycentric unit vectors for an observer moving at
     ``beta`` (v/c): ``(u / g + b + (g / (1 + g)) (u.b) b) / (1 + u.b)``, g the Lorentz
-    factor. The inverse is the same map with ``-beta``."""
+    factor. The inverse is the same map with ``-beta``.
+
+    Kept rather than astropy's ICRS to GCRS transform, which adds light deflection (up to
+    ~1.5 arcsec near the Sun) but takes several times as long, per frame inside
+    identify's timed call (scripts/bench_library_fits.py)."""
     u = np.asarray(vectors, dtype=np.float64)
     b = np.asarray(beta, dtype=np.float64)
     gamma = 1.0 / np.sqrt(1.0 - b @ b)

@@ -15,7 +15,13 @@ from startrack.outputs import atomic_path
 
 #: catalog stars at least this bright get their IAU name beside the HIP number
 NAME_MAG_LIMIT = 5.5
-_CAPTION_PX = 72
+_CAPTION_PX = 110  # the caption, the legend and the RA labels under the frame
+#: margins around the frame (pixels of the PNG) for the Dec labels and the last label
+MARGIN_LEFT_PX = 70
+MARGIN_RIGHT_PX = 100  # also holds the compass
+MARGIN_TOP_PX = 10
+#: a star this close to the right edge is labelled on its left
+LABEL_ROOM_PX = 110
 _ARCSEC_PER_RAD = math.degrees(1.0) * 3600.0
 
 
@@ -118,38 +124,123 @@ def caption(frame) -> str:
             f"identified   rms residual {rms:.2f} arcsec")
 
 
+def _label_sides(x: np.ndarray, width: int) -> list[tuple[tuple[int, int], str]]:
+    """Offset and alignment of each star's label: to the right, or to the left near the
+    right edge, so no label runs off the frame."""
+    return [((-8, -8), "right") if xi > width - LABEL_ROOM_PX else ((8, -8), "left")
+            for xi in x]
+
+
 def _draw_stars(ax, frame, width: int) -> tuple | None:
     """Mark the spots; returns the residual scale (factor, bar length drawn in px, what
-    it stands for in px and arcsec), None when nothing is identified."""
+    it stands for in px and arcsec), None when nothing is identified.
+
+    The other spots are small and faint underneath; the identified stars are drawn on
+    top, so a frame of several hundred spots still shows which ones were identified.
+    """
     sol = frame.solution
     obs = frame.obs
     ident = np.zeros(len(obs), dtype=bool)
     if sol.solved:
         ident[sol.obs_index] = True
-    ax.scatter(obs.x[~ident], obs.y[~ident], s=60, marker="s", facecolors="none",
-               edgecolors="#ff9f1c", linewidths=0.9, label="not identified")
+    ax.scatter(obs.x[~ident], obs.y[~ident], s=22, marker="s", facecolors="none",
+               edgecolors="#ff9f1c", linewidths=0.6, alpha=0.45, zorder=2,
+               label="not identified")
     if not sol.solved:
         return None
     x, y = obs.x[sol.obs_index], obs.y[sol.obs_index]
     ax.scatter(x, y, s=170, marker="o", facecolors="none", edgecolors="#39ff14",
-               linewidths=1.1, label="identified")
-    for xi, yi, text in zip(x, y, _labels(frame), strict=True):
-        ax.annotate(text, (xi, yi), xytext=(8, -8), textcoords="offset points",
-                    color="#b8ffb0", fontsize=7)
+               linewidths=1.2, zorder=4, label="identified")
+    for xi, yi, text, (offset, align) in zip(x, y, _labels(frame), _label_sides(x, width),
+                                             strict=True):
+        ax.annotate(text, (xi, yi), xytext=offset, textcoords="offset points", ha=align,
+                    color="#b8ffb0", fontsize=7, zorder=5)
     dx, dy = residual_pixels(frame)
     mag = _nice_magnification(float(np.hypot(dx, dy).max(initial=0.0)), 0.04 * width)
     ax.quiver(x, y, dx * mag, dy * mag, angles="xy", scale_units="xy", scale=1.0,
-              color="#ff3864", width=0.0025, label="residual")
+              color="#ff3864", width=0.0025, zorder=5, label="residual")
     arcsec_per_px = _ARCSEC_PER_RAD / frame.camera.f_px
     bar_px = 0.04 * width
     bar_as = bar_px / mag * arcsec_per_px
     return mag, bar_px, bar_px / mag, bar_as
 
 
+def compass(wcs, x0: float, y0: float, length_px: float) -> dict[str, np.ndarray]:
+    """Pixel offsets (dx, dy) of arrows ``length_px`` long pointing north and east at
+    pixel (x0, y0), from the solved WCS (pixels 0-based, row 0 at the top).
+
+    Returns
+    -------
+    dict
+        ``{"N": array([dx, dy]), "E": array([dx, dy])}``.
+    """
+    ra, dec = wcs.all_pix2world([x0], [y0], 0)
+    step = 0.01 * abs(float(np.degrees(length_px / _focal_px(wcs))))  # a short step, deg
+    cos_dec = max(math.cos(math.radians(float(dec[0]))), 1e-6)
+    targets = {"N": (ra[0], dec[0] + step), "E": (ra[0] + step / cos_dec, dec[0])}
+    arrows = {}
+    for name, (r, d) in targets.items():
+        px, py = wcs.all_world2pix([r], [d], 0)
+        v = np.array([px[0] - x0, py[0] - y0])
+        arrows[name] = v / np.hypot(*v) * length_px
+    return arrows
+
+
+def _focal_px(wcs) -> float:
+    """Pixels per radian at the reference point (from the CD matrix)."""
+    scale_deg = math.sqrt(abs(np.linalg.det(wcs.pixel_scale_matrix)))
+    return 1.0 / math.radians(scale_deg)
+
+
+def _draw_compass(fig, wcs, width: int, height: int) -> None:
+    """North and east arrows at the frame's centre, drawn in the right margin (beside the
+    frame, so they hide no star)."""
+    length = 0.35 * MARGIN_RIGHT_PX
+    x0 = MARGIN_LEFT_PX + width + 0.5 * MARGIN_RIGHT_PX
+    y0 = _CAPTION_PX + height - 0.5 * MARGIN_RIGHT_PX  # figure pixels, y up
+    for name, (dx, dy) in compass(wcs, 0.5 * (width - 1), 0.5 * (height - 1),
+                                  length).items():
+        tip = (x0 + dx, y0 - dy)  # image rows run down, figure pixels up
+        fig.add_artist(matplotlib_annotation("", tip, (x0, y0)))
+        fig.text((x0 + 1.35 * dx) / fig.bbox.width, (y0 - 1.35 * dy) / fig.bbox.height,
+                 name, color="#ffe066", fontsize=10, ha="center", va="center",
+                 weight="bold")
+
+
+def matplotlib_annotation(text: str, tip: tuple, tail: tuple):
+    """An arrow from ``tail`` to ``tip`` in figure pixels."""
+    from matplotlib.text import Annotation
+
+    return Annotation(text, xy=tip, xytext=tail, xycoords="figure pixels",
+                      textcoords="figure pixels",
+                      arrowprops=dict(arrowstyle="-|>", color="#ffe066", lw=1.6))
+
+
+def _draw_grid(ax) -> None:
+    """RA/Dec grid lines and their labels (WCSAxes), faint so the stars stay in front."""
+    ra, dec = ax.coords[0], ax.coords[1]
+    ra.set_major_formatter("hh:mm")
+    dec.set_major_formatter("dd:mm")
+    for coord, label in ((ra, "RA (ICRS)"), (dec, "Dec (ICRS)")):
+        coord.grid(color="#6fa8dc", alpha=0.7, linestyle="dashed", linewidth=0.7)
+        coord.set_ticklabel(color="#9fc5e8", size=8)
+        coord.set_ticks(color="#9fc5e8", number=6)
+        coord.set_axislabel(label, color="#9fc5e8", size=8)
+    ra.set_ticks_position("b")
+    ra.set_ticklabel_position("b")
+    ra.set_axislabel_position("b")
+    dec.set_ticks_position("l")
+    dec.set_ticklabel_position("l")
+    dec.set_axislabel_position("l")
+
+
 def write_annotated(frame, path: str | Path) -> None:
     """Write the annotated PNG of one :class:`~startrack.identifier.FrameResult`.
 
-    A centroid-list input (no image) is drawn on a black frame of the camera's size.
+    The frame is drawn pixel for pixel inside margins that hold the RA/Dec labels; a
+    solved frame gets an RA/Dec grid and a north/east compass from its solved WCS
+    (:func:`startrack.wcs.solved_wcs_header`). A centroid-list input (no image) is drawn
+    on a black frame of the camera's size.
     """
     import matplotlib
 
@@ -160,27 +251,44 @@ def write_annotated(frame, path: str | Path) -> None:
     w, h = frame.camera.width, frame.camera.height
     shown = stretch(frame.image) if frame.image is not None else np.zeros((h, w))
     dpi = 100
-    fig = plt.figure(figsize=(w / dpi, (h + _CAPTION_PX) / dpi), dpi=dpi, facecolor="black")
-    ax = fig.add_axes((0.0, _CAPTION_PX / (h + _CAPTION_PX), 1.0, h / (h + _CAPTION_PX)))
+    fig_w, fig_h = w + MARGIN_LEFT_PX + MARGIN_RIGHT_PX, h + MARGIN_TOP_PX + _CAPTION_PX
+    fig = plt.figure(figsize=(fig_w / dpi, fig_h / dpi), dpi=dpi, facecolor="black")
+    rect = (MARGIN_LEFT_PX / fig_w, _CAPTION_PX / fig_h, w / fig_w, h / fig_h)
+    wcs = None
+    if frame.solution.solved:
+        from astropy.wcs import WCS
+
+        from startrack.wcs import solved_wcs_header
+
+        wcs = WCS(solved_wcs_header(frame))
+        ax = fig.add_axes(rect, projection=wcs)
+    else:
+        ax = fig.add_axes(rect)
+        ax.set_axis_off()
+    ax.set_facecolor("black")
     ax.imshow(shown, cmap="gray", vmin=0.0, vmax=1.0, interpolation="nearest",
-              extent=(-0.5, w - 0.5, h - 0.5, -0.5))
+              extent=(-0.5, w - 0.5, -0.5, h - 0.5), origin="lower")  # row i at y = i
     scale = _draw_stars(ax, frame, w)
     ax.set_xlim(-0.5, w - 0.5)
     ax.set_ylim(h - 0.5, -0.5)  # row 0 at the top, as in the PNG
-    ax.set_axis_off()
-    band = _CAPTION_PX / (h + _CAPTION_PX)
+    if wcs is not None:
+        _draw_grid(ax)
+        _draw_compass(fig, wcs, w, h)
+    band = _CAPTION_PX / fig_h
     text = caption(frame)
     if scale is not None:
         mag, bar_px, stands_px, stands_as = scale
         text += (f"\nresiduals (observed - catalog) drawn x{mag}: the bar = {stands_px:.2g} "
                  f"px = {stands_as:.2g} arcsec")
-        y_bar = 0.17 * band
+        y_bar = 0.12 * band
+        right = (MARGIN_LEFT_PX + w) / fig_w
         fig.add_artist(matplotlib.lines.Line2D(
-            [0.99 - bar_px / w, 0.99], [y_bar, y_bar], color="#ff3864", linewidth=2))
-    fig.legend(loc="upper right", bbox_to_anchor=(1.0, band), fontsize=7, ncol=3,
-               facecolor="black", edgecolor="grey", labelcolor="white", framealpha=0.6)
-    fig.text(0.01, 0.5 * band, text, color="white", fontsize=8, va="center",
-             family="monospace")
+            [right - bar_px / fig_w, right], [y_bar, y_bar], color="#ff3864", linewidth=2))
+    fig.legend(loc="upper right", bbox_to_anchor=((MARGIN_LEFT_PX + w) / fig_w, 0.62 * band),
+               fontsize=7, ncol=3, facecolor="black", edgecolor="grey", labelcolor="white",
+               framealpha=0.6)
+    fig.text(MARGIN_LEFT_PX / fig_w, 0.3 * band, text, color="white", fontsize=8,
+             va="center", family="monospace")
     path = Path(path)
     try:
         with atomic_path(path) as tmp:

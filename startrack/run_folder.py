@@ -157,6 +157,8 @@ class RunFolder:
             if name in keep:
                 continue
             path = self.out / name
+            if self.writer.input_at(path) is not None:  # what this run reads stays
+                continue
             if os.path.isfile(path) and not os.path.islink(path):
                 with contextlib.suppress(FileNotFoundError):
                     path.unlink()

@@ -1,4 +1,5 @@
-"""The JSON file beside each simulated frame: the camera, the sky and the true attitude."""
+"""The JSON file beside each simulated frame: the camera, the sky and the true attitude;
+and the columns of the folder's truth.csv and stars.csv (docs/conventions.md)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,11 @@ from startrack.camera import Camera
 from startrack.camera_file import camera_from_dict
 from startrack.errors import InputError, StartrackWarning
 from startrack.sky import SkySpec
+
+#: truth.csv: one row per frame, its file and true attitude (camera to ICRS)
+TRUTH_COLUMNS = ["frame", "file", "qw", "qx", "qy", "qz", "ra_deg", "dec_deg", "roll_deg"]
+#: stars.csv: one row per star drawn in a frame; false stars have catalog_id -1
+STARS_COLUMNS = ["frame", "x", "y", "flux", "magnitude", "catalog_id", "is_false"]
 
 
 def sidecar_path_for(image_path: str | Path) -> Path:

@@ -13,7 +13,16 @@ from astropy.io import fits
 from astropy.wcs import WCS
 from click.testing import CliRunner
 
-from startrack.annotate import _nice_magnification, star_names, stretch
+from startrack.annotate import (
+    MARGIN_LEFT_PX,
+    MARGIN_TOP_PX,
+    _label_sides,
+    _nice_magnification,
+    compass,
+    star_names,
+    stretch,
+)
+from startrack.attitude import from_radec_roll
 from startrack.camera import Camera
 from startrack.cli import main
 from startrack.corr import CORR_COLUMNS
@@ -55,12 +64,39 @@ def test_wcs_maps_every_identified_star_to_its_catalog_position(real):
 def test_annotated_png_shows_the_stars_and_the_caption(real):
     out, record = real
     image = cv2.imread(str(out / "a.png"), cv2.IMREAD_COLOR)
-    assert image.shape[1] == 1024 and image.shape[0] > 768  # frame plus caption band
-    frame = image[:768]
+    assert image.shape[1] > 1024 and image.shape[0] > 768  # frame plus margins and caption
+    top, left = MARGIN_TOP_PX, MARGIN_LEFT_PX
+    frame = image[top:top + 768, left:left + 1024]
     green = (frame[..., 1] > 200) & (frame[..., 2] < 120) & (frame[..., 0] < 120)
     assert green.sum() > 25 * len(record["stars"])  # a circle per identified star
     assert frame.mean() > 2  # the stretch shows something, not a black frame
-    assert image[768:].max() > 200  # caption text
+    assert image[top + 768:].max() > 200  # caption text
+    # the RA/Dec grid (blue dashes) crosses the frame, and the compass (yellow) stands
+    # in the right margin
+    b, g, r = frame[..., 0].astype(int), frame[..., 1].astype(int), frame[..., 2].astype(int)
+    blue = (b > 90) & (b > r + 40) & (b > g + 15)
+    assert blue.sum() > 2000
+    margin = image[:top + 768, left + 1024:]
+    yellow = (margin[..., 2] > 200) & (margin[..., 1] > 180) & (margin[..., 0] < 140)
+    assert yellow.sum() > 50
+
+
+def test_compass_points_north_and_east_on_the_solved_wcs():
+    camera = Camera.from_fov(640, 480, 10.0)
+    for roll in (0.0, 37.0, 200.0):
+        w = WCS(wcs_header(camera, from_radec_roll(150.0, 40.0, roll)))
+        arrows = compass(w, 320.0, 240.0, 30.0)
+        ra0, dec0 = w.all_pix2world([320.0], [240.0], 0)
+        ra_n, dec_n = w.all_pix2world([320.0 + arrows["N"][0]], [240.0 + arrows["N"][1]], 0)
+        ra_e, dec_e = w.all_pix2world([320.0 + arrows["E"][0]], [240.0 + arrows["E"][1]], 0)
+        assert dec_n[0] > dec0[0] and abs(ra_n[0] - ra0[0]) < 0.01
+        assert ra_e[0] > ra0[0] and abs(dec_e[0] - dec0[0]) < 0.01
+        assert np.hypot(*arrows["N"]) == pytest.approx(30.0)
+
+
+def test_labels_near_the_right_edge_go_to_the_left():
+    sides = _label_sides(np.array([10.0, 1020.0]), 1024)
+    assert sides[0][1] == "left" and sides[1][1] == "right" and sides[1][0][0] < 0
 
 
 def test_corr_has_a_row_per_identified_star_with_units_in_plain_names(real):
@@ -166,7 +202,7 @@ def test_unsolved_centroid_list_is_annotated_but_has_no_wcs(tmp_path):
     assert lines == [",".join(CORR_COLUMNS)]  # header only: nothing matched
 
 
-def test_progress_bar_only_on_a_terminal_and_not_with_quiet(monkeypatch):
+def test_progress_bar_on_a_terminal_lines_otherwise_none_with_quiet(monkeypatch):
     import contextlib
     import io
     import sys
@@ -180,7 +216,10 @@ def test_progress_bar_only_on_a_terminal_and_not_with_quiet(monkeypatch):
     inputs = ("a", "b", "c")
     monkeypatch.setattr(sys, "stderr", io.StringIO())
     with contextlib.ExitStack() as stack:
-        assert cli_identify._progress(inputs, False, stack) is inputs
+        assert cli_identify._progress(inputs, True, stack) is inputs
+        # not a terminal: the inputs counted for progress lines (none in a short run)
+        assert list(cli_identify._progress(inputs, False, stack)) == list(inputs)
+    assert sys.stderr.getvalue() == ""
     monkeypatch.setattr(sys, "stderr", Terminal())
     with contextlib.ExitStack() as stack:
         assert cli_identify._progress(inputs, True, stack) is inputs

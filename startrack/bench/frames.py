@@ -152,11 +152,20 @@ def _from_image(scene: Scene, rows_in_view: np.ndarray, camera: Camera, told: Ca
     t0 = time.perf_counter()
     found = extract_centroids(image)
     centroid_ms = (time.perf_counter() - t0) * 1000.0
-    truth = np.full(len(found.x), -1, dtype=np.int64)
-    if len(found.x) and len(scene):
-        dist, nearest = cKDTree(np.column_stack([scene.x, scene.y])).query(
-            np.column_stack([found.x, found.y]), distance_upper_bound=TRUTH_RADIUS_PX)
-        hit = np.isfinite(dist)
-        truth[hit] = scene.catalog_row[nearest[hit]]
+    truth = label_spots(found.x, found.y, scene.x, scene.y, scene.catalog_row)
     obs = Observation.from_pixels(found.x, found.y, told, DEFAULT_SIGMA_PX, found.flux)
     return BenchFrame(obs, truth, scene.rotation, len(rows_in_view), centroid_ms)
+
+
+def label_spots(x: np.ndarray, y: np.ndarray, star_x: np.ndarray, star_y: np.ndarray,
+                star_rows: np.ndarray) -> np.ndarray:
+    """The catalog row of each spot (x, y): that of the drawn star within
+    :data:`TRUTH_RADIUS_PX` (``star_rows``, -1 for a false star), else -1. For scoring
+    extracted centroids against the scene they were rendered from."""
+    truth = np.full(len(x), -1, dtype=np.int64)
+    if len(x) and len(star_x):
+        dist, nearest = cKDTree(np.column_stack([star_x, star_y])).query(
+            np.column_stack([x, y]), distance_upper_bound=TRUTH_RADIUS_PX)
+        hit = np.isfinite(dist)
+        truth[hit] = np.asarray(star_rows, dtype=np.int64)[nearest[hit]]
+    return truth

@@ -26,11 +26,28 @@ LABELS = {
     "distortion_k1": "lens distortion k1, not modelled",
     "modelled_k1": "lens distortion k1, modelled",
 }
+SHORT = {"noise_px": "noise px", "false_stars": "false stars", "missing": "missing",
+         "mag_noise": "mag noise", "fov_error": "FOV error", "distortion_k1": "k1 unmodelled",
+         "modelled_k1": "k1 modelled"}
+#: variables a plot names as held even at zero
+ALWAYS_SHOWN = ("noise_px", "false_stars", "missing")
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
+#: attitude errors below this are floating-point rounding of an exact solution (a
+#: noise-free frame solves to ~1e-9 arcsec); plots draw them as 0 and say "exact"
+ERROR_RESOLUTION_ARCSEC = 1e-3
 
 
-def wilson(successes, trials, z: float = 1.96) -> tuple[np.ndarray, np.ndarray]:
-    """Wilson score interval (low, high) of a binomial rate; NaN where trials is 0."""
+#: the two-sided 95% normal quantile, scipy.stats.norm.ppf(0.975) to double precision
+Z95 = 1.959963984540054
+
+
+def wilson(successes, trials, z: float = Z95) -> tuple[np.ndarray, np.ndarray]:
+    """Wilson score interval (low, high) of a binomial rate; NaN where trials is 0.
+
+    The same interval as ``scipy.stats.binomtest(k, n).proportion_ci(method="wilson")``
+    (tests/test_plots.py holds them equal), kept here because it is vectorised: scipy's
+    gives one interval per call (~0.1-1 ms each), this one a whole summary at once.
+    """
     k = np.asarray(successes, dtype=np.float64)
     n = np.asarray(trials, dtype=np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -66,11 +83,54 @@ def _rate_panel(ax, rows: pd.DataFrame, x: np.ndarray, column: str, count: str, 
                 **style)
 
 
-def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str]):
-    import matplotlib.pyplot as plt
+def rate_limits(k, n, pad: float = 0.1) -> tuple[float, float]:
+    """A rate axis's y-range from the data: every point and its 95% Wilson interval, with
+    ``pad`` of the span around (at least 2 points of percentage), within [0, 1]. Rates of
+    96-100% then fill the panel instead of a line flat against the top."""
+    low, high = wilson(k, n)
+    k, n = np.asarray(k, dtype=float), np.asarray(n, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        values = np.concatenate([low, high, k / n])
+    values = values[np.isfinite(values)]
+    if not len(values):
+        return 0.0, 1.0
+    lo, hi = float(values.min()), float(values.max())
+    margin = max(pad * (hi - lo), 0.02)
+    return max(0.0, lo - margin) - 0.005, min(1.0, hi + margin) + 0.005
 
-    fig, axes = plt.subplots(1, 4, figsize=(16, 3.9))
-    fig.subplots_adjust(left=0.04, right=0.99, bottom=0.15, top=0.84, wspace=0.25)
+
+def floor_errors(values) -> np.ndarray:
+    """Attitude errors with floating-point rounding (below :data:`ERROR_RESOLUTION_ARCSEC`)
+    shown as 0: at zero noise an exact solution differs from the truth by ~1e-9 arcsec."""
+    v = np.asarray(values, dtype=float)
+    return np.where(v < ERROR_RESOLUTION_ARCSEC, 0.0, v)
+
+
+def held_text(conditions: list[Condition], varied: tuple[str, ...]) -> str:
+    """What a plot holds fixed: every other variable at its base value (those that are
+    zero throughout are left out, except the three the bench always sets)."""
+    base = conditions[0]
+    parts = []
+    for var in VARIABLES:
+        if var in varied:
+            continue
+        values = {getattr(c, var) for c in conditions}
+        if var in ALWAYS_SHOWN or values != {0.0}:
+            parts.append(f"{SHORT[var]} {getattr(base, var):g}")
+    return "held: " + ", ".join(parts) if parts else ""
+
+
+def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str], held: str):
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import (
+        FormatStrFormatter,
+        LogLocator,
+        NullFormatter,
+        ScalarFormatter,
+    )
+
+    fig, axes = plt.subplots(1, 4, figsize=(16, 4.2))
+    fig.subplots_adjust(left=0.04, right=0.99, bottom=0.14, top=0.80, wspace=0.25)
     values = np.sort(part[var].unique().astype(float))
     shift = _offsets(values, len(methods))
     for j, method in enumerate(methods):
@@ -83,30 +143,49 @@ def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str]):
         med = rows["time_median_ms"].to_numpy(dtype=float)
         p95 = rows["time_p95_ms"].to_numpy(dtype=float)
         axes[2].errorbar(x, med, yerr=[np.zeros_like(med), p95 - med], capsize=3, **style)
-        err = rows["error_median_arcsec"].to_numpy(dtype=float)
-        e95 = rows["error_p95_arcsec"].to_numpy(dtype=float)
+        err = floor_errors(rows["error_median_arcsec"])
+        e95 = floor_errors(rows["error_p95_arcsec"])
         axes[3].errorbar(x, err, yerr=[np.zeros_like(err), np.nan_to_num(e95 - err)],
                          capsize=3, **style)
     titles = ("correct rate (95% Wilson interval)", "wrong rate (95% Wilson interval)",
               "identify time, ms (median, bar to p95)",
-              "rotation error of correct solutions, arcsec (median-p95)")
+              "rotation error of correct solutions,\narcsec (median, bar to p95)")
     for ax, title in zip(axes, titles, strict=True):
         ax.set_xlabel(LABELS[var])
         ax.set_title(title, fontsize=9)
         ax.grid(True, alpha=0.3, which="both")
-    axes[0].set_ylim(-0.02, 1.02)
-    _, wrong_high = wilson(part["wrong"], part["frames"])
-    axes[1].set_ylim(-0.005, min(1.02, max(0.05, 1.1 * float(np.nanmax(wrong_high)))))
+    axes[0].set_ylim(*rate_limits(part["correct"], part["frames"]))
+    axes[1].set_ylim(*rate_limits(part["wrong"], part["frames"]))
+    for ax in axes[:2]:
+        ax.yaxis.set_major_formatter(_percent)
     axes[2].set_yscale("log")
-    from matplotlib.ticker import FormatStrFormatter
-
     axes[2].yaxis.set_major_formatter(FormatStrFormatter("%g"))
+    times = part[["time_median_ms", "time_p95_ms"]].to_numpy(dtype=float)
+    times = times[np.isfinite(times) & (times > 0)]
+    if len(times) and times.max() < 10.0 * times.min():  # under a decade: label 2, 3, 5
+        axes[2].yaxis.set_minor_formatter(FormatStrFormatter("%g"))
+        axes[2].tick_params(axis="y", which="minor", labelsize=7)
+    else:  # several decades: 1-2-5 labels; every minor label would pile up
+        axes[2].yaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+        axes[2].yaxis.set_minor_formatter(NullFormatter())
+    plain = ScalarFormatter(useOffset=False)
+    plain.set_scientific(False)  # no exponent above the panel, where it hit the title
+    axes[3].yaxis.set_major_formatter(plain)
     axes[3].set_ylim(bottom=0.0)
+    e95_all = floor_errors(part["error_p95_arcsec"])
+    if np.nanmax(e95_all, initial=0.0) == 0.0:
+        axes[3].set_ylim(0.0, 1.0)
+        axes[3].text(0.5, 0.5, f"exact: every error below {ERROR_RESOLUTION_ARCSEC:g} arcsec",
+                     transform=axes[3].transAxes, ha="center", va="center", fontsize=9)
     axes[0].legend(fontsize=8)
     frames = int(part["frames"].iloc[0]) if len(part) else 0
-    fig.suptitle(f"{LABELS[var]} sweep ({frames} frames per point; methods offset "
-                 "sideways so they do not hide each other)")
+    fig.suptitle(f"{LABELS[var]} sweep: {frames} frames per point; {held}\n"
+                 "(methods offset sideways so they do not hide each other)", fontsize=11)
     return fig
+
+
+def _percent(value, _position) -> str:
+    return f"{100 * value:.4g}%"
 
 
 def _counts(summary: pd.DataFrame) -> pd.DataFrame:
@@ -132,7 +211,9 @@ def plot_sweeps(summary: pd.DataFrame, conditions: list[Condition], methods: lis
         if len(picked) < 2:
             continue
         part = summary[summary["condition"].isin(picked)]
-        written.append(_save(_sweep_figure(part, var, methods), out / f"plot_{var}.png"))
+        held = held_text(conditions, (var,))
+        written.append(_save(_sweep_figure(part, var, methods, held),
+                             out / f"plot_{var}.png"))
     heat = plot_heatmap(summary, conditions, methods, out)
     if heat is not None:
         written.append(heat)
@@ -146,7 +227,9 @@ def _grid_variables(conditions: list[Condition]) -> list[str]:
 def plot_heatmap(summary: pd.DataFrame, conditions: list[Condition], methods: list[str],
                  out: Path) -> Path | None:
     """Correct rate over the first two varied variables (the others at their base
-    value), one panel per method; None unless the grid has both combinations."""
+    value, named in the title), one panel per method; None unless the grid has every
+    combination. The colour scale runs from the lowest rate shown, so 88% and 100% differ.
+    """
     import matplotlib.pyplot as plt
 
     varied = _grid_variables(conditions)
@@ -162,20 +245,26 @@ def plot_heatmap(summary: pd.DataFrame, conditions: list[Condition], methods: li
     ys = np.sort(part[vy].unique())
     if len(part) < len(xs) * len(ys) * len(methods):
         return None  # a one-at-a-time grid: no full table to draw
-    fig, axes = plt.subplots(1, len(methods), figsize=(4.2 * len(methods) + 1, 3.8),
-                             squeeze=False)
+    lowest = float(part["correct_rate"].min())
+    vmin = 0.0 if lowest < 0.5 else np.floor(lowest * 20.0) / 20.0 - 0.05
+    fig, axes = plt.subplots(1, len(methods), figsize=(3.3 * len(methods) + 1.2, 3.9),
+                             squeeze=False, layout="constrained")
     for ax, method in zip(axes[0], methods, strict=True):
         table = part[part["method"] == method].pivot_table(
             index=vy, columns=vx, values="correct_rate").reindex(index=ys, columns=xs)
-        image = ax.imshow(table.to_numpy(), origin="lower", vmin=0.0, vmax=1.0,
+        image = ax.imshow(table.to_numpy(), origin="lower", vmin=vmin, vmax=1.0,
                           cmap="viridis", aspect="auto")
         for (i, j), value in np.ndenumerate(table.to_numpy()):
-            ax.text(j, i, f"{value:.2f}", ha="center", va="center", fontsize=8,
-                    color="white" if value < 0.6 else "black")
+            ax.text(j, i, f"{100 * value:.1f}%", ha="center", va="center", fontsize=8,
+                    color="white" if value < vmin + 0.6 * (1.0 - vmin) else "black")
         ax.set_xticks(range(len(xs)), [f"{v:g}" for v in xs])
         ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys])
-        ax.set_xlabel(LABELS[vx])
-        ax.set_ylabel(LABELS[vy])
-        ax.set_title(f"{method}: correct rate", fontsize=9)
-    fig.colorbar(image, ax=axes[0].tolist(), shrink=0.9)
+        ax.set_xlabel(SHORT[vx])
+        ax.set_ylabel(SHORT[vy])
+        ax.set_title(method, fontsize=10)
+    fig.colorbar(image, ax=axes[0].tolist(), shrink=0.9, label="correct rate",
+                 format=_percent)
+    frames = int(part["frames"].iloc[0])
+    fig.suptitle(f"correct rate over {SHORT[vx]} x {SHORT[vy]}: {frames} frames per cell; "
+                 f"{held_text(conditions, (vx, vy))}", fontsize=10)
     return _save(fig, out / "heatmap_correct.png")

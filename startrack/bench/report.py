@@ -102,7 +102,10 @@ def _pct(rate: float, low: float, high: float) -> str:
 
 
 def summary_table(summary: pd.DataFrame) -> str:
-    """A Markdown table: one row per (condition, method), rates with 95% intervals."""
+    """A Markdown table: one row per (condition, method), rates with 95% intervals.
+
+    Built here rather than by ``DataFrame.to_markdown``: that needs ``tabulate`` (not a
+    dependency) for a table whose cells are formatted strings anyway."""
     head = ("| cond | noise px | false | missing | mag noise | method | frames | solved "
             "[95% CI] | correct [95% CI] | wrong [95% CI] | star precision | error median "
             "arcsec | error p95 arcsec | time median ms | time p95 ms |")
@@ -122,16 +125,18 @@ def summary_table(summary: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
-def failures(frames: pd.DataFrame, replay: list[str]) -> list[str]:
-    """Markdown lines listing wrong and unsolved frames with their replay command."""
+def failures(frames: pd.DataFrame, replay: list[str], replay_for=None) -> list[str]:
+    """Markdown lines listing wrong and unsolved frames with their replay command:
+    ``replay`` + ``--replay CONDITION,FRAME``, or ``replay_for(row)`` when given (a
+    --frames-dir run: the identify command of the frame's file)."""
     lines = []
     for kind, mask in (("wrong", frames["wrong"].astype(bool)),
                        ("not solved", ~frames["solved"].astype(bool))):
         for method, rows in frames[mask].groupby("method", sort=False):
             lines.append(f"\n**{method}, {kind}: {len(rows)} frame(s)**\n")
             for _, r in rows.head(MAX_LISTED).iterrows():
-                cmd = shlex.join([*replay, "--replay", f"{int(r['condition'])},"
-                                  f"{int(r['frame'])}"])
+                cmd = shlex.join(replay_for(r) if replay_for is not None else [
+                    *replay, "--replay", f"{int(r['condition'])},{int(r['frame'])}"])
                 lines.append(f"- condition {int(r['condition'])}, frame {int(r['frame'])}: "
                              f"`{cmd}`")
             if len(rows) > MAX_LISTED:
@@ -139,8 +144,9 @@ def failures(frames: pd.DataFrame, replay: list[str]) -> list[str]:
     return lines or ["\nNo frame was wrong or unsolved."]
 
 
-def write_report(result, command: list[str], replay: list[str]) -> Path:
-    """Write report.md beside the CSVs of a finished run (``RunOutputs``)."""
+def write_report(result, command: list[str], replay: list[str], replay_for=None) -> Path:
+    """Write report.md beside the CSVs of a finished run (``RunOutputs``); ``replay_for``
+    as in :func:`failures`."""
     out = Path(result.out)
     frames = pd.read_csv(result.frames_csv)
     prov = provenance(shlex.join(command))
@@ -160,7 +166,7 @@ def write_report(result, command: list[str], replay: list[str]) -> Path:
               "Each command reruns one frame through every method and prints what each "
               "answered; frames.csv holds the true and solved quaternions (true_q*, "
               "solved_q*) of every frame."]
-    lines += failures(frames, replay)
+    lines += failures(frames, replay, replay_for)
     lines += ["", "Files: frames.csv (per frame and method), summary.csv (per condition), "
               "db.csv (load times), run.json (the run's identity)."]
     path = out / REPORT_FILE

@@ -145,25 +145,32 @@ def point_patch(matcher, bf) -> None:
 
 def run_unit(spec: RunSpec, condition_index: int, frame: int) -> list[dict]:
     """One frame in one condition through every method: a row dict per method."""
-    from startrack.attitude import to_quaternion
-
     bench, condition, bf = bench_frame(spec, condition_index, frame)
-    true_q = dict(zip(ATTITUDE_COLUMNS[:4], map(float, to_quaternion(bf.rotation)),
-                      strict=True))
     rows = []
     for name in spec.methods:
         ident = bench.identifier(name, bf.obs.camera)
         point_patch(ident.matcher, bf)
         solution = ident.identify(bf.obs)
-        score = score_frame(solution, bf.truth_rows, bf.rotation, bf.n_in_view,
-                            centroid_ms=bf.centroid_ms, threshold_arcsec=spec.threshold_arcsec,
-                            sigma_arcsec=float(np.degrees(bf.obs.sigma_rad)) * 3600.0)
-        q = (to_quaternion(solution.rotation) if solution.solved
-             and solution.rotation is not None else np.full(4, np.nan))
-        rows.append({"condition": condition_index, **condition.to_dict(), "frame": frame,
-                     "method": name, **score.to_dict(), **true_q,
-                     **dict(zip(ATTITUDE_COLUMNS[4:], map(float, q), strict=True))})
+        rows.append(frame_row(condition_index, condition, frame, name, solution, bf,
+                              spec.threshold_arcsec))
     return rows
+
+
+def frame_row(condition_index: int, condition: Condition, frame: int, method: str,
+              solution, bf, threshold_arcsec: float) -> dict:
+    """One method's answer on one frame (a :class:`BenchFrame`), scored: a frames.csv row
+    (:data:`COLUMNS`)."""
+    from startrack.attitude import to_quaternion
+
+    score = score_frame(solution, bf.truth_rows, bf.rotation, bf.n_in_view,
+                        centroid_ms=bf.centroid_ms, threshold_arcsec=threshold_arcsec,
+                        sigma_arcsec=float(np.degrees(bf.obs.sigma_rad)) * 3600.0)
+    true_q = to_quaternion(bf.rotation)
+    q = (to_quaternion(solution.rotation) if solution.solved
+         and solution.rotation is not None else np.full(4, np.nan))
+    return {"condition": condition_index, **condition.to_dict(), "frame": frame,
+            "method": method, **score.to_dict(),
+            **dict(zip(ATTITUDE_COLUMNS, map(float, [*true_q, *q]), strict=True))}
 
 
 def run_chunk(spec: RunSpec, units: list[tuple[int, int]]) -> list[tuple[tuple, list[dict]]]:
@@ -266,7 +273,8 @@ def _execute_dask(spec: RunSpec, units: list, client) -> Iterator:
 
 
 def progress_bar(total: int, initial: int, enabled: bool):
-    from tqdm import tqdm
+    """The run's progress on stderr (:func:`startrack.progress.progress`: a bar on a
+    terminal, a line every few seconds otherwise); silent unless ``enabled``."""
+    from startrack.progress import progress
 
-    return tqdm(total=total, initial=initial, file=sys.stderr, unit="frame", desc="compare",
-                disable=not enabled, dynamic_ncols=True)
+    return progress(total, initial=initial, desc="compare", unit="frame", quiet=not enabled)

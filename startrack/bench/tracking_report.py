@@ -135,8 +135,9 @@ def plot_sweeps(summary: pd.DataFrame, conditions: list[TrackCondition], out: Pa
             if log:
                 ax.set_yscale("log")
         axes[1].legend(fontsize=8)
-        fig.suptitle(f"tracking: {LABELS[var]} sweep "
-                     f"({int(part['frames'].iloc[0])} frames per sequence)")
+        held = ", ".join(f"{COLUMNS[v]} {getattr(base, v):g}" for v in VARIABLES if v != var)
+        fig.suptitle(f"tracking: {LABELS[var]} sweep: {int(part['frames'].iloc[0])} frames "
+                     f"per sequence; held: {held}")
         path = out / f"{prefix}_{var}.png"
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=100, format="png")

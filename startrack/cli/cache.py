@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from startrack.cli import main
+from startrack.cli.options import notes, verbosity
 
 
 def _mb(n: int) -> str:
@@ -21,8 +22,10 @@ def cache() -> None:
 
 
 @cache.command()
-def info() -> None:
-    """Print the cache folder, its entries, total size and cap."""
+@verbosity
+def info(quiet, verbose) -> None:
+    """Print the cache folder, its entries, total size and cap (-v: every entry on
+    stderr)."""
     from startrack.cache import cache_dir, cache_entries, cache_max_bytes
 
     entries = cache_entries()
@@ -31,7 +34,9 @@ def info() -> None:
     click.echo(f"entries: {len(entries)}")
     click.echo(f"size:    {_mb(total)} (cap {_mb(cache_max_bytes())}, STARTRACK_CACHE_MAX_MB)")
     kinds: dict[str, list[int]] = {}
+    detail = notes(quiet, verbose)[1]
     for path, size, _ in entries:
+        detail(f"  {path.name}  {_mb(size)}")
         count_size = kinds.setdefault(path.name.split("-", 1)[0], [0, 0])
         count_size[0] += 1
         count_size[1] += size
@@ -40,8 +45,10 @@ def info() -> None:
 
 
 @cache.command()
-def clear() -> None:
-    """Remove every cache entry (they are rebuilt when next needed)."""
+@verbosity
+def clear(quiet, verbose) -> None:
+    """Remove every cache entry (they are rebuilt when next needed). -q and -v are
+    accepted as on every command; clear prints only its result, on stdout."""
     from startrack.cache import cache_dir, clear_cache
 
     count, freed = clear_cache()

@@ -14,7 +14,7 @@ from startrack.camera_file import load_camera
 from startrack.cli import main
 from startrack.cli.hint_options import hint_options, hints_from
 from startrack.cli.identify import _size
-from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option
+from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, notes, verbosity
 from startrack.errors import InputError
 from startrack.outputs import Writer
 from startrack.pipeline import DEFAULT_METHOD, read_input
@@ -31,7 +31,7 @@ from startrack.validate import DOWNSAMPLE, EPOCH_YEAR, FOV_DEG, MAG_LIMIT
               help="Nominal camera file instead of --fov (its distortion is the start).")
 @click.option("--size", callback=_size, help="Image size WxH for centroid CSVs with --fov.")
 @click.option("--output", required=True, type=click.Path(dir_okay=False),
-              help="Camera file to write (JSON, interfaces.md keys).")
+              help="Camera file to write (JSON, keys in docs/conventions.md).")
 @click.option("--overwrite", is_flag=True,
               help="Replace an existing --output file (an input never).")
 @click.option("--terms", type=click.IntRange(0, 3), default=1, show_default=True,
@@ -48,8 +48,10 @@ from startrack.validate import DOWNSAMPLE, EPOCH_YEAR, FOV_DEG, MAG_LIMIT
 @hint_options
 @click.option("--downsample", type=Number(DOWNSAMPLE), default=1, show_default=True,
               help="Find the centroids on the images binned N x N.")
+@verbosity
 def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_center, sky,
-              mag_limit, epoch, method, downsample, **hint_values) -> None:
+              mag_limit, epoch, method, downsample, quiet, verbose,
+              **hint_values) -> None:
     """Solve every INPUT (images or centroid CSVs from one camera), fit its focal length,
     principal point and radial distortion by least squares over all matched stars (with
     outlier rejection), write the camera file and print the residual RMS before and after.
@@ -65,6 +67,7 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     writer = Writer([*with_sidecars(inputs), *([camera_path] if camera_path else [])],
                     overwrite)
     writer.check(output, "--output")  # before any work
+    note, detail = notes(quiet, verbose)
     frames = [read_input(Path(name), downsample=downsample) for name in inputs]
     if fov_deg is None and camera_path is None:
         fov_deg = hinted_fov(frames, hints, size, not hint_values["no_header_hints"])
@@ -79,11 +82,13 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     result = run(frames, nominal, catalog, method=method, terms=terms,
                  fit_center=not fix_center)
     if result is None:
-        click.echo(f"calibrate: none of the {len(frames)} input(s) solved within 10% of the "
-                   "nominal field of view; nothing written", err=True)
+        note(f"calibrate: none of the {len(frames)} input(s) solved within 10% of the "
+             "nominal field of view; nothing written")
         sys.exit(1)
     for name in result.unsolved:
-        click.echo(f"calibrate: {name}: not solved, left out", err=True)
+        note(f"calibrate: {name}: not solved, left out")
+    for name in result.solved:
+        detail(f"calibrate: {name}: solved")
     cam = result.camera
     from startrack.calibrate_sigma import format_parameters
 

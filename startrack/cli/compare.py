@@ -8,15 +8,15 @@ hybrid, against centroid noise and false stars.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
-import sys
 from pathlib import Path
 
 import click
 
 from startrack.bench.frames import SOURCES
 from startrack.cli import main
-from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option
+from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, notes, verbosity
 from startrack.errors import InputError
 from startrack.sky import resolve_sky, with_sky
 from startrack.validate import (
@@ -166,18 +166,40 @@ def _workers(jobs: int | None) -> int:
 @click.option("--replay", metavar="CONDITION,FRAME",
               help="Rerun one frame of this run through every method and print each answer "
               "(report.md lists the command for every failed frame); writes nothing.")
+@click.option("--frames-dir", type=click.Path(file_okay=False),
+              help="Run every method on this folder's frames (images or centroid CSVs) "
+              "instead of generated ones, scored against its truth.csv, stars.csv and "
+              "sidecars (the format simulate writes); the levels options do not apply.")
+@verbosity
 def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars, missing,
             mag_noise, fov_error, distortion_k1, modelled_k1, grid, max_stars, source,
             threshold_arcsec, jobs, scheduler, out_dir, seed, resume, overwrite, mode, rates,
-            fps, replay) -> None:
-    """Compare methods on random frames under noise, false and missing stars and a wrong
-    camera (FOV error, distortion); CSVs, plots, report.md in --out. docs/conventions.md."""
+            fps, replay, frames_dir, quiet, verbose) -> None:
+    """Compare identification methods on the same random frames under centroid noise,
+    false and missing stars and a wrong camera (FOV error, distortion).
+
+    Writes frames.csv, summary.csv, db.csv, plots and report.md in --out; their columns
+    and the other conventions are in docs/conventions.md. Progress goes to stderr: a bar
+    on a terminal, a line every few seconds otherwise (-q: none)."""
     from startrack.bench.conditions import build_conditions
     from startrack.bench.runner import RunSpec
-    from startrack.bench.session import format_table, run_comparison
+    from startrack.bench.session import run_comparison
     from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
 
     names = parse_methods(methods)
+    note, detail = notes(quiet, verbose)
+    ctx = click.get_current_context()
+    reports: list = []
+
+    def finish(result, replay_for=None) -> None:  # written while the run holds --out
+        from startrack.bench.report import NOT_REPLAYED, command_line, write_report
+
+        reports.append(write_report(result, command_line(ctx),
+                                    command_line(ctx, drop=NOT_REPLAYED), replay_for))
+
+    if frames_dir is not None:
+        return _frames_dir(frames_dir, names, out_dir, max_stars, threshold_arcsec, quiet,
+                           note, overwrite, finish, reports)
     cfg = (load_config(config_path) if config_path
            else config_from_dict(DEFAULT_CONFIG, "default config"))
     inputs = [config_path] if config_path else []
@@ -186,7 +208,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
         _check_image_size(cfg, config_path)
     if mode == "tracking":  # frame sequences (startrack.bench.tracking_report)
         return _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars,
-                         missing, fps, seed, out_dir, threshold_arcsec,
+                         missing, fps, seed, out_dir, threshold_arcsec, note,
                          dict(resume=resume, overwrite=overwrite, inputs=inputs))
     levels = _levels(noise_px, false_stars, missing, mag_noise, source, dict(
         fov_error=fov_error, distortion_k1=distortion_k1, modelled_k1=modelled_k1))
@@ -206,40 +228,70 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     where = f"Dask at {scheduler}" if scheduler else f"{jobs} process(es)"
 
     def announce() -> None:
-        click.echo(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
-                   f"{frames} frame(s) from {source} ({n_units} units, {where})", err=True)
-
-    from startrack.bench.report import NOT_REPLAYED, command_line, write_report
-
-    ctx = click.get_current_context()
-    reports: list = []
-
-    def finish(result) -> None:  # report.md too is written while the run holds --out
-        reports.append(write_report(result, command_line(ctx),
-                                    command_line(ctx, drop=NOT_REPLAYED)))
+        note(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
+             f"{frames} frame(s) from {source} ({n_units} units, {where})")
+        for k, condition in enumerate(spec.conditions):
+            detail(f"  condition {k}: {condition.to_dict()}")
 
     try:
         result = run_comparison(spec, out_dir, jobs=jobs, scheduler=scheduler, resume=resume,
-                                progress=sys.stderr.isatty(), announce=announce,
+                                progress=not quiet, announce=announce,
                                 overwrite=overwrite, inputs=inputs, finish=finish)
     except InputError:
         raise
     except OSError as exc:  # every file is atomic or resumable: nothing is left torn
         raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
     if result.units_resumed:
-        click.echo(f"resumed: {result.units_resumed} unit(s) were already done", err=True)
+        note(f"resumed: {result.units_resumed} unit(s) were already done")
+    _finish(result, reports[0])
+
+
+def _finish(result, report: Path) -> None:
+    """Print the tables and where the files are (``report``: report.md, written)."""
+    from startrack.bench.session import format_table
+
     click.echo(format_table(result.summary))
     loads = ", ".join(f"{k} {v:.2f} s" for k, v in result.load_seconds.items())
     click.echo(f"\nload (sky, database+prepare per method): {loads}")
-    report = reports[0]
     click.echo(f"wrote {report}, {result.frames_csv} (per frame), {result.summary_csv} "
                f"(per condition), {result.db_csv}, plots: "
                f"{', '.join(p.name for p in result.plots) or 'none (nothing swept)'} "
                f"in {result.out}/ ({result.wall_seconds:.1f} s)")
 
 
+def _frames_dir(folder, names, out_dir, max_stars, threshold_arcsec, quiet, note, overwrite,
+                finish, reports: list) -> None:
+    """``--frames-dir``: every method on the folder's frames (startrack.bench.frames_dir)."""
+    import pandas as pd
+
+    from startrack.bench.frames_dir import compare_frames_folder
+
+    def announce(data) -> None:
+        note(f"compare: {', '.join(names)} on {len(data.truth)} frame(s) of {folder}")
+
+    @functools.cache
+    def files() -> dict[int, str]:  # truth.csv, read once the run has checked it
+        truth = pd.read_csv(Path(folder) / "truth.csv")
+        return {int(f): str(Path(folder) / str(n))
+                for f, n in zip(truth["frame"], truth["file"], strict=True)}
+
+    def replay_for(row) -> list[str]:  # a frame is replayed by identifying its file
+        return ["startrack", "identify", files()[int(row["frame"])], "--method",
+                str(row["method"])]
+    try:
+        result = compare_frames_folder(folder, names, out_dir, max_stars=max_stars,
+                                       threshold_arcsec=threshold_arcsec, quiet=quiet,
+                                       announce=announce, overwrite=overwrite,
+                                       finish=lambda r: finish(r, replay_for))
+    except InputError:
+        raise
+    except OSError as exc:
+        raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
+    _finish(result, reports[0])
+
+
 def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, missing, fps,
-              seed, out_dir, threshold_arcsec, folder: dict) -> None:
+              seed, out_dir, threshold_arcsec, note, folder: dict) -> None:
     """``--mode tracking``: the options as given (unset ones take the tracking defaults)."""
     from click.core import ParameterSource
 
@@ -262,9 +314,7 @@ def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, miss
     identity = run_identity({"mode": "tracking", "camera": cfg.camera.to_dict(),
                              "sky": spec_sky.to_dict(), **run})
     summary, _ = run_in_folder(out_dir, identity, lambda out: tr.compare_tracking(
-        cfg.camera, spec_sky, out=out, **run,
-        progress=lambda m: click.echo(m, err=True) if sys.stderr.isatty() else None),
-        **folder)
+        cfg.camera, spec_sky, out=out, **run, progress=note), **folder)
     click.echo(tr.markdown_table(summary))
     click.echo(f"wrote frames.csv, summary.csv, time_ratio.csv, report.md and plots in "
                f"{out_dir}/")

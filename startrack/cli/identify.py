@@ -237,9 +237,14 @@ def _summary(record: dict) -> str:
 
 
 def _progress(inputs, quiet: bool, stack: contextlib.ExitStack):
-    """The inputs, with a progress bar on stderr for a batch when stderr is a terminal."""
-    if quiet or len(inputs) < PROGRESS_MIN_INPUTS or not sys.stderr.isatty():
+    """The inputs, with a progress bar on stderr for a batch when stderr is a terminal, a
+    line every few seconds when it is not (startrack.progress)."""
+    if quiet or len(inputs) < PROGRESS_MIN_INPUTS:
         return inputs
+    if not sys.stderr.isatty():
+        from startrack.progress import iterate
+
+        return iterate(inputs, desc="identify", unit="input")
     from tqdm import tqdm
 
     return stack.enter_context(tqdm(inputs, file=sys.stderr, unit="input", desc="identify",

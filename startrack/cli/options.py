@@ -1,4 +1,4 @@
-"""Option types and parsers shared by the commands (click types and callbacks)."""
+"""Options shared by the commands: parsers (click callbacks) and -q/-v."""
 
 from __future__ import annotations
 
@@ -85,3 +85,23 @@ def index_dir_option(command):
         help="Folder of astrometry.net Tycho-2 index files for --sky tycho2 (default: "
              "$STARTRACK_INDEX_DIR, else /usr/share/astrometry, /usr/local/astrometry/data)."
     )(command)
+def verbosity(command):
+    """``-q/--quiet`` and ``-v/--verbose``, the same on every command (docs/conventions.md):
+    -q prints nothing on stderr but errors and warnings (no progress, no notes); -v adds a
+    line per step or input. Results on stdout and written files are the same either way."""
+    command = click.option("-v", "--verbose", is_flag=True,
+                           help="A line on stderr per step or input.")(command)
+    return click.option("-q", "--quiet", is_flag=True,
+                        help="Nothing on stderr but errors and warnings.")(command)
+
+
+def notes(quiet: bool, verbose: bool):
+    """``(note, detail)``: print a note on stderr unless -q; a detail only with -v."""
+    def note(text: str) -> None:
+        if not quiet:
+            click.echo(text, err=True)
+
+    def detail(text: str) -> None:
+        if verbose and not quiet:
+            click.echo(text, err=True)
+    return note, detail

@@ -5,7 +5,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
-import sys
 from pathlib import Path
 
 import click
@@ -14,14 +13,22 @@ import numpy as np
 from startrack.camera import Camera
 from startrack.camera_file import load_camera
 from startrack.cli import main
-from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, triple
+from startrack.cli.options import (
+    SKY_HELP,
+    SKY_NAME,
+    Number,
+    index_dir_option,
+    notes,
+    triple,
+    verbosity,
+)
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
 from startrack.image_header import check_pixels
 from startrack.outputs import atomic_text
 from startrack.run_folder import RunFolder
 from startrack.sensor import SensorModel
-from startrack.sidecar import sidecar_path_for
+from startrack.sidecar import STARS_COLUMNS, TRUTH_COLUMNS, sidecar_path_for
 from startrack.sky import SkySpec, resolve_sky, with_sky
 from startrack.validate import (
     FALSE_STARS,
@@ -71,9 +78,10 @@ DEFAULT_OUT = Path("out/simulate")
                    "there (.startrack-files); files startrack did not write are kept.")
 @click.option("--time", "obs_time", help="Observation time, ISO 8601: stars are rendered "
               "where they appear from the moving Earth (annual aberration).")
+@verbosity
 def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_stars,
              missing, mag_noise, rate, fps, profile_path, write_fits_too, camera_path,
-             overwrite, obs_time) -> None:
+             overwrite, obs_time, quiet, verbose) -> None:
     """Render frames of a sky, with truth.csv, stars.csv and a JSON sidecar per frame.
     --out must be empty or new (or give --overwrite); frames are at most
     STARTRACK_MAX_IMAGE_PIXELS (default 8192 x 8192).
@@ -109,7 +117,7 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     try:
         with folder:
             _run(camera, catalog, spec, cfg.sensor, opts, folder, attitude, write_fits_too,
-                 trajectory, obs_time)
+                 trajectory, obs_time, quiet, notes(quiet, verbose)[1])
     except InputError:
         raise
     except OSError as exc:  # every file is atomic, so nothing half-written is left behind
@@ -120,11 +128,10 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
 
 def _run(camera: Camera, catalog, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
          folder: RunFolder, attitude: tuple[float, float, float] | None, with_fits: bool,
-         trajectory=None, obs_time=None) -> None:
-    from tqdm import tqdm
-
+         trajectory=None, obs_time=None, quiet: bool = False, detail=None) -> None:
     from startrack.attitude import from_radec_roll, to_quaternion, to_radec_roll
     from startrack.imageio import write_fits, write_png16
+    from startrack.progress import iterate
     from startrack.render import render_frame
     from startrack.scene import observe
     from startrack.wcs import wcs_header
@@ -134,9 +141,7 @@ def _run(camera: Camera, catalog, spec: SkySpec, sensor: SensorModel, opts: Fram
     when = None if obs_time is None else obs_time.utc.isot
     fixed = from_radec_roll(*attitude) if attitude is not None else None
     truth_rows, star_rows = [], []
-    bar = tqdm(range(opts.count), file=sys.stderr, unit="frame", desc="simulate",
-               disable=not sys.stderr.isatty())
-    for i in bar:
+    for i in iterate(range(opts.count), desc="simulate", unit="frame", quiet=quiet):
         rng = np.random.default_rng([opts.seed, i])  # each frame reproducible on its own
         rotation, rate_dps = _attitude_and_rate(i, rng, fixed, trajectory, opts)
         scene = observe(catalog, camera, rotation, rng, missing=opts.missing,
@@ -166,15 +171,16 @@ def _run(camera: Camera, catalog, spec: SkySpec, sensor: SensorModel, opts: Fram
             json.dump(sidecar, fh, indent=2)
             fh.write("\n")
         truth_rows.append([i, png.name, *q, ra, dec, roll])
+        if detail is not None:
+            detail(f"{png.name}: RA {ra:.4f} Dec {dec:+.4f} roll {roll:.3f} deg, "
+                   f"{len(scene)} spots")
         flux = sensor.electrons_from_mag(scene.mag)
         for j in range(len(scene)):  # a few dozen rows per frame, for the CSV writer
             star_rows.append([i, float(scene.x[j]), float(scene.y[j]), float(flux[j]),
                               float(scene.mag[j]), int(scene.catalog_id[j]),
                               int(scene.is_false[j])])
-    _write_csv(out / "truth.csv", ["frame", "file", "qw", "qx", "qy", "qz", "ra_deg",
-                                   "dec_deg", "roll_deg"], truth_rows)
-    _write_csv(out / "stars.csv", ["frame", "x", "y", "flux", "magnitude", "catalog_id",
-                                   "is_false"], star_rows)
+    _write_csv(out / "truth.csv", TRUTH_COLUMNS, truth_rows)
+    _write_csv(out / "stars.csv", STARS_COLUMNS, star_rows)
 
 
 def _attitude_and_rate(i: int, rng, fixed, trajectory, opts: FrameOptions):
