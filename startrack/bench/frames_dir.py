@@ -223,3 +223,13 @@ def compare_frames_folder(folder: str | Path, methods: tuple[str, ...], out: str
                          f"{seconds:.4f}"] for stage, seconds in load.items())
     return RunOutputs(out, out / FRAMES_FILE, out / SUMMARY_FILE, out / DB_FILE, [],
                       summary, len(data.truth), 0, load, time.perf_counter() - t0)
+
+
+def identify_command(folder: str | Path):
+    """A function giving, for a frames.csv row of a ``--frames-dir`` run, the command that
+    replays it: ``startrack identify FILE --method M`` (its sidecar is beside it)."""
+    truth = pd.read_csv(Path(folder) / "truth.csv")
+    files = {int(f): str(Path(folder) / str(n))
+             for f, n in zip(truth["frame"], truth["file"], strict=True)}
+    return lambda row: ["startrack", "identify", files[int(row["frame"])], "--method",
+                        str(row["method"])]

@@ -242,7 +242,7 @@ def _finish(result, replay_for=None) -> None:
 
 def _frames_dir(folder, names, out_dir, max_stars, threshold_arcsec, quiet, note) -> None:
     """``--frames-dir``: every method on the folder's frames (startrack.bench.frames_dir)."""
-    from startrack.bench.frames_dir import compare_frames_folder
+    from startrack.bench.frames_dir import compare_frames_folder, identify_command
 
     def announce(data) -> None:
         note(f"compare: {', '.join(names)} on {len(data.truth)} frame(s) of {folder}")
@@ -253,14 +253,7 @@ def _frames_dir(folder, names, out_dir, max_stars, threshold_arcsec, quiet, note
                                        announce=announce)
     except OSError as exc:
         raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
-    import pandas as pd
-
-    truth = pd.read_csv(Path(folder) / "truth.csv")
-    files = {int(f): str(Path(folder) / str(n)) for f, n in zip(truth["frame"], truth["file"],
-                                                                strict=True)}
-    # a frame of the folder is replayed by identifying its file (its sidecar beside it)
-    _finish(result, lambda r: ["startrack", "identify", files[int(r["frame"])],
-                               "--method", str(r["method"])])
+    _finish(result, identify_command(folder))
 
 
 def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, missing, fps,
