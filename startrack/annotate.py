@@ -165,73 +165,25 @@ def _draw_stars(ax, frame, width: int) -> tuple | None:
     return mag, bar_px, bar_px / mag, bar_as
 
 
-def compass(wcs, x0: float, y0: float, length_px: float) -> dict[str, np.ndarray]:
-    """Pixel offsets (dx, dy) of arrows ``length_px`` long pointing north and east at
-    pixel (x0, y0), from the solved WCS (pixels 0-based, row 0 at the top).
+def _draw_caption(fig, frame, scale: tuple | None, width: int) -> None:
+    """The caption band under the frame: the text, the residual scale bar, the legend."""
+    import matplotlib.lines
 
-    Returns
-    -------
-    dict
-        ``{"N": array([dx, dy]), "E": array([dx, dy])}``.
-    """
-    ra, dec = wcs.all_pix2world([x0], [y0], 0)
-    step = 0.01 * abs(float(np.degrees(length_px / _focal_px(wcs))))  # a short step, deg
-    cos_dec = max(math.cos(math.radians(float(dec[0]))), 1e-6)
-    targets = {"N": (ra[0], dec[0] + step), "E": (ra[0] + step / cos_dec, dec[0])}
-    arrows = {}
-    for name, (r, d) in targets.items():
-        px, py = wcs.all_world2pix([r], [d], 0)
-        v = np.array([px[0] - x0, py[0] - y0])
-        arrows[name] = v / np.hypot(*v) * length_px
-    return arrows
-
-
-def _focal_px(wcs) -> float:
-    """Pixels per radian at the reference point (from the CD matrix)."""
-    scale_deg = math.sqrt(abs(np.linalg.det(wcs.pixel_scale_matrix)))
-    return 1.0 / math.radians(scale_deg)
-
-
-def _draw_compass(fig, wcs, width: int, height: int) -> None:
-    """North and east arrows at the frame's centre, drawn in the right margin (beside the
-    frame, so they hide no star)."""
-    length = 0.35 * MARGIN_RIGHT_PX
-    x0 = MARGIN_LEFT_PX + width + 0.5 * MARGIN_RIGHT_PX
-    y0 = _CAPTION_PX + height - 0.5 * MARGIN_RIGHT_PX  # figure pixels, y up
-    for name, (dx, dy) in compass(wcs, 0.5 * (width - 1), 0.5 * (height - 1),
-                                  length).items():
-        tip = (x0 + dx, y0 - dy)  # image rows run down, figure pixels up
-        fig.add_artist(matplotlib_annotation("", tip, (x0, y0)))
-        fig.text((x0 + 1.35 * dx) / fig.bbox.width, (y0 - 1.35 * dy) / fig.bbox.height,
-                 name, color="#ffe066", fontsize=10, ha="center", va="center",
-                 weight="bold")
-
-
-def matplotlib_annotation(text: str, tip: tuple, tail: tuple):
-    """An arrow from ``tail`` to ``tip`` in figure pixels."""
-    from matplotlib.text import Annotation
-
-    return Annotation(text, xy=tip, xytext=tail, xycoords="figure pixels",
-                      textcoords="figure pixels",
-                      arrowprops=dict(arrowstyle="-|>", color="#ffe066", lw=1.6))
-
-
-def _draw_grid(ax) -> None:
-    """RA/Dec grid lines and their labels (WCSAxes), faint so the stars stay in front."""
-    ra, dec = ax.coords[0], ax.coords[1]
-    ra.set_major_formatter("hh:mm")
-    dec.set_major_formatter("dd:mm")
-    for coord, label in ((ra, "RA (ICRS)"), (dec, "Dec (ICRS)")):
-        coord.grid(color="#6fa8dc", alpha=0.7, linestyle="dashed", linewidth=0.7)
-        coord.set_ticklabel(color="#9fc5e8", size=8)
-        coord.set_ticks(color="#9fc5e8", number=6)
-        coord.set_axislabel(label, color="#9fc5e8", size=8)
-    ra.set_ticks_position("b")
-    ra.set_ticklabel_position("b")
-    ra.set_axislabel_position("b")
-    dec.set_ticks_position("l")
-    dec.set_ticklabel_position("l")
-    dec.set_axislabel_position("l")
+    fig_w, fig_h = fig.bbox.width, fig.bbox.height
+    band = _CAPTION_PX / fig_h
+    right = (MARGIN_LEFT_PX + width) / fig_w
+    text = caption(frame)
+    if scale is not None:
+        mag, bar_px, stands_px, stands_as = scale
+        text += (f"\nresiduals (observed - catalog) drawn x{mag}: the bar = {stands_px:.2g} "
+                 f"px = {stands_as:.2g} arcsec")
+        y_bar = 0.12 * band
+        fig.add_artist(matplotlib.lines.Line2D(
+            [right - bar_px / fig_w, right], [y_bar, y_bar], color="#ff3864", linewidth=2))
+    fig.legend(loc="upper right", bbox_to_anchor=(right, 0.62 * band), fontsize=7, ncol=3,
+               facecolor="black", edgecolor="grey", labelcolor="white", framealpha=0.6)
+    fig.text(MARGIN_LEFT_PX / fig_w, 0.3 * band, text, color="white", fontsize=8,
+             va="center", family="monospace")
 
 
 def write_annotated(frame, path: str | Path) -> None:
@@ -245,7 +197,6 @@ def write_annotated(frame, path: str | Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.lines
     import matplotlib.pyplot as plt
 
     w, h = frame.camera.width, frame.camera.height
@@ -272,23 +223,14 @@ def write_annotated(frame, path: str | Path) -> None:
     ax.set_xlim(-0.5, w - 0.5)
     ax.set_ylim(h - 0.5, -0.5)  # row 0 at the top, as in the PNG
     if wcs is not None:
-        _draw_grid(ax)
-        _draw_compass(fig, wcs, w, h)
-    band = _CAPTION_PX / fig_h
-    text = caption(frame)
-    if scale is not None:
-        mag, bar_px, stands_px, stands_as = scale
-        text += (f"\nresiduals (observed - catalog) drawn x{mag}: the bar = {stands_px:.2g} "
-                 f"px = {stands_as:.2g} arcsec")
-        y_bar = 0.12 * band
-        right = (MARGIN_LEFT_PX + w) / fig_w
-        fig.add_artist(matplotlib.lines.Line2D(
-            [right - bar_px / fig_w, right], [y_bar, y_bar], color="#ff3864", linewidth=2))
-    fig.legend(loc="upper right", bbox_to_anchor=((MARGIN_LEFT_PX + w) / fig_w, 0.62 * band),
-               fontsize=7, ncol=3, facecolor="black", edgecolor="grey", labelcolor="white",
-               framealpha=0.6)
-    fig.text(MARGIN_LEFT_PX / fig_w, 0.3 * band, text, color="white", fontsize=8,
-             va="center", family="monospace")
+        from startrack.annotate_sky import draw_compass, draw_grid
+
+        draw_grid(ax)
+        # in the right margin, beside the frame, so it hides no star
+        draw_compass(fig, wcs, w, h, centre=(MARGIN_LEFT_PX + w + 0.5 * MARGIN_RIGHT_PX,
+                                             _CAPTION_PX + h - 0.5 * MARGIN_RIGHT_PX),
+                     length_px=0.35 * MARGIN_RIGHT_PX)
+    _draw_caption(fig, frame, scale, w)
     path = Path(path)
     try:
         with atomic_path(path) as tmp:

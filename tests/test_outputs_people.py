@@ -18,10 +18,10 @@ from startrack.annotate import (
     MARGIN_TOP_PX,
     _label_sides,
     _nice_magnification,
-    compass,
     star_names,
     stretch,
 )
+from startrack.annotate_sky import compass
 from startrack.attitude import from_radec_roll
 from startrack.camera import Camera
 from startrack.cli import main

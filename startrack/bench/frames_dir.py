@@ -216,3 +216,13 @@ def compare_frames_folder(folder: str | Path, methods: tuple[str, ...], out: str
 
     inputs = [p for p in source.iterdir() if p.is_file()]
     return run_in_folder(out, identity, run, resume=False, overwrite=overwrite, inputs=inputs)
+
+
+def identify_command(folder: str | Path):
+    """A function giving, for a frames.csv row of a ``--frames-dir`` run, the command that
+    replays it: ``startrack identify FILE --method M`` (its sidecar is beside it)."""
+    truth = pd.read_csv(Path(folder) / "truth.csv")
+    files = {int(f): str(Path(folder) / str(n))
+             for f, n in zip(truth["frame"], truth["file"], strict=True)}
+    return lambda row: ["startrack", "identify", files[int(row["frame"])], "--method",
+                        str(row["method"])]

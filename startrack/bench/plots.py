@@ -122,12 +122,6 @@ def held_text(conditions: list[Condition], varied: tuple[str, ...]) -> str:
 
 def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str], held: str):
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import (
-        FormatStrFormatter,
-        LogLocator,
-        NullFormatter,
-        ScalarFormatter,
-    )
 
     fig, axes = plt.subplots(1, 4, figsize=(16, 4.2))
     fig.subplots_adjust(left=0.04, right=0.99, bottom=0.14, top=0.80, wspace=0.25)
@@ -147,6 +141,24 @@ def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str], held: str):
         e95 = floor_errors(rows["error_p95_arcsec"])
         axes[3].errorbar(x, err, yerr=[np.zeros_like(err), np.nan_to_num(e95 - err)],
                          capsize=3, **style)
+    _format_axes(axes, part, var)
+    axes[0].legend(fontsize=8)
+    frames = int(part["frames"].iloc[0]) if len(part) else 0
+    fig.suptitle(f"{LABELS[var]} sweep: {frames} frames per point; {held}\n"
+                 "(methods offset sideways so they do not hide each other)", fontsize=11)
+    return fig
+
+
+def _format_axes(axes, part: pd.DataFrame, var: str) -> None:
+    """Titles, labels and y ranges of a sweep's four panels (rates zoomed to the data,
+    times on a log axis, errors floored at the rounding level)."""
+    from matplotlib.ticker import (
+        FormatStrFormatter,
+        LogLocator,
+        NullFormatter,
+        ScalarFormatter,
+    )
+
     titles = ("correct rate (95% Wilson interval)", "wrong rate (95% Wilson interval)",
               "identify time, ms (median, bar to p95)",
               "rotation error of correct solutions,\narcsec (median, bar to p95)")
@@ -177,11 +189,6 @@ def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str], held: str):
         axes[3].set_ylim(0.0, 1.0)
         axes[3].text(0.5, 0.5, f"exact: every error below {ERROR_RESOLUTION_ARCSEC:g} arcsec",
                      transform=axes[3].transAxes, ha="center", va="center", fontsize=9)
-    axes[0].legend(fontsize=8)
-    frames = int(part["frames"].iloc[0]) if len(part) else 0
-    fig.suptitle(f"{LABELS[var]} sweep: {frames} frames per point; {held}\n"
-                 "(methods offset sideways so they do not hide each other)", fontsize=11)
-    return fig
 
 
 def _percent(value, _position) -> str:

@@ -8,7 +8,6 @@ hybrid, against centroid noise and false stars.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import os
 from pathlib import Path
 
@@ -262,27 +261,16 @@ def _finish(result, report: Path) -> None:
 def _frames_dir(folder, names, out_dir, max_stars, threshold_arcsec, quiet, note, overwrite,
                 finish, reports: list) -> None:
     """``--frames-dir``: every method on the folder's frames (startrack.bench.frames_dir)."""
-    import pandas as pd
-
-    from startrack.bench.frames_dir import compare_frames_folder
+    from startrack.bench.frames_dir import compare_frames_folder, identify_command
 
     def announce(data) -> None:
         note(f"compare: {', '.join(names)} on {len(data.truth)} frame(s) of {folder}")
 
-    @functools.cache
-    def files() -> dict[int, str]:  # truth.csv, read once the run has checked it
-        truth = pd.read_csv(Path(folder) / "truth.csv")
-        return {int(f): str(Path(folder) / str(n))
-                for f, n in zip(truth["frame"], truth["file"], strict=True)}
-
-    def replay_for(row) -> list[str]:  # a frame is replayed by identifying its file
-        return ["startrack", "identify", files()[int(row["frame"])], "--method",
-                str(row["method"])]
     try:
         result = compare_frames_folder(folder, names, out_dir, max_stars=max_stars,
                                        threshold_arcsec=threshold_arcsec, quiet=quiet,
                                        announce=announce, overwrite=overwrite,
-                                       finish=lambda r: finish(r, replay_for))
+                                       finish=lambda r: finish(r, identify_command(folder)))
     except InputError:
         raise
     except OSError as exc:
