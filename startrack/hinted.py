@@ -70,8 +70,6 @@ def solve_hinted(pipeline, frame: FrameInput, hints: Hints) -> FrameResult:
 
 def _child(pipeline, frame: FrameInput, hints: Hints):
     """The pipeline (cached per hint and image size) that solves with ``hints``."""
-    from startrack.pipeline import Pipeline
-
     children = pipeline.__dict__.setdefault("_hinted", OrderedDict())
     key = (hints, frame.size)
     if key in children:
@@ -87,7 +85,7 @@ def _child(pipeline, frame: FrameInput, hints: Hints):
                              "image size (--size WxH)")
         fov, tol = fov_range_deg(hints.scale, size[0])
         opt = dataclasses.replace(opt, camera=None, fov_deg=fov, fov_tolerance=tol)
-    child = Pipeline(opt, catalogs=pipeline.catalogs)
+    child = type(pipeline)(opt, catalogs=pipeline.catalogs)
     if hints.pointing is not None:
         camera = child.setup_for(frame)[0]
         child.cone = (hints.pointing, cone_radius_deg(
