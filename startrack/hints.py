@@ -132,8 +132,10 @@ def header_hints(path: Path | None, size: tuple[int, int] | None) -> Hints | Non
     a WCS that says nothing usable). The pointing is the image centre's, good to
     :data:`HEADER_RADIUS_FIELDS` fields; the scale to :data:`HEADER_SCALE_TOLERANCE`."""
     header = fits_header(path)
-    if header is None or size is None:
-        return None
+    if header is None or size is None or not any(
+            str(header.get(f"CTYPE{i}", "")).upper().startswith(("RA", "DEC"))
+            for i in (1, 2)):
+        return None  # no celestial WCS: astropy.wcs (slow to import) is not needed
     import warnings
 
     from astropy.wcs import WCS, FITSFixedWarning
