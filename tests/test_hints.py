@@ -137,6 +137,13 @@ def test_downsample_reports_full_resolution_pixels(reference):
     assert np.median(np.hypot(both.x - both.x_ref, both.y - both.y_ref)) < 0.5
 
 
+def test_api_config_preset_gives_camera_and_sky():
+    result = startrack.solve(FRAME, config="realsky")
+    assert result.solved and _close(result, AZI45)
+    assert result.to_dict()["diagnostics"]["sky"]["epoch"] == 2019.6
+    assert result.quality["catalog"] == {"kind": "hipparcos", "mag_limit": 7.5}
+
+
 def _identify(*args):
     return subprocess.run([sys.executable, "-m", "startrack", "identify", *map(str, args)],
                           capture_output=True, text=True)
