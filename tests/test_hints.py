@@ -121,6 +121,9 @@ def test_a_fits_header_gives_pointing_scale_and_mid_exposure_time(tmp_path, refe
     assert result.to_dict()["diagnostics"]["time_utc"].startswith("2019-07-29T20:47:27")
     # the aberration correction moves the answer by up to 20 arcsec
     assert result.boresight.separation(reference.boresight).arcsec < 30
+    ignored = startrack.solve(path, sky="hipparcos", fov_deg=11.42, header_hints=False)
+    assert ignored.solved and "time_utc" not in ignored.to_dict()["diagnostics"]
+    assert ignored.boresight.separation(reference.boresight).arcsec < 1
 
 
 def test_a_wrong_header_falls_back_to_the_search(tmp_path):

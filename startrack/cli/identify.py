@@ -80,7 +80,8 @@ def _time(ctx, param, value):
 @click.option("--time", "obs_time", callback=_time,
               help="Observation time, ISO 8601 (e.g. 2019-07-29T20:47:26Z; no offset = "
                    "UTC): the attitude is corrected for annual aberration (up to 20 "
-                   "arcsec). Default: a FITS input's DATE-OBS, else no correction.")
+                   "arcsec). Default: a FITS input's DATE-OBS plus half its EXPTIME, else no "
+                   "correction.")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True,
               help=f"Matcher, one of: {', '.join(available_methods())} (docs/results.md "
                    "compares them).")
