@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from astropy.coordinates import SkyCoord
 from astropy.io import fits
 from astropy.wcs import WCS
 
@@ -113,8 +114,12 @@ def _fits_with_wcs(path: Path, centre, exptime=None) -> Path:
 def test_a_fits_header_gives_pointing_scale_and_mid_exposure_time(tmp_path, reference):
     path = _fits_with_wcs(tmp_path / "frame.fits", AZI45, exptime=2.0)
     hints = header_hints(path, (1024, 768))
-    assert hints.from_header and hints.pointing.radius_deg == pytest.approx(11.42, rel=0.01)
-    assert hints.pointing.ra_deg == pytest.approx(AZI45[0], abs=0.01)
+    assert hints.from_header and hints.scale.low < 11.42 < hints.scale.high
+    # one field of view, the pointing on a grid a quarter of that wide, the radius grown
+    assert hints.pointing.radius_deg == pytest.approx(11.42 * 1.25, rel=0.01)
+    centre = SkyCoord(*AZI45, unit="deg")
+    hinted = SkyCoord(hints.pointing.ra_deg, hints.pointing.dec_deg, unit="deg")
+    assert centre.separation(hinted).deg < 11.42 / 4
     assert header_time(path).isot == "2019-07-29T20:47:27.000"  # DATE-OBS + EXPTIME / 2
     result = startrack.solve(path, sky="hipparcos")  # no option: the header's hints
     assert result.solved and result.frame.solution.method == "pyramid"
@@ -127,9 +132,12 @@ def test_a_fits_header_gives_pointing_scale_and_mid_exposure_time(tmp_path, refe
 
 
 def test_a_wrong_header_falls_back_to_the_search(tmp_path):
+    """A header pointing elsewhere finds nothing in its cone; the input is then solved as
+    if it had no header (the blind search), not left unsolved."""
     path = _fits_with_wcs(tmp_path / "stale.fits", (100.0, -40.0))
-    result = startrack.solve(path, sky="hipparcos", fov_deg=11.42)
+    result = startrack.solve(path, sky="hipparcos")
     assert result.solved and _close(result, AZI45, arcsec=40)
+    assert result.frame.solution.method == "quad"  # the blind search's
 
 
 def test_downsample_reports_full_resolution_pixels(reference):
