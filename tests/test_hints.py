@@ -18,6 +18,7 @@ from startrack.attitude import from_radec_roll
 from startrack.camera import Camera
 from startrack.errors import InputError
 from startrack.hints import (
+    Hints,
     Pointing,
     Scale,
     cone_radius_deg,
@@ -180,3 +181,20 @@ def test_cli_hints_config_and_bad_hints(reference, tmp_path):
     run = _identify(xy, "--scale-low", 30, "--scale-high", 40, "--scale-units", "focalmm",
                     "--size", "1024x768")
     assert run.returncode == 2 and "--pixel-size" in run.stderr
+
+
+def test_calibrate_takes_its_nominal_fov_from_a_fits_header(tmp_path):
+    """(calibrate itself is tested in test_calibrate.py; here: where its nominal comes
+    from.)"""
+    from startrack.cli.calibrate import hinted_fov
+    from startrack.frame_input import read_input
+
+    path = _fits_with_wcs(tmp_path / "frame.fits", AZI45)
+    frames = [read_input(path)]
+    # CDELT is the scale at the reference pixel: a pinhole's 1 / f
+    pinhole = math.degrees(2 * math.atan(512 * math.radians(11.42 / 1024)))
+    assert hinted_fov(frames, None, None, header=True) == pytest.approx(pinhole, rel=1e-6)
+    with pytest.raises(InputError, match="--fov"):
+        hinted_fov(frames, None, None, header=False)
+    scale = Hints(scale=Scale(10.0, 12.0))
+    assert hinted_fov(frames, scale, None, header=True) == pytest.approx(11.0)
