@@ -7,7 +7,7 @@ answer is a :class:`SolveResult` whose ``to_dict()`` is the JSON record that
 
 from __future__ import annotations
 
-import contextlib
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -139,6 +139,21 @@ class SolveResult:
         return self.frame.record(with_input=self.frame.input != "<array>")
 
 
+def _builtin_errors(method):
+    """``method`` raising the API's errors as built-in subclasses
+    (:func:`startrack.errors.as_builtin`)."""
+    @functools.wraps(method)
+    def wrapper(*args, **kwargs):
+        try:
+            return method(*args, **kwargs)
+        except InputError as exc:
+            raised = as_builtin(exc)
+            if raised is exc:
+                raise
+            raise raised from None
+    return wrapper
+
+
 class Solver:
     r"""Loads catalog and database once; :meth:`solve` answers one frame at a time.
 
@@ -166,6 +181,7 @@ class Solver:
     sequence, or every frame without ``track``. ``SolveResult.mode`` says which solved it.
     """
 
+    @_builtin_errors
     def __init__(self, fov_deg: float | None = None, *, camera: Camera | str | Path | None = None,
                  size: tuple[int, int] | None = None, method: str = DEFAULT_METHOD,
                  sky: str | None = None, mag_limit: float | None = None,
@@ -177,13 +193,6 @@ class Solver:
                  radius=None, scale_low=None, scale_high=None, scale_units: str = "degwidth",
                  pixel_size_um: float | None = None, downsample: int = 1,
                  header_hints: bool = True, config: str | Path | None = None) -> None:
-        with builtin_errors():
-            self._setup(**{k: v for k, v in locals().items() if k not in ("self", "__class__")})
-
-    def _setup(self, fov_deg, *, camera, size, method, sky, mag_limit, epoch, sigma_px,
-               max_stars, timeout_ms, track, prior, prior_sigma_deg, time, fov_tolerance,
-               ra, dec, radius, scale_low, scale_high, scale_units, pixel_size_um,
-               downsample, header_hints, config) -> None:
         from startrack.hints import preset, user_hints
         from startrack.units import degree_options, scale_value
 
@@ -220,35 +229,23 @@ class Solver:
         if self._sequence is not None:
             self._sequence.reset()
 
+    @_builtin_errors
     def solve(self, source: str | Path | np.ndarray) -> SolveResult:
         """Solve a path (image or centroid CSV), a 2-D image array, or an N x 2 / N x 3
         array of centroids (x, y[, flux]; brightest first when there is no flux)."""
-        with builtin_errors():
-            try:
-                frame = _as_input(source, self._pipeline.options.downsample)
-            except InputError:
-                if self._sequence is not None:
-                    self._sequence.skip()  # an unreadable frame of a sequence: time passes
-                raise
-            solver = self._sequence or self._pipeline
-            return SolveResult(solver.solve(frame))
+        try:
+            frame = _as_input(source, self._pipeline.options.downsample)
+        except InputError:
+            if self._sequence is not None:
+                self._sequence.skip()  # an unreadable frame of a sequence: time passes
+            raise
+        solver = self._sequence or self._pipeline
+        return SolveResult(solver.solve(frame))
 
 
 def solve(source: str | Path | np.ndarray, **options) -> SolveResult:
     """Solve one frame; ``options`` are :class:`Solver`'s keywords."""
     return Solver(**options).solve(source)
-
-
-@contextlib.contextmanager
-def builtin_errors():
-    """The API's errors as built-in subclasses (:func:`startrack.errors.as_builtin`)."""
-    try:
-        yield
-    except InputError as exc:
-        raised = as_builtin(exc)
-        if raised is exc:
-            raise
-        raise raised from None
 
 
 def _as_input(source: str | Path | np.ndarray, downsample: int = 1) -> FrameInput:

@@ -90,9 +90,8 @@ def calibrate(frames, nominal: Camera, catalog: Catalog, *, method: str = "pyram
 
 def _settle(stars, nominal: Camera, catalog: Catalog, terms: int, fit_center: bool,
             inliers: np.ndarray):
-    """The camera fitted from ``nominal`` over the inliers, each parameter the data do not
-    move (:func:`startrack.calibrate_sigma.parameters`) held at its nominal value and the
-    rest refitted; and the parameters' report."""
+    """The camera fitted from ``nominal`` over the inliers, the parameters the data do not
+    move held at nominal (startrack.calibrate_sigma), and the parameters' report."""
     from startrack.calibrate_sigma import parameters, with_final
 
     full = _fit(stars, nominal, catalog, terms, fit_center=fit_center, keep=inliers)
@@ -201,8 +200,8 @@ class _Fit:
     rotations: list[Rotation]
     keep: np.ndarray  # inlier mask over the stacked matches
     rms: float
-    #: which of :data:`CAMERA_PARAMETERS` were fitted, and their covariance (internal
-    #: units: log focal-length ratio, pixels, k), NaN where not fitted
+    #: which of :data:`CAMERA_PARAMETERS` were fitted, and their covariance (log focal
+    #: length ratio, pixels, k)
     free: np.ndarray | None = None
     cov: np.ndarray | None = None
 
@@ -252,12 +251,10 @@ def _fit(stars: list[FrameStars], camera: Camera, catalog: Catalog, terms: int, 
 
 
 def _covariance(fitted, n_cam: int) -> np.ndarray:
-    """The camera parameters' covariance from the fit's Jacobian, the noise per
-    coordinate estimated from its residuals (6 x 6 over the model's values, NaN where a
-    parameter was not fitted is left to the caller)."""
+    """The free camera values' covariance: the fit's Jacobian, the noise per coordinate
+    estimated from its residuals."""
     jac, res = np.asarray(fitted.jac), np.asarray(fitted.fun)
-    dof = max(len(res) - jac.shape[1], 1)
-    noise2 = float(res @ res) / dof
+    noise2 = float(res @ res) / max(len(res) - jac.shape[1], 1)
     return noise2 * np.linalg.pinv(jac.T @ jac)[:n_cam, :n_cam]
 
 

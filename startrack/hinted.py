@@ -30,21 +30,18 @@ MAX_CHILDREN = 4
 
 
 def frame_hints(pipeline, frame: FrameInput) -> Hints | None:
-    """The hints for one input: the user's, completed by its FITS header's (unless
-    ``header_hints`` is off). A header's scale is not used when the field of view is
-    known otherwise (options, camera, sidecar). None: no hint."""
+    """The hints for one input: the user's, and (unless ``header_hints`` is off) its FITS
+    header's when the field of view is not known otherwise (options, camera, sidecar, a
+    scale range): a known one is solved in milliseconds from the tables loaded once for
+    the batch, which a cone per frame would rebuild for each. None: no hint."""
     opt = pipeline.options
     user = opt.hints or Hints()
-    header = header_hints(frame.path, opt.size or frame.size) if opt.header_hints else None
-    if header is None:
+    if not opt.header_hints or user.scale is not None:
         return user or None
-    pointing = user.pointing or header.pointing
-    scale = user.scale
-    if scale is None and pipeline.setup_for(frame)[0] is None:
-        scale = header.scale
-    from_header = (pointing is header.pointing) or (scale is header.scale)
-    hints = Hints(pointing, scale, from_header=from_header)
-    return hints or None
+    header = header_hints(frame.path, opt.size or frame.size)
+    if header is None or pipeline.setup_for(frame)[0] is not None:
+        return user or None
+    return Hints(user.pointing or header.pointing, header.scale, from_header=True)
 
 
 def solve_hinted(pipeline, frame: FrameInput, hints: Hints) -> FrameResult:
@@ -70,8 +67,6 @@ def solve_hinted(pipeline, frame: FrameInput, hints: Hints) -> FrameResult:
 
 def _child(pipeline, frame: FrameInput, hints: Hints):
     """The pipeline (cached per hint and image size) that solves with ``hints``."""
-    from startrack.pipeline import Pipeline
-
     children = pipeline.__dict__.setdefault("_hinted", OrderedDict())
     key = (hints, frame.size)
     if key in children:
@@ -87,7 +82,7 @@ def _child(pipeline, frame: FrameInput, hints: Hints):
                              "image size (--size WxH)")
         fov, tol = fov_range_deg(hints.scale, size[0])
         opt = dataclasses.replace(opt, camera=None, fov_deg=fov, fov_tolerance=tol)
-    child = Pipeline(opt, catalogs=pipeline.catalogs)
+    child = type(pipeline)(opt, catalogs=pipeline.catalogs)
     if hints.pointing is not None:
         camera = child.setup_for(frame)[0]
         child.cone = (hints.pointing, cone_radius_deg(

@@ -133,8 +133,10 @@ def header_hints(path: Path | None, size: tuple[int, int] | None) -> Hints | Non
     a WCS that says nothing usable). The pointing is the image centre's, good to
     :data:`HEADER_RADIUS_FIELDS` fields; the scale to :data:`HEADER_SCALE_TOLERANCE`."""
     header = fits_header(path)
-    if header is None or size is None:
-        return None
+    if header is None or size is None or not any(
+            str(header.get(f"CTYPE{i}", "")).upper().startswith(("RA", "DEC"))
+            for i in (1, 2)):
+        return None  # no celestial WCS: astropy.wcs (slow to import) is not needed
     import warnings
 
     from astropy.wcs import WCS, FITSFixedWarning
@@ -153,9 +155,19 @@ def header_hints(path: Path | None, size: tuple[int, int] | None) -> Hints | Non
     fov = math.degrees(2.0 * math.atan(size[0] / 2.0 * math.radians(deg_per_px)))
     if not (np.isfinite(ra[0]) and np.isfinite(dec[0]) and 0 < fov < 179):
         return None
-    pointing = Pointing(float(ra[0]) % 360.0, float(dec[0]), HEADER_RADIUS_FIELDS * fov)
+    pointing = _on_grid(float(ra[0]), float(dec[0]), HEADER_RADIUS_FIELDS * fov)
     scale = Scale(fov * (1 - HEADER_SCALE_TOLERANCE), fov * (1 + HEADER_SCALE_TOLERANCE))
     return Hints(pointing, scale, from_header=True)
+
+
+def _on_grid(ra: float, dec: float, radius: float) -> Pointing:
+    """The pointing moved to a grid a quarter of the radius wide, the radius grown to
+    cover the move: nearby frames of a batch share one cone, and its tables."""
+    step = radius / 4.0
+    dec_grid = float(np.clip(round(dec / step) * step, -90.0, 90.0))
+    ra_step = step / max(math.cos(math.radians(dec_grid)), 1e-3)
+    ra_grid = (round(ra / ra_step) * ra_step) % 360.0
+    return Pointing(ra_grid, dec_grid, radius + step)
 
 
 def fits_header(path: Path | None):

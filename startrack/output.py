@@ -66,6 +66,14 @@ def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timi
     return record
 
 
+def _sigma_line(quality: dict | None) -> list[str]:
+    """The attitude's 1-sigma line of a table, when the record has a quality."""
+    if not quality or quality.get("sigma_boresight_arcsec") is None:
+        return []
+    return [f"1-sigma: boresight {quality['sigma_boresight_arcsec']:.2f} arcsec, roll "
+            f"{quality['sigma_roll_arcsec']:.1f} arcsec (from the fit)"]
+
+
 def error_record(input_name: str, message: str) -> dict:
     """The record of an input that could not be read: ``error`` holds the stderr line."""
     return {"input": input_name, "status": "error", "error": message, "attitude": None,
@@ -105,6 +113,7 @@ def format_table(record: dict) -> str:
         "quaternion [w, x, y, z]: [" + ", ".join(f"{c:+.9f}" for c in att["quaternion"]) + "]",
         f"boresight: RA {att['ra_deg']:.5f} deg, Dec {att['dec_deg']:+.5f} deg, "
         f"roll {att['roll_deg']:.4f} deg",
+        *_sigma_line(record.get("quality")),
         timing,
         f"{'x':>9} {'y':>9} {'catalog_id':>10} {'ra_deg':>10} {'dec_deg':>10} "
         f"{'resid_as':>8}",

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from astropy.coordinates import SkyCoord
 from astropy.io import fits
 from astropy.wcs import WCS
 
@@ -17,6 +18,7 @@ from startrack.attitude import from_radec_roll
 from startrack.camera import Camera
 from startrack.errors import InputError
 from startrack.hints import (
+    Hints,
     Pointing,
     Scale,
     cone_radius_deg,
@@ -113,20 +115,30 @@ def _fits_with_wcs(path: Path, centre, exptime=None) -> Path:
 def test_a_fits_header_gives_pointing_scale_and_mid_exposure_time(tmp_path, reference):
     path = _fits_with_wcs(tmp_path / "frame.fits", AZI45, exptime=2.0)
     hints = header_hints(path, (1024, 768))
-    assert hints.from_header and hints.pointing.radius_deg == pytest.approx(11.42, rel=0.01)
-    assert hints.pointing.ra_deg == pytest.approx(AZI45[0], abs=0.01)
+    assert hints.from_header and hints.scale.low < 11.42 < hints.scale.high
+    # one field of view, the pointing on a grid a quarter of that wide, the radius grown
+    assert hints.pointing.radius_deg == pytest.approx(11.42 * 1.25, rel=0.01)
+    centre = SkyCoord(*AZI45, unit="deg")
+    hinted = SkyCoord(hints.pointing.ra_deg, hints.pointing.dec_deg, unit="deg")
+    assert centre.separation(hinted).deg < 11.42 / 4
     assert header_time(path).isot == "2019-07-29T20:47:27.000"  # DATE-OBS + EXPTIME / 2
     result = startrack.solve(path, sky="hipparcos")  # no option: the header's hints
     assert result.solved and result.frame.solution.method == "pyramid"
     assert result.to_dict()["diagnostics"]["time_utc"].startswith("2019-07-29T20:47:27")
     # the aberration correction moves the answer by up to 20 arcsec
     assert result.boresight.separation(reference.boresight).arcsec < 30
+    ignored = startrack.solve(path, sky="hipparcos", fov_deg=11.42, header_hints=False)
+    assert ignored.solved and "time_utc" not in ignored.to_dict()["diagnostics"]
+    assert ignored.boresight.separation(reference.boresight).arcsec < 1
 
 
 def test_a_wrong_header_falls_back_to_the_search(tmp_path):
+    """A header pointing elsewhere finds nothing in its cone; the input is then solved as
+    if it had no header (the blind search), not left unsolved."""
     path = _fits_with_wcs(tmp_path / "stale.fits", (100.0, -40.0))
-    result = startrack.solve(path, sky="hipparcos", fov_deg=11.42)
+    result = startrack.solve(path, sky="hipparcos")
     assert result.solved and _close(result, AZI45, arcsec=40)
+    assert result.frame.solution.method == "quad"  # the blind search's
 
 
 def test_downsample_reports_full_resolution_pixels(reference):
@@ -135,6 +147,13 @@ def test_downsample_reports_full_resolution_pixels(reference):
     both = binned.stars.merge(reference.stars, on="catalog_id", suffixes=("", "_ref"))
     assert len(both) >= 20
     assert np.median(np.hypot(both.x - both.x_ref, both.y - both.y_ref)) < 0.5
+
+
+def test_api_config_preset_gives_camera_and_sky():
+    result = startrack.solve(FRAME, config="realsky")
+    assert result.solved and _close(result, AZI45)
+    assert result.to_dict()["diagnostics"]["sky"]["epoch"] == 2019.6
+    assert result.quality["catalog"] == {"kind": "hipparcos", "mag_limit": 7.5}
 
 
 def _identify(*args):
@@ -162,3 +181,20 @@ def test_cli_hints_config_and_bad_hints(reference, tmp_path):
     run = _identify(xy, "--scale-low", 30, "--scale-high", 40, "--scale-units", "focalmm",
                     "--size", "1024x768")
     assert run.returncode == 2 and "--pixel-size" in run.stderr
+
+
+def test_calibrate_takes_its_nominal_fov_from_a_fits_header(tmp_path):
+    """(calibrate itself is tested in test_calibrate.py; here: where its nominal comes
+    from.)"""
+    from startrack.cli.calibrate import hinted_fov
+    from startrack.frame_input import read_input
+
+    path = _fits_with_wcs(tmp_path / "frame.fits", AZI45)
+    frames = [read_input(path)]
+    # CDELT is the scale at the reference pixel: a pinhole's 1 / f
+    pinhole = math.degrees(2 * math.atan(512 * math.radians(11.42 / 1024)))
+    assert hinted_fov(frames, None, None, header=True) == pytest.approx(pinhole, rel=1e-6)
+    with pytest.raises(InputError, match="--fov"):
+        hinted_fov(frames, None, None, header=False)
+    scale = Hints(scale=Scale(10.0, 12.0))
+    assert hinted_fov(frames, scale, None, header=True) == pytest.approx(11.0)

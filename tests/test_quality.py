@@ -7,6 +7,7 @@ import pytest
 import startrack
 from startrack.attitude import random_attitudes
 from startrack.camera import Camera
+from startrack.output import format_table
 from startrack.quality import QUALITY_KEYS, attitude_sigma_rad
 from startrack.scene import stars_in_view
 from startrack.sky import SkySpec, load_sky, resolve_sky
@@ -77,5 +78,6 @@ def test_quality_record_keys_and_real_sky_drops_random_keys():
     assert q["false_match_probability"] == record["false_probability"]
     assert q["catalog"] == {"kind": "hipparcos", "mag_limit": 7.5}
     assert 0 < q["sigma_boresight_arcsec"] < q["sigma_roll_arcsec"]
+    assert f"boresight {q['sigma_boresight_arcsec']:.2f} arcsec" in format_table(record)
     assert "n_stars" not in record["diagnostics"]["sky"]
     assert "seed" not in record["diagnostics"]["sky"]

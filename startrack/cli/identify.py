@@ -93,7 +93,8 @@ def _time(ctx, param, value):
 @click.option("--time", "obs_time", callback=_time,
               help="Observation time, ISO 8601 (e.g. 2019-07-29T20:47:26Z; no offset = "
                    "UTC): the attitude is corrected for annual aberration (up to 20 "
-                   "arcsec). Default: a FITS input's DATE-OBS, else no correction.")
+                   "arcsec). Default: a FITS input's DATE-OBS plus half its EXPTIME, else no "
+                   "correction.")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True,
               help=f"Matcher, one of: {', '.join(available_methods())} (docs/results.md "
                    "compares them).")
@@ -149,22 +150,15 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
     usage or an unreadable input (the other inputs are still answered).
     Conventions (pixels, attitude, JSON record, exit codes): docs/conventions.md."""
-    if camera_path and fov_deg is not None:
-        raise click.UsageError("give --camera FILE or --fov DEG, not both (the camera file "
-                               "sets the field of view)")
     writer = Writer([*with_sidecars(inputs), *([camera_path] if camera_path else [])],
                     overwrite)
     if output:  # every output is checked before any work
         writer.check(output, "--output")
     side = SideOutputs(writer, list(inputs), annotate_path, wcs_path, corr_path)
-    camera = load_camera(camera_path) if camera_path else None
-    hints = hints_from(hint_values, fov_given=camera is not None or fov_deg is not None)
-    camera, sky_spec = preset(config_path, camera, fov_deg, hints)
-    options = Options(method=method, camera=camera, fov_deg=fov_deg, size=size, sky=sky,
-                      mag_limit=mag_limit, epoch=epoch, max_stars=max_stars, sigma_px=sigma_px,
-                      timeout_ms=timeout_ms, time=obs_time, fov_tolerance=fov_tolerance,
-                      hints=hints, header_hints=not hint_values["no_header_hints"],
-                      downsample=downsample, sky_spec=sky_spec)
+    options = _options(camera_path, fov_deg, config_path, hint_values, method=method,
+                       size=size, sky=sky, mag_limit=mag_limit, epoch=epoch,
+                       max_stars=max_stars, sigma_px=sigma_px, timeout_ms=timeout_ms,
+                       time=obs_time, fov_tolerance=fov_tolerance, downsample=downsample)
     pipeline = Pipeline(options)
     if track or prior is not None:
         pipeline = SequenceSolver(pipeline, track=track, prior=None if prior is None
@@ -208,6 +202,19 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
     for path in side.written:
         note(f"wrote {path}")
     sys.exit(worst)
+
+
+def _options(camera_path, fov_deg, config_path, hint_values: dict, **given) -> Options:
+    """The pipeline's options: the camera file, the hints and a ``--config`` preset
+    decided, the other values as given."""
+    if camera_path and fov_deg is not None:
+        raise click.UsageError("give --camera FILE or --fov DEG, not both (the camera file "
+                               "sets the field of view)")
+    camera = load_camera(camera_path) if camera_path else None
+    hints = hints_from(hint_values, fov_given=camera is not None or fov_deg is not None)
+    camera, sky_spec = preset(config_path, camera, fov_deg, hints)
+    return Options(camera=camera, fov_deg=fov_deg, hints=hints, sky_spec=sky_spec,
+                   header_hints=not hint_values["no_header_hints"], **given)
 
 
 def _around_bar(emit):
