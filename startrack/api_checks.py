@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from startrack.camera import Camera
-from startrack.errors import InputError
+from startrack.errors import InputError, as_builtin
 from startrack.validate import (
     EPOCH_YEAR,
     FOV_DEG,
@@ -24,7 +24,6 @@ from startrack.validate import (
     PRIOR_SIGMA_DEG,
     SIGMA_PX,
     TIMEOUT_MS,
-    NumberError,
     NumberTypeError,
     check_attitude,
     check_keywords,
@@ -52,10 +51,8 @@ def api_camera(camera) -> Camera | None:
             return camera_from_dict(dict(camera), where="camera")
         if isinstance(camera, str | Path):
             return load_camera(camera)
-    except InputError as exc:  # the API's errors are ValueErrors (docs/conventions.md)
-        if isinstance(exc, ValueError):
-            raise
-        raise NumberError(str(exc)) from None
+    except InputError as exc:  # the API's errors are built-in subclasses (conventions)
+        raise as_builtin(exc) from None
     raise NumberTypeError(f"camera: expected a Camera, a camera file path or a mapping of "
                           f"camera keys, got {type(camera).__name__}")
 

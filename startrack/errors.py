@@ -18,7 +18,7 @@ class InputValueError(InputError, ValueError):
 def as_builtin(exc: InputError) -> InputError:
     """``exc`` as the API raises it: already a built-in subclass, or the same message as
     an :class:`InputValueError`."""
-    if isinstance(exc, ValueError | OSError):
+    if isinstance(exc, ValueError | OSError | TypeError):
         return exc
     return InputValueError(*exc.args)
 

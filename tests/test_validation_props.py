@@ -142,5 +142,5 @@ def test_every_api_keyword_is_taken_or_refused_cleanly(keyword, value):
         options.pop("fov_deg")
     try:
         startrack.Solver(**options)
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, FileNotFoundError) as exc:  # a path to no camera file
         assert "\n" not in str(exc) and str(exc)
