@@ -61,6 +61,16 @@ class Options:
     time: object | None = None
 
 
+def _with_fov(size: tuple[int, int], fov_deg: float, side_camera: Camera | None) -> Camera:
+    """The camera of ``--fov``: it overrides the field of view only, so a sidecar camera of
+    the same size keeps its principal point and lens (a principal point dropped to the
+    centre moves the boresight, and the attitude with it)."""
+    if side_camera is None or (side_camera.width, side_camera.height) != tuple(size):
+        return Camera.from_fov(size[0], size[1], fov_deg)
+    return Camera.from_fov(size[0], size[1], fov_deg, side_camera.cx, side_camera.cy,
+                           side_camera.distortion)
+
+
 class Pipeline:
     """Solve many inputs, each with its own camera and sky, sharing loaded databases."""
 
@@ -91,7 +101,7 @@ class Pipeline:
             if size is None:
                 raise InputError(f"{frame.name}: a centroid list with --fov needs the image "
                                  "size (--size WxH) or use --camera FILE")
-            camera = Camera.from_fov(size[0], size[1], opt.fov_deg)
+            camera = _with_fov(size, opt.fov_deg, side_camera)
         kind = opt.sky or (side_sky.kind if side_sky else default_sky_kind(camera))
         sky = side_sky if side_sky is not None and side_sky.kind == kind else SkySpec(kind=kind)
         if opt.epoch is not None:

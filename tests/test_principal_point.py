@@ -4,6 +4,7 @@ or "not solved", and no answer is reported as solved without its evidence."""
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -85,6 +86,28 @@ def test_a_camera_that_does_not_fit_the_frame_is_never_solved_without_stars(hipp
             assert np.all(np.isfinite(sol.residual_arcsec))
         else:
             assert result.reason in ("unverified", "no_match")
+
+
+def test_fov_option_keeps_the_sidecars_principal_point(hipparcos, tmp_path):
+    # Issue 31: `identify frame --fov 20` beside a sidecar whose camera has cx=100, cy=900
+    # solved through a centred camera: the boresight 11 deg off, or no star identified.
+    rng = np.random.default_rng(12)
+    camera = Camera.from_fov(SIZE, SIZE, FOV, 100.0, 900.0)
+    solver = Solver(fov_deg=FOV)
+    for k in range(3):
+        rotation = random_attitudes(1, rng)[0]
+        xy, _ = _centroids(hipparcos, camera, rotation, rng)
+        csv_path = tmp_path / f"f{k}.csv"
+        flux = np.arange(len(xy), 0, -1)  # brightest first
+        csv_path.write_text("x,y,flux\n" + "".join(f"{x},{y},{f}\n" for (x, y), f
+                                                   in zip(xy, flux, strict=True)))
+        sky = SkySpec(kind="hipparcos", mag_limit=6.5).to_dict()
+        (tmp_path / f"f{k}.json").write_text(json.dumps({"camera": camera.to_dict(),
+                                                         "sky": sky}))
+        result = solver.solve(csv_path)
+        assert result.solved, result.reason
+        assert boresight_error_arcsec(rotation, result.frame.solution.rotation) < WRONG_ARCSEC
+        assert (result.frame.camera.cx, result.frame.camera.cy) == (100.0, 900.0)
 
 
 def _solved(hipparcos):
