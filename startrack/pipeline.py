@@ -73,6 +73,16 @@ class Options:
     sky_spec: SkySpec | None = None
 
 
+def _with_fov(size: tuple[int, int], fov_deg: float, side_camera: Camera | None) -> Camera:
+    """The camera of ``--fov``: it overrides the field of view only, so a sidecar camera of
+    the same size keeps its principal point and lens (a principal point dropped to the
+    centre moves the boresight, and the attitude with it)."""
+    if side_camera is None or (side_camera.width, side_camera.height) != tuple(size):
+        return Camera.from_fov(size[0], size[1], fov_deg)
+    return Camera.from_fov(size[0], size[1], fov_deg, side_camera.cx, side_camera.cy,
+                           side_camera.distortion)
+
+
 class Pipeline:
     """Solve many inputs, each with its own camera and sky, sharing loaded databases."""
 
@@ -108,7 +118,7 @@ class Pipeline:
             if size is None:
                 raise InputError(f"{frame.name}: a centroid list with --fov needs the image "
                                  "size (--size WxH) or use --camera FILE")
-            camera = Camera.from_fov(size[0], size[1], opt.fov_deg)
+            camera = _with_fov(size, opt.fov_deg, side_camera)
         given = sky_spec(opt.sky) if opt.sky else None
         if given is None and side_sky is None:
             given = SkySpec(kind=default_sky_kind(camera))

@@ -53,7 +53,7 @@ class RunFolder:
         if st is None:
             _check_parents(self.out, self.what)
             return
-        if not os.path.isdir(self.out) or os.path.islink(self.out):
+        if not os.path.isdir(self.out):  # a symlink to a folder is used, never replaced
             raise OutputError(f"{self.what} {self.out}: exists and is not a folder")
         if not (self.reuse or self.overwrite) and self.earlier():
             raise OutputError(f"{self.what} {self.out}: holds an earlier run's files; give "

@@ -49,7 +49,7 @@ class SideOutputs:
                 continue
             base = Path(base)
             setattr(self, option, base)
-            into_folder = several or base.is_dir() and not base.is_symlink()
+            into_folder = several or base.is_dir()  # a link to a folder: written inside
             if several and base.exists() and not base.is_dir():
                 raise InputError(f"--{option} {base}: with several inputs it names a folder, "
                                  "and this exists as a file")

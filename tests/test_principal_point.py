@@ -4,6 +4,7 @@ or "not solved", and no answer is reported as solved without its evidence."""
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -33,25 +34,34 @@ def _centroids(catalog, camera, rotation, rng):
     return xy + rng.normal(0.0, 0.2, xy.shape), scene.catalog_id[order]
 
 
-def sweep(catalog, n: int, seed: int) -> dict[str, int]:
+def sweep(catalog, n: int, seed: int, rendered: bool = False) -> dict[str, int]:
     """``n`` frames, each from a camera with a random principal point inside the image
     (docs/conventions.md: cx in [-0.5, width - 0.5]), solved through that camera:
-    how many were solved, and how many of those had a wrong attitude or a wrong star."""
+    how many were solved, and how many of those had a wrong attitude or a wrong star.
+    ``rendered``: the frames are rendered images (the stars then found by extraction, so
+    only the attitude is scored), else centroid lists."""
+    from startrack.config import DEFAULT_CONFIG, config_from_dict
+    from startrack.render import render_frame
+
+    sensor = config_from_dict(DEFAULT_CONFIG, "default config").sensor
     rng = np.random.default_rng(seed)
     counts = {"frames": n, "solved": 0, "wrong": 0}
     for _ in range(n):
         cx, cy = rng.uniform(-0.5, SIZE - 0.5, 2)
         camera = Camera.from_fov(SIZE, SIZE, FOV, cx, cy)
         rotation = random_attitudes(1, rng)[0]
-        xy, ids = _centroids(catalog, camera, rotation, rng)
-        result = Solver(camera=camera, sky="hipparcos").solve(xy)
+        if rendered:
+            frame = render_frame(observe(catalog, camera, rotation, rng), camera, sensor, rng)
+        else:
+            frame, ids = _centroids(catalog, camera, rotation, rng)
+        result = Solver(camera=camera, sky="hipparcos").solve(frame)
         if not result.solved:
             continue
         counts["solved"] += 1
         sol = result.frame.solution
         stars = result.to_dict()["stars"]
-        wrong_ids = any(ids[k] != s["catalog_id"] for k, s in zip(sol.obs_index, stars,
-                                                                   strict=True))
+        wrong_ids = not rendered and any(ids[k] != s["catalog_id"] for k, s in zip(
+            sol.obs_index, stars, strict=True))
         if boresight_error_arcsec(rotation, sol.rotation) > WRONG_ARCSEC or wrong_ids:
             counts["wrong"] += 1
     return counts
@@ -64,8 +74,9 @@ def test_random_principal_points_solve_right_or_not_at_all(hipparcos):
 
 
 @pytest.mark.slow
-def test_200_random_principal_points_give_no_wrong_attitude(hipparcos):
-    counts = sweep(hipparcos, 200, seed=2031)
+@pytest.mark.parametrize("rendered", [False, True], ids=["centroids", "images"])
+def test_200_random_principal_points_give_no_wrong_attitude(hipparcos, rendered):
+    counts = sweep(hipparcos, 200, seed=2031, rendered=rendered)
     print(counts)
     assert counts["wrong"] == 0, counts
 
@@ -85,6 +96,28 @@ def test_a_camera_that_does_not_fit_the_frame_is_never_solved_without_stars(hipp
             assert np.all(np.isfinite(sol.residual_arcsec))
         else:
             assert result.reason in ("unverified", "no_match")
+
+
+def test_fov_option_keeps_the_sidecars_principal_point(hipparcos, tmp_path):
+    # Issue 31: `identify frame --fov 20` beside a sidecar whose camera has cx=100, cy=900
+    # solved through a centred camera: the boresight 11 deg off, or no star identified.
+    rng = np.random.default_rng(12)
+    camera = Camera.from_fov(SIZE, SIZE, FOV, 100.0, 900.0)
+    solver = Solver(fov_deg=FOV)
+    for k in range(3):
+        rotation = random_attitudes(1, rng)[0]
+        xy, _ = _centroids(hipparcos, camera, rotation, rng)
+        csv_path = tmp_path / f"f{k}.csv"
+        flux = np.arange(len(xy), 0, -1)  # brightest first
+        csv_path.write_text("x,y,flux\n" + "".join(f"{x},{y},{f}\n" for (x, y), f
+                                                   in zip(xy, flux, strict=True)))
+        sky = SkySpec(kind="hipparcos", mag_limit=6.5).to_dict()
+        (tmp_path / f"f{k}.json").write_text(json.dumps({"camera": camera.to_dict(),
+                                                         "sky": sky}))
+        result = solver.solve(csv_path)
+        assert result.solved, result.reason
+        assert boresight_error_arcsec(rotation, result.frame.solution.rotation) < WRONG_ARCSEC
+        assert (result.frame.camera.cx, result.frame.camera.cy) == (100.0, 900.0)
 
 
 def _solved(hipparcos):

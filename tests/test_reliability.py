@@ -273,6 +273,11 @@ def read_only(tmp_path):
 def test_a_read_only_folder_is_one_line(sim, read_only):
     _, cam, png, _ = sim
     one_error(cli("identify", png, "--output", read_only / "o.json"), "Read-only")
+    from startrack.outputs import OutputError, Writer
+
+    with pytest.raises(OutputError) as err, Writer().text(read_only / "c.json", "--output"):
+        pass  # calibrate --output's writer: its error names the user's path, not the temp's
+    assert str(err.value).startswith(f"--output {read_only / 'c.json'}: cannot write")
     one_error(cli("simulate", "--camera", cam, "--out", read_only / "sim"), "Read-only")
     one_error(cli("compare", "--methods", "angle", "--frames", "2", "--noise-px", "0",
                   "--false-stars", "0", "--out", read_only / "cmp"), "Read-only")
