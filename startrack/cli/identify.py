@@ -171,6 +171,9 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
                     continue
                 record = result.record()
                 note(_summary(record))
+                if "fallback" in record and prior is not None and not (track or quiet):
+                    click.echo(f"note: {name}: not solved near --prior "
+                               f"({record['fallback']}); solved lost-in-space", err=True)
                 worst = max(worst, EXIT_CODES[record["status"]])
                 for rec in [*pending, record]:
                     emit(rec)

@@ -14,7 +14,7 @@ import numpy as np
 from startrack.cache import atomic_text
 from startrack.camera import Camera
 from startrack.camera_file import load_camera
-from startrack.cli import main
+from startrack.cli import Terminated, main
 from startrack.cli.options import Number, triple
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
@@ -110,72 +110,147 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
                f"frame_*.png{', frame_*.fits' if write_fits_too else ''}, frame_*.json)")
 
 
+TRUTH_HEADER = ["frame", "file", "qw", "qx", "qy", "qz", "ra_deg", "dec_deg", "roll_deg"]
+STARS_HEADER = ["frame", "x", "y", "flux", "magnitude", "catalog_id", "is_false"]
+BLOCK = 256  # sequence attitudes computed this many frames at a time (bounded memory)
+
+
 def _run(camera: Camera, spec: SkySpec, sensor: SensorModel, opts: FrameOptions, out: Path,
          attitude: tuple[float, float, float] | None, with_fits: bool,
-         trajectory=None, obs_time=None) -> None:
+         trajectory=None, obs_time=None) -> int:
+    """Render the frames one at a time, each written as soon as it is made, its rows
+    appended to truth.csv and stars.csv (which appear, complete, at the end). Stopped by
+    SIGINT or SIGTERM, the frames written so far are kept and listed; the frame in the
+    making is removed. Returns the number of frames written."""
     from tqdm import tqdm
 
-    from startrack.attitude import from_radec_roll, to_quaternion, to_radec_roll
-    from startrack.imageio import write_fits, write_png16
-    from startrack.render import render_frame
-    from startrack.scene import observe
     from startrack.sky import load_sky
-    from startrack.wcs import wcs_header
 
     # Before any output, so that a bad sky leaves no files.
     catalog = _apparent(load_sky(spec, camera), obs_time)
     remove_own(out, OWN_FILES)  # an earlier run's frames must not outlive it (--overwrite)
-    when = None if obs_time is None else obs_time.utc.isot
-    fixed = from_radec_roll(*attitude) if attitude is not None else None
-    truth_rows, star_rows = [], []
-    bar = tqdm(range(opts.count), file=sys.stderr, unit="frame", desc="simulate",
-               disable=not sys.stderr.isatty())
-    for i in bar:
+    frame = _FrameWriter(camera, spec, sensor, opts, out, attitude, with_fits, trajectory,
+                         obs_time, catalog)
+    done = 0
+    stopped: BaseException | None = None
+    with atomic_text(out / "truth.csv") as truth_fh, atomic_text(out / "stars.csv") as stars_fh:
+        truth, stars = csv.writer(truth_fh, lineterminator="\n"), csv.writer(
+            stars_fh, lineterminator="\n")
+        truth.writerow(TRUTH_HEADER)
+        stars.writerow(STARS_HEADER)
+        bar = tqdm(range(opts.count), file=sys.stderr, unit="frame", desc="simulate",
+                   disable=not sys.stderr.isatty())
+        try:
+            for i in bar:
+                truth_row, star_rows = frame.write(i)
+                truth.writerow(truth_row)
+                stars.writerows(star_rows)
+                done = i + 1
+                if i == 0:
+                    _check_disk(out, frame.files(0), opts.count)
+        except (KeyboardInterrupt, Terminated) as exc:  # keep what is complete
+            frame.remove(done)
+            stopped = exc
+        except BaseException:  # an error: truth.csv will not appear, so neither do frames
+            for k in range(done + 1):
+                frame.remove(k)
+            raise
+    if stopped is not None:
+        click.echo(f"simulate: stopped after {done} frame(s); truth.csv and stars.csv list "
+                   "them", err=True)
+        raise stopped
+    return done
+
+
+class _FrameWriter:
+    """Renders and writes frame i (image, FITS, sidecar) and gives its CSV rows."""
+
+    def __init__(self, camera, spec, sensor, opts, out, attitude, with_fits, trajectory,
+                 obs_time, catalog) -> None:
+        from startrack.attitude import from_radec_roll
+
+        self.camera, self.spec, self.sensor, self.opts = camera, spec, sensor, opts
+        self.out, self.with_fits, self.trajectory = out, with_fits, trajectory
+        self.catalog = catalog
+        self.when = None if obs_time is None else obs_time.utc.isot
+        self.fixed = from_radec_roll(*attitude) if attitude is not None else None
+        self._block: tuple[int, object] | None = None
+
+    def files(self, i: int) -> list[Path]:
+        png = self.out / f"frame_{i:04d}.png"
+        return [png, self.out / f"frame_{i:04d}.fits", sidecar_path_for(png)]
+
+    def remove(self, i: int) -> None:
+        for path in self.files(i):
+            path.unlink(missing_ok=True)
+
+    def _pose(self, i: int, rng):
+        """Frame i's attitude and rate: the sequence's (--fps), else fixed or random."""
+        if self.trajectory is None:
+            return (self.fixed if self.fixed is not None else _random_rotation(rng),
+                    self.opts.rate_dps)
+        if self._block is None or not 0 <= i - self._block[0] < BLOCK:
+            self._block = (i, self.trajectory.block(i, BLOCK))
+        k = i - self._block[0]
+        block = self._block[1]
+        return block.rotations[k], tuple(float(w) for w in block.rates_dps[k])
+
+    def write(self, i: int) -> tuple[list, list[list]]:
+        from startrack.attitude import to_quaternion, to_radec_roll
+        from startrack.imageio import write_fits, write_png16
+        from startrack.render import render_frame
+        from startrack.scene import observe
+        from startrack.wcs import wcs_header
+
+        opts, camera, sensor = self.opts, self.camera, self.sensor
         rng = np.random.default_rng([opts.seed, i])  # each frame reproducible on its own
-        rotation, rate_dps = _attitude_and_rate(i, rng, fixed, trajectory, opts)
-        scene = observe(catalog, camera, rotation, rng, missing=opts.missing,
+        rotation, rate_dps = self._pose(i, rng)
+        scene = observe(self.catalog, camera, rotation, rng, missing=opts.missing,
                         false_stars=opts.false_stars, mag_noise=opts.mag_noise,
                         hot_pixel_fraction=opts.hot_pixel_fraction)
         image = render_frame(scene, camera, sensor, rng, angular_rate_dps=rate_dps)
-        name = f"frame_{i:04d}"
-        png = out / f"{name}.png"
+        png, fits_path, sidecar_path = self.files(i)
         write_png16(png, image)
-        if with_fits:
-            write_fits(out / f"{name}.fits", image, wcs_header(
-                camera, rotation, date_obs=when, extra=_fits_keywords(sensor, png.name)))
+        if self.with_fits:
+            write_fits(fits_path, image, wcs_header(
+                camera, rotation, date_obs=self.when,
+                extra=_fits_keywords(sensor, png.name)))
         q = [float(c) for c in to_quaternion(rotation)]
         ra, dec, roll = to_radec_roll(rotation)
         sidecar = {
             "image": png.name, "frame": i, "seed": opts.seed,
             "units": SIDECAR_UNITS,
-            "camera": camera.to_dict(), "sky": _sky_entry(spec),
+            "camera": camera.to_dict(), "sky": _sky_entry(self.spec),
             "attitude": {"quaternion": q, "ra_deg": ra, "dec_deg": dec, "roll_deg": roll},
-            "sensor": sensor.to_dict(), "time_utc": when,
+            "sensor": sensor.to_dict(), "time_utc": self.when,
             "frames": {"missing": opts.missing, "false_stars": opts.false_stars,
                        "mag_noise": opts.mag_noise, "rate_dps": rate_dps},
         }
-        if trajectory is not None:
-            sidecar["time_s"] = float(trajectory.times[i])
-        with atomic_text(sidecar_path_for(png)) as fh:
+        if self.trajectory is not None:
+            sidecar["time_s"] = float(i / self.trajectory.fps)
+        with atomic_text(sidecar_path) as fh:
             json.dump(sidecar, fh, indent=2)
             fh.write("\n")
-        truth_rows.append([i, png.name, *q, ra, dec, roll])
         flux = sensor.electrons_from_mag(scene.mag)
-        for j in range(len(scene)):  # a few dozen rows per frame, for the CSV writer
-            star_rows.append([i, float(scene.x[j]), float(scene.y[j]), float(flux[j]),
-                              float(scene.mag[j]), int(scene.catalog_id[j]),
-                              int(scene.is_false[j])])
-    _write_csv(out / "truth.csv", ["frame", "file", "qw", "qx", "qy", "qz", "ra_deg",
-                                   "dec_deg", "roll_deg"], truth_rows)
-    _write_csv(out / "stars.csv", ["frame", "x", "y", "flux", "magnitude", "catalog_id",
-                                   "is_false"], star_rows)
+        # a few dozen rows per frame, for the CSV writer (ids stay exact integers)
+        columns = (scene.x, scene.y, flux, scene.mag, scene.catalog_id,
+                   np.asarray(scene.is_false, dtype=np.int64))
+        stars = [[i, *row] for row in zip(*(np.asarray(c).tolist() for c in columns),
+                                          strict=True)]
+        return [i, png.name, *q, ra, dec, roll], stars
 
 
-def _attitude_and_rate(i: int, rng, fixed, trajectory, opts: FrameOptions):
-    """Frame i's attitude and rate: the sequence's (--fps), else fixed or random."""
-    if trajectory is not None:
-        return trajectory.rotations[i], tuple(float(w) for w in trajectory.rates_dps[i])
-    return (fixed if fixed is not None else _random_rotation(rng)), opts.rate_dps
+def _check_disk(out: Path, first_files: list[Path], count: int) -> None:
+    """Refuse, after the first frame, a run whose frames cannot fit the free space."""
+    import shutil
+
+    per_frame = sum(p.stat().st_size for p in first_files if p.exists()) + 4096
+    need = per_frame * (count - 1)
+    free = shutil.disk_usage(out).free
+    if need > free * 0.95:
+        raise InputError(f"{out}: {count:,} frames need about {need / 1e9:.3g} GB "
+                         f"({per_frame / 1e6:.3g} MB a frame) but only {free / 1e9:.3g} GB "
+                         "is free; give fewer --frames")
 
 
 def _trajectory(attitude, opts: FrameOptions, fps, profile_path, count):
@@ -228,10 +303,3 @@ def _random_rotation(rng: np.random.Generator):
     from startrack.attitude import random_attitudes
 
     return random_attitudes(1, rng)[0]
-
-
-def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
-    with atomic_text(path) as fh:
-        writer = csv.writer(fh, lineterminator="\n")
-        writer.writerow(header)
-        writer.writerows(rows)
