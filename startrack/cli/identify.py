@@ -170,10 +170,7 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
                     worst = 2
                     continue
                 record = result.record()
-                note(_summary(record))
-                if "fallback" in record and prior is not None and not (track or quiet):
-                    click.echo(f"note: {name}: not solved near --prior "
-                               f"({record['fallback']}); solved lost-in-space", err=True)
+                _report(note, name, record, prior is not None and not (track or quiet))
                 worst = max(worst, EXIT_CODES[record["status"]])
                 for rec in [*pending, record]:
                     emit(rec)
@@ -188,6 +185,15 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
     for path in side.written:
         note(f"wrote {path}")
     sys.exit(worst)
+
+
+def _report(note, name: str, record: dict, prior_alone: bool) -> None:
+    """The -v line of an input, and (a --prior without --track) one stderr line when it
+    was solved lost-in-space instead."""
+    note(_summary(record))
+    if prior_alone and "fallback" in record:
+        click.echo(f"note: {name}: not solved near --prior ({record['fallback']}); solved "
+                   "lost-in-space", err=True)
 
 
 def _around_bar(emit):
