@@ -51,11 +51,13 @@ def api_camera(camera) -> Camera | None:
         if isinstance(camera, Mapping):
             return camera_from_dict(dict(camera), where="camera")
         if isinstance(camera, str | Path):
+            if not Path(camera).is_file():
+                raise FileNotFoundError(f"camera: no camera file {str(camera)!r}")
             return load_camera(camera)
     except InputError as exc:  # the API's errors are ValueErrors (docs/conventions.md)
         if isinstance(exc, ValueError):
             raise
-        raise NumberError(str(exc)) from None
+        raise NumberError(str(exc).replace("\n", "\\n")) from None
     raise NumberTypeError(f"camera: expected a Camera, a camera file path or a mapping of "
                           f"camera keys, got {type(camera).__name__}")
 
