@@ -11,7 +11,9 @@ pair is reported only when all of these hold:
   its robust scatter; a candidate whose magnitude is off by more than ``mag_sigmas`` times
   that scatter is no candidate (a false star, or the wrong star of a close pair);
 * resolution: no other catalog star lies within ``resolve_px`` of the catalog star (the
-  optics see one spot; which star it is would be a coin toss);
+  optics see one spot; which star it is would be a coin toss), nor within
+  ``resolve_sigmas`` times the frame's stated centroid noise (the noise moves a spot that
+  far: at that noise the pair is as ambiguous);
 * no rival: the observed star's next catalog candidate, and the catalog star's next
   observed candidate (one not clearly matched elsewhere), are at least ``1/ambiguity``
   times less likely by their residuals, with the residual scatter fitted over the
@@ -54,6 +56,9 @@ class LabelConfig:
     # (scripts/harsh_frames.py, seed 3), so the odds asked are stricter there
     false_odds_flux: float = 1e-4
     resolve_px: float = RESOLVE_PX
+    # A catalog star with another within this many times the frame's stated centroid noise
+    # (when that is more than resolve_px) is as ambiguous: the noise moves a spot that far
+    resolve_sigmas: float = 2.0
     mag_sigmas: float = 5.0
     min_mag_sigma: float = 0.03  # mag: the floor of the fitted brightness scatter
     min_sigma_px: float = 0.02  # px: the floor of the fitted residual scatter
@@ -120,6 +125,7 @@ def kernel_params(obs: Observation, radius_px: float, config: LabelConfig | None
             float(obs.sigma_rad * obs.camera.f_px), float(obs.camera.width * obs.camera.height),
             math.log(config.ambiguity),
             math.log(config.false_odds_flux if obs.flux is not None else config.false_odds),
-            float(config.resolve_px) ** 2,
+            max(float(config.resolve_px),
+                config.resolve_sigmas * float(obs.sigma_rad * obs.camera.f_px)) ** 2,
             float(config.mag_sigmas), float(config.min_mag_sigma), float(config.min_sigma_px),
             int(config.min_fit))

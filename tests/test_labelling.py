@@ -78,6 +78,23 @@ def test_false_star_of_matching_brightness_beside_a_missing_star_is_withheld():
                    _reported(lab))
 
 
+def test_close_pair_within_the_stated_noise_is_withheld():
+    """A pair 3 px apart, 2 mag apart in brightness: at 1 px stated noise brightness tells
+    them apart and both are reported; at 2 px stated noise (the ambiguity radius 2 sigma =
+    4 px) neither is, whatever the brightness says."""
+    rows, x, y, mag = _with_pair(503.0, [4.0, 6.0])
+    obs = _observe(x, y, mag)
+    n = len(x)
+    for sigma, reported in ((1.0, True), (2.0, False)):
+        noisy = Observation.from_pixels(obs.x, obs.y, CAMERA, sigma, obs.flux)
+        lab = label_stars(noisy, rows, x, y, mag, 4.0 * sigma)
+        got = _reported(lab)
+        assert (n - 2 in got and n - 1 in got) is reported, sigma
+        assert all(got[i] == rows[i] for i in got)
+        if not reported:
+            assert lab.withheld["unresolved"] == 2
+
+
 @pytest.mark.parametrize("flux", [True, False])
 def test_close_pair_is_never_swapped(flux):
     """Two catalog stars 3 px apart, both observed, with the noise putting each observed
