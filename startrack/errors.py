@@ -9,14 +9,3 @@ class StartrackWarning(UserWarning):
     """Something the user should know, the run going on (the command line prints it as
     one ``startrack: warning:`` line)."""
 
-
-
-
-def __getattr__(name: str):
-    """``check_number`` from its old place: it lives in startrack.validate (one layer for
-    every source), imported on use since validate imports the classes above."""
-    if name == "check_number":
-        from startrack.validate import check_number
-
-        return check_number
-    raise AttributeError(f"module 'startrack.errors' has no attribute {name!r}")
