@@ -50,6 +50,8 @@ def api_camera(camera) -> Camera | None:
         if isinstance(camera, Mapping):
             return camera_from_dict(dict(camera), where="camera")
         if isinstance(camera, str | Path):
+            if not Path(camera).is_file():
+                raise FileNotFoundError(f"camera: no camera file {str(camera)!r}")
             return load_camera(camera)
     except InputError as exc:  # the API's errors are built-in subclasses (conventions)
         raise as_builtin(exc) from None

@@ -11,7 +11,9 @@ pair is reported only when all of these hold:
   its robust scatter; a candidate whose magnitude is off by more than ``mag_sigmas`` times
   that scatter is no candidate (a false star, or the wrong star of a close pair);
 * resolution: no other catalog star lies within ``resolve_px`` of the catalog star (the
-  optics see one spot; which star it is would be a coin toss);
+  optics see one spot; which star it is would be a coin toss), nor within
+  ``resolve_sigmas`` times the frame's stated centroid noise (the noise moves a spot that
+  far: at that noise the pair is as ambiguous);
 * no rival: the observed star's next catalog candidate, and the catalog star's next
   observed candidate (one not clearly matched elsewhere), are at least ``1/ambiguity``
   times less likely by their residuals, with the residual scatter fitted over the
@@ -19,7 +21,9 @@ pair is reported only when all of these hold:
 * not a coincidence: a false star landing that close to an unobserved catalog star (the
   false-star density and the unobserved fraction measured in this frame; its brightness
   uniform over the catalog magnitudes in view) is at most ``false_odds`` times as likely
-  as the true star at that residual and brightness. This is what keeps out a residual
+  as the true star at that residual and brightness (``false_odds_flux``, stricter, when
+  the stars carry fluxes: a false star of the right brightness by chance is otherwise
+  credited as the star). This is what keeps out a residual
   far beyond the other matches' scatter.
 
 The arithmetic is one compiled kernel, :func:`startrack.matching.labelling_kernels.label_kernel`.
@@ -47,7 +51,14 @@ class LabelConfig:
 
     ambiguity: float = 1e-3
     false_odds: float = 1e-3
+    # With fluxes a false star of the right brightness by chance gets the true star's
+    # brightness credit; 1e-3 let one 3.3 px from an unobserved star be labelled
+    # (scripts/harsh_frames.py, seed 3), so the odds asked are stricter there
+    false_odds_flux: float = 1e-4
     resolve_px: float = RESOLVE_PX
+    # A catalog star with another within this many times the frame's stated centroid noise
+    # (when that is more than resolve_px) is as ambiguous: the noise moves a spot that far
+    resolve_sigmas: float = 2.0
     mag_sigmas: float = 5.0
     min_mag_sigma: float = 0.03  # mag: the floor of the fitted brightness scatter
     min_sigma_px: float = 0.02  # px: the floor of the fitted residual scatter
@@ -113,6 +124,8 @@ def kernel_params(obs: Observation, radius_px: float, config: LabelConfig | None
     return (obs.kernel_flux(), obs.flux is not None, float(radius_px) ** 2,
             float(obs.sigma_rad * obs.camera.f_px), float(obs.camera.width * obs.camera.height),
             math.log(config.ambiguity),
-            math.log(config.false_odds), float(config.resolve_px) ** 2,
+            math.log(config.false_odds_flux if obs.flux is not None else config.false_odds),
+            max(float(config.resolve_px),
+                config.resolve_sigmas * float(obs.sigma_rad * obs.camera.f_px)) ** 2,
             float(config.mag_sigmas), float(config.min_mag_sigma), float(config.min_sigma_px),
             int(config.min_fit))

@@ -40,6 +40,8 @@ def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timi
         record["mode"] = solution.mode
     if solution.lock is not None:
         record["lock"] = solution.lock
+    if solution.fallback is not None:
+        record["fallback"] = solution.fallback
     record["attitude"] = None
     record["stars"] = []
     if solution.solved and solution.rotation is not None:

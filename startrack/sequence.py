@@ -91,7 +91,7 @@ class SequenceSolver:
             self.reset()  # a single frame, or another camera: no state carries
         self._setup = setup
         held = self._held or self._seeded(*setup)
-        spent = 0.0
+        spent, failed = 0.0, None
         if held is not None and frame.size in (None, (held.camera.width, held.camera.height)):
             obs = observation(frame.centroids, held.camera, self.pipeline.options.sigma_px)
             tracked = self.tracker.attempt(obs, held.database, self.verify_config, held.method)
@@ -103,9 +103,11 @@ class SequenceSolver:
                     held.catalog, self.pipeline.options.sigma_px,
                     self.verify_config.radius_px(obs), frame.image))
             spent = 0.0 if tracked is None else tracked.identify_ms
+            failed = None if tracked is None else (tracked.reason or "no_track")
         found = self.pipeline.identify_frame(frame)
         solution = dataclasses.replace(found.solution,
-                                       identify_ms=found.solution.identify_ms + spent)
+                                       identify_ms=found.solution.identify_ms + spent,
+                                       fallback=failed if found.solution.solved else None)
         solution = self._lock(self.tracker.record(solution, found.obs, "lost_in_space"))
         if solution.solved:
             self._held = self._holding(found.camera, found.catalog, solution.method)

@@ -36,12 +36,14 @@ class Trajectory:
         return len(self.times)
 
 
-def constant_rate(r0: Rotation, rate_dps, fps: float, count: int) -> Trajectory:
-    """``count`` frames at ``fps`` turning at the body rate ``rate_dps`` (camera frame)."""
+def constant_rate(r0: Rotation, rate_dps, fps: float, count: int,
+                  first: int = 0) -> Trajectory:
+    """``count`` frames at ``fps`` turning at the body rate ``rate_dps`` (camera frame),
+    from frame ``first`` of the sequence on."""
     if not (math.isfinite(fps) and fps > 0):
         raise InputError(f"--fps must be a positive number, got {fps}")
     w = np.radians(np.asarray(rate_dps, dtype=np.float64)).reshape(3)
-    times = np.arange(int(count), dtype=np.float64) / float(fps)
+    times = (first + np.arange(int(count), dtype=np.float64)) / float(fps)
     rotations = r0 * Rotation.from_rotvec(times[:, None] * w[None, :])
     rates = np.tile(np.degrees(w), (len(times), 1))
     return Trajectory(times, rotations, rates)
@@ -118,9 +120,8 @@ def _profile_from_rows(data: np.ndarray, path: Path) -> Profile:
     return Profile(times, Rotation.from_quat(q, scalar_first=True))
 
 
-def profile_trajectory(profile: Profile, fps: float, count: int | None = None) -> Trajectory:
-    """Frames at ``fps`` from the profile's first time; ``count`` frames (default: as many
-    as the profile covers). The rate of each frame is taken over one frame interval."""
+def profile_frames(profile: Profile, fps: float, count: int | None = None) -> int:
+    """How many frames at ``fps`` the profile gives: ``count`` if it covers them."""
     if not (math.isfinite(fps) and fps > 0):
         raise InputError(f"--fps must be a positive number, got {fps}")
     available = int(math.floor(profile.duration * fps + 1e-9)) + 1
@@ -128,13 +129,44 @@ def profile_trajectory(profile: Profile, fps: float, count: int | None = None) -
     if count > available:
         raise InputError(f"profile lasts {profile.duration:g} s: {available} frame(s) at "
                          f"{fps:g} fps, not {count}")
-    times = profile.times[0] + np.arange(count, dtype=np.float64) / fps
+    return count
+
+
+def profile_trajectory(profile: Profile, fps: float, count: int | None = None,
+                       first: int = 0) -> Trajectory:
+    """Frames at ``fps`` from the profile's first time; ``count`` frames (default: as many
+    as the profile covers) from frame ``first`` on. The rate of each frame is taken over
+    one frame interval."""
+    count = profile_frames(profile, fps, None if count is None else first + count) - first
+    times = profile.times[0] + (first + np.arange(count, dtype=np.float64)) / fps
     return Trajectory(times - profile.times[0], profile.at(times),
                       profile.rate_at(times, 1.0 / fps))
 
 
+@dataclass(frozen=True)
+class SequencePlan:
+    """The frames of a simulated sequence, computed a block at a time so that a sequence
+    of any length takes bounded memory: a profile, else a constant rate from ``r0``."""
+
+    count: int
+    fps: float
+    r0: Rotation
+    rate_dps: tuple[float, float, float]
+    profile: Profile | None = None
+
+    def __len__(self) -> int:
+        return self.count
+
+    def block(self, first: int, count: int) -> Trajectory:
+        """Frames ``first`` to ``first + count - 1`` (fewer at the end)."""
+        count = max(0, min(count, self.count - first))
+        if self.profile is not None:
+            return profile_trajectory(self.profile, self.fps, count, first=first)
+        return constant_rate(self.r0, self.rate_dps, self.fps, count, first=first)
+
+
 def simulation_trajectory(r0: Rotation, rate_dps, fps: float | None, profile_path,
-                          count: int | None) -> Trajectory | None:
+                          count: int | None) -> SequencePlan | None:
     """The frames of ``startrack simulate``: a profile file (``--profile``) at ``fps``, a
     constant rate from ``r0`` (``--fps`` with ``--rate``, or none: a stare), or None when
     there is no ``--fps`` (independent frames, as before)."""
@@ -145,5 +177,8 @@ def simulation_trajectory(r0: Rotation, rate_dps, fps: float | None, profile_pat
     if profile_path is not None:
         if rate_dps is not None:
             raise InputError("--rate and --profile exclude each other")
-        return profile_trajectory(read_profile(profile_path), fps, count)
-    return constant_rate(r0, rate_dps or (0.0, 0.0, 0.0), fps, 3 if count is None else count)
+        profile = read_profile(profile_path)
+        return SequencePlan(profile_frames(profile, fps, count), fps, r0, (0.0, 0.0, 0.0),
+                            profile)
+    return SequencePlan(3 if count is None else count, fps, r0,
+                        tuple(rate_dps or (0.0, 0.0, 0.0)))

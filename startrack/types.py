@@ -93,6 +93,9 @@ class Solution:
     #: in a tracked sequence, the lock state after this frame (startrack.tracker.LOCK_STATES);
     #: None outside a sequence
     lock: str | None = None
+    #: solved lost-in-space after a prior or tracking attempt failed: that attempt's reason
+    #: ("no_track", "too_few_stars"); None otherwise (docs/conventions.md)
+    fallback: str | None = None
 
 
 @dataclass(frozen=True)

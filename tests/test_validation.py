@@ -251,3 +251,76 @@ def test_camera_file_numbers_name_the_file(tmp_path):
     path.write_text(json.dumps({"width": 1024, "height": 1024, "fov_deg": 1e-300}))
     code, _, err = run("identify", tmp_path / "missing.csv", "--camera", path)
     one_line_error(code, err, "cam.json: fov_deg")
+
+
+def test_wrong_prior_falls_back_and_says_so():
+    from synth import synthetic_frame
+
+    import startrack
+    from startrack.attitude import from_radec_roll
+    from startrack.camera import Camera
+    from startrack.sky import random_sky
+
+    camera = Camera.from_fov(1024, 1024, 17.5)
+    frame = synthetic_frame(random_sky(2000, seed=0), camera, from_radec_roll(120, 40, 10),
+                            np.random.default_rng(5))
+    xy = np.column_stack([frame.obs.x, frame.obs.y])
+    options = dict(fov_deg=17.5, size=(1024, 1024), sky="random", fov_tolerance=0)
+    plain = startrack.solve(xy, **options)
+    wrong = startrack.solve(xy, prior=(0, 0, 0), prior_sigma_deg=0.001, **options)
+    assert plain.solved and wrong.solved and wrong.mode == "lost_in_space"
+    assert wrong.to_dict()["fallback"] == "no_track" and "fallback" not in plain.to_dict()
+    near = startrack.solve(xy, prior=(120, 40, 10), prior_sigma_deg=0.5, **options)
+    assert near.mode == "tracking" and "fallback" not in near.to_dict()
+
+
+def test_simulate_stopped_keeps_complete_frames_listed(tmp_path, monkeypatch):
+    import startrack.render as render
+
+    real, calls = render.render_frame, []
+
+    def render_then_stop(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(render, "render_frame", render_then_stop)
+    _free_disk(monkeypatch, 10**15)  # a million frames "fit": the run is stopped first
+    out = tmp_path / "sim"
+    code, _, err = run("simulate", "--frames", "1000000", "--fps", "10", "--out", out)
+    assert code == 130 and "stopped after 2 frame(s)" in err
+    truth = (out / "truth.csv").read_text().splitlines()
+    assert [row.split(",")[1] for row in truth[1:]] == ["frame_0000.png", "frame_0001.png"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        "frame_0000.json", "frame_0000.png", "frame_0001.json", "frame_0001.png",
+        "stars.csv", "truth.csv"]
+
+
+def _free_disk(monkeypatch, free: int) -> None:
+    import shutil
+    from collections import namedtuple
+
+    usage = namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: usage(free, 0, free))
+
+
+def test_simulate_refuses_a_run_that_cannot_fit_the_disk(tmp_path, monkeypatch):
+    _free_disk(monkeypatch, 10**7)
+    out = tmp_path / "sim"
+    code, _, err = run("simulate", "--frames", "1000", "--out", out)
+    one_line_error(code, err, "1,000 frames need about", "free")
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_sequence_plan_blocks_match_the_whole():
+    from startrack.attitude import from_radec_roll
+    from startrack.trajectory import constant_rate, simulation_trajectory
+
+    r0 = from_radec_roll(10, 20, 30)
+    plan = simulation_trajectory(r0, (0.5, -0.2, 1.0), 10.0, None, 1000)
+    whole = constant_rate(r0, (0.5, -0.2, 1.0), 10.0, 1000)
+    block = plan.block(600, 256)
+    assert len(plan) == 1000 and len(block) == 256
+    assert ((block.rotations.inv() * whole.rotations[600:856]).magnitude() < 1e-12).all()
+    assert len(plan.block(900, 256)) == 100

@@ -21,7 +21,7 @@ from startrack.cli import main
 from startrack.cli.options import Number
 from startrack.validate import Bounds
 
-PROBES = settings(max_examples=60, derandomize=True, deadline=None, database=None,
+PROBES = settings(max_examples=120, derandomize=True, deadline=None, database=None,
                   suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 NUMBERS = st.one_of(
@@ -131,7 +131,7 @@ API_VALUES = st.one_of(
 )
 
 
-@settings(max_examples=150, derandomize=True, deadline=None, database=None)
+@settings(max_examples=300, derandomize=True, deadline=None, database=None)
 @given(keyword=st.sampled_from(API_KEYWORDS), value=API_VALUES)
 def test_every_api_keyword_is_taken_or_refused_cleanly(keyword, value):
     import startrack

@@ -187,7 +187,7 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
                     worst = 2
                     continue
                 record = result.record()
-                note(_summary(record))
+                _report(note, name, record, prior is not None and not (track or quiet))
                 worst = max(worst, EXIT_CODES[record["status"]])
                 for rec in [*pending, record]:
                     emit(rec)
@@ -215,6 +215,15 @@ def _options(camera_path, fov_deg, config_path, hint_values: dict, **given) -> O
     camera, sky_spec = preset(config_path, camera, fov_deg, hints)
     return Options(camera=camera, fov_deg=fov_deg, hints=hints, sky_spec=sky_spec,
                    header_hints=not hint_values["no_header_hints"], **given)
+
+
+def _report(note, name: str, record: dict, prior_alone: bool) -> None:
+    """The -v line of an input, and (a --prior without --track) one stderr line when it
+    was solved lost-in-space instead."""
+    note(_summary(record))
+    if prior_alone and "fallback" in record:
+        click.echo(f"note: {name}: not solved near --prior ({record['fallback']}); solved "
+                   "lost-in-space", err=True)
 
 
 def _around_bar(emit):

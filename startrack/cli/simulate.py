@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import json
 from pathlib import Path
 
 import click
@@ -12,7 +11,7 @@ import numpy as np
 
 from startrack.camera import Camera
 from startrack.camera_file import load_camera
-from startrack.cli import main
+from startrack.cli import Terminated, main
 from startrack.cli.options import (
     SKY_HELP,
     SKY_NAME,
@@ -22,13 +21,14 @@ from startrack.cli.options import (
     triple,
     verbosity,
 )
+from startrack.cli.simulate_frames import FrameWriter, check_disk, random_rotation
 from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
 from startrack.image_header import check_pixels
 from startrack.outputs import atomic_text
 from startrack.run_folder import RunFolder
 from startrack.sensor import SensorModel
-from startrack.sidecar import STARS_COLUMNS, TRUTH_COLUMNS, sidecar_path_for
+from startrack.sidecar import STARS_COLUMNS, TRUTH_COLUMNS
 from startrack.sky import SkySpec, resolve_sky, with_sky
 from startrack.validate import (
     FALSE_STARS,
@@ -128,66 +128,48 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
 
 def _run(camera: Camera, catalog, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
          folder: RunFolder, attitude: tuple[float, float, float] | None, with_fits: bool,
-         trajectory=None, obs_time=None, quiet: bool = False, detail=None) -> None:
-    from startrack.attitude import from_radec_roll, to_quaternion, to_radec_roll
-    from startrack.imageio import write_fits, write_png16
+         trajectory=None, obs_time=None, quiet: bool = False, detail=None) -> int:
+    """Render the frames one at a time, each written as soon as it is made, its rows
+    appended to truth.csv and stars.csv (which appear, complete, at the end). Stopped by
+    SIGINT or SIGTERM, the frames written so far are kept and listed; the frame in the
+    making is removed. Returns the number of frames written."""
     from startrack.progress import iterate
-    from startrack.render import render_frame
-    from startrack.scene import observe
-    from startrack.wcs import wcs_header
 
     folder.remove_earlier()  # an earlier run's frames must not outlive it (--overwrite)
     out = folder.out
-    when = None if obs_time is None else obs_time.utc.isot
-    fixed = from_radec_roll(*attitude) if attitude is not None else None
-    truth_rows, star_rows = [], []
-    for i in iterate(range(opts.count), desc="simulate", unit="frame", quiet=quiet):
-        rng = np.random.default_rng([opts.seed, i])  # each frame reproducible on its own
-        rotation, rate_dps = _attitude_and_rate(i, rng, fixed, trajectory, opts)
-        scene = observe(catalog, camera, rotation, rng, missing=opts.missing,
-                        false_stars=opts.false_stars, mag_noise=opts.mag_noise,
-                        hot_pixel_fraction=opts.hot_pixel_fraction)
-        image = render_frame(scene, camera, sensor, rng, angular_rate_dps=rate_dps)
-        name = f"frame_{i:04d}"
-        png = out / f"{name}.png"
-        write_png16(png, image)
-        if with_fits:
-            write_fits(out / f"{name}.fits", image, wcs_header(
-                camera, rotation, date_obs=when, extra=_fits_keywords(sensor, png.name)))
-        q = [float(c) for c in to_quaternion(rotation)]
-        ra, dec, roll = to_radec_roll(rotation)
-        sidecar = {
-            "image": png.name, "frame": i, "seed": opts.seed,
-            "units": SIDECAR_UNITS,
-            "camera": camera.to_dict(), "sky": _sky_entry(spec),
-            "attitude": {"quaternion": q, "ra_deg": ra, "dec_deg": dec, "roll_deg": roll},
-            "sensor": sensor.to_dict(), "time_utc": when,
-            "frames": {"missing": opts.missing, "false_stars": opts.false_stars,
-                       "mag_noise": opts.mag_noise, "rate_dps": rate_dps},
-        }
-        if trajectory is not None:
-            sidecar["time_s"] = float(trajectory.times[i])
-        with atomic_text(sidecar_path_for(png)) as fh:
-            json.dump(sidecar, fh, indent=2)
-            fh.write("\n")
-        truth_rows.append([i, png.name, *q, ra, dec, roll])
-        if detail is not None:
-            detail(f"{png.name}: RA {ra:.4f} Dec {dec:+.4f} roll {roll:.3f} deg, "
-                   f"{len(scene)} spots")
-        flux = sensor.electrons_from_mag(scene.mag)
-        for j in range(len(scene)):  # a few dozen rows per frame, for the CSV writer
-            star_rows.append([i, float(scene.x[j]), float(scene.y[j]), float(flux[j]),
-                              float(scene.mag[j]), int(scene.catalog_id[j]),
-                              int(scene.is_false[j])])
-    _write_csv(out / "truth.csv", TRUTH_COLUMNS, truth_rows)
-    _write_csv(out / "stars.csv", STARS_COLUMNS, star_rows)
-
-
-def _attitude_and_rate(i: int, rng, fixed, trajectory, opts: FrameOptions):
-    """Frame i's attitude and rate: the sequence's (--fps), else fixed or random."""
-    if trajectory is not None:
-        return trajectory.rotations[i], tuple(float(w) for w in trajectory.rates_dps[i])
-    return (fixed if fixed is not None else _random_rotation(rng)), opts.rate_dps
+    frame = FrameWriter(camera, spec, sensor, opts, out, attitude, with_fits, trajectory,
+                        obs_time, catalog)
+    done = 0
+    stopped: BaseException | None = None
+    with atomic_text(out / "truth.csv") as truth_fh, atomic_text(out / "stars.csv") as stars_fh:
+        truth, stars = csv.writer(truth_fh, lineterminator="\n"), csv.writer(
+            stars_fh, lineterminator="\n")
+        truth.writerow(TRUTH_COLUMNS)
+        stars.writerow(STARS_COLUMNS)
+        try:
+            for i in iterate(range(opts.count), desc="simulate", unit="frame", quiet=quiet):
+                truth_row, star_rows = frame.write(i)
+                truth.writerow(truth_row)
+                stars.writerows(star_rows)
+                done = i + 1
+                if detail is not None:
+                    ra, dec, roll = truth_row[-3:]
+                    detail(f"{truth_row[1]}: RA {ra:.4f} Dec {dec:+.4f} roll {roll:.3f} deg, "
+                           f"{len(star_rows)} spots")
+                if i == 0:
+                    check_disk(out, frame.files(0), opts.count)
+        except (KeyboardInterrupt, Terminated) as exc:  # keep what is complete
+            frame.remove(done)
+            stopped = exc
+        except BaseException:  # an error: truth.csv will not appear, so neither do frames
+            for k in range(done + 1):
+                frame.remove(k)
+            raise
+    if stopped is not None:
+        click.echo(f"simulate: stopped after {done} frame(s); truth.csv and stars.csv list "
+                   "them", err=True)
+        raise stopped
+    return done
 
 
 def _trajectory(attitude, opts: FrameOptions, fps, profile_path, count):
@@ -196,28 +178,8 @@ def _trajectory(attitude, opts: FrameOptions, fps, profile_path, count):
     from startrack.trajectory import simulation_trajectory
 
     start = (from_radec_roll(*attitude) if attitude is not None
-             else _random_rotation(np.random.default_rng([opts.seed, 1 << 20])))
+             else random_rotation(np.random.default_rng([opts.seed, 1 << 20])))
     return simulation_trajectory(start, opts.rate_dps, fps, profile_path, count)
-
-
-#: what the numbers in a sidecar are measured in (docs/conventions.md)
-SIDECAR_UNITS = {
-    "pixels": "px; (0, 0) is the centre of the top-left pixel, x right, y down",
-    "angles": "deg (fov_deg, ra_deg, dec_deg, roll_deg, min_separation_deg)",
-    "quaternion": "scalar first [w, x, y, z], camera frame to ICRS",
-    "rate_dps": "deg/s about the camera axes",
-    "magnitudes": "catalog magnitudes (Hipparcos Hp for the Hipparcos sky)",
-    "sensor": "electrons (e-), ADU counts, seconds; gain in e-/ADU",
-}
-
-
-def _sky_entry(spec: SkySpec) -> dict:
-    """The sky as a sidecar records it: a random sky's size and seed, only for one."""
-    entry = spec.to_dict()
-    if spec.kind != "random":
-        entry.pop("n_stars", None)
-        entry.pop("seed", None)
-    return entry
 
 
 def _apparent(catalog, obs_time):
@@ -227,23 +189,3 @@ def _apparent(catalog, obs_time):
     from startrack.aberration import apparent_catalog
 
     return apparent_catalog(catalog, obs_time)
-
-
-def _fits_keywords(sensor: SensorModel, png_name: str) -> dict:
-    return {"EXPTIME": (sensor.exposure_s, "[s] exposure time"),
-            "GAIN": (sensor.gain, "[e-/ADU] detector gain"),
-            "BUNIT": ("adu", "pixel values are detector counts (ADU)"),
-            "FRAME": (png_name, "the same frame as PNG")}
-
-
-def _random_rotation(rng: np.random.Generator):
-    from startrack.attitude import random_attitudes
-
-    return random_attitudes(1, rng)[0]
-
-
-def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
-    with atomic_text(path) as fh:
-        writer = csv.writer(fh, lineterminator="\n")
-        writer.writerow(header)
-        writer.writerows(rows)

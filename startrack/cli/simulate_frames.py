@@ -1,0 +1,141 @@
+"""One frame of `startrack simulate` rendered and written (image, FITS, sidecar) with its
+CSV rows, and the disk check of a long run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from startrack.errors import InputError
+from startrack.outputs import atomic_text
+from startrack.sensor import SensorModel
+from startrack.sidecar import sidecar_path_for
+from startrack.sky import SkySpec
+
+BLOCK = 256  # sequence attitudes computed this many frames at a time (bounded memory)
+
+
+class FrameWriter:
+    """Renders and writes frame i (image, FITS, sidecar) and gives its CSV rows."""
+
+    def __init__(self, camera, spec, sensor, opts, out, attitude, with_fits, trajectory,
+                 obs_time, catalog) -> None:
+        from startrack.attitude import from_radec_roll
+
+        self.camera, self.spec, self.sensor, self.opts = camera, spec, sensor, opts
+        self.out, self.with_fits, self.trajectory = out, with_fits, trajectory
+        self.catalog = catalog
+        self.when = None if obs_time is None else obs_time.utc.isot
+        self.fixed = from_radec_roll(*attitude) if attitude is not None else None
+        self._block: tuple[int, object] | None = None
+
+    def files(self, i: int) -> list[Path]:
+        png = self.out / f"frame_{i:04d}.png"
+        return [png, self.out / f"frame_{i:04d}.fits", sidecar_path_for(png)]
+
+    def remove(self, i: int) -> None:
+        for path in self.files(i):
+            path.unlink(missing_ok=True)
+
+    def _pose(self, i: int, rng):
+        """Frame i's attitude and rate: the sequence's (--fps), else fixed or random."""
+        if self.trajectory is None:
+            return (self.fixed if self.fixed is not None else random_rotation(rng),
+                    self.opts.rate_dps)
+        if self._block is None or not 0 <= i - self._block[0] < BLOCK:
+            self._block = (i, self.trajectory.block(i, BLOCK))
+        k = i - self._block[0]
+        block = self._block[1]
+        return block.rotations[k], tuple(float(w) for w in block.rates_dps[k])
+
+    def write(self, i: int) -> tuple[list, list[list]]:
+        from startrack.attitude import to_quaternion, to_radec_roll
+        from startrack.imageio import write_fits, write_png16
+        from startrack.render import render_frame
+        from startrack.scene import observe
+        from startrack.wcs import wcs_header
+
+        opts, camera, sensor = self.opts, self.camera, self.sensor
+        rng = np.random.default_rng([opts.seed, i])  # each frame reproducible on its own
+        rotation, rate_dps = self._pose(i, rng)
+        scene = observe(self.catalog, camera, rotation, rng, missing=opts.missing,
+                        false_stars=opts.false_stars, mag_noise=opts.mag_noise,
+                        hot_pixel_fraction=opts.hot_pixel_fraction)
+        image = render_frame(scene, camera, sensor, rng, angular_rate_dps=rate_dps)
+        png, fits_path, sidecar_path = self.files(i)
+        write_png16(png, image)
+        if self.with_fits:
+            write_fits(fits_path, image, wcs_header(
+                camera, rotation, date_obs=self.when,
+                extra=_fits_keywords(sensor, png.name)))
+        q = [float(c) for c in to_quaternion(rotation)]
+        ra, dec, roll = to_radec_roll(rotation)
+        sidecar = {
+            "image": png.name, "frame": i, "seed": opts.seed,
+            "units": SIDECAR_UNITS,
+            "camera": camera.to_dict(), "sky": _sky_entry(self.spec),
+            "attitude": {"quaternion": q, "ra_deg": ra, "dec_deg": dec, "roll_deg": roll},
+            "sensor": sensor.to_dict(), "time_utc": self.when,
+            "frames": {"missing": opts.missing, "false_stars": opts.false_stars,
+                       "mag_noise": opts.mag_noise, "rate_dps": rate_dps},
+        }
+        if self.trajectory is not None:
+            sidecar["time_s"] = float(i / self.trajectory.fps)
+        with atomic_text(sidecar_path) as fh:
+            json.dump(sidecar, fh, indent=2)
+            fh.write("\n")
+        flux = sensor.electrons_from_mag(scene.mag)
+        # a few dozen rows per frame, for the CSV writer (ids stay exact integers)
+        columns = (scene.x, scene.y, flux, scene.mag, scene.catalog_id,
+                   np.asarray(scene.is_false, dtype=np.int64))
+        stars = [[i, *row] for row in zip(*(np.asarray(c).tolist() for c in columns),
+                                          strict=True)]
+        return [i, png.name, *q, ra, dec, roll], stars
+
+
+def check_disk(out: Path, first_files: list[Path], count: int) -> None:
+    """Refuse, after the first frame, a run whose frames cannot fit the free space."""
+    import shutil
+
+    per_frame = sum(p.stat().st_size for p in first_files if p.exists()) + 4096
+    need = per_frame * (count - 1)
+    free = shutil.disk_usage(out).free
+    if need > free * 0.95:
+        raise InputError(f"{out}: {count:,} frames need about {need / 1e9:.3g} GB "
+                         f"({per_frame / 1e6:.3g} MB a frame) but only {free / 1e9:.3g} GB "
+                         "is free; give fewer --frames")
+
+
+#: what the numbers in a sidecar are measured in (docs/conventions.md)
+SIDECAR_UNITS = {
+    "pixels": "px; (0, 0) is the centre of the top-left pixel, x right, y down",
+    "angles": "deg (fov_deg, ra_deg, dec_deg, roll_deg, min_separation_deg)",
+    "quaternion": "scalar first [w, x, y, z], camera frame to ICRS",
+    "rate_dps": "deg/s about the camera axes",
+    "magnitudes": "catalog magnitudes (Hipparcos Hp for the Hipparcos sky)",
+    "sensor": "electrons (e-), ADU counts, seconds; gain in e-/ADU",
+}
+
+
+def _sky_entry(spec: SkySpec) -> dict:
+    """The sky as a sidecar records it: a random sky's size and seed, only for one."""
+    entry = spec.to_dict()
+    if spec.kind != "random":
+        entry.pop("n_stars", None)
+        entry.pop("seed", None)
+    return entry
+
+
+def _fits_keywords(sensor: SensorModel, png_name: str) -> dict:
+    return {"EXPTIME": (sensor.exposure_s, "[s] exposure time"),
+            "GAIN": (sensor.gain, "[e-/ADU] detector gain"),
+            "BUNIT": ("adu", "pixel values are detector counts (ADU)"),
+            "FRAME": (png_name, "the same frame as PNG")}
+
+
+def random_rotation(rng: np.random.Generator):
+    from startrack.attitude import random_attitudes
+
+    return random_attitudes(1, rng)[0]
