@@ -292,9 +292,16 @@ def test_simulate_stopped_keeps_complete_frames_listed(tmp_path, monkeypatch):
     assert code == 130 and "stopped after 2 frame(s)" in err
     truth = (out / "truth.csv").read_text().splitlines()
     assert [row.split(",")[1] for row in truth[1:]] == ["frame_0000.png", "frame_0001.png"]
-    assert sorted(p.name for p in out.iterdir()) == [
+    assert _written(out) == [
         "frame_0000.json", "frame_0000.png", "frame_0001.json", "frame_0001.png",
         "stars.csv", "truth.csv"]
+
+
+def _written(out) -> list[str]:
+    """The files in a run folder, less its lock and manifest (startrack.run_folder)."""
+    from startrack.run_folder import LOCK_FILE, MANIFEST_FILE
+
+    return sorted(p.name for p in out.iterdir() if p.name not in (LOCK_FILE, MANIFEST_FILE))
 
 
 def _free_disk(monkeypatch, free: int) -> None:
@@ -310,7 +317,7 @@ def test_simulate_refuses_a_run_that_cannot_fit_the_disk(tmp_path, monkeypatch):
     out = tmp_path / "sim"
     code, _, err = run("simulate", "--frames", "1000", "--out", out)
     one_line_error(code, err, "1,000 frames need about", "free")
-    assert not out.exists() or not any(out.iterdir())
+    assert not out.exists() or not _written(out)
 
 
 def test_sequence_plan_blocks_match_the_whole():

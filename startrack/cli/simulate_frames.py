@@ -30,13 +30,20 @@ class FrameWriter:
         self.when = None if obs_time is None else obs_time.utc.isot
         self.fixed = from_radec_roll(*attitude) if attitude is not None else None
         self._block: tuple[int, object] | None = None
+        #: (frame, files written so far) of the frame being written
+        self._partial: tuple[int, list[Path]] = (-1, [])
 
     def files(self, i: int) -> list[Path]:
+        """The files frame i is made of (its FITS only when asked for)."""
         png = self.out / f"frame_{i:04d}.png"
-        return [png, self.out / f"frame_{i:04d}.fits", sidecar_path_for(png)]
+        fits = [self.out / f"frame_{i:04d}.fits"] if self.with_fits else []
+        return [png, *fits, sidecar_path_for(png)]
 
     def remove(self, i: int) -> None:
-        for path in self.files(i):
+        """Delete what this run wrote of frame i: a frame being written loses only the
+        files it got to (a refused path, an input, stays untouched)."""
+        written = self._partial[1] if self._partial[0] == i else self.files(i)
+        for path in written:
             path.unlink(missing_ok=True)
 
     def _pose(self, i: int, rng):
@@ -64,12 +71,17 @@ class FrameWriter:
                         false_stars=opts.false_stars, mag_noise=opts.mag_noise,
                         hot_pixel_fraction=opts.hot_pixel_fraction)
         image = render_frame(scene, camera, sensor, rng, angular_rate_dps=rate_dps)
-        png, fits_path, sidecar_path = self.files(i)
+        png, *_, sidecar_path = self.files(i)
+        written: list[Path] = []
+        self._partial = (i, written)
         write_png16(png, image)
+        written.append(png)
         if self.with_fits:
+            fits_path = png.with_suffix(".fits")
             write_fits(fits_path, image, wcs_header(
                 camera, rotation, date_obs=self.when,
                 extra=_fits_keywords(sensor, png.name)))
+            written.append(fits_path)
         q = [float(c) for c in to_quaternion(rotation)]
         ra, dec, roll = to_radec_roll(rotation)
         sidecar = {
@@ -86,6 +98,7 @@ class FrameWriter:
         with atomic_text(sidecar_path) as fh:
             json.dump(sidecar, fh, indent=2)
             fh.write("\n")
+        written.append(sidecar_path)
         flux = sensor.electrons_from_mag(scene.mag)
         # a few dozen rows per frame, for the CSV writer (ids stay exact integers)
         columns = (scene.x, scene.y, flux, scene.mag, scene.catalog_id,
