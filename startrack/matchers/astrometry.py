@@ -51,6 +51,7 @@ class FieldSolution:
     y: np.ndarray
     vectors: np.ndarray
     wall_ms: float
+    scale_deg_px: float = float("nan")  # the solved WCS's pixel scale
 
     @property
     def solved(self) -> bool:
@@ -94,6 +95,17 @@ def read_corr(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                                  np.asarray(t["index_dec"], float)))
 
 
+def wcs_scale(path: Path) -> float:
+    """The pixel scale (deg/px) of a solved ``.wcs`` header (NaN when it is missing)."""
+    from astropy.io import fits
+
+    try:
+        h = fits.getheader(path)
+        return float(np.sqrt(abs(h["CD1_1"] * h["CD2_2"] - h["CD1_2"] * h["CD2_1"])))
+    except (OSError, KeyError):
+        return float("nan")
+
+
 def solve_field(x: np.ndarray, y: np.ndarray, flux: np.ndarray, size: tuple[int, int],
                 scale_deg: tuple[float, float] | None, cpulimit_s: float,
                 work: Path) -> FieldSolution:
@@ -123,7 +135,7 @@ def solve_field(x: np.ndarray, y: np.ndarray, flux: np.ndarray, size: tuple[int,
         if done.returncode != 0 or not corr.exists():
             return FieldSolution(np.empty(0), np.empty(0), np.empty((0, 3)), wall_ms)
         fx, fy, vectors = read_corr(corr)
-        return FieldSolution(fx, fy, vectors, wall_ms)
+        return FieldSolution(fx, fy, vectors, wall_ms, wcs_scale(run / "field.wcs"))
     finally:
         shutil.rmtree(run, ignore_errors=True)
 
