@@ -99,6 +99,7 @@ def test_sky_spec_of_a_path(tmp_path):
     spec = sky_spec(str(path))
     assert spec.kind == "file" and spec.path == str(path.resolve())
     assert SkySpec.from_dict(spec.to_dict()) == spec
+    assert load_sky(path).ids.tolist() == [7, 8]  # the API's load_sky takes the path too
     assert "path" not in SkySpec(kind="gaia").to_dict()
     with pytest.raises(InputError, match="neither"):
         sky_spec("nonsense")
