@@ -5,12 +5,13 @@ or no FOV at all. A peer that is not installed is skipped with a one-line note.
 
 * startrack: ``Options(fov_deg=estimate, fov_tolerance=0.10)`` (it searches
   estimate x (1 +- 10 %) widened by startrack.fov.MARGIN), or no FOV (its blind search of
-  startrack.fov.BLIND_FOV_RANGE on the Gaia sky, the default with no camera).
+  startrack.fov.BLIND_FOV_RANGE on its default sky with no camera: Tycho-2 when
+  installed, else Gaia).
 * tetra3 and tetra3rs: the same estimate with ``fov_max_error`` the half-width startrack
   searches, on one database per FOV spanning every estimate's range; no FOV: their own
   unknown-FOV mode (tetra3: ``fov_estimate=None``; tetra3rs has none, so the centre of its
   database range with the whole range as the error) on a database over
-  [FOV / ``--peer-span``, FOV x ``--peer-span``], narrower than startrack's 1 to 40 deg,
+  [FOV / ``--peer-span``, FOV x ``--peer-span``], narrower than startrack's 0.8 to 40 deg,
   which here takes too long to build: more information than startrack gets.
 * astrometry.net (``solve-field`` on the centroid list, scripts/bench_blind_peer_solvers.py):
   the same searched range as ``--scale-low/--scale-high`` in image widths; no FOV: no
