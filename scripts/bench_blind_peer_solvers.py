@@ -6,7 +6,6 @@ observed rows, catalog directions of the named stars) or None.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import tempfile
@@ -15,14 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.attitude import solve_wahba
 from startrack.cache import cached_file
 from startrack.errors import InputError
 from startrack.matchers._peer import positions_to_indices, write_gaia_binary, write_hip_main
 from startrack.matchers.astrometry import INSTALL, solve_field, solve_field_available
 from startrack.matchers.tetra3 import attitude_from_tetra3, tetra3_centroids
 from startrack.matchers.tetra3rs import attitude_from_tetra3rs, tetra3rs_centroids
-from startrack.types import Observation
 
 
 def ranges(fov: float, search: float, tolerance: float, span: float) -> dict:
@@ -140,8 +137,8 @@ class Tetra3rs(_Peer):
 class Astrometry(_Peer):
     """solve-field on the centroid list: the searched FOV range as ``--scale-low/high``
     (degwidth); with no FOV no scale at all, its own blind mode over every index file.
-    The named stars are its index stars' directions; the attitude is fitted to them
-    through a camera of the solved pixel scale."""
+    The named stars are its index stars' directions; the attitude is its WCS's
+    (startrack.matchers.astrometry.wcs_attitude)."""
 
     def __init__(self, *args) -> None:
         super().__init__(*args)
@@ -162,15 +159,12 @@ class Astrometry(_Peer):
         scale = None if est is None else (est * (1 - self.search), est * (1 + self.search))
         found = solve_field(x, y, flux, (self.camera.width, self.camera.height), scale,
                             self.timeout_ms / 1000.0, Path(self.work.name))
-        if not found.solved or not np.isfinite(found.scale_deg_px):
+        if not found.solved or found.rotation is None:
             return None, found.wall_ms
         obs_index = positions_to_indices(np.column_stack([x, y]),
                                          np.column_stack([found.x, found.y]), tol=0.01)
         keep = obs_index >= 0
-        cam = dataclasses.replace(self.camera, f_px=1.0 / math.radians(found.scale_deg_px))
-        seen = Observation.from_pixels(x, y, cam, 1.0)
-        rot = solve_wahba(seen.vectors[obs_index[keep]], found.vectors[keep])
-        return (rot, obs_index[keep], found.vectors[keep]), found.wall_ms
+        return (found.rotation, obs_index[keep], found.vectors[keep]), found.wall_ms
 
 
 PEERS = {"tetra3": Tetra3, "tetra3rs": Tetra3rs, "astrometry": Astrometry}
