@@ -100,15 +100,21 @@ def wcs_attitude(path: Path) -> Rotation | None:
     """Our attitude from a solved ``.wcs`` whose reference pixel is the image centre
     (``--crpix-center``): the boresight is CRVAL, and the CD matrix's columns are the
     directions of +x and +y there in (east, north); None when it is missing or mirrored."""
+    import warnings
+
     from astropy.io import fits
+    from astropy.wcs import WCS
 
     try:
-        h = fits.getheader(path)
-        cd = np.array([[h["CD1_1"], h["CD1_2"]], [h["CD2_1"], h["CD2_2"]]], dtype=float)
-        ra, dec = np.radians(h["CRVAL1"]), np.radians(h["CRVAL2"])
-    except (OSError, KeyError):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # astrometry.net's headers draw FITSFixed notes
+            w = WCS(fits.getheader(path))
+        cd = w.pixel_scale_matrix  # CD, or PC x CDELT
+        crval = w.wcs.crval
+    except (OSError, ValueError):
         return None
-    boresight = radec_to_vectors(h["CRVAL1"], h["CRVAL2"])
+    ra, dec = np.radians(crval)
+    boresight = radec_to_vectors(crval[0], crval[1])
     east = np.array([-np.sin(ra), np.cos(ra), 0.0])
     north = np.array([-np.sin(dec) * np.cos(ra), -np.sin(dec) * np.sin(ra), np.cos(dec)])
     x_axis = cd[0, 0] * east + cd[1, 0] * north
