@@ -28,7 +28,8 @@ or no FOV at all. A peer that is not installed is skipped with a one-line note.
         [--frames 8] [--fovs 11.4,20] [--doc docs/blind.md]
 
 With ``--doc`` the table, the command, commit, date and load average replace what is
-between the doc's ``<!-- bench_blind_peers:start -->`` and ``:end -->`` markers.
+between the doc's ``<!-- bench_blind_peers:start -->`` and ``:end -->`` markers (or
+``--section``'s). ``--peers`` picks the peers (default: all).
 """
 
 from __future__ import annotations
@@ -65,7 +66,6 @@ TOLERANCE = 0.10
 #: the half-width (a fraction of the estimate) of the FOVs startrack searches: the peers'
 #: fov_max_error
 SEARCH = (1.0 + TOLERANCE) * (1.0 + MARGIN) - 1.0
-START, END = "<!-- bench_blind_peers:start -->", "<!-- bench_blind_peers:end -->"
 SOLVERS = ("startrack", "tetra3", "tetra3rs", "astrometry")
 
 
@@ -115,6 +115,8 @@ def run(args) -> list[dict]:
         kind = catalog.source["kind"]
         solvers = {"startrack": Ours(camera, kind, args.timeout_ms)}
         for name, make in PEERS.items():
+            if name not in args.peers.split(","):
+                continue
             try:
                 solvers[name] = make(catalog, camera, fov, SEARCH, TOLERANCE, args.peer_span,
                                      args.timeout_ms)
@@ -188,7 +190,10 @@ def main() -> None:
                     help="wall-clock limit per frame, the same for every solver")
     ap.add_argument("--peer-span", type=float, default=2.0,
                     help="the peers' no-FOV database covers [FOV / span, FOV x span]")
+    ap.add_argument("--peers", default=",".join(PEERS), help="the peers to run beside startrack")
     ap.add_argument("--doc", type=Path, help="write the table between this doc's markers")
+    ap.add_argument("--section", default="bench_blind_peers",
+                    help="the doc's markers: <!-- SECTION:start --> ... <!-- SECTION:end -->")
     args = ap.parse_args()
     started = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M")
     load0, t0 = os.getloadavg()[0], time.perf_counter()
@@ -197,7 +202,8 @@ def main() -> None:
     if args.doc:
         line = provenance_line("bench_blind_peers.py", started,
                                (time.perf_counter() - t0) / 60.0, (load0, os.getloadavg()[0]))
-        write_between(args.doc, START, END, (
+        write_between(args.doc, f"<!-- {args.section}:start -->",
+                      f"<!-- {args.section}:end -->", (
             f"{line} Run with the peers' venv (`PYTHONPATH=. /work/peers-venv/bin/python`).\n"
             "wrong: frames with a wrong pointing or a wrong star; (pointing): of them, "
             "those whose boresight is more than 60\" off. FOV search half-width given to "
