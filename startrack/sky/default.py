@@ -64,3 +64,21 @@ def deeper_sky_note(camera: Camera | None, kind: str) -> str | None:
     field = "an unknown field of view" if camera is None else f"a {camera.fov_deg:.2g} deg field"
     return (f"note: {field} needs stars fainter than Gaia's G = 10; install the Tycho-2 "
             f"index files for a deeper sky: {INSTALL_HINT}")
+
+
+def gaia_min_fov(size: tuple[int, int]) -> float:
+    """The narrowest horizontal FOV (deg) at which Gaia's average frame of this image
+    size holds STARS_NEEDED stars: the blind search's split between Gaia (wider) and
+    Tycho-2 (narrower). Frame stars are N (h / w) tan^2(fov / 2) / pi."""
+    n = gaia_star_count()
+    if n <= 0:
+        return 180.0
+    return math.degrees(2.0 * math.atan(math.sqrt(STARS_NEEDED * math.pi * size[0]
+                                                  / (n * size[1]))))
+
+
+def search_sky_kind(camera: Camera) -> str:
+    """The sky a nominal FOV's search falls back to (the whole catalog cut per window):
+    Tycho-2 where the field needs it (:func:`default_sky_kind`), else Gaia, whose G
+    band orders stars as a camera's silicon does better than Tycho's VT."""
+    return "tycho2" if default_sky_kind(camera) == "tycho2" else "gaia"
