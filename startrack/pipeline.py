@@ -140,8 +140,8 @@ class Pipeline:
         # One deadline for every stage below; it starts with the configured stage loaded
         # (tables loaded later, for the FOV search, count against it).
         if camera is None:
-            found = self._blind(x, y, self._blind_size(frame), sky,
-                                Deadline.after_ms(self.options.timeout_ms))
+            found = self._blind_search(x, y, self._blind_size(frame), sky,
+                                       Deadline.after_ms(self.options.timeout_ms))
         elif self.options.fov_tolerance > 0:
             found = self._approximate(frame, camera, sky)
             if isinstance(found, FrameResult):
@@ -252,7 +252,7 @@ class Pipeline:
                                                       self.options.sigma_px, fov_range=fov_range)
         return self._blind[sky, fov_range]
 
-    def _blind(self, x, y, size: tuple[int, int], sky: SkySpec, deadline: Deadline):
+    def _blind_search(self, x, y, size: tuple[int, int], sky: SkySpec, deadline: Deadline):
         """No FOV: the blind search on ``sky``; on the default Tycho-2 sky, Gaia's for the
         fields it fills (:func:`startrack.sky.default.gaia_min_fov` and wider: its G band
         orders stars as a camera does) and then Tycho-2's for the narrower ones."""
