@@ -1,6 +1,7 @@
-"""tetra3 and tetra3rs for scripts/bench_blind_peers.py: databases over a range of FOVs
-built from the frames' catalog (cached on disk), and one solve call scored the same way as
-startrack's: (rotation, observed rows, catalog directions of the named stars) or None.
+"""tetra3, tetra3rs and astrometry.net for scripts/bench_blind_peers.py: databases over a
+range of FOVs built from the frames' catalog (cached on disk; astrometry.net uses its own
+Tycho-2 index files), and one solve call scored the same way as startrack's: (rotation,
+observed rows, catalog directions of the named stars) or None.
 """
 
 from __future__ import annotations
@@ -14,7 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from startrack.cache import cached_file
+from startrack.errors import InputError
 from startrack.matchers._peer import positions_to_indices, write_gaia_binary, write_hip_main
+from startrack.matchers.astrometry import INSTALL, solve_field, solve_field_available
 from startrack.matchers.tetra3 import attitude_from_tetra3, tetra3_centroids
 from startrack.matchers.tetra3rs import attitude_from_tetra3rs, tetra3rs_centroids
 
@@ -131,4 +134,37 @@ class Tetra3rs(_Peer):
         return (rot, *self.named(obs_index, r.matched_catalog_ids)), ms
 
 
-PEERS = {"tetra3": Tetra3, "tetra3rs": Tetra3rs}
+class Astrometry(_Peer):
+    """solve-field on the centroid list: the searched FOV range as ``--scale-low/high``
+    (degwidth); with no FOV no scale at all, its own blind mode over every index file.
+    The named stars are its index stars' directions; the attitude is its WCS's
+    (startrack.matchers.astrometry.wcs_attitude)."""
+
+    def __init__(self, *args) -> None:
+        super().__init__(*args)
+        from startrack.sky.tycho2 import index_files
+
+        if not solve_field_available() or not index_files():
+            raise InputError(INSTALL)
+        self.work = tempfile.TemporaryDirectory(prefix="bench-astrometry-")
+        # untimed warm-up on junk: its index files read into the page cache once
+        junk = np.random.default_rng(0).uniform(0, 100, (12, 2))
+        solve_field(junk[:, 0], junk[:, 1], np.arange(12.0, 0, -1), (100, 100), (1.0, 2.0),
+                    1.0, Path(self.work.name))
+
+    def solve(self, frame, est: float | None):
+        obs = frame.obs
+        x, y = obs.camera.ideal_pixels(obs.x, obs.y)  # it knows no lens distortion
+        flux = np.arange(len(x), 0, -1, dtype=float)  # brightest first, as observed
+        scale = None if est is None else (est * (1 - self.search), est * (1 + self.search))
+        found = solve_field(x, y, flux, (self.camera.width, self.camera.height), scale,
+                            self.timeout_ms / 1000.0, Path(self.work.name))
+        if not found.solved or found.rotation is None:
+            return None, found.wall_ms
+        obs_index = positions_to_indices(np.column_stack([x, y]),
+                                         np.column_stack([found.x, found.y]), tol=0.01)
+        keep = obs_index >= 0
+        return (found.rotation, obs_index[keep], found.vectors[keep]), found.wall_ms
+
+
+PEERS = {"tetra3": Tetra3, "tetra3rs": Tetra3rs, "astrometry": Astrometry}

@@ -1,16 +1,23 @@
-"""Blind-solve bench beside the peers: startrack, tetra3 and tetra3rs on bench_blind.py's
-frames, given the same information: a FOV estimate off by 0, 2, 5 or 10 % (half the frames
-above, half below) with the same range searched about it, or no FOV at all.
+"""Blind-solve bench beside the peers: startrack, tetra3, tetra3rs and astrometry.net on
+bench_blind.py's frames, given the same information: a FOV estimate off by 0, 2, 5 or 10 %
+(``--errors``; half the frames above, half below) with the same range searched about it,
+or no FOV at all. A peer that is not installed is skipped with a one-line note.
 
 * startrack: ``Options(fov_deg=estimate, fov_tolerance=0.10)`` (it searches
   estimate x (1 +- 10 %) widened by startrack.fov.MARGIN), or no FOV (its blind search of
-  startrack.fov.BLIND_FOV_RANGE on the Gaia sky, the default with no camera).
+  startrack.fov.BLIND_FOV_RANGE on its default sky with no camera: Tycho-2 when
+  installed, else Gaia).
 * tetra3 and tetra3rs: the same estimate with ``fov_max_error`` the half-width startrack
   searches, on one database per FOV spanning every estimate's range; no FOV: their own
   unknown-FOV mode (tetra3: ``fov_estimate=None``; tetra3rs has none, so the centre of its
   database range with the whole range as the error) on a database over
-  [FOV / ``--peer-span``, FOV x ``--peer-span``], narrower than startrack's 1 to 40 deg,
+  [FOV / ``--peer-span``, FOV x ``--peer-span``], narrower than startrack's 0.8 to 40 deg,
   which here takes too long to build: more information than startrack gets.
+* astrometry.net (``solve-field`` on the centroid list, scripts/bench_blind_peer_solvers.py):
+  the same searched range as ``--scale-low/--scale-high`` in image widths; no FOV: no
+  scale at all (its own blind search over its Tycho-2 index files); ``--cpulimit`` the
+  per-frame limit. Its time is the ``solve-field`` process's wall time, which includes
+  loading its index files (it has no way to keep them loaded between calls).
 * Every solver has the same wall-clock limit per frame (``--timeout-ms``); each frame is
   solved by the three in turn, so the machine's load falls on all alike. Loading (their
   databases, our tables: one junk frame is solved untimed first) is not timed.
@@ -21,7 +28,8 @@ above, half below) with the same range searched about it, or no FOV at all.
         [--frames 8] [--fovs 11.4,20] [--doc docs/blind.md]
 
 With ``--doc`` the table, the command, commit, date and load average replace what is
-between the doc's ``<!-- bench_blind_peers:start -->`` and ``:end -->`` markers.
+between the doc's ``<!-- bench_blind_peers:start -->`` and ``:end -->`` markers (or
+``--section``'s). ``--peers`` picks the peers (default: all).
 """
 
 from __future__ import annotations
@@ -49,6 +57,7 @@ from bench_blind import (  # noqa: E402
 from bench_blind_peer_solvers import PEERS  # noqa: E402
 
 from startrack.centroids import Centroids  # noqa: E402
+from startrack.errors import InputError  # noqa: E402
 from startrack.fov import MARGIN  # noqa: E402
 from startrack.pipeline import FrameInput, Options, Pipeline  # noqa: E402
 from startrack.sky.hipparcos import CATALOG_EPOCH  # noqa: E402
@@ -57,8 +66,7 @@ TOLERANCE = 0.10
 #: the half-width (a fraction of the estimate) of the FOVs startrack searches: the peers'
 #: fov_max_error
 SEARCH = (1.0 + TOLERANCE) * (1.0 + MARGIN) - 1.0
-START, END = "<!-- bench_blind_peers:start -->", "<!-- bench_blind_peers:end -->"
-SOLVERS = ("startrack", "tetra3", "tetra3rs")
+SOLVERS = ("startrack", "tetra3", "tetra3rs", "astrometry")
 
 
 def estimate(fov: float, err: float | None, i: int) -> float | None:
@@ -107,14 +115,20 @@ def run(args) -> list[dict]:
         kind = catalog.source["kind"]
         solvers = {"startrack": Ours(camera, kind, args.timeout_ms)}
         for name, make in PEERS.items():
-            solvers[name] = make(catalog, camera, fov, SEARCH, TOLERANCE, args.peer_span,
-                                 args.timeout_ms)
+            if name not in args.peers.split(","):
+                continue
+            try:
+                solvers[name] = make(catalog, camera, fov, SEARCH, TOLERANCE, args.peer_span,
+                                     args.timeout_ms)
+            except (ImportError, InputError) as exc:
+                print(f"skipping {name}: {str(exc).splitlines()[0]}", file=sys.stderr)
+        names = [n for n in SOLVERS if n in solvers]
         for label, err in settings:
             stats = {name: {"solved": 0, "wrong": 0, "pointing": 0, "ms": []}
-                     for name in SOLVERS}
+                     for name in names}
             for i, frame in enumerate(frames):
                 est = estimate(fov, err, i)
-                for name in SOLVERS:
+                for name in names:
                     answer, ms = solvers[name].solve(frame, est)
                     s = stats[name]
                     s["ms"].append(ms)
@@ -126,7 +140,7 @@ def run(args) -> list[dict]:
                         s["wrong"] += bool(pointing or wrong_stars(frame, catalog, obs_index,
                                                                    cat_vectors, camera))
             row = {"fov": fov, "given": label, "frames": len(frames)}
-            for name in SOLVERS:
+            for name in names:
                 s = stats[name]
                 row |= {f"{name}_solved": s["solved"], f"{name}_wrong": s["wrong"],
                         f"{name}_pointing": s["pointing"],
@@ -136,19 +150,25 @@ def run(args) -> list[dict]:
             print("  ".join([f"fov {fov:5.1f} given {label:7s}"] + [
                 f"{n} {row[n + '_solved']}/{len(frames)} wrong {row[n + '_wrong']} "
                 f"({row[n + '_pointing']}) "
-                f"{row[n + '_median_ms']:.0f}/{row[n + '_p95_ms']:.0f} ms" for n in SOLVERS]),
+                f"{row[n + '_median_ms']:.0f}/{row[n + '_p95_ms']:.0f} ms" for n in names]),
                 flush=True)
     return rows
 
 
 def table(rows: list[dict]) -> str:
+    """The rows as a markdown table, one column group per solver that ran (a solver not
+    installed for some FOV gets dashes there)."""
+    names = [n for n in SOLVERS if any(f"{n}_solved" in r for r in rows)]
     head = "| FOV (deg) | FOV given | " + " | ".join(
-        f"{n} solved | {n} wrong (pointing) | {n} median ms | {n} p95 ms" for n in SOLVERS) \
+        f"{n} solved | {n} wrong (pointing) | {n} median ms | {n} p95 ms" for n in names) \
         + " |"
-    lines = [head, "|" + "---|" * (2 + 4 * len(SOLVERS))]
+    lines = [head, "|" + "---|" * (2 + 4 * len(names))]
     for r in rows:
         cells = [f"{r['fov']:g}", r["given"]]
-        for n in SOLVERS:
+        for n in names:
+            if f"{n}_solved" not in r:
+                cells += ["-"] * 4
+                continue
             cells += [f"{r[n + '_solved']}/{r['frames']}",
                       f"{r[n + '_wrong']} ({r[n + '_pointing']})",
                       _ms(r[n + "_median_ms"]), _ms(r[n + "_p95_ms"])]
@@ -170,7 +190,10 @@ def main() -> None:
                     help="wall-clock limit per frame, the same for every solver")
     ap.add_argument("--peer-span", type=float, default=2.0,
                     help="the peers' no-FOV database covers [FOV / span, FOV x span]")
+    ap.add_argument("--peers", default=",".join(PEERS), help="the peers to run beside startrack")
     ap.add_argument("--doc", type=Path, help="write the table between this doc's markers")
+    ap.add_argument("--section", default="bench_blind_peers",
+                    help="the doc's markers: <!-- SECTION:start --> ... <!-- SECTION:end -->")
     args = ap.parse_args()
     started = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M")
     load0, t0 = os.getloadavg()[0], time.perf_counter()
@@ -179,7 +202,8 @@ def main() -> None:
     if args.doc:
         line = provenance_line("bench_blind_peers.py", started,
                                (time.perf_counter() - t0) / 60.0, (load0, os.getloadavg()[0]))
-        write_between(args.doc, START, END, (
+        write_between(args.doc, f"<!-- {args.section}:start -->",
+                      f"<!-- {args.section}:end -->", (
             f"{line} Run with the peers' venv (`PYTHONPATH=. /work/peers-venv/bin/python`).\n"
             "wrong: frames with a wrong pointing or a wrong star; (pointing): of them, "
             "those whose boresight is more than 60\" off. FOV search half-width given to "

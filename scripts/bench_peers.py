@@ -1,4 +1,5 @@
-"""Peers against our methods: tetra3 and tetra3rs (their solve call) beside hybrid/pyramid.
+"""Peers against our methods: tetra3, tetra3rs and astrometry.net (their solve call; for
+astrometry.net the solve-field process) beside hybrid/pyramid; a peer not installed is skipped.
 
 Same frames for every method (scripts/bench_identify.py's make_frames: Hipparcos, random
 attitudes, brightest first, false stars at random ranks), two conditions. For the peers the
@@ -37,7 +38,7 @@ from startrack.matchers import MatcherConfig, available_methods, get_matcher  # 
 from startrack.sky import SkySpec, load_sky  # noqa: E402
 from startrack.verify import VerifyConfig  # noqa: E402
 
-PEERS = ("tetra3", "tetra3rs")
+PEERS = ("tetra3", "tetra3rs", "astrometry")
 CONDITIONS = ((0.3, 0, 0.0), (1.0, 5, 0.2))  # noise px, false stars, missing fraction
 
 

@@ -23,7 +23,13 @@ from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.database import StarDatabase
 from startrack.deadline import Deadline
 from startrack.errors import InputError
-from startrack.fov import DEFAULT_FOV_TOLERANCE, BlindSolver, refit_fov, solve_approximate
+from startrack.fov import (
+    BLIND_FOV_RANGE,
+    DEFAULT_FOV_TOLERANCE,
+    BlindSolver,
+    refit_fov,
+    solve_approximate,
+)
 from startrack.frame_input import FrameInput, read_input
 from startrack.hints import Hints
 from startrack.identifier import FrameResult, Identifier, frame_timing
@@ -39,6 +45,7 @@ from startrack.sky import (
     resolve_sky,
     sky_spec,
 )
+from startrack.sky.default import gaia_min_fov, search_sky_kind
 
 # The most reliable method measured (scripts/bench_identify.py, the real-sky frames and
 # scripts/false_positives.py; docs/results.md has the figures).
@@ -99,7 +106,7 @@ class Pipeline:
         #: (Pointing, radius_deg): the catalogs are cut to this cone (startrack.hinted)
         self.cone = None
         self._cut: dict[SkySpec, Catalog] = {}
-        self._blind: dict[SkySpec, BlindSolver] = {}
+        self._blind: dict[tuple[SkySpec, tuple[float, float]], BlindSolver] = {}
         self._notes: set[str] = set()
 
     def setup_for(self, frame: FrameInput) -> tuple[Camera | None, SkySpec]:
@@ -165,8 +172,8 @@ class Pipeline:
         # One deadline for every stage below; it starts with the configured stage loaded
         # (tables loaded later, for the FOV search, count against it).
         if camera is None:
-            blind, size = self.blind_solver(sky), self._blind_size(frame)
-            found = blind.solve(x, y, size, Deadline.after_ms(self.options.timeout_ms))
+            found = self._blind_search(x, y, self._blind_size(frame), sky,
+                                       Deadline.after_ms(self.options.timeout_ms))
         elif self.options.fov_tolerance > 0:
             found = self._approximate(frame, camera, sky)
             if isinstance(found, FrameResult):
@@ -203,13 +210,13 @@ class Pipeline:
 
     def _search(self, x, y, camera: Camera, sky: SkySpec, deadline: Deadline):
         """The quad search within the tolerance: on the chosen sky; with the default sky,
-        also (or, when that is the deepest installed one, only) over the whole deepest
-        catalog (Tycho-2, else Gaia) cut per window, its brightest stars ordered by its
-        own magnitudes, not Hipparcos's."""
+        also (or, when that is the same, only) over the whole of the search sky
+        (:func:`startrack.sky.default.search_sky_kind`: Tycho-2 where the field needs it,
+        else Gaia) cut per window, its brightest stars ordered by its own magnitudes."""
         tol, opt = self.options.fov_tolerance, self.options
         default = opt.sky is None and opt.mag_limit is None
         found = None
-        deep = default_sky_kind(None)  # the deepest installed sky (Tycho-2, else Gaia)
+        deep = search_sky_kind(camera)
         if not default or sky.kind != deep:
             found = solve_approximate(self.identifier(camera, sky, "quad"), x, y, tol, deadline)
             if not default or found.solution.solved or found.solution.reason == "timeout":
@@ -282,10 +289,30 @@ class Pipeline:
             self._notes.add(note)
             print(note, file=sys.stderr)
 
-    def blind_solver(self, sky: SkySpec) -> BlindSolver:
-        if sky not in self._blind:
-            self._blind[sky] = BlindSolver(self.catalog(sky, None), sky, self.options.sigma_px)
-        return self._blind[sky]
+    def blind_solver(self, sky: SkySpec,
+                     fov_range: tuple[float, float] = BLIND_FOV_RANGE) -> BlindSolver:
+        if (sky, fov_range) not in self._blind:
+            self._blind[sky, fov_range] = BlindSolver(self.catalog(sky, None), sky,
+                                                      self.options.sigma_px, fov_range=fov_range)
+        return self._blind[sky, fov_range]
+
+    def _blind_search(self, x, y, size: tuple[int, int], sky: SkySpec, deadline: Deadline):
+        """No FOV: the blind search on ``sky``; on the default Tycho-2 sky, Gaia's for the
+        fields it fills (:func:`startrack.sky.default.gaia_min_fov` and wider: its G band
+        orders stars as a camera does) and then Tycho-2's for the narrower ones."""
+        lo, hi = BLIND_FOV_RANGE
+        split = gaia_min_fov(size)
+        if self.options.sky is not None or self.options.mag_limit is not None \
+                or sky.kind != "tycho2" or not lo < split < hi:
+            return self.blind_solver(sky).solve(x, y, size, deadline)
+        wide = self.blind_solver(dataclasses.replace(sky, kind="gaia"), (split, hi)).solve(
+            x, y, size, deadline)
+        if wide.solution.solved or wide.solution.reason != "no_match":
+            return wide
+        narrow = self.blind_solver(sky, (lo, split)).solve(x, y, size, deadline)
+        return dataclasses.replace(narrow, solution=dataclasses.replace(
+            narrow.solution, identify_ms=narrow.solution.identify_ms
+            + wide.solution.identify_ms))
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` (image or centroid CSV) once and identify its stars."""

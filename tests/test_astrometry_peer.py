@@ -73,3 +73,18 @@ def test_solve_field_solves_a_one_degree_frame(tmp_path):
     assert record["attitude"]["dec_deg"] == pytest.approx(-40.2, abs=1e-3)
     truth = {round(s["x"]): s["catalog_id"] for s in record["stars"]}
     assert len(truth) >= 6
+
+
+def test_wcs_attitude_recovers_the_rotation_of_a_written_header(tmp_path):
+    from astropy.io import fits
+
+    from startrack.attitude import angle_between_deg, from_radec_roll
+    from startrack.matchers.astrometry import wcs_attitude
+    from startrack.wcs import wcs_header
+
+    camera = Camera.from_fov(1280, 1024, 20.0)
+    for ra, dec, roll in ((10.0, 20.0, 30.0), (250.0, -70.0, 300.0), (0.5, 89.0, 0.0)):
+        rotation = from_radec_roll(ra, dec, roll)
+        path = tmp_path / "field.wcs"
+        fits.PrimaryHDU(header=wcs_header(camera, rotation)).writeto(path, overwrite=True)
+        assert angle_between_deg(wcs_attitude(path), rotation) * 3600 < 0.1

