@@ -26,7 +26,7 @@ from startrack.errors import InputError
 from startrack.fov import DEFAULT_FOV_TOLERANCE, BlindSolver, refit_fov, solve_approximate
 from startrack.frame_input import FrameInput, read_input
 from startrack.hints import Hints
-from startrack.identifier import FrameResult, Identifier, frame_timing
+from startrack.identifier import FrameResult, Identifier, SetupClock, frame_timing
 from startrack.matchers import get_matcher
 from startrack.sidecar import find_sidecar, read_sidecar
 from startrack.sky import (
@@ -76,7 +76,8 @@ class Options:
 class Pipeline:
     """Solve many inputs, each with its own camera and sky, sharing loaded databases."""
 
-    def __init__(self, options: Options, catalogs: dict | None = None) -> None:
+    def __init__(self, options: Options, catalogs: dict | None = None,
+                 setup: SetupClock | None = None) -> None:
         if options.camera is not None and options.fov_deg is not None:
             raise InputError("give a camera or a field of view, not both (the camera sets "
                              "the field of view)")
@@ -91,6 +92,8 @@ class Pipeline:
         self._cut: dict[SkySpec, Catalog] = {}
         self._blind: dict[SkySpec, BlindSolver] = {}
         self._notes: set[str] = set()
+        #: one-time loads not yet reported (shared with the hinted child pipelines)
+        self.setup = setup or SetupClock()
 
     def setup_for(self, frame: FrameInput) -> tuple[Camera | None, SkySpec]:
         """The camera and sky for one input: options, else sidecar, else defaults. No
@@ -127,9 +130,10 @@ class Pipeline:
         method = method or opt.method
         key = (camera, sky, method)
         if key not in self._identifiers:
-            self._identifiers[key] = Identifier(camera, self.catalog(sky, camera), method,
-                                                max_stars=opt.max_stars, sigma_px=opt.sigma_px,
-                                                timeout_ms=opt.timeout_ms)
+            with self.setup.counting():
+                self._identifiers[key] = Identifier(
+                    camera, self.catalog(sky, camera), method, max_stars=opt.max_stars,
+                    sigma_px=opt.sigma_px, timeout_ms=opt.timeout_ms)
         return self._identifiers[key]
 
     def solve(self, frame: FrameInput) -> FrameResult:
@@ -235,7 +239,8 @@ class Pipeline:
         """The catalog of ``sky`` (for ``camera``: its close stars merged), loaded once;
         cut to :attr:`cone` when there is one."""
         if sky not in self.catalogs:
-            self.catalogs[sky] = load_sky(sky, camera)
+            with self.setup.counting():
+                self.catalogs[sky] = load_sky(sky, camera)
         if self.cone is None:
             return self.catalogs[sky]
         if sky not in self._cut:
@@ -248,7 +253,8 @@ class Pipeline:
         """``result`` corrected for annual aberration when the time of observation is known
         (``Options.time``, else a FITS input's DATE-OBS): startrack.aberration. Every
         answer passes here, so here an answer without its evidence is refused
-        (:func:`startrack.evidence.require_evidence`)."""
+        (:func:`startrack.evidence.require_evidence`), and given the one-time cost it
+        waited for (``timing_ms.setup``)."""
         from startrack.aberration import correct_result
         from startrack.evidence import require_evidence
         from startrack.hints import header_time
@@ -257,7 +263,10 @@ class Pipeline:
         when = self.options.time
         if when is None and frame.path is not None and self.options.header_hints:
             when = header_time(frame.path)
-        return result if when is None else correct_result(result, when)
+        if when is not None:
+            result = correct_result(result, when)
+        return dataclasses.replace(result, timing=dataclasses.replace(
+            result.timing, setup=self.setup.take()))  # the loads this input waited for
 
     def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
         size = self.options.size or frame.size
@@ -274,7 +283,9 @@ class Pipeline:
 
     def blind_solver(self, sky: SkySpec) -> BlindSolver:
         if sky not in self._blind:
-            self._blind[sky] = BlindSolver(self.catalog(sky, None), sky, self.options.sigma_px)
+            with self.setup.counting():
+                self._blind[sky] = BlindSolver(self.catalog(sky, None), sky,
+                                               self.options.sigma_px)
         return self._blind[sky]
 
     def run(self, path: str | Path) -> FrameResult:
