@@ -22,6 +22,7 @@ from startrack.camera import Camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.database import StarDatabase
 from startrack.deadline import Deadline
+from startrack.defaults import DEFAULT_METHOD
 from startrack.errors import InputError
 from startrack.fov import DEFAULT_FOV_TOLERANCE, BlindSolver, refit_fov, solve_approximate
 from startrack.frame_input import FrameInput, read_input
@@ -40,9 +41,7 @@ from startrack.sky import (
     sky_spec,
 )
 
-# The most reliable method measured (scripts/bench_identify.py, the real-sky frames and
-# scripts/false_positives.py; docs/results.md has the figures).
-DEFAULT_METHOD = "pyramid"
+
 @dataclass(frozen=True)
 class Options:
     """What the user said; None means "from the sidecar, else the default"."""

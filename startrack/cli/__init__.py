@@ -9,8 +9,11 @@ import sys
 import click
 
 from startrack import __version__
+from startrack.cache import cache_max_bytes
 from startrack.cli.quiet import library_noise_captured
+from startrack.defaults import max_pairs
 from startrack.errors import InputError
+from startrack.image_header import max_image_pixels
 from startrack.outputs import OutputClosed
 
 
@@ -49,10 +52,6 @@ def _finish(code: int) -> int:
 def _check_environment() -> None:
     """Read every numeric environment variable once, before any work: a bad value is one
     line and exit 2 at the start, not a failure halfway (docs/limits.md)."""
-    from startrack.cache import cache_max_bytes
-    from startrack.image_header import max_image_pixels
-    from startrack.sky import max_pairs
-
     cache_max_bytes()
     max_image_pixels()
     max_pairs()
