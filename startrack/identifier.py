@@ -147,6 +147,7 @@ class Identifier:
         self.matcher = get_matcher(method)(self.database, config)
         #: True once :meth:`warm_up` has solved its throwaway frame (the bench checks it)
         self.warmed_up = False
+        self._warm_centroids: Centroids | None = None
         t0 = time.perf_counter()
         self.matcher.prepare()
         self.warm_up()
@@ -161,18 +162,27 @@ class Identifier:
             pointing = from_radec_roll(float(self.catalog.ra_deg[0]),
                                        float(self.catalog.dec_deg[0]), 0.0)
             _, x, y = stars_in_view(self.catalog, self.camera, pointing)
+            self._warm_centroids = Centroids(x, y, np.ones(len(x)), photometric=False)
             # A matcher searching a known sky patch is told this frame's, then given back
             # the caller's (startrack.bench.runner.point_patch sets it per frame).
             patch = getattr(self.matcher, "patch_center", None)
             if getattr(self.matcher, "patch_rad", None) is not None:
                 self.matcher.patch_center = pointing.apply([0.0, 0.0, 1.0])
             try:
-                identify(Observation.from_pixels(x, y, self.camera, self.sigma_px),
-                         self.matcher, self.verify_config)
+                identify(self.observation(self._warm_centroids), self.matcher,
+                         self.verify_config)
             finally:
                 if hasattr(self.matcher, "patch_center"):
                     self.matcher.patch_center = patch
         self.warmed_up = True
+
+    def warm_refit(self, refit: Callable) -> None:
+        """The first use of ``refit`` (:func:`startrack.fov.refit_fov`, a nominal FOV's
+        refit: its kernels) on the throwaway frame of :meth:`warm_up`."""
+        if self._warm_centroids is not None:
+            first = self.solve(FrameInput("warm-up", self._warm_centroids))
+            if first.solution.solved:
+                refit(first, self.database, self.verify_config)
 
     def observation(self, centroids: Centroids) -> Observation:
         return observation(centroids, self.camera, self.sigma_px)

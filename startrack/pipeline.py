@@ -180,7 +180,11 @@ class Pipeline:
         x, y = frame.centroids.x, frame.centroids.y
         deadline, spent, found = Deadline.after_ms(self.options.timeout_ms), 0.0, None
         if self._tables_fit(camera, sky):  # else (a deep narrow-field sky) the search alone
+            fresh = (camera, sky, self.options.method) not in self._identifiers
             nominal = self.identifier(camera, sky)
+            if fresh:  # the refit's first use too, before this input's deadline starts
+                with self.setup.counting():
+                    nominal.warm_refit(refit_fov)
             deadline = Deadline.after_ms(self.options.timeout_ms)
             first = nominal.solve(frame, identify=lambda obs: nominal.identify(obs, deadline))
             if first.solution.reason in ("too_few_stars", "timeout"):
@@ -265,7 +269,7 @@ class Pipeline:
         if when is not None:
             result = correct_result(result, when)
         return dataclasses.replace(result, timing=dataclasses.replace(
-            result.timing, setup=self.setup.take()))  # the loads this input waited for
+            result.timing, setup=self.setup.take() + frame.setup_ms))  # what it waited for
 
     def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
         size = self.options.size or frame.size

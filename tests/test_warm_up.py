@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from synth import synthetic_frame
 
+from startrack import frame_input
 from startrack import identifier as identifier_module
 from startrack.attitude import random_attitudes
 from startrack.bench import runner
@@ -58,6 +59,25 @@ def test_first_identify_reports_its_setup_outside_total(csv_frames, monkeypatch)
         assert t["total"] < 3600e3 and t["identify"] < 3600e3
         assert t["total"] >= t["centroid"] + t["identify"] - 1e-3
     assert json.loads(json.dumps(first))["timing_ms"]["setup"] == t1["setup"]
+
+
+def test_the_first_extraction_of_a_pixel_type_is_warmed_outside_centroid_time(monkeypatch):
+    monkeypatch.setattr(frame_input, "_warmed", set())  # as in a new process
+    calls = []
+    real = frame_input.warm_extraction
+    monkeypatch.setattr(frame_input, "warm_extraction",
+                        lambda image, config=None: calls.append(image.dtype) or real(image,
+                                                                                     config))
+    rng = np.random.default_rng(3)
+    image = rng.poisson(100.0, (600, 700)).astype(np.uint16)
+    image[300:303, 350:353] += 5000  # one star
+    first = frame_input.image_input(image, "a")
+    second = frame_input.image_input(image, "b")
+    other = frame_input.image_input(image.astype(np.float32), "c")
+    assert first.setup_ms > 0.0 and second.setup_ms == 0.0  # once per pixel type
+    assert other.setup_ms > 0.0
+    assert len(first.centroids) == len(second.centroids) == 1
+    assert calls == [np.uint16, np.uint16, np.float32]
 
 
 def test_identifier_warm_up_solves_one_throwaway_frame(monkeypatch):
