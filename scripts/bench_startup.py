@@ -1,4 +1,10 @@
-"""Start-up cost of the compiled kernels: one identify in a first and a second process.
+"""Start-up cost: the command line's (``--cli``), and the compiled kernels' (one identify
+in a first and a second process).
+
+``--cli N`` times ``startrack --version`` and ``startrack identify --help``, N runs each, as
+a user starts them (a new interpreter per run), and prints the median and range:
+
+    .venv/bin/python scripts/bench_startup.py --cli 20
 
 Both processes share a fresh numba cache folder (NUMBA_CACHE_DIR) and a database cache:
 the first compiles the kernels and writes them to the cache, the second loads them. Each
@@ -49,10 +55,31 @@ print(json.dumps({"import_s": t1 - t0, "prepare_s": t2 - t1, "first_ms": (t3 - t
 """
 
 
+def time_commands(runs: int) -> None:
+    """Print the median wall time of each quick command over ``runs`` new processes."""
+    import statistics
+
+    for args in (["--version"], ["identify", "--help"]):
+        seconds = []
+        for _ in range(runs):
+            t0 = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "startrack", *args], check=True,
+                           stdout=subprocess.DEVNULL)
+            seconds.append(time.perf_counter() - t0)
+        print(f"startrack {' '.join(args):<16} median {statistics.median(seconds):.3f} s "
+              f"(min {min(seconds):.3f}, max {max(seconds):.3f}; {runs} runs, load "
+              f"{os.getloadavg()[0]:.1f})")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--method", default="pyramid")
+    ap.add_argument("--cli", type=int, metavar="N", default=0,
+                    help="time the quick commands over N runs instead")
     args = ap.parse_args(argv)
+    if args.cli:
+        time_commands(args.cli)
+        return 0
     env = dict(os.environ, NUMBA_CACHE_DIR=tempfile.mkdtemp(prefix="startrack-numba-"))
     env.setdefault("STARTRACK_CACHE_DIR", tempfile.mkdtemp(prefix="startrack-db-"))
     subprocess.run([sys.executable, "-c", CHILD, args.method], env=env, check=True,

@@ -26,6 +26,7 @@ import numpy as np
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.deadline import NO_DEADLINE, Deadline
+from startrack.defaults import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.fov_fit import fit_focal, verify_fitted
 from startrack.identify import residuals_arcsec
 from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
@@ -33,11 +34,6 @@ from startrack.sky import Catalog, resolve_sky
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
 from startrack.verify import Verification, VerifyConfig
 
-#: default ``--fov-tolerance``: the true FOV may be this fraction above or below nominal
-DEFAULT_FOV_TOLERANCE = 0.10
-#: the horizontal FOVs (degrees) searched when none is given: down to 0.8 deg, where the
-#: Tycho-2 sky still puts about 20 stars in an average 4:3 frame
-BLIND_FOV_RANGE = (0.8, 40.0)
 WINDOW_STEP = 2.0 ** 0.25  # ratio of the focal lengths at a search window's two ends
 MARGIN = 0.02  # searched beyond the tolerance, as a fraction
 #: a candidate is verified only when this many other bright stars already fall near

@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 
 from startrack.camera import Camera
+from startrack.defaults import SCALE_UNITS
 from startrack.errors import InputError
 from startrack.sky.catalog import Catalog, radec_to_vectors
 from startrack.validate import DEC_DEG, PIXEL_SIZE_UM, RA_DEG, RADIUS_DEG, SCALE, check_number
 
-SCALE_UNITS = ("degwidth", "arcsecperpix", "focalmm")
 #: a FITS header's pointing is trusted to within one field of view
 HEADER_RADIUS_FIELDS = 1.0
 #: a FITS header's scale is trusted to within this fraction either way

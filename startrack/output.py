@@ -99,6 +99,8 @@ def format_table(record: dict) -> str:
     t = record["timing_ms"]
     timing = (f"timing: centroid {t['centroid']:.1f} ms, identify {t['identify']:.1f} ms, "
               f"total {t['total']:.1f} ms")
+    if t.get("setup"):  # a one-time cost: its own line, outside total
+        timing += f"\nsetup: {t['setup']:.1f} ms once (catalog, database and matcher loaded)"
     n_cent = record.get("diagnostics", {}).get("centroids", "?")
     if record["status"] != "solved":
         lock = f", lock {record['lock']}" if "lock" in record else ""

@@ -22,6 +22,7 @@ from startrack.camera import Camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.database import StarDatabase
 from startrack.deadline import Deadline
+from startrack.defaults import DEFAULT_METHOD
 from startrack.errors import InputError
 from startrack.fov import (
     BLIND_FOV_RANGE,
@@ -32,7 +33,7 @@ from startrack.fov import (
 )
 from startrack.frame_input import FrameInput, read_input
 from startrack.hints import Hints
-from startrack.identifier import FrameResult, Identifier, frame_timing
+from startrack.identifier import FrameResult, Identifier, SetupClock, frame_timing
 from startrack.matchers import get_matcher
 from startrack.sidecar import find_sidecar, read_sidecar
 from startrack.sky import (
@@ -47,9 +48,7 @@ from startrack.sky import (
 )
 from startrack.sky.default import gaia_min_fov, search_sky_kind
 
-# The most reliable method measured (scripts/bench_identify.py, the real-sky frames and
-# scripts/false_positives.py; docs/results.md has the figures).
-DEFAULT_METHOD = "pyramid"
+
 @dataclass(frozen=True)
 class Options:
     """What the user said; None means "from the sidecar, else the default"."""
@@ -93,7 +92,8 @@ def _with_fov(size: tuple[int, int], fov_deg: float, side_camera: Camera | None)
 class Pipeline:
     """Solve many inputs, each with its own camera and sky, sharing loaded databases."""
 
-    def __init__(self, options: Options, catalogs: dict | None = None) -> None:
+    def __init__(self, options: Options, catalogs: dict | None = None,
+                 setup: SetupClock | None = None) -> None:
         if options.camera is not None and options.fov_deg is not None:
             raise InputError("give a camera or a field of view, not both (the camera sets "
                              "the field of view)")
@@ -108,6 +108,8 @@ class Pipeline:
         self._cut: dict[SkySpec, Catalog] = {}
         self._blind: dict[tuple[SkySpec, tuple[float, float]], BlindSolver] = {}
         self._notes: set[str] = set()
+        #: one-time loads not yet reported (shared with the hinted child pipelines)
+        self.setup = setup or SetupClock()
 
     def setup_for(self, frame: FrameInput) -> tuple[Camera | None, SkySpec]:
         """The camera and sky for one input: options, else sidecar, else defaults. No
@@ -144,9 +146,10 @@ class Pipeline:
         method = method or opt.method
         key = (camera, sky, method)
         if key not in self._identifiers:
-            self._identifiers[key] = Identifier(camera, self.catalog(sky, camera), method,
-                                                max_stars=opt.max_stars, sigma_px=opt.sigma_px,
-                                                timeout_ms=opt.timeout_ms)
+            with self.setup.counting():
+                self._identifiers[key] = Identifier(
+                    camera, self.catalog(sky, camera), method, max_stars=opt.max_stars,
+                    sigma_px=opt.sigma_px, timeout_ms=opt.timeout_ms)
         return self._identifiers[key]
 
     def solve(self, frame: FrameInput) -> FrameResult:
@@ -194,7 +197,11 @@ class Pipeline:
         x, y = frame.centroids.x, frame.centroids.y
         deadline, spent, found = Deadline.after_ms(self.options.timeout_ms), 0.0, None
         if self._tables_fit(camera, sky):  # else (a deep narrow-field sky) the search alone
+            fresh = (camera, sky, self.options.method) not in self._identifiers
             nominal = self.identifier(camera, sky)
+            if fresh:  # the refit's first use too, before this input's deadline starts
+                with self.setup.counting():
+                    nominal.warm_refit(refit_fov)
             deadline = Deadline.after_ms(self.options.timeout_ms)
             first = nominal.solve(frame, identify=lambda obs: nominal.identify(obs, deadline))
             if first.solution.reason in ("too_few_stars", "timeout"):
@@ -252,7 +259,8 @@ class Pipeline:
         """The catalog of ``sky`` (for ``camera``: its close stars merged), loaded once;
         cut to :attr:`cone` when there is one."""
         if sky not in self.catalogs:
-            self.catalogs[sky] = load_sky(sky, camera)
+            with self.setup.counting():
+                self.catalogs[sky] = load_sky(sky, camera)
         if self.cone is None:
             return self.catalogs[sky]
         if sky not in self._cut:
@@ -265,7 +273,8 @@ class Pipeline:
         """``result`` corrected for annual aberration when the time of observation is known
         (``Options.time``, else a FITS input's DATE-OBS): startrack.aberration. Every
         answer passes here, so here an answer without its evidence is refused
-        (:func:`startrack.evidence.require_evidence`)."""
+        (:func:`startrack.evidence.require_evidence`), and given the one-time cost it
+        waited for (``timing_ms.setup``)."""
         from startrack.aberration import correct_result
         from startrack.evidence import require_evidence
         from startrack.hints import header_time
@@ -274,7 +283,10 @@ class Pipeline:
         when = self.options.time
         if when is None and frame.path is not None and self.options.header_hints:
             when = header_time(frame.path)
-        return result if when is None else correct_result(result, when)
+        if when is not None:
+            result = correct_result(result, when)
+        return dataclasses.replace(result, timing=dataclasses.replace(
+            result.timing, setup=self.setup.take() + frame.setup_ms))  # what it waited for
 
     def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
         size = self.options.size or frame.size
@@ -292,8 +304,9 @@ class Pipeline:
     def blind_solver(self, sky: SkySpec,
                      fov_range: tuple[float, float] = BLIND_FOV_RANGE) -> BlindSolver:
         if (sky, fov_range) not in self._blind:
-            self._blind[sky, fov_range] = BlindSolver(self.catalog(sky, None), sky,
-                                                      self.options.sigma_px, fov_range=fov_range)
+            with self.setup.counting():
+                self._blind[sky, fov_range] = BlindSolver(
+                    self.catalog(sky, None), sky, self.options.sigma_px, fov_range=fov_range)
         return self._blind[sky, fov_range]
 
     def _blind_search(self, x, y, size: tuple[int, int], sky: SkySpec, deadline: Deadline):

@@ -17,6 +17,7 @@ from pathlib import Path
 from startrack.attitude import from_radec_roll
 from startrack.camera import Camera
 from startrack.database import StarDatabase
+from startrack.defaults import DEFAULT_PRIOR_SIGMA_DEG
 from startrack.errors import InputError
 from startrack.identifier import FrameResult, frame_timing, observation
 from startrack.pipeline import FrameInput, Pipeline, read_input
@@ -25,8 +26,6 @@ from startrack.tracker import Tracker
 from startrack.tracking import Prior, TrackConfig
 from startrack.types import Solution
 from startrack.verify import VerifyConfig
-
-DEFAULT_PRIOR_SIGMA_DEG = 1.0
 
 
 def prior_from_radec_roll(ra_deg: float, dec_deg: float, roll_deg: float,

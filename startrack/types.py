@@ -100,12 +100,18 @@ class Solution:
 
 @dataclass(frozen=True)
 class Timing:
-    """Milliseconds per stage of one input (interfaces.md ``timing_ms``)."""
+    """Milliseconds per stage of one input (``timing_ms``, docs/conventions.md).
+
+    ``setup`` is the one-time cost this input paid (a catalog, database or matcher loaded,
+    kernels compiled by a throwaway solve); it is not part of ``total``, which adds only
+    the per-input stages.
+    """
 
     centroid: float = 0.0
     identify: float = 0.0
     total: float = 0.0
+    setup: float = 0.0
 
     def to_dict(self) -> dict:
         return {"centroid": round(self.centroid, 3), "identify": round(self.identify, 3),
-                "total": round(self.total, 3)}
+                "total": round(self.total, 3), "setup": round(self.setup, 3)}

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy import ndimage
+from waiting import CHILD_TIMEOUT_S
 
 from startrack import extract_parallel as par
 from startrack import extract_runs as runs
@@ -129,7 +130,7 @@ def test_threads_work_in_a_forked_child():
     queue = ctx.Queue()
     child = ctx.Process(target=_child, args=(queue,))
     child.start()
-    child.join(120)
+    child.join(CHILD_TIMEOUT_S)
     if child.is_alive():
         child.kill()
         pytest.fail("the forked child hung on the parent's thread pool")

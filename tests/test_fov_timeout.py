@@ -13,6 +13,7 @@ import sys
 
 import numpy as np
 import pytest
+from waiting import CHILD_TIMEOUT_S
 
 import startrack
 import startrack.deadline as deadline_module
@@ -71,7 +72,7 @@ def test_no_fov_with_a_tiny_timeout_is_a_timeout_through_the_cli(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "startrack", "identify", str(path),
                            "--size", "1024x1024", "--sky", "random", "--format", "json",
                            "--timeout-ms", "1e-6"], capture_output=True, text=True,
-                          timeout=120)
+                          timeout=CHILD_TIMEOUT_S)
     assert proc.returncode == 1, proc.stderr
     record = json.loads(proc.stdout)
     assert record["status"] == "not_solved" and record["reason"] == "timeout"

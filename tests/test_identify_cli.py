@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from synth import synthetic_frame
+from waiting import CHILD_TIMEOUT_S
 
 from startrack.attitude import (
     angle_between_deg,
@@ -28,7 +29,7 @@ CAMERA = {"width": 1024, "height": 1024, "fov_deg": 17.5}
 def run(*args: str | Path) -> subprocess.CompletedProcess:
     """The command as a user runs it: a new process, its exit code, stdout and stderr."""
     return subprocess.run([sys.executable, "-m", "startrack", "identify", *map(str, args)],
-                          capture_output=True, text=True, timeout=120)
+                          capture_output=True, text=True, timeout=CHILD_TIMEOUT_S)
 
 
 def run_in_process(*args: str | Path) -> subprocess.CompletedProcess:
@@ -197,7 +198,7 @@ def test_batch_answers_every_input_around_a_bad_one(setup):
 def test_simulated_frame_solves_with_no_options(tmp_path):
     sim = subprocess.run([sys.executable, "-m", "startrack", "simulate", "--frames", "1",
                           "--out", str(tmp_path / "sim")], capture_output=True, text=True,
-                         timeout=120)
+                         timeout=CHILD_TIMEOUT_S)
     assert sim.returncode == 0, sim.stderr
     sidecar = json.loads((tmp_path / "sim" / "frame_0000.json").read_text())
     proc = run(tmp_path / "sim" / "frame_0000.png", "--format", "json")

@@ -14,6 +14,7 @@ import sys
 import numpy as np
 import pytest
 from synth import synthetic_frame
+from waiting import CHILD_TIMEOUT_S
 
 from startrack.attitude import (
     angle_between_deg,
@@ -88,7 +89,7 @@ def test_registry_loads_without_the_peers():
         "except InputError as e:\n"
         "    print(e)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         timeout=60)
+                         timeout=CHILD_TIMEOUT_S)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "tetra3rs needs the peers extra: pip install 'startrack[peers]'"
 

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from waiting import CHILD_TIMEOUT_S
 
 from startrack.cli import main
 
@@ -29,7 +30,7 @@ def proc(*args, **kw) -> subprocess.CompletedProcess:
     """The command as its own process (for the process-level cases)."""
     kw.setdefault("capture_output", "stdout" not in kw)
     return subprocess.run([sys.executable, "-m", "startrack", *map(str, args)], text=True,
-                          timeout=120, **kw)
+                          timeout=CHILD_TIMEOUT_S, **kw)
 
 
 def one_error(result, *words: str, code: int = 2) -> str:

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from test_reliability import CAMERA, cli, one_error
+from waiting import CHILD_TIMEOUT_S, wait_for
 
 from startrack.bench.runner import COLUMNS, TIMING_COLUMNS
 from startrack.bench.store import read_done
@@ -45,19 +46,12 @@ def _alive(pid: int) -> bool:
         return False
 
 
-def _wait_for(predicate, timeout: float = 90.0) -> None:
-    end = time.monotonic() + timeout
-    while not predicate():
-        assert time.monotonic() < end, "timed out"
-        time.sleep(0.2)
-
-
 def _long_compare(out: Path) -> subprocess.Popen:
     """A compare that would run for hours, on two workers; returns once they are up."""
     p = subprocess.Popen([sys.executable, "-m", "startrack", *RUN, "--frames", "100000",
                           "--jobs", "2", "--out", str(out)], stdout=subprocess.DEVNULL,
                          stderr=subprocess.PIPE, text=True)
-    _wait_for(lambda: len(_alive_children(p.pid)) >= 2 or p.poll() is not None)
+    wait_for(lambda: len(_alive_children(p.pid)) >= 2 or p.poll() is not None)
     assert p.poll() is None, p.stderr.read()
     return p
 
@@ -89,21 +83,21 @@ def test_second_run_on_one_out_is_refused_and_sigkill_leaves_no_workers(tmp_path
         workers = _alive_children(p.pid)
     finally:
         p.kill()
-        p.wait(30)
-    _wait_for(lambda: not any(_alive(w) for w in workers), timeout=15)
+        p.wait(CHILD_TIMEOUT_S)
+    wait_for(lambda: not any(_alive(w) for w in workers))
 
 
 def test_sigterm_stops_cleanly_and_what_was_done_is_right(reference, tmp_path):
     out = tmp_path / "cmp"
     p = _long_compare(out)
-    _wait_for(lambda: len(read_done(out / "frames.csv", COLUMNS, ["angle"])) >= 16)
+    wait_for(lambda: len(read_done(out / "frames.csv", COLUMNS, ["angle"])) >= 16)
     workers = _alive_children(p.pid)
     p.send_signal(signal.SIGTERM)
-    assert p.wait(60) == 143
+    assert p.wait(CHILD_TIMEOUT_S) == 143
     err = p.stderr.read()
     assert "Traceback" not in err and err.strip().splitlines()[-1].endswith(
         "nothing half-written was left")
-    _wait_for(lambda: not any(_alive(w) for w in workers), timeout=15)
+    wait_for(lambda: not any(_alive(w) for w in workers))
     assert sorted(q.name for q in out.iterdir() if q.name.startswith(".")) == [
         ".lock", ".startrack-files"]  # the lock and the manifest; no temporary file
     done = _numbers(read_done(out / "frames.csv", COLUMNS, ["angle"]))
@@ -245,8 +239,31 @@ def test_sigterm_during_identify_leaves_no_output(tmp_path):
                           "--fov", "17.5", "--size", "256x256", "--sky", "random",
                           "--format", "json", "--output", str(out)],
                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    _wait_for(lambda: out.parent.is_dir() and any(out.parent.iterdir()) or p.poll() is not None)
+    # SIGTERM once the first record is in the temporary output: the child is then in its
+    # loop over the inputs (kernels compiled, nothing left to wait for but the signal).
+    wait_for(lambda: _written(out.parent) or p.poll() is not None)
+    assert p.poll() is None, p.stderr.read()
     p.send_signal(signal.SIGTERM)
-    assert p.wait(60) == 143, p.stderr.read()
+    assert p.wait(CHILD_TIMEOUT_S) == 143, p.stderr.read()
     assert "Traceback" not in p.stderr.read()
     assert list(out.parent.iterdir()) == []
+
+
+def _written(folder: Path) -> bool:
+    """Whether a file in ``folder`` holds something (a temporary output being written)."""
+    try:
+        return any(f.stat().st_size > 0 for f in folder.iterdir())
+    except OSError:  # not made yet, or the file was just renamed or removed
+        return False
+
+
+def test_sigterm_inside_a_compiled_kernel_is_still_terminated():
+    """numba runs a pending signal handler when its kernel calls back into Python and
+    wraps what the handler raised in a SystemError: still a clean exit 143."""
+    from startrack.cli import Terminated, _terminated
+
+    wrapped = SystemError("CPUDispatcher(...) returned a result with an exception set")
+    wrapped.__cause__ = SystemError("_numba_unpickle returned a result with an exception set")
+    wrapped.__cause__.__cause__ = Terminated()
+    assert _terminated(wrapped) and _terminated(Terminated())
+    assert not _terminated(SystemError("a real bug")) and not _terminated(None)

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from waiting import CHILD_TIMEOUT_S
 
 from startrack.attitude import from_radec_roll, to_radec_roll
 from startrack.cli import main
@@ -161,7 +162,7 @@ def test_bad_options_through_the_real_entry_point(tmp_path, args):
     out = tmp_path / "out"
     proc = subprocess.run([sys.executable, "-m", "startrack", "simulate", "--out", str(out),
                            *_bad_args(tmp_path, args)], capture_output=True, text=True,
-                          timeout=60)
+                          timeout=CHILD_TIMEOUT_S)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr

@@ -10,6 +10,7 @@ import sys
 
 import numpy as np
 import pytest
+from waiting import CHILD_TIMEOUT_S
 
 from startrack.cache import cache_entries
 from startrack.errors import InputError
@@ -109,7 +110,7 @@ def test_sky_spec_of_a_path(tmp_path):
 
 def _startrack(*args, cwd):
     return subprocess.run([sys.executable, "-m", "startrack", *map(str, args)], cwd=cwd,
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=CHILD_TIMEOUT_S)
 
 
 def test_bad_catalog_row_on_the_command_line_exit_2(tmp_path):

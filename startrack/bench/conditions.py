@@ -13,6 +13,9 @@ from dataclasses import asdict, dataclass
 
 from startrack.errors import InputError
 
+#: where a frame's centroids come from: the scene's, or extracted from its rendered image
+SOURCES = ("centroids", "images")
+
 # The swept variables, in column order; each is a field of Condition.
 VARIABLES = ("noise_px", "false_stars", "missing", "mag_noise", "fov_error", "distortion_k1",
              "modelled_k1")

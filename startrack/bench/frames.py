@@ -24,7 +24,7 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from startrack.attitude import random_attitudes
-from startrack.bench.conditions import Condition
+from startrack.bench.conditions import SOURCES, Condition
 from startrack.camera import Camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.distortion import RadialDistortion
@@ -33,7 +33,6 @@ from startrack.sensor import SensorModel
 from startrack.sky import Catalog
 from startrack.types import Observation
 
-SOURCES = ("centroids", "images")
 # Stream purposes: changing one never changes another's draws.
 _ATTITUDE, _SCENE, _FALSE, _NOISE, _PIXELS = range(5)
 # The sigma the matcher is told for exact centroids (a zero tolerance would be unusable).

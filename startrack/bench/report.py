@@ -158,8 +158,12 @@ def write_report(result, command: list[str], replay: list[str], replay_for=None)
               "intervals. A solution is correct when every reported star is right and the "
               "boresight is within the threshold; wrong when accepted but not correct.",
               "", summary_table(result.summary), "",
-              "Load times (sky; database and prepare per method): " + ", ".join(
-                  f"{k} {v:.2f} s" for k, v in result.load_seconds.items()), ""]
+              "Load times (sky; database, prepare and warm-up per method): " + ", ".join(
+                  f"{k} {v:.2f} s" for k, v in result.load_seconds.items()), "",
+              "Times are warm: in every worker process, every method first solves a "
+              "throwaway frame (compiling its kernels and filling its lazy tables; "
+              "images: one extraction too) before its first timed frame, so no time above "
+              "holds a compiler, a cache fill or an import.", ""]
     lines += ["## Plots", ""]
     lines += [f"![{p.stem}]({p.name})" for p in result.plots] or ["(nothing was swept)"]
     lines += ["", "## Failed frames", "",

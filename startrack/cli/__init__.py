@@ -9,8 +9,11 @@ import sys
 import click
 
 from startrack import __version__
+from startrack.cache import cache_max_bytes
 from startrack.cli.quiet import library_noise_captured
+from startrack.defaults import max_pairs
 from startrack.errors import InputError
+from startrack.image_header import max_image_pixels
 from startrack.outputs import OutputClosed
 
 
@@ -20,6 +23,17 @@ class Terminated(Exception):
 
 def _on_sigterm(signum, frame) -> None:
     raise Terminated()
+
+
+def _terminated(exc: BaseException | None) -> bool:
+    """Whether ``exc`` is, or was caused by, :class:`Terminated`: a compiled kernel that
+    calls back into Python runs the handler there and wraps what it raised in a
+    SystemError."""
+    while exc is not None:
+        if isinstance(exc, Terminated):
+            return True
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 def _silence_stdout() -> None:
@@ -49,10 +63,6 @@ def _finish(code: int) -> int:
 def _check_environment() -> None:
     """Read every numeric environment variable once, before any work: a bad value is one
     line and exit 2 at the start, not a failure halfway (docs/limits.md)."""
-    from startrack.cache import cache_max_bytes
-    from startrack.image_header import max_image_pixels
-    from startrack.sky import max_pairs
-
     cache_max_bytes()
     max_image_pixels()
     max_pairs()
@@ -90,7 +100,9 @@ class StartrackGroup(click.Group):
         except click.exceptions.Abort:
             click.echo("startrack: aborted", err=True)
             return 130
-        except Terminated:
+        except (Terminated, SystemError) as exc:
+            if not _terminated(exc):
+                raise
             click.echo("startrack: terminated (SIGTERM); nothing half-written was left",
                        err=True)
             return 143

@@ -15,10 +15,10 @@ from startrack.cli import main
 from startrack.cli.hint_options import hint_options, hints_from
 from startrack.cli.identify import _size
 from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, notes, verbosity
+from startrack.defaults import DEFAULT_METHOD
 from startrack.errors import InputError
+from startrack.frame_input import read_input
 from startrack.outputs import Writer
-from startrack.pipeline import DEFAULT_METHOD, read_input
-from startrack.sidecar import with_sidecars
 from startrack.validate import DOWNSAMPLE, EPOCH_YEAR, FOV_DEG, MAG_LIMIT
 
 
@@ -56,8 +56,10 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     principal point and radial distortion by least squares over all matched stars (with
     outlier rejection), write the camera file and print the residual RMS before and after.
     Exit 1 when no input solves (nothing is written)."""
-    from startrack.calibrate import calibrate as run
+    from startrack.calibrate import calibrate as run  # the compiled core: only when run
+    from startrack.calibrate_sigma import format_parameters
     from startrack.matchers import get_matcher
+    from startrack.sidecar import with_sidecars
     from startrack.sky import load_sky, resolve_sky, sky_spec
 
     hints = hints_from(hint_values, fov_given=fov_deg is not None or camera_path is not None)
@@ -90,8 +92,6 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     for name in result.solved:
         detail(f"calibrate: {name}: solved")
     cam = result.camera
-    from startrack.calibrate_sigma import format_parameters
-
     with writer.text(output, "--output") as fh:
         json.dump({**cam.to_dict(), "uncertainty": {
             p.name: {"sigma": p.sigma, "status": p.status, "fit": p.fit}

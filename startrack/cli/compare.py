@@ -13,11 +13,10 @@ from pathlib import Path
 
 import click
 
-from startrack.bench.frames import SOURCES
+from startrack.bench.conditions import SOURCES
 from startrack.cli import main
 from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, notes, verbosity
 from startrack.errors import InputError
-from startrack.sky import resolve_sky, with_sky
 from startrack.validate import (
     FALSE_STARS,
     FPS,
@@ -84,6 +83,8 @@ def _levels(noise_px, false_stars, missing, mag_noise, source: str,
 
 def _sky(cfg, sky: str | None, mag_limit: float | None):
     """The config's sky with the options applied and its defaults resolved."""
+    from startrack.sky import resolve_sky, with_sky  # scipy.spatial: when the command runs
+
     spec_sky = cfg.sky if sky is None else with_sky(cfg.sky, sky)
     if mag_limit is not None:
         spec_sky = dataclasses.replace(spec_sky, mag_limit=mag_limit)

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import click
 
 from startrack.cli.options import Number
-from startrack.hints import SCALE_UNITS, Hints, user_hints
+from startrack.defaults import SCALE_UNITS
 from startrack.validate import DEC_DEG, PIXEL_SIZE_UM, RA_DEG, RADIUS_DEG, SCALE
+
+if TYPE_CHECKING:
+    from startrack.hints import Hints
 
 HINT_KEYS = ("ra", "dec", "radius", "scale_low", "scale_high", "scale_units", "pixel_size",
              "no_header_hints")
@@ -44,6 +49,8 @@ def hint_options(command):
 
 def hints_from(values: dict, fov_given: bool) -> Hints | None:
     """The user's :class:`Hints` from the options' values; None when none was given."""
+    from startrack.hints import user_hints  # scipy.spatial (startrack.sky): when run only
+
     return user_hints(values["ra"], values["dec"], values["radius"], values["scale_low"],
                       values["scale_high"], values["scale_units"], values["pixel_size"],
                       fov_given=fov_given)

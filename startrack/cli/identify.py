@@ -7,6 +7,7 @@ import csv
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -15,17 +16,21 @@ from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
 from startrack.cli.hint_options import hint_options, hints_from
 from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, triple
+from startrack.defaults import (
+    BLIND_FOV_RANGE,
+    BUILTIN_METHODS,
+    DEFAULT_FOV_TOLERANCE,
+    DEFAULT_METHOD,
+    DEFAULT_PRIOR_SIGMA_DEG,
+    GAIA_BELOW_FOV_DEG,
+)
 from startrack.errors import InputError
-from startrack.fov import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
-from startrack.hints import preset
-from startrack.matchers import available_methods
-from startrack.output import CSV_HEADER, EXIT_CODES, csv_rows, error_record, format_table
 from startrack.outputs import Writer, guarded_stdout
-from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
-from startrack.sequence import DEFAULT_PRIOR_SIGMA_DEG, SequenceSolver, prior_from_radec_roll
 from startrack.side_outputs import SideOutputs
-from startrack.sidecar import with_sidecars
-from startrack.sky import GAIA_BELOW_FOV_DEG
+
+if TYPE_CHECKING:
+    from startrack.pipeline import Options
+
 from startrack.validate import (
     DOWNSAMPLE,
     EPOCH_YEAR,
@@ -96,8 +101,8 @@ def _time(ctx, param, value):
                    "arcsec). Default: a FITS input's DATE-OBS plus half its EXPTIME, else no "
                    "correction.")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True,
-              help=f"Matcher, one of: {', '.join(available_methods())} (docs/results.md "
-                   "compares them).")
+              help=f"Matcher, one of: {', '.join(BUILTIN_METHODS)}, or a plugin's "
+                   "(docs/results.md compares them).")
 @click.option("--max-stars", type=Number(MAX_STARS),
               help="Brightest stars the matcher may use to form patterns.")
 @click.option("--sigma-px", type=Number(SIGMA_PX),
@@ -150,6 +155,9 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
     usage or an unreadable input (the other inputs are still answered).
     Conventions (pixels, attitude, JSON record, exit codes): docs/conventions.md."""
+    from startrack.output import EXIT_CODES, error_record  # the compiled core: when run
+    from startrack.sidecar import with_sidecars
+
     writer = Writer([*with_sidecars(inputs), *([camera_path] if camera_path else [])],
                     overwrite)
     if output:  # every output is checked before any work
@@ -159,10 +167,7 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
                        size=size, sky=sky, mag_limit=mag_limit, epoch=epoch,
                        max_stars=max_stars, sigma_px=sigma_px, timeout_ms=timeout_ms,
                        time=obs_time, fov_tolerance=fov_tolerance, downsample=downsample)
-    pipeline = Pipeline(options)
-    if track or prior is not None:
-        pipeline = SequenceSolver(pipeline, track=track, prior=None if prior is None
-                                  else prior_from_radec_roll(*prior, prior_sigma_deg))
+    pipeline = _solver(options, track, prior, prior_sigma_deg)
     note = _notes(quiet, verbose)
     worst = 0
     pending: list[dict] = []  # error records held back until an input is answered
@@ -207,6 +212,9 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
 def _options(camera_path, fov_deg, config_path, hint_values: dict, **given) -> Options:
     """The pipeline's options: the camera file, the hints and a ``--config`` preset
     decided, the other values as given."""
+    from startrack.hints import preset  # scipy.spatial and the compiled core: only when run
+    from startrack.pipeline import Options
+
     if camera_path and fov_deg is not None:
         raise click.UsageError("give --camera FILE or --fov DEG, not both (the camera file "
                                "sets the field of view)")
@@ -224,6 +232,18 @@ def _report(note, name: str, record: dict, prior_alone: bool) -> None:
     if prior_alone and "fallback" in record:
         click.echo(f"note: {name}: not solved near --prior ({record['fallback']}); solved "
                    "lost-in-space", err=True)
+
+
+def _solver(options, track: bool, prior, prior_sigma_deg: float):
+    """The pipeline that solves each input; with --track or --prior, a sequence's."""
+    from startrack.pipeline import Pipeline  # the compiled core: as in identify()
+    from startrack.sequence import SequenceSolver, prior_from_radec_roll
+
+    pipeline = Pipeline(options)
+    if not track and prior is None:
+        return pipeline
+    return SequenceSolver(pipeline, track=track, prior=None if prior is None
+                          else prior_from_radec_roll(*prior, prior_sigma_deg))
 
 
 def _around_bar(emit):
@@ -273,6 +293,8 @@ class _NothingAnswered(Exception):
 
 def _writer(fh, fmt: str, several: bool):
     """A function writing one record to ``fh`` in ``fmt`` (the CSV header first)."""
+    from startrack.output import CSV_HEADER, csv_rows, format_table  # as in identify()
+
     writer = csv.writer(fh, lineterminator="\n") if fmt == "csv" else None
     if writer is not None:
         writer.writerow(CSV_HEADER)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
@@ -21,15 +22,11 @@ from startrack.cli.options import (
     triple,
     verbosity,
 )
-from startrack.cli.simulate_frames import FrameWriter, check_disk, random_rotation
-from startrack.config import DEFAULT_CONFIG, FrameOptions, config_from_dict, load_config
 from startrack.errors import InputError
 from startrack.image_header import check_pixels
 from startrack.outputs import atomic_text
 from startrack.run_folder import RunFolder
 from startrack.sensor import SensorModel
-from startrack.sidecar import STARS_COLUMNS, TRUTH_COLUMNS
-from startrack.sky import SkySpec, resolve_sky, with_sky
 from startrack.validate import (
     FALSE_STARS,
     FPS,
@@ -40,6 +37,10 @@ from startrack.validate import (
     RATE_DPS,
     SEED,
 )
+
+if TYPE_CHECKING:
+    from startrack.config import FrameOptions
+    from startrack.sky import SkySpec
 
 DEFAULT_OUT = Path("out/simulate")
 
@@ -86,6 +87,10 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     --out must be empty or new (or give --overwrite); frames are at most
     STARTRACK_MAX_IMAGE_PIXELS (default 8192 x 8192).
     Conventions (pixels, attitude, sidecar units): docs/conventions.md."""
+    # scipy.spatial (startrack.sky, its rotations) loads only when the command runs.
+    from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
+    from startrack.sky import load_sky, resolve_sky, with_sky
+
     cfg = load_config(config_path) if config_path else config_from_dict(DEFAULT_CONFIG,
                                                                         "default config")
     camera = load_camera(camera_path) if camera_path else cfg.camera
@@ -111,8 +116,6 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     folder = RunFolder(out, "simulate", [p for p in (config_path, camera_path, profile_path)
                                          if p], overwrite=overwrite, reuse=False)
     folder.check()
-    from startrack.sky import load_sky
-
     catalog = _apparent(load_sky(spec, camera), obs_time)  # a bad sky leaves no files
     try:
         with folder:
@@ -133,7 +136,9 @@ def _run(camera: Camera, catalog, spec: SkySpec, sensor: SensorModel, opts: Fram
     appended to truth.csv and stars.csv (which appear, complete, at the end). Stopped by
     SIGINT or SIGTERM, the frames written so far are kept and listed; the frame in the
     making is removed. Returns the number of frames written."""
+    from startrack.cli.simulate_frames import FrameWriter, check_disk  # the compiled core
     from startrack.progress import iterate
+    from startrack.sidecar import STARS_COLUMNS, TRUTH_COLUMNS
 
     folder.remove_earlier()  # an earlier run's frames must not outlive it (--overwrite)
     out = folder.out
@@ -175,6 +180,7 @@ def _run(camera: Camera, catalog, spec: SkySpec, sensor: SensorModel, opts: Fram
 def _trajectory(attitude, opts: FrameOptions, fps, profile_path, count):
     """The sequence's attitudes (startrack.trajectory), None for independent frames."""
     from startrack.attitude import from_radec_roll
+    from startrack.cli.simulate_frames import random_rotation
     from startrack.trajectory import simulation_trajectory
 
     start = (from_radec_roll(*attitude) if attitude is not None

@@ -10,6 +10,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from startrack.camera import Camera
+from startrack.defaults import max_pairs
 from startrack.errors import InputError
 from startrack.sky.catalog import (
     Catalog,
@@ -26,7 +27,7 @@ from startrack.sky.default import (
     default_sky_kind,
 )
 from startrack.sky.random_sky import random_sky
-from startrack.validate import EPOCH_YEAR, MAG_LIMIT, PAIRS, check_number, env_number
+from startrack.validate import EPOCH_YEAR, MAG_LIMIT, check_number
 
 SKY_KINDS = ("random", "hipparcos", "gaia", "tycho2")
 #: the kind of a user's catalog file (``--sky FILE``): its path is the spec's ``path``
@@ -150,16 +151,7 @@ def resolve_sky(spec: SkySpec, camera: Camera | None) -> SkySpec:
     return spec
 
 
-# Memory bounds (documented in docs/conventions.md). Every catalog pair closer than the
-# image diagonal is tabled; building the table peaks near 60 bytes per pair (measured:
-# 408 million pairs took 23 GB), so DEFAULT_MAX_PAIRS is about 1.5 GB.
-DEFAULT_MAX_PAIRS = 25_000_000
 MAX_RANDOM_STARS = 5_000_000
-
-
-def max_pairs() -> int:
-    """The pair budget: ``$STARTRACK_MAX_PAIRS``, else :data:`DEFAULT_MAX_PAIRS`."""
-    return int(env_number("STARTRACK_MAX_PAIRS", DEFAULT_MAX_PAIRS, PAIRS))
 
 
 def estimated_pairs(n_stars: int, max_angle_rad: float) -> float:

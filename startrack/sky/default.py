@@ -6,11 +6,9 @@ import functools
 import math
 
 from startrack.camera import Camera
+from startrack.defaults import GAIA_BELOW_FOV_DEG
 from startrack.errors import InputError
 
-#: Below this horizontal FOV the default sky is Gaia: Hipparcos (complete to about
-#: V = 8) leaves fewer than about 50 stars in an average frame.
-GAIA_BELOW_FOV_DEG = 8.0
 #: The faintest magnitude of the bundled Gaia catalog (G = 10).
 GAIA_MAG_MAX = 10.0
 #: Past the faintest VT of astrometry.net's Tycho-2 index files (15.2): no cut.

@@ -1,0 +1,50 @@
+"""Commands import what they use: ``--help`` and ``--version`` load neither numba, nor a
+startrack kernel module, nor astropy, scipy.spatial or matplotlib."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+from startrack.defaults import BUILTIN_METHODS
+from startrack.matchers import available_methods
+from startrack.matchers.base import registry
+
+HEAVY = ("numba", "astropy", "scipy.spatial", "matplotlib")
+QUICK = [["--version"], ["--help"], *[[c, "--help"] for c in
+                                      ("identify", "compare", "simulate", "calibrate",
+                                       "cache")]]
+
+# Run in a new interpreter: what other tests imported must not hide an import here.
+CHILD = """
+import json, sys
+from click.testing import CliRunner
+from startrack.cli import main
+answers = []
+for args in json.loads(sys.argv[1]):
+    result = CliRunner().invoke(main, args)
+    answers.append([args, result.exit_code, len(result.output)])
+print(json.dumps({"answers": answers, "modules": sorted(sys.modules)}))
+"""
+
+
+def test_help_and_version_load_no_heavy_module():
+    proc = subprocess.run([sys.executable, "-c", CHILD, json.dumps(QUICK)],
+                          capture_output=True, text=True, check=True)
+    out = json.loads(proc.stdout)
+    assert [(a, code) for a, code, _ in out["answers"]] == [(a, 0) for a in QUICK]
+    assert all(n > 20 for _, _, n in out["answers"])  # each printed its help or version
+    loaded = out["modules"]
+    heavy = [m for m in loaded if m.split(".")[0] in HEAVY or m.startswith(HEAVY)]
+    kernels = [m for m in loaded if m.startswith("startrack") and "kernel" in m]
+    assert heavy == [] and kernels == []
+
+
+def test_builtin_methods_are_the_registered_ones():
+    available_methods()  # registers every built-in matcher
+    # a variant (register_variant) is made in startrack.matchers.base from its base class
+    ours = {name for name, cls in registry().items()
+            if (cls.__mro__[1] if getattr(cls, "variant_of", None) else cls)
+            .__module__.startswith("startrack.matchers.")}
+    assert set(BUILTIN_METHODS) == ours
