@@ -32,6 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_blind import (  # noqa: E402
+    _PIPELINES,
     WRONG_ARCSEC,
     _pipeline,
     boresight_arcsec,
@@ -124,6 +125,7 @@ def run_camera(spec: tuple, n: int, seed: int, only: list[int] | None = None,
                settings: tuple[str, ...] = SETTINGS) -> list[dict]:
     """One row per setting (FOV 4 % off, no FOV) of one camera; ``only``: just these
     frames of the ``n`` (a failing frame looked at again)."""
+    _PIPELINES.clear()  # one camera's databases at a time: Tycho-2's are gigabytes
     camera, frames, catalog = camera_frames(spec, n, seed)
     picked = [(i, f) for i, f in enumerate(frames) if only is None or i in only]
     n = len(picked)

@@ -115,3 +115,16 @@ def test_installed_index_files_give_a_deep_sky_with_hip_numbers():
     assert np.degrees(np.arccos(min(1.0, catalog.vectors[row] @ hip1))) * 3600 < 1.0
     assert catalog.ids[row] == 1  # a Hipparcos star keeps its HIP number
     assert np.count_nonzero(catalog.ids >= TYCHO_ID_BASE) > 0.9 * len(catalog)
+
+
+def test_blind_split_is_where_the_default_sky_turns_to_tycho2(tmp_path, monkeypatch):
+    from startrack.sky.default import gaia_min_fov, search_sky_kind
+
+    (tmp_path / "index-tycho2-07.fits").write_bytes(b"")
+    monkeypatch.setenv("STARTRACK_INDEX_DIR", str(tmp_path))
+    for size in ((1024, 768), (640, 480), (3000, 2000)):
+        split = gaia_min_fov(size)
+        assert 1.0 < split < 3.0
+        above, below = (Camera.from_fov(*size, split * f) for f in (1.01, 0.99))
+        assert default_sky_kind(above) == search_sky_kind(above) == "gaia"
+        assert default_sky_kind(below) == search_sky_kind(below) == "tycho2"
