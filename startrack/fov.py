@@ -34,6 +34,8 @@ from startrack.sky import Catalog, resolve_sky
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
 from startrack.verify import Verification, VerifyConfig
 
+#: a blind search keeps the databases of this many magnitude cuts in memory
+KEEP_DATABASES = 2
 WINDOW_STEP = 2.0 ** 0.25  # ratio of the focal lengths at a search window's two ends
 MARGIN = 0.02  # searched beyond the tolerance, as a fraction
 #: a candidate is verified only when this many other bright stars already fall near
@@ -200,6 +202,11 @@ class BlindSolver:
         n = len(self.catalog) if limit is None else int(
             np.searchsorted(self.catalog.mag, limit, side="right"))
         if n not in self._databases:
+            # Memory stays bounded: a deep catalog's cut for a narrow window holds GBs of
+            # tables, and every window has its own cut. Their tables are in the disk cache,
+            # so a cut evicted here is reloaded, not rebuilt.
+            while len(self._databases) >= KEEP_DATABASES:
+                self._databases.pop(next(iter(self._databases)))
             self._databases[n] = StarDatabase(self.catalog.subset(np.arange(n)), camera)
         return self._databases[n]
 
