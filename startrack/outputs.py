@@ -197,6 +197,9 @@ class Writer:
     def check(self, path: str | Path, what: str, replace: bool | None = None) -> Path:
         """Refuse ``path`` as an output now, before any work (see the class doc);
         ``replace``: whether an existing file may be replaced (default: ``overwrite``)."""
+        if str(path) == "-":  # the Unix name of standard output, never a file called "-"
+            raise OutputError(f"{what} -: standard output is not a file here; give a file "
+                              "name")
         path = Path(path)
         st = _lstat(path, what)
         name = self.input_at(path)

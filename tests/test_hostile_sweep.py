@@ -1,0 +1,63 @@
+"""Regression tests of the QA re-run of the hostile sweep (issues 30, 31): cases found
+beyond the issues' lists, each a one-line answer (docs/limits.md, docs/conventions.md)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import startrack
+from startrack.cli import main
+from startrack.outputs import OutputError, Writer
+
+
+def run(*args):
+    result = CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+    return result.exit_code, result.stdout, result.stderr
+
+
+def one_line_error(code, stderr, *words) -> None:
+    assert code == 2, stderr
+    assert len(stderr.splitlines()) == 1 and "Traceback" not in stderr, stderr
+    for word in words:
+        assert word in stderr, stderr
+
+
+def test_identify_output_dash_is_standard_output(tmp_path, monkeypatch):
+    # `--output -` wrote a file called "-" in the working folder and printed nothing.
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "two.csv").write_text("x,y\n10,20\n30,40\n")
+    code, out, err = run("identify", "two.csv", "--fov", "10", "--size", "64x64",
+                         "--sky", "random", "--output", "-", "--format", "json")
+    assert code == 1, err
+    assert '"input": "two.csv"' in out and "too_few_stars" in out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["two.csv"]
+
+
+def test_an_output_named_dash_is_refused(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(OutputError, match="standard output is not a file"):
+        Writer().check("-", "--output")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_csv_with_astronomical_coordinates_is_one_line(tmp_path):
+    # 1e300 is finite: it passed the CSV check and overflowed in the projection.
+    path = tmp_path / "huge.csv"
+    path.write_text("x,y,flux\n10,20,5\n1e300,1e300,4\n30,40,3\n")
+    code, _, err = run("identify", path, "--fov", "10", "--size", "64x64", "--sky", "random")
+    one_line_error(code, err, "huge.csv", "line 3", "1e+07 px")
+
+
+@pytest.mark.parametrize("bad", [np.inf, np.nan, 1e300, -1e300])
+def test_api_centroid_array_with_junk_is_a_value_error(bad):
+    # Non-finite centroids were solved (RuntimeWarnings from numpy, then "no_match") where
+    # the same rows in a CSV are refused.
+    rows = np.array([[10.0, 20.0], [bad, 30.0], [40.0, 50.0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match="row 1"):
+            startrack.solve(rows, fov_deg=10, size=(64, 64), sky="random")
