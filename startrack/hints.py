@@ -201,6 +201,11 @@ def header_time(path: Path | None):
     if isinstance(exptime, int | float) and math.isfinite(exptime) and exptime > 0:
         from astropy import units as u
 
+        from startrack.validate import EXPTIME_S, check_number
+
+        # 1e300 s moved the time past erfa's table: a traceback, not a one-line error
+        check_number(exptime, f"{path}: EXPTIME", EXPTIME_S)
+
         when = when + exptime / 2.0 * u.s
     return when
 

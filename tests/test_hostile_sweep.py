@@ -61,3 +61,22 @@ def test_api_centroid_array_with_junk_is_a_value_error(bad):
         warnings.simplefilter("error")
         with pytest.raises(ValueError, match="row 1"):
             startrack.solve(rows, fov_deg=10, size=(64, 64), sky="random")
+
+
+def test_cache_help_states_the_real_default():
+    # The help said "default 1024" after the cap became 2048.
+    from startrack.cache import DEFAULT_CACHE_MAX_MB
+
+    code, out, _ = run("cache", "--help")
+    assert code == 0 and f"(default {DEFAULT_CACHE_MAX_MB})" in " ".join(out.split())
+
+
+def test_fits_with_an_absurd_exposure_is_one_line(tmp_path):
+    # EXPTIME = 1e300 s moved the observation time past erfa's range: 50 lines of traceback.
+    from astropy.io import fits
+
+    path = tmp_path / "exptime.fits"
+    header = fits.Header([("DATE-OBS", "2019-07-29T20:47:26"), ("EXPTIME", 1e300)])
+    fits.PrimaryHDU(np.full((16, 16), 100, np.uint16), header=header).writeto(path)
+    code, _, err = run("identify", path, "--fov", "10")
+    one_line_error(code, err, "exptime.fits", "EXPTIME", "out of range")
