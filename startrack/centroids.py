@@ -111,7 +111,9 @@ def _csv_chunks(path: Path, columns: dict[str, str]):
                                  f"numbers, x and y within {MAX_CENTROID_COORD_PX:g} px")
             yield line, arr[:, 0], arr[:, 1], (arr[:, 2] if arr.shape[1] > 2 else None)
             line += len(arr)
-    except (OSError, ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+    # OverflowError: a 400-digit integer, which pandas cannot coerce to a float
+    except (OSError, ValueError, OverflowError, pd.errors.ParserError,
+            UnicodeDecodeError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"{path}: not a readable CSV ({first})") from None
 

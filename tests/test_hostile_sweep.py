@@ -80,3 +80,11 @@ def test_fits_with_an_absurd_exposure_is_one_line(tmp_path):
     fits.PrimaryHDU(np.full((16, 16), 100, np.uint16), header=header).writeto(path)
     code, _, err = run("identify", path, "--fov", "10")
     one_line_error(code, err, "exptime.fits", "EXPTIME", "out of range")
+
+
+def test_csv_with_a_400_digit_number_is_one_line(tmp_path):
+    # pandas raised OverflowError (not a ValueError) coercing it: a traceback.
+    path = tmp_path / "bigint.csv"
+    path.write_text("x,y\n" + "9" * 400 + ",2\n")
+    code, _, err = run("identify", path, "--fov", "10", "--size", "64x64", "--sky", "random")
+    one_line_error(code, err, "bigint.csv", "not a readable CSV")
