@@ -88,3 +88,19 @@ def test_csv_with_a_400_digit_number_is_one_line(tmp_path):
     path.write_text("x,y\n" + "9" * 400 + ",2\n")
     code, _, err = run("identify", path, "--fov", "10", "--size", "64x64", "--sky", "random")
     one_line_error(code, err, "bigint.csv", "not a readable CSV")
+
+
+@pytest.mark.parametrize("name", ["bad\nname.png", "tab\there.csv", "cr\rname.png"])
+def test_a_file_name_with_control_characters_stays_one_line(tmp_path, name):
+    # A newline in a name split the error in two lines; it is written escaped.
+    path = tmp_path / name
+    path.write_bytes(b"")
+    code, _, err = run("identify", path, "--fov", "10", "--size", "64x64")
+    one_line_error(code, err, repr(name)[1:-1])
+
+
+def test_a_camera_file_of_another_format_says_it_is_read_as_json(tmp_path):
+    path = tmp_path / "camera.yaml"
+    path.write_text("width: 64\n")
+    code, _, err = run("identify", tmp_path / "x.csv", "--camera", path)
+    one_line_error(code, err, "camera.yaml", "not valid JSON")
