@@ -178,6 +178,7 @@ class Writer:
     def __init__(self, inputs: Iterable[str | Path] = (), overwrite: bool = False) -> None:
         self.overwrite = overwrite
         self.written: list[Path] = []
+        self._claimed: dict[str, str] = {}  # real path -> the output (option) writing it
         self._inputs: dict[tuple[int, int], Path] = {}
         self._real: dict[str, Path] = {}
         for name in inputs:
@@ -207,6 +208,9 @@ class Writer:
             raise OutputError(f"{what} {path}: is the input {name}; refusing to overwrite "
                               "an input")
         refuse_special(path, st, what)
+        other = self._claimed.setdefault(os.path.realpath(path), what)
+        if other != what:  # --output and --corr on one file: the second would replace the first
+            raise OutputError(f"{what} {path}: is also {other}; give each output its own file")
         if st is None:
             _check_parents(path, what)
         elif not (self.overwrite if replace is None else replace) and path not in self.written:

@@ -104,3 +104,22 @@ def test_a_camera_file_of_another_format_says_it_is_read_as_json(tmp_path):
     path.write_text("width: 64\n")
     code, _, err = run("identify", tmp_path / "x.csv", "--camera", path)
     one_line_error(code, err, "camera.yaml", "not valid JSON")
+
+
+@pytest.mark.parametrize(("first", "second"), [("--output", "--corr"), ("--output", "--annotate"),
+                                               ("--wcs", "--annotate")])
+def test_two_outputs_on_one_file_are_refused(tmp_path, first, second):
+    # --output x --corr x exited 0: the second write replaced the first.
+    frame = tmp_path / "frame.csv"
+    frame.write_text("x,y\n10,20\n30,40\n")
+    target = tmp_path / "both.out"
+    code, _, err = run("identify", frame, "--fov", "10", "--size", "64x64", "--sky", "random",
+                       first, target, second, target)
+    one_line_error(code, err, "both.out", "is also")
+    assert not target.exists()
+
+
+def test_writer_lets_one_output_be_checked_twice(tmp_path):
+    writer = Writer()
+    target = tmp_path / "out.txt"
+    assert writer.check(target, "--output") == writer.check(target, "--output")
