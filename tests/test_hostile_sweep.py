@@ -123,3 +123,14 @@ def test_writer_lets_one_output_be_checked_twice(tmp_path):
     writer = Writer()
     target = tmp_path / "out.txt"
     assert writer.check(target, "--output") == writer.check(target, "--output")
+
+
+@pytest.mark.parametrize("scale", [("1e-6", "1e-5", "arcsecperpix"), ("1e5", "1e6", "degwidth")])
+def test_a_scale_range_outside_the_fov_range_is_refused(tmp_path, scale):
+    # 1e-6 to 1e-5 arcsec/px (a 0.01" field) searched for 40 s before "no_match".
+    frame = tmp_path / "frame.csv"
+    frame.write_text("x,y\n10,20\n30,40\n50,60\n")
+    low, high, units = scale
+    code, _, err = run("identify", frame, "--size", "64x64", "--sky", "random", "--scale-low",
+                       low, "--scale-high", high, "--scale-units", units)
+    one_line_error(code, err, "--scale-low/--scale-high", "is outside [0.001, 179] deg")
