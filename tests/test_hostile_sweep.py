@@ -134,3 +134,19 @@ def test_a_scale_range_outside_the_fov_range_is_refused(tmp_path, scale):
     code, _, err = run("identify", frame, "--size", "64x64", "--sky", "random", "--scale-low",
                        low, "--scale-high", high, "--scale-units", units)
     one_line_error(code, err, "--scale-low/--scale-high", "is outside [0.001, 179] deg")
+
+
+def test_an_unwritable_cache_folder_is_said_once(tmp_path, monkeypatch):
+    # STARTRACK_CACHE_DIR naming a file: every run rebuilt its databases (78 s) in silence.
+    from startrack import cache
+    from startrack.errors import StartrackWarning
+
+    not_a_folder = tmp_path / "file"
+    not_a_folder.write_text("mine\n")
+    monkeypatch.setenv("STARTRACK_CACHE_DIR", str(not_a_folder))
+    monkeypatch.setattr(cache, "_warned_unwritable", [])
+    with pytest.warns(StartrackWarning, match="cannot be written") as seen:
+        for k in range(3):
+            assert cache.cached_arrays("t", {"k": k}, lambda: {"a": np.arange(3)})["a"][2] == 2
+    assert len(seen) == 1 and str(not_a_folder) in str(seen[0].message)
+    assert not_a_folder.read_text() == "mine\n"
