@@ -150,3 +150,15 @@ def test_an_unwritable_cache_folder_is_said_once(tmp_path, monkeypatch):
             assert cache.cached_arrays("t", {"k": k}, lambda: {"a": np.arange(3)})["a"][2] == 2
     assert len(seen) == 1 and str(not_a_folder) in str(seen[0].message)
     assert not_a_folder.read_text() == "mine\n"
+
+
+def test_frames_dir_with_a_junk_truth_row_names_the_line(tmp_path):
+    # "garbage,row" appended to truth.csv was taken for a frame: "row.json: cannot read".
+    from startrack.sidecar import STARS_COLUMNS, TRUTH_COLUMNS
+
+    (tmp_path / "truth.csv").write_text(",".join(TRUTH_COLUMNS) + "\n"
+                                        "0,frame_0000.png,1,0,0,0,0,0,0\ngarbage,row\n")
+    (tmp_path / "stars.csv").write_text(",".join(STARS_COLUMNS) + "\n0,1,2,3,4,5,0\n")
+    code, _, err = run("compare", "--frames-dir", tmp_path, "--out", tmp_path / "cmp")
+    one_line_error(code, err, "truth.csv: line 3", "must be finite numbers")
+    assert not (tmp_path / "cmp").exists()
