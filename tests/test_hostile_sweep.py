@@ -162,3 +162,11 @@ def test_frames_dir_with_a_junk_truth_row_names_the_line(tmp_path):
     code, _, err = run("compare", "--frames-dir", tmp_path, "--out", tmp_path / "cmp")
     one_line_error(code, err, "truth.csv: line 3", "must be finite numbers")
     assert not (tmp_path / "cmp").exists()
+
+
+def test_api_folder_as_a_frame_says_so(tmp_path):
+    # A folder without an extension was "unsupported image type '(none)'".
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    with pytest.raises(ValueError, match="is a folder, not a frame"):
+        startrack.solve(folder, fov_deg=10)
