@@ -168,5 +168,5 @@ def test_api_folder_as_a_frame_says_so(tmp_path):
     # A folder without an extension was "unsupported image type '(none)'".
     folder = tmp_path / "frames"
     folder.mkdir()
-    with pytest.raises(ValueError, match="is a folder, not a frame"):
+    with pytest.raises(ValueError, match="is a directory, not an image or centroid CSV"):
         startrack.solve(folder, fov_deg=10)
