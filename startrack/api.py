@@ -17,7 +17,12 @@ import pandas as pd
 from startrack.api_checks import api_camera, api_prior, api_size, api_time, check_solver_numbers
 from startrack.attitude import to_quaternion, to_radec_roll
 from startrack.camera import Camera
-from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
+from startrack.centroids import (
+    DEFAULT_SIGMA_PX,
+    MAX_CENTROID_COORD_PX,
+    Centroids,
+    bad_centroid_row,
+)
 from startrack.errors import InputError, as_builtin
 from startrack.fov import DEFAULT_FOV_TOLERANCE
 from startrack.frame_input import FrameInput, image_input, read_input
@@ -259,6 +264,10 @@ def _as_input(source: str | Path | np.ndarray, downsample: int = 1) -> FrameInpu
     # image two or three pixels wide (docs/conventions.md).
     if array.ndim == 2 and array.shape[1] in (2, 3):
         array = array.astype(np.float64)
+        bad = bad_centroid_row(array)
+        if bad is not None:
+            raise InputError(f"<array>: row {bad}: x, y and flux must be finite numbers, x "
+                             f"and y within {MAX_CENTROID_COORD_PX:g} px")
         if array.shape[1] == 3:
             return FrameInput("<array>", Centroids(array[:, 0], array[:, 1], array[:, 2]))
         ranks = np.arange(len(array), 0, -1.0)  # listed brightest first

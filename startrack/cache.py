@@ -189,10 +189,33 @@ def cached_arrays(kind: str, params: dict,
             _touch(path)
             return arrays
     arrays = build()
-    with contextlib.suppress(OSError), atomic_path(path) as tmp:
-        _write_npz(tmp, {**arrays, ENTRY_KEY: np.array(key)})
+    try:
+        with atomic_path(path, "cache entry") as tmp:
+            _write_npz(tmp, {**arrays, ENTRY_KEY: np.array(key)})
+    except OSError as exc:
+        _warn_unwritable(exc)
     evict(keep=path)
     return arrays
+
+
+_warned_unwritable: list[str] = []  # the cache folders already warned about, this process
+
+
+def _warn_unwritable(exc: OSError) -> None:
+    """Say once that the cache cannot be written: every run then rebuilds its databases
+    (a minute and more), which the user would otherwise see only as slowness."""
+    import warnings
+
+    from startrack.errors import StartrackWarning
+
+    folder = str(cache_dir())
+    if folder in _warned_unwritable:
+        return
+    _warned_unwritable.append(folder)
+    reason = exc.strerror or str(exc)
+    warnings.warn(f"cache folder {folder} cannot be written ({reason}): databases are "
+                  "rebuilt on every run (set STARTRACK_CACHE_DIR)", StartrackWarning,
+                  stacklevel=2)
 
 
 def cached_file(kind: str, params: dict, suffix: str, build: Callable[[Path], None]) -> Path:

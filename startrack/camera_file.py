@@ -95,9 +95,9 @@ def load_camera(path: str | Path) -> Camera:
     except UnicodeDecodeError as exc:
         raise InputError(f"{path}: camera file is not UTF-8 text (byte {exc.start})") \
             from None
+    kind = "TOML" if path.suffix.lower() == ".toml" else "JSON"  # .yaml, .csv: JSON
     try:
-        data = tomllib.loads(text) if path.suffix.lower() == ".toml" else json.loads(text)
+        data = tomllib.loads(text) if kind == "TOML" else json.loads(text)
     except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{path}: not valid {path.suffix.lstrip('.') or 'JSON'} ({exc})") \
-            from None
+        raise InputError(f"{path}: not valid {kind} ({exc})") from None
     return camera_from_dict(data, where=str(path))

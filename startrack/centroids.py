@@ -18,6 +18,18 @@ DEFAULT_SIGMA_PX = 0.5
 # to hundreds of stars; more only costs memory and time); it is read CSV_CHUNK_ROWS at once.
 MAX_CENTROIDS = 1000
 CSV_CHUNK_ROWS = 50_000
+# No centroid lies this far (px) from any image (IMAGE_SIDE_PX is at most 1e5 px); past it
+# a coordinate is junk, and squaring it overflows the projection (1e300: raw warnings).
+MAX_CENTROID_COORD_PX = 1e7
+
+
+def bad_centroid_row(values: np.ndarray) -> int | None:
+    """Index of the first row of ``values`` (x, y[, flux] columns) that is not finite or
+    whose x or y lies past :data:`MAX_CENTROID_COORD_PX`; None when every row is good."""
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(values).all(axis=1) | (
+            np.abs(values[:, :2]) > MAX_CENTROID_COORD_PX).any(axis=1)
+    return int(np.flatnonzero(bad)[0]) if bad.any() else None
 
 
 @dataclass(frozen=True)
@@ -93,13 +105,15 @@ def _csv_chunks(path: Path, columns: dict[str, str]):
             arr = np.column_stack([
                 pd.to_numeric(chunk[c], errors="coerce").to_numpy(dtype=float)
                 for c in columns.values()]) if len(chunk) else np.zeros((0, len(columns)))
-            bad = ~np.isfinite(arr).all(axis=1)
-            if bad.any():
-                raise InputError(f"{path}: line {line + int(np.flatnonzero(bad)[0])}: x, y "
-                                 "and flux must be finite numbers")
+            bad = bad_centroid_row(arr)
+            if bad is not None:
+                raise InputError(f"{path}: line {line + bad}: x, y and flux must be finite "
+                                 f"numbers, x and y within {MAX_CENTROID_COORD_PX:g} px")
             yield line, arr[:, 0], arr[:, 1], (arr[:, 2] if arr.shape[1] > 2 else None)
             line += len(arr)
-    except (OSError, ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+    # OverflowError: a 400-digit integer, which pandas cannot coerce to a float
+    except (OSError, ValueError, OverflowError, pd.errors.ParserError,
+            UnicodeDecodeError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"{path}: not a readable CSV ({first})") from None
 

@@ -48,6 +48,8 @@ def read_input(path: str | Path, centroid_config=None, downsample: int = 1) -> F
     path = Path(path)
     if not path.exists():
         raise InputFileNotFoundError(f"{path}: no such file")
+    if path.is_dir():  # the API's path (the command line's click refuses it first)
+        raise InputError(f"{path}: is a directory, not an image or centroid CSV")
     t0 = time.perf_counter()
     if path.suffix.lower() in CSV_SUFFIXES:
         centroids = read_centroid_csv(path)

@@ -23,7 +23,16 @@ from startrack.camera import Camera
 from startrack.defaults import SCALE_UNITS
 from startrack.errors import InputError
 from startrack.sky.catalog import Catalog, radec_to_vectors
-from startrack.validate import DEC_DEG, PIXEL_SIZE_UM, RA_DEG, RADIUS_DEG, SCALE, check_number
+from startrack.validate import (
+    DEC_DEG,
+    EXPTIME_S,
+    FOV_DEG,
+    PIXEL_SIZE_UM,
+    RA_DEG,
+    RADIUS_DEG,
+    SCALE,
+    check_number,
+)
 
 #: a FITS header's pointing is trusted to within one field of view
 HEADER_RADIUS_FIELDS = 1.0
@@ -94,9 +103,10 @@ class Hints:
 def fov_range_deg(scale: Scale, width: int) -> tuple[float, float]:
     """The nominal FOV and the fractional tolerance that cover ``scale`` for ``width``."""
     a, b = sorted((scale.fov_deg(scale.low, width), scale.fov_deg(scale.high, width)))
-    if not (a > 0 and b < 180):
+    # within --fov's range: below it (1e-5 arcsec/px) the search ran 40 s for nothing
+    if not (a in FOV_DEG and b in FOV_DEG):
         raise InputError(f"--scale-low/--scale-high: a field of view of {a:g} to {b:g} deg "
-                         "is not possible")
+                         f"is outside {FOV_DEG} deg")
     return (a + b) / 2.0, (b - a) / (b + a)
 
 
@@ -200,6 +210,9 @@ def header_time(path: Path | None):
     exptime = None if header is None else header.get("EXPTIME")
     if isinstance(exptime, int | float) and math.isfinite(exptime) and exptime > 0:
         from astropy import units as u
+
+        # 1e300 s moved the time past erfa's table: a traceback, not a one-line error
+        check_number(exptime, f"{path}: EXPTIME", EXPTIME_S)
 
         when = when + exptime / 2.0 * u.s
     return when

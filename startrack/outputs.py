@@ -178,6 +178,7 @@ class Writer:
     def __init__(self, inputs: Iterable[str | Path] = (), overwrite: bool = False) -> None:
         self.overwrite = overwrite
         self.written: list[Path] = []
+        self._claimed: dict[str, str] = {}  # real path -> the output (option) writing it
         self._inputs: dict[tuple[int, int], Path] = {}
         self._real: dict[str, Path] = {}
         for name in inputs:
@@ -197,6 +198,9 @@ class Writer:
     def check(self, path: str | Path, what: str, replace: bool | None = None) -> Path:
         """Refuse ``path`` as an output now, before any work (see the class doc);
         ``replace``: whether an existing file may be replaced (default: ``overwrite``)."""
+        if str(path) == "-":  # the Unix name of standard output, never a file called "-"
+            raise OutputError(f"{what} -: standard output is not a file here; give a file "
+                              "name")
         path = Path(path)
         st = _lstat(path, what)
         name = self.input_at(path)
@@ -204,6 +208,9 @@ class Writer:
             raise OutputError(f"{what} {path}: is the input {name}; refusing to overwrite "
                               "an input")
         refuse_special(path, st, what)
+        other = self._claimed.setdefault(os.path.realpath(path), what)
+        if other != what:  # --output and --corr on one file: the second would replace the first
+            raise OutputError(f"{what} {path}: is also {other}; give each output its own file")
         if st is None:
             _check_parents(path, what)
         elif not (self.overwrite if replace is None else replace) and path not in self.written:

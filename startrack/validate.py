@@ -60,6 +60,7 @@ SIGMA_PX = Bounds(0.0, 50.0, low_open=True)
 MAG_LIMIT = Bounds(-5.0, 30.0)
 #: Julian years: proper motion and the Earth's orbit are meaningless far outside these
 EPOCH_YEAR = Bounds(1000.0, 3000.0)
+EXPTIME_S = Bounds(0.0, 366 * 86_400.0)  # a FITS exposure: at most a year (then a date)
 TIMEOUT_MS = Bounds(0.0, 86_400_000.0)  # a day per input; 0: give up at once
 MAX_STARS = Bounds(3, 10_000, integer=True)
 PRIOR_SIGMA_DEG = Bounds(0.0, 90.0, low_open=True)

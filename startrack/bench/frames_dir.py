@@ -40,7 +40,8 @@ class FramesFolder:
     stars: pd.DataFrame  # stars.csv
 
 
-def _read_csv(path: Path, columns: list[str]) -> pd.DataFrame:
+def _read_csv(path: Path, columns: list[str], numeric: list[str]) -> pd.DataFrame:
+    """``path`` with ``columns``, each row's ``numeric`` ones finite numbers."""
     try:
         table = pd.read_csv(path)
     except FileNotFoundError:
@@ -52,6 +53,12 @@ def _read_csv(path: Path, columns: list[str]) -> pd.DataFrame:
     missing = [c for c in columns if c not in table.columns]
     if missing:
         raise InputError(f"--frames-dir: {path}: missing column(s) {', '.join(missing)}")
+    # A junk row was read as a frame named by its second field ("row.json: cannot read")
+    values = table[numeric].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+    if len(bad):
+        raise InputError(f"--frames-dir: {path}: line {int(bad[0]) + 2}: "
+                         f"{', '.join(numeric)} must be finite numbers")
     return table
 
 
@@ -60,8 +67,8 @@ def read_frames_folder(folder: str | Path) -> FramesFolder:
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(f"--frames-dir: {folder}: not a folder")
-    truth = _read_csv(folder / "truth.csv", TRUTH_COLUMNS[:6])
-    stars = _read_csv(folder / "stars.csv", STARS_COLUMNS)
+    truth = _read_csv(folder / "truth.csv", TRUTH_COLUMNS[:6], ["frame", *TRUTH_COLUMNS[2:6]])
+    stars = _read_csv(folder / "stars.csv", STARS_COLUMNS, ["frame", "x", "y"])
     if truth.empty:
         raise InputError(f"--frames-dir: {folder / 'truth.csv'} lists no frame")
     first = None

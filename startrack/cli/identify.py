@@ -115,7 +115,8 @@ def _time(ctx, param, value):
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="json: one JSON line per input, in input order.")
 @click.option("--output", type=click.Path(dir_okay=False),
-              help="Write here instead of standard output (only when complete).")
+              help="Write here instead of standard output (only when complete; -: standard "
+                   "output).")
 @click.option("--annotate", "annotate_path", type=click.Path(),
               help="Write the frame as a PNG with the identified stars labelled (a folder "
                    "with several inputs).")
@@ -160,6 +161,7 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
 
     writer = Writer([*with_sidecars(inputs), *([camera_path] if camera_path else [])],
                     overwrite)
+    output = None if output == "-" else output  # "-": standard output, as in every Unix tool
     if output:  # every output is checked before any work
         writer.check(output, "--output")
     side = SideOutputs(writer, list(inputs), annotate_path, wcs_path, corr_path)
