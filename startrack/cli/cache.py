@@ -17,7 +17,7 @@ def cache() -> None:
     """The on-disk cache of catalogs and star databases (rebuilt when missing).
 
     Its folder is $STARTRACK_CACHE_DIR, else the user cache folder; its size is capped at
-    $STARTRACK_CACHE_MAX_MB megabytes (default 1024), least recently used entries first
+    $STARTRACK_CACHE_MAX_MB megabytes (default 2048), least recently used entries first
     out."""
 
 
