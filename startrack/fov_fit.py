@@ -146,8 +146,10 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
 
     n_params = 1 + int(fitted.distortion != given.distortion)
     dof = len(check.obs_index) * 2 - 3 - n_params
+    if dof <= 0:  # too few matched stars to tell the cameras apart (or to solve Wahba)
+        return found
     fit_sq = squared(obs)
-    if dof <= 0 or fit_sq <= 0.0:
+    if fit_sq <= 0.0:
         return found
     drop = (squared(given_obs) - fit_sq) / (fit_sq / dof)
     if drop > chi2.isf(GIVEN_REJECT_P, n_params):
@@ -155,4 +157,6 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]
     hyp = Hypothesis(check.obs_index[first], check.cat_index[first])
     again = verify(hyp, given_obs, database, config)
-    return (again, given, given_obs) if again.accepted else found
+    # as refit_fov: an answer labelling fewer than 3 stars has no attitude to stand on
+    return (again, given, given_obs) if again.accepted and len(again.obs_index) >= 3 \
+        else found
