@@ -161,3 +161,13 @@ def test_calibrate_takes_a_config_preset_camera_and_sky(tmp_path):
                      "--overwrite")
     assert run.returncode == 0, run.stderr
     assert "(nominal 11.0000)" in run.stdout
+
+
+def test_calibrate_with_a_wrong_pointing_hint_solves_nothing_and_says_why(tmp_path):
+    """A cone that misses the frame: exit 1, nothing written, the note names the cone."""
+    frame = Path(__file__).parent / "data" / "realsky_azi45.png"
+    out = tmp_path / "camera.json"
+    run = _calibrate(frame, "--config", "realsky", "--ra", 100, "--dec", -30, "--radius", 2,
+                     "--output", out)
+    assert run.returncode == 1 and not out.exists()
+    assert "within --radius of --ra/--dec" in run.stderr

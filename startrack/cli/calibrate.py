@@ -91,8 +91,9 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     result = run(frames, nominal, catalog, method=method, terms=terms,
                  fit_center=not fix_center)
     if result is None:
+        cone = " and within --radius of --ra/--dec" if hints and hints.pointing else ""
         note(f"calibrate: none of the {len(frames)} input(s) solved within 10% of the "
-             "nominal field of view; nothing written")
+             f"nominal field of view{cone}; nothing written")
         sys.exit(1)
     for name in result.unsolved:
         note(f"calibrate: {name}: not solved, left out")
