@@ -9,7 +9,8 @@ against the catalog cut for that field (the magnitude rule of
 :func:`startrack.sky.resolve_sky`). A solution is kept only if the camera fitted to its
 matched stars (least squares on the focal length with the attitude) passes the same
 verification (:func:`startrack.verify.verify`, its binomial bound) again; the record
-reports that camera's ``fov_deg``. Every search takes the input's one
+reports that camera's ``fov_deg``, or the given camera's when the data do not reject it
+(:func:`startrack.fov_fit.keep_given`). Every search takes the input's one
 :class:`~startrack.deadline.Deadline` (``--timeout-ms``), checked before each window and
 each verification: past it the input is not solved, with reason ``"timeout"``.
 """
@@ -27,7 +28,7 @@ from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.deadline import NO_DEADLINE, Deadline
 from startrack.defaults import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
-from startrack.fov_fit import fit_focal, verify_fitted
+from startrack.fov_fit import REFIT_HYPOTHESIS_STARS, fit_focal, keep_given, verify_fitted
 from startrack.identify import residuals_arcsec
 from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
@@ -172,6 +173,7 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
             found = search_window(quad, x, y, cam, lo, hi, ident.sigma_px, db, config, diag,
                                   seen, deadline, deeper)
             if found is not None:
+                found = keep_given(found, cam, ident.sigma_px, db, config)
                 return _result(found, ident.catalog, quad.name, diag, t0, config, db)
     except SearchTimeout:
         return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db,
@@ -234,6 +236,8 @@ class BlindSolver:
                 found = search_window(self.matcher, x, y, base, lo, hi, self.sigma_px, db,
                                       self.config, diag, seen, deadline, deeper)
                 if found is not None:
+                    if camera is not None:
+                        found = keep_given(found, camera, self.sigma_px, db, self.config)
                     return _result(found, self.catalog, self.matcher.name, diag, t0,
                                    self.config, db)
         except SearchTimeout:
@@ -241,11 +245,6 @@ class BlindSolver:
         obs = Observation.from_pixels(x, y, base, self.sigma_px)
         return _result((None, base, obs), self.catalog, self.matcher.name, diag, t0,
                        self.config, db, reason=reason)
-
-
-#: stars of an accepted answer used as the hypothesis when its FOV is refitted: the rest
-#: of the frame is the independent evidence verification counts
-REFIT_HYPOTHESIS_STARS = 4
 
 
 def refit_fov(result, database: StarDatabase, config: VerifyConfig,
@@ -267,6 +266,7 @@ def refit_fov(result, database: StarDatabase, config: VerifyConfig,
     # to stand on (seen at a nominal FOV 0.7% off): the search decides instead.
     if found is None or len(found[0].obs_index) < 3:
         return None
+    found = keep_given(found, result.camera, result.sigma_px, database, config)
     fitted = _result(found, result.catalog, sol.method, sol.diagnostics, t0, config, database)
     return dataclasses.replace(fitted, solution=dataclasses.replace(
         fitted.solution, identify_ms=sol.identify_ms + fitted.solution.identify_ms))

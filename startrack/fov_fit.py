@@ -8,12 +8,16 @@ import dataclasses
 import math
 
 import numpy as np
+from scipy.stats import chi2, norm
 
+from startrack.attitude import solve_wahba
+from startrack.calibrate_sigma import SIGNIFICANCE
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.distortion import RadialDistortion
 from startrack.errors import InputError
 from startrack.fov_fit_kernels import BAD_FOCAL, fit_iterations
+from startrack.identify import residuals_arcsec
 from startrack.types import Hypothesis, Observation
 from startrack.verify import Verification, VerifyConfig, verify
 
@@ -108,3 +112,51 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
         obs = Observation.from_pixels(x, y, camera, sigma_px)
         check = verify(hyp, obs, database, config)
     return (check, camera, obs) if check.accepted else 0
+
+
+#: the given camera stands unless the fitted one lowers the matched stars' chi-square
+#: by more than a 3-sigma chance would (the calibrate rule, startrack.calibrate_sigma)
+GIVEN_REJECT_P = 2.0 * float(norm.sf(SIGNIFICANCE))
+#: stars of an accepted answer used as the hypothesis when its FOV is refitted or its
+#: given camera verified again: the rest of the frame is the independent evidence
+#: verification counts
+REFIT_HYPOTHESIS_STARS = 4
+
+
+def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
+               sigma_px: float, database: StarDatabase,
+               config: VerifyConfig) -> tuple[Verification, Camera, Observation]:
+    """``found`` (from :func:`verify_fitted`) with the ``given`` camera put back when the
+    data do not reject it: a camera given exactly (a simulated frame's sidecar) is reported
+    as given, not as a fitted focal length and k1 a few parts in 1e4 off. Rejected means
+    the fit's drop in the squared residuals of the matched stars, over the noise the
+    fitted residuals show, exceeds the chi-square quantile of :data:`GIVEN_REJECT_P` for
+    the parameters fitted; the given camera must also pass verification again, with the
+    :data:`REFIT_HYPOTHESIS_STARS` brightest matched stars as the hypothesis (the rest of
+    the frame is the independent evidence, as when a FOV is refitted)."""
+    check, fitted, obs = found
+    if fitted == given:
+        return found
+    cat = database.vectors[check.cat_index]
+    given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
+
+    def squared(o: Observation) -> float:
+        rotation = solve_wahba(o.vectors[check.obs_index], cat)
+        return float(np.sum(residuals_arcsec(rotation, o, check.obs_index, cat) ** 2))
+
+    n_params = 1 + int(fitted.distortion != given.distortion)
+    dof = len(check.obs_index) * 2 - 3 - n_params
+    if dof <= 0:  # too few matched stars to tell the cameras apart (or to solve Wahba)
+        return found
+    fit_sq = squared(obs)
+    if fit_sq <= 0.0:
+        return found
+    drop = (squared(given_obs) - fit_sq) / (fit_sq / dof)
+    if drop > chi2.isf(GIVEN_REJECT_P, n_params):
+        return found
+    first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]
+    hyp = Hypothesis(check.obs_index[first], check.cat_index[first])
+    again = verify(hyp, given_obs, database, config)
+    # as refit_fov: an answer labelling fewer than 3 stars has no attitude to stand on
+    return (again, given, given_obs) if again.accepted and len(again.obs_index) >= 3 \
+        else found

@@ -118,3 +118,14 @@ def test_an_entry_whose_stored_key_differs_is_rebuilt(tmp_path, monkeypatch):
     out = cached_arrays("t", {"k": 1}, build)
     assert len(calls) == 2
     np.testing.assert_array_equal(out["b"], np.arange(7, dtype=np.int32))
+
+
+def test_cache_help_states_the_cap_the_code_applies():
+    """`startrack cache --help` said 1024 MB while the cap was 2048 (found by QA)."""
+    from click.testing import CliRunner
+
+    from startrack.cache import DEFAULT_CACHE_MAX_MB
+    from startrack.cli import main
+
+    text = " ".join(CliRunner().invoke(main, ["cache", "--help"]).output.split())
+    assert f"megabytes (default {DEFAULT_CACHE_MAX_MB})" in text

@@ -145,3 +145,29 @@ def test_calibrate_takes_a_scale_range_and_a_pointing_cone_instead_of_the_fov(tm
     run = _calibrate(*frames, "--fov", 20.0, "--scale-low", 19.5, "--scale-high", 21.5,
                      "--size", "1024x1024", "--output", out)
     assert run.returncode == 2 and "not both" in run.stderr
+
+
+def test_calibrate_takes_a_config_preset_camera_and_sky(tmp_path):
+    """`calibrate --config realsky` (issue 28: --config presets for calibrate too): the
+    preset's camera is the nominal one and its sky (Hp 7.5 at epoch 2019.6) the catalog;
+    --fov still overrides the camera."""
+    frame = Path(__file__).parent / "data" / "realsky_azi45.png"
+    out = tmp_path / "camera.json"
+    run = _calibrate(frame, "--config", "realsky", "--output", out)
+    assert run.returncode == 0, run.stderr
+    assert "(nominal 11.4200)" in run.stdout
+    assert abs(json.loads(out.read_text())["fov_deg"] - 11.43) < 0.02
+    run = _calibrate(frame, "--config", "realsky", "--fov", 11.0, "--output", out,
+                     "--overwrite")
+    assert run.returncode == 0, run.stderr
+    assert "(nominal 11.0000)" in run.stdout
+
+
+def test_calibrate_with_a_wrong_pointing_hint_solves_nothing_and_says_why(tmp_path):
+    """A cone that misses the frame: exit 1, nothing written, the note names the cone."""
+    frame = Path(__file__).parent / "data" / "realsky_azi45.png"
+    out = tmp_path / "camera.json"
+    run = _calibrate(frame, "--config", "realsky", "--ra", 100, "--dec", -30, "--radius", 2,
+                     "--output", out)
+    assert run.returncode == 1 and not out.exists()
+    assert "within --radius of --ra/--dec" in run.stderr

@@ -107,6 +107,24 @@ def test_fov_within_the_tolerance_solves_and_is_fitted(error):
         assert result.record()["fov_deg"] == pytest.approx(CAMERA.fov_deg, abs=0.01)
 
 
+@pytest.mark.parametrize("error", [0.0, 0.01])
+def test_an_exact_camera_is_reported_as_given_unless_the_data_reject_it(error):
+    """A nominal pinhole camera that is exactly right is reported as given (not a focal
+    length and a k1 fitted a few parts in 1e4 off, as if measured); one 1% off (5 px at
+    the edge) is rejected by the data and fitted."""
+    pipeline = Pipeline(Options(fov_deg=CAMERA.fov_deg * (1 + error), size=(1024, 1024),
+                                sky="random", fov_tolerance=0.1))
+    for frame, _, rot in _frames(CAMERA, 3, seed=11):
+        result = pipeline.solve(frame)
+        assert result.solution.solved
+        assert _boresight_error_arcsec(result.solution.rotation, rot) < 60.0
+        if error == 0.0:
+            assert result.camera == pipeline.setup_for(frame)[0]
+            assert result.record()["fov_deg"] == CAMERA.fov_deg
+        else:  # fitted, its k1 trading a little against the focal length
+            assert result.camera.fov_deg == pytest.approx(CAMERA.fov_deg, abs=0.03)
+
+
 def test_fov_outside_the_tolerance_is_not_solved_never_wrong():
     pipeline = Pipeline(Options(fov_deg=CAMERA.fov_deg * 1.3, size=(1024, 1024),
                                 sky="random", method="quad", fov_tolerance=0.05))

@@ -38,19 +38,23 @@ from startrack.validate import DOWNSAMPLE, EPOCH_YEAR, FOV_DEG, MAG_LIMIT
               help="Radial distortion coefficients to fit: 0 none, 1 k1, 2 k1 k2, 3 k1-k3.")
 @click.option("--fix-center", is_flag=True, help="Keep the principal point of the nominal "
               "camera instead of fitting it.")
-@click.option("--sky", type=SKY_NAME, default="hipparcos", show_default=True,
-              help=SKY_HELP)
+@click.option("--sky", type=SKY_NAME,
+              help=SKY_HELP + " Default: the --config preset's sky, else hipparcos.")
 @index_dir_option
 @click.option("--mag-limit", type=Number(MAG_LIMIT), help="Faintest catalog magnitude.")
 @click.option("--epoch", type=Number(EPOCH_YEAR),
               help="Julian year to carry catalog positions to by proper motion.")
 @click.option("--method", default=DEFAULT_METHOD, show_default=True, help="Matcher.")
 @hint_options
+@click.option("--config", "config_path", type=click.Path(dir_okay=False),
+              help="A TOML preset (configs/*.toml, or its name): its [camera] is the nominal "
+                   "camera unless --fov, --camera or a scale range is given, its [sky] the "
+                   "sky unless --sky (--mag-limit, --epoch override it).")
 @click.option("--downsample", type=Number(DOWNSAMPLE), default=1, show_default=True,
               help="Find the centroids on the images binned N x N.")
 @verbosity
 def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_center, sky,
-              mag_limit, epoch, method, downsample, quiet, verbose,
+              mag_limit, epoch, method, config_path, downsample, quiet, verbose,
               **hint_values) -> None:
     """Solve every INPUT (images or centroid CSVs from one camera), fit its focal length,
     principal point and radial distortion by least squares over all matched stars (with
@@ -58,6 +62,7 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     Exit 1 when no input solves (nothing is written)."""
     from startrack.calibrate import calibrate as run  # the compiled core: only when run
     from startrack.calibrate_sigma import format_parameters
+    from startrack.hints import preset
     from startrack.matchers import get_matcher
     from startrack.sidecar import with_sidecars
     from startrack.sky import load_sky, resolve_sky, sky_spec
@@ -65,16 +70,20 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     hints = hints_from(hint_values, fov_given=fov_deg is not None or camera_path is not None)
     if fov_deg is not None and camera_path is not None:
         raise InputError("calibrate: give exactly one of --fov DEG and --camera FILE")
+    preset_camera, preset_sky = preset(config_path, None, fov_deg, hints)
+    preset_camera = None if camera_path is not None else preset_camera
     get_matcher(method)
     writer = Writer([*with_sidecars(inputs), *([camera_path] if camera_path else [])],
                     overwrite)
     writer.check(output, "--output")  # before any work
     note, detail = notes(quiet, verbose)
     frames = [read_input(Path(name), downsample=downsample) for name in inputs]
-    if fov_deg is None and camera_path is None:
+    if fov_deg is None and camera_path is None and preset_camera is None:
         fov_deg = hinted_fov(frames, hints, size, not hint_values["no_header_hints"])
-    nominal = _nominal(frames, fov_deg, camera_path, size)
-    spec = dataclasses.replace(sky_spec(sky), mag_limit=mag_limit, epoch=epoch)
+    nominal = _nominal(frames, fov_deg, camera_path, size, preset_camera)
+    spec = sky_spec(sky) if sky else (preset_sky or sky_spec("hipparcos"))
+    given = {"mag_limit": mag_limit, "epoch": epoch}
+    spec = dataclasses.replace(spec, **{k: v for k, v in given.items() if v is not None})
     catalog = load_sky(resolve_sky(spec, nominal), nominal)
     if hints is not None and hints.pointing is not None:
         from startrack.hints import cone_radius_deg, cut_to_cone
@@ -84,8 +93,9 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     result = run(frames, nominal, catalog, method=method, terms=terms,
                  fit_center=not fix_center)
     if result is None:
+        cone = " and within --radius of --ra/--dec" if hints and hints.pointing else ""
         note(f"calibrate: none of the {len(frames)} input(s) solved within 10% of the "
-             "nominal field of view; nothing written")
+             f"nominal field of view{cone}; nothing written")
         sys.exit(1)
     for name in result.unsolved:
         note(f"calibrate: {name}: not solved, left out")
@@ -129,8 +139,9 @@ def hinted_fov(frames, hints, size, header: bool) -> float:
                      "scale range, or FITS inputs with a WCS)")
 
 
-def _nominal(frames, fov_deg, camera_path, size):
-    """The nominal camera: the file, or --fov with the image (or --size) dimensions."""
+def _nominal(frames, fov_deg, camera_path, size, preset_camera=None):
+    """The nominal camera: the file, the --config preset's, or --fov with the image (or
+    --size) dimensions."""
     from startrack.camera import Camera
 
     sizes = {f.size for f in frames if f.size is not None}
@@ -139,6 +150,8 @@ def _nominal(frames, fov_deg, camera_path, size):
                          "calibrate one camera at a time")
     if camera_path is not None:
         camera = load_camera(camera_path)
+    elif preset_camera is not None:
+        camera = preset_camera
     else:
         dims = size or (next(iter(sizes)) if sizes else None)
         if dims is None:
