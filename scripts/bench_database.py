@@ -43,8 +43,8 @@ def child() -> None:
 
     from startrack.camera import Camera
     from startrack.database import StarDatabase, build_kernels
+    from startrack.defaults import DEFAULT_METHOD
     from startrack.matchers import get_matcher
-    from startrack.pipeline import DEFAULT_METHOD
     from startrack.sky import SkySpec, load_sky, resolve_sky
 
     times = {"imports": time.perf_counter() - T0}

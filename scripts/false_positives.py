@@ -22,11 +22,12 @@ import time
 import numpy as np
 
 from startrack.camera import Camera
+from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.database import StarDatabase
+from startrack.defaults import DEFAULT_METHOD
 from startrack.errors import InputError
 from startrack.identify import identify
 from startrack.matchers import MatcherConfig, available_methods, get_matcher
-from startrack.pipeline import DEFAULT_METHOD, DEFAULT_SIGMA_PX
 from startrack.sky import SkySpec, load_sky
 from startrack.types import Observation
 from startrack.verify import VerifyConfig

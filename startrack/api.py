@@ -23,11 +23,12 @@ from startrack.centroids import (
     Centroids,
     bad_centroid_row,
 )
+from startrack.defaults import DEFAULT_METHOD
 from startrack.errors import InputError, as_builtin
 from startrack.fov import DEFAULT_FOV_TOLERANCE
 from startrack.frame_input import FrameInput, image_input, read_input
 from startrack.identifier import FrameResult
-from startrack.pipeline import DEFAULT_METHOD, Options, Pipeline
+from startrack.pipeline import Options, Pipeline
 from startrack.validate import NumberTypeError
 
 STAR_COLUMNS = ["x", "y", "catalog_id", "ra_deg", "dec_deg", "residual_arcsec"]

@@ -15,9 +15,9 @@ from startrack.attitude import (
 )
 from startrack.camera import Camera
 from startrack.database import StarDatabase
+from startrack.defaults import DEFAULT_METHOD
 from startrack.identify import identify
 from startrack.matchers import available_methods, get_matcher
-from startrack.pipeline import DEFAULT_METHOD
 from startrack.sky import SkySpec, load_sky, random_sky
 from startrack.types import Hypothesis, Observation
 from startrack.verify import VerifyConfig, false_match_probability, verify

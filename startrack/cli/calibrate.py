@@ -61,11 +61,10 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     outlier rejection), write the camera file and print the residual RMS before and after.
     Exit 1 when no input solves (nothing is written)."""
     from startrack.calibrate import calibrate as run  # the compiled core: only when run
-    from startrack.calibrate_sigma import format_parameters
     from startrack.hints import preset
     from startrack.matchers import get_matcher
     from startrack.sidecar import with_sidecars
-    from startrack.sky import load_sky, resolve_sky, sky_spec
+    from startrack.sky import sky_spec
 
     hints = hints_from(hint_values, fov_given=fov_deg is not None or camera_path is not None)
     if fov_deg is not None and camera_path is not None:
@@ -81,15 +80,8 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     if fov_deg is None and camera_path is None and preset_camera is None:
         fov_deg = hinted_fov(frames, hints, size, not hint_values["no_header_hints"])
     nominal = _nominal(frames, fov_deg, camera_path, size, preset_camera)
-    spec = sky_spec(sky) if sky else (preset_sky or sky_spec("hipparcos"))
-    given = {"mag_limit": mag_limit, "epoch": epoch}
-    spec = dataclasses.replace(spec, **{k: v for k, v in given.items() if v is not None})
-    catalog = load_sky(resolve_sky(spec, nominal), nominal)
-    if hints is not None and hints.pointing is not None:
-        from startrack.hints import cone_radius_deg, cut_to_cone
-
-        catalog = cut_to_cone(catalog, hints.pointing,
-                              cone_radius_deg(hints.pointing, nominal, 0.1, 0.0))
+    catalog = _catalog(sky_spec(sky) if sky else (preset_sky or sky_spec("hipparcos")),
+                       mag_limit, epoch, nominal, hints)
     result = run(frames, nominal, catalog, method=method, terms=terms,
                  fit_center=not fix_center)
     if result is None:
@@ -107,8 +99,33 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
             p.name: {"sigma": p.sigma, "status": p.status, "fit": p.fit}
             for p in result.parameters}}, fh, indent=2)
         fh.write("\n")
+    _print_result(result, nominal, len(frames))
+    click.echo(f"wrote {output}")
+
+
+def _catalog(spec, mag_limit, epoch, nominal, hints):
+    """The catalog to match against: ``spec`` with the options applied, cut to the
+    pointing hint's cone when there is one."""
+    from startrack.sky import load_sky, resolve_sky
+
+    given = {"mag_limit": mag_limit, "epoch": epoch}
+    spec = dataclasses.replace(spec, **{k: v for k, v in given.items() if v is not None})
+    catalog = load_sky(resolve_sky(spec, nominal), nominal)
+    if hints is not None and hints.pointing is not None:
+        from startrack.hints import cone_radius_deg, cut_to_cone
+
+        catalog = cut_to_cone(catalog, hints.pointing,
+                              cone_radius_deg(hints.pointing, nominal, 0.1, 0.0))
+    return catalog
+
+
+def _print_result(result, nominal, n_frames: int) -> None:
+    """The fit's summary: inputs solved, residuals before and after, every parameter."""
+    from startrack.calibrate_sigma import format_parameters
+
+    cam = result.camera
     d = cam.distortion.to_dict() if cam.distortion else {"k1": 0.0, "k2": 0.0, "k3": 0.0}
-    click.echo(f"calibrate: {len(result.solved)} of {len(frames)} input(s) solved, "
+    click.echo(f"calibrate: {len(result.solved)} of {n_frames} input(s) solved, "
                f"{result.n_stars} stars fitted ({result.n_rejected} rejected as outliers)")
     click.echo(f"residual RMS before: {result.rms_before_px:.3f} px (nominal camera, "
                "attitudes refitted)")
@@ -118,7 +135,6 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
                f"k3 {d['k3']:.5f}")
     for line in format_parameters(result.parameters):
         click.echo(line)
-    click.echo(f"wrote {output}")
 
 
 def hinted_fov(frames, hints, size, header: bool) -> float:

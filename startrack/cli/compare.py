@@ -15,6 +15,13 @@ import click
 
 from startrack.bench.conditions import SOURCES
 from startrack.cli import main
+from startrack.cli._compare_modes import (
+    frames_dir_run,
+    print_finished,
+    replay_one,
+    report_writer,
+    tracking_run,
+)
 from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, notes, verbosity
 from startrack.errors import InputError
 from startrack.validate import (
@@ -175,31 +182,23 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
             mag_noise, fov_error, distortion_k1, modelled_k1, grid, max_stars, source,
             threshold_arcsec, jobs, scheduler, out_dir, seed, resume, overwrite, mode, rates,
             fps, replay, frames_dir, quiet, verbose) -> None:
-    """Compare identification methods on the same random frames under centroid noise,
-    false and missing stars and a wrong camera (FOV error, distortion).
+    """Compare identification methods on the same frames (random ones, or --frames-dir)
+    under centroid noise, false and missing stars and a wrong camera (FOV error,
+    distortion).
 
     Writes frames.csv, summary.csv, db.csv, plots and report.md in --out; their columns
     and the other conventions are in docs/conventions.md. Progress goes to stderr: a bar
     on a terminal, a line every few seconds otherwise (-q: none)."""
-    from startrack.bench.conditions import build_conditions
-    from startrack.bench.runner import RunSpec
     from startrack.bench.session import run_comparison
     from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
 
     names = parse_methods(methods)
     note, detail = notes(quiet, verbose)
-    ctx = click.get_current_context()
     reports: list = []
-
-    def finish(result, replay_for=None) -> None:  # written while the run holds --out
-        from startrack.bench.report import NOT_REPLAYED, command_line, write_report
-
-        reports.append(write_report(result, command_line(ctx),
-                                    command_line(ctx, drop=NOT_REPLAYED), replay_for))
-
+    finish = report_writer(click.get_current_context(), reports)
     if frames_dir is not None:
-        return _frames_dir(frames_dir, names, out_dir, max_stars, threshold_arcsec, quiet,
-                           note, overwrite, finish, reports)
+        return frames_dir_run(frames_dir, names, out_dir, max_stars, threshold_arcsec, quiet,
+                              note, overwrite, finish, reports)
     cfg = (load_config(config_path) if config_path
            else config_from_dict(DEFAULT_CONFIG, "default config"))
     inputs = [config_path] if config_path else []
@@ -207,24 +206,17 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     if source == "images":  # frames are rendered at the camera's size
         _check_image_size(cfg, config_path)
     if mode == "tracking":  # frame sequences (startrack.bench.tracking_report)
-        return _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars,
-                         missing, fps, seed, out_dir, threshold_arcsec, note,
-                         dict(resume=resume, overwrite=overwrite, inputs=inputs))
+        return tracking_run(cfg, spec_sky, names, frames, rates, noise_px, false_stars,
+                            missing, fps, seed, out_dir, threshold_arcsec, note,
+                            dict(resume=resume, overwrite=overwrite, inputs=inputs))
     levels = _levels(noise_px, false_stars, missing, mag_noise, source, dict(
         fov_error=fov_error, distortion_k1=distortion_k1, modelled_k1=modelled_k1))
-    spec = RunSpec(
-        methods=names, conditions=tuple(build_conditions(levels, grid)), frames=frames,
-        seed=cfg.frames.seed if seed is None else seed, camera=cfg.camera, sky=spec_sky,
-        sensor=cfg.sensor, source=source, grid=grid, max_stars=max_stars,
-        hot_pixel_fraction=cfg.frames.hot_pixel_fraction, threshold_arcsec=threshold_arcsec)
+    spec = _run_spec(cfg, spec_sky, names, levels, grid, frames, seed, source, max_stars,
+                     threshold_arcsec)
     if replay is not None:
-        _replay(spec, replay)
+        replay_one(spec, replay)
         return
-    jobs = _workers(jobs)
-    n_units = len(spec.conditions) * frames
-    if n_units > MAX_UNITS:  # the run's unit list alone would not fit in memory
-        raise InputError(f"--frames {frames} x {len(spec.conditions)} condition(s) is "
-                         f"{n_units:,} units, above the limit of {MAX_UNITS:,}")
+    jobs, n_units = _workers(jobs), len(spec.conditions) * frames
     where = f"Dask at {scheduler}" if scheduler else f"{jobs} process(es)"
 
     def announce() -> None:
@@ -243,85 +235,22 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
         raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
     if result.units_resumed:
         note(f"resumed: {result.units_resumed} unit(s) were already done")
-    _finish(result, reports[0])
+    print_finished(result, reports[0])
 
 
-def _finish(result, report: Path) -> None:
-    """Print the tables and where the files are (``report``: report.md, written)."""
-    from startrack.bench.session import format_table
+def _run_spec(cfg, spec_sky, names, levels, grid, frames, seed, source, max_stars,
+              threshold_arcsec):
+    """The lost-in-space run: every method on the same frames of every condition."""
+    from startrack.bench.conditions import build_conditions
+    from startrack.bench.runner import RunSpec
 
-    click.echo(format_table(result.summary))
-    loads = ", ".join(f"{k} {v:.2f} s" for k, v in result.load_seconds.items())
-    click.echo(f"\nload (sky, database+prepare per method): {loads}")
-    click.echo(f"wrote {report}, {result.frames_csv} (per frame), {result.summary_csv} "
-               f"(per condition), {result.db_csv}, plots: "
-               f"{', '.join(p.name for p in result.plots) or 'none (nothing swept)'} "
-               f"in {result.out}/ ({result.wall_seconds:.1f} s)")
-
-
-def _frames_dir(folder, names, out_dir, max_stars, threshold_arcsec, quiet, note, overwrite,
-                finish, reports: list) -> None:
-    """``--frames-dir``: every method on the folder's frames (startrack.bench.frames_dir)."""
-    from startrack.bench.frames_dir import compare_frames_folder, identify_command
-
-    def announce(data) -> None:
-        note(f"compare: {', '.join(names)} on {len(data.truth)} frame(s) of {folder}")
-
-    try:
-        result = compare_frames_folder(folder, names, out_dir, max_stars=max_stars,
-                                       threshold_arcsec=threshold_arcsec, quiet=quiet,
-                                       announce=announce, overwrite=overwrite,
-                                       finish=lambda r: finish(r, identify_command(folder)))
-    except InputError:
-        raise
-    except OSError as exc:
-        raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
-    _finish(result, reports[0])
-
-
-def _tracking(cfg, spec_sky, methods, frames, rates, noise_px, false_stars, missing, fps,
-              seed, out_dir, threshold_arcsec, note, folder: dict) -> None:
-    """``--mode tracking``: the options as given (unset ones take the tracking defaults)."""
-    from click.core import ParameterSource
-
-    from startrack.bench import tracking_report as tr
-    from startrack.pipeline import DEFAULT_METHOD
-
-    ctx = click.get_current_context()
-    given = {n: ctx.get_parameter_source(n) == ParameterSource.COMMANDLINE
-             for n in ("methods", "frames")}
-    names = parse_methods(methods) if given["methods"] else (DEFAULT_METHOD,)
-    levels = tr.parse_levels({"rate_dps": rates, "noise_px": noise_px,
-                              "false_stars": false_stars, "missing": missing})
-    from startrack.bench.session import run_in_folder
-    from startrack.bench.store import run_identity
-
-    run = dict(methods=names, levels=levels,
-               frames=frames if given["frames"] else tr.DEFAULT_FRAMES, fps=fps,
-               seed=cfg.frames.seed if seed is None else seed,
-               threshold_arcsec=threshold_arcsec)
-    identity = run_identity({"mode": "tracking", "camera": cfg.camera.to_dict(),
-                             "sky": spec_sky.to_dict(), **run})
-    summary, _ = run_in_folder(out_dir, identity, lambda out: tr.compare_tracking(
-        cfg.camera, spec_sky, out=out, **run, progress=note), **folder)
-    click.echo(tr.markdown_table(summary))
-    click.echo(f"wrote frames.csv, summary.csv, time_ratio.csv, report.md and plots in "
-               f"{out_dir}/")
-
-
-def _replay(spec, text: str) -> None:
-    """Run one (condition, frame) unit of ``spec`` and print every method's answer."""
-    from startrack.bench.report import replay_text
-    from startrack.bench.runner import run_unit
-
-    try:
-        condition, frame = (int(p) for p in text.split(","))
-    except ValueError:
-        raise InputError(f"--replay: expected CONDITION,FRAME (two integers), got {text!r}") \
-            from None
-    if not 0 <= condition < len(spec.conditions) or not 0 <= frame < spec.frames:
-        raise InputError(f"--replay: this run has conditions 0..{len(spec.conditions) - 1} "
-                         f"and frames 0..{spec.frames - 1}, got {text!r}")
-    click.echo(f"condition {condition} ({spec.conditions[condition].to_dict()}), "
-               f"frame {frame}:")
-    click.echo(replay_text(run_unit(spec, condition, frame)))
+    conditions = tuple(build_conditions(levels, grid))
+    n_units = len(conditions) * frames
+    if n_units > MAX_UNITS:  # the run's unit list alone would not fit in memory
+        raise InputError(f"--frames {frames} x {len(conditions)} condition(s) is "
+                         f"{n_units:,} units, above the limit of {MAX_UNITS:,}")
+    return RunSpec(
+        methods=names, conditions=conditions, frames=frames,
+        seed=cfg.frames.seed if seed is None else seed, camera=cfg.camera, sky=spec_sky,
+        sensor=cfg.sensor, source=source, grid=grid, max_stars=max_stars,
+        hot_pixel_fraction=cfg.frames.hot_pixel_fraction, threshold_arcsec=threshold_arcsec)

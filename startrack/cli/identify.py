@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import csv
-import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -14,6 +12,14 @@ import click
 from startrack.camera_file import load_camera
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.cli import main
+from startrack.cli._identify_output import (
+    NothingAnswered,
+    around_bar,
+    inputs_with_progress,
+    record_writer,
+    summary_line,
+    verbose_notes,
+)
 from startrack.cli.hint_options import hint_options, hints_from
 from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, triple
 from startrack.defaults import (
@@ -44,9 +50,6 @@ from startrack.validate import (
     TIMEOUT_MS,
     check_number,
 )
-
-#: a batch of at least this many inputs shows a progress bar (when stderr is a terminal)
-PROGRESS_MIN_INPUTS = 3
 
 
 def _size(ctx, param, value):
@@ -157,30 +160,25 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
     usage or an unreadable input (the other inputs are still answered).
     Conventions (pixels, attitude, JSON record, exit codes): docs/conventions.md."""
     from startrack.output import EXIT_CODES, error_record  # the compiled core: when run
-    from startrack.sidecar import with_sidecars
 
-    writer = Writer([*with_sidecars(inputs), *([camera_path] if camera_path else [])],
-                    overwrite)
-    output = None if output == "-" else output  # "-": standard output, as in every Unix tool
-    if output:  # every output is checked before any work
-        writer.check(output, "--output")
+    writer, output = _output_writer(inputs, camera_path, overwrite, output)
     side = SideOutputs(writer, list(inputs), annotate_path, wcs_path, corr_path)
     options = _options(camera_path, fov_deg, config_path, hint_values, method=method,
                        size=size, sky=sky, mag_limit=mag_limit, epoch=epoch,
                        max_stars=max_stars, sigma_px=sigma_px, timeout_ms=timeout_ms,
                        time=obs_time, fov_tolerance=fov_tolerance, downsample=downsample)
     pipeline = _solver(options, track, prior, prior_sigma_deg)
-    note = _notes(quiet, verbose)
+    note = verbose_notes(quiet, verbose)
     worst = 0
     pending: list[dict] = []  # error records held back until an input is answered
     try:
         with contextlib.ExitStack() as stack:
             fh = (stack.enter_context(writer.text(output, "--output")) if output
                   else guarded_stdout())
-            emit = _writer(fh, fmt, several=len(inputs) > 1)
-            todo = _progress(inputs, quiet, stack)
+            emit = record_writer(fh, fmt, several=len(inputs) > 1)
+            todo = inputs_with_progress(inputs, quiet, stack)
             if todo is not inputs and not output:
-                emit = _around_bar(emit)
+                emit = around_bar(emit)
             for name in todo:
                 result = None
                 try:
@@ -200,15 +198,28 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
                     emit(rec)
                 pending.clear()
             if len(pending) == len(inputs):
-                raise _NothingAnswered  # no input could be read: leave no output at all
+                raise NothingAnswered  # no input could be read: leave no output at all
             for rec in pending:
                 emit(rec)
             side.finish()
-    except _NothingAnswered:
+    except NothingAnswered:
         pass
     for path in side.written:
         note(f"wrote {path}")
     sys.exit(worst)
+
+
+def _output_writer(inputs, camera_path, overwrite: bool, output):
+    """The writer of every output (never an input or its sidecar) and ``--output``, checked
+    before any work; ``-`` is standard output (None), as in every Unix tool."""
+    from startrack.sidecar import with_sidecars
+
+    writer = Writer([*with_sidecars(inputs), *([camera_path] if camera_path else [])],
+                    overwrite)
+    output = None if output == "-" else output
+    if output:
+        writer.check(output, "--output")
+    return writer, output
 
 
 def _options(camera_path, fov_deg, config_path, hint_values: dict, **given) -> Options:
@@ -230,7 +241,7 @@ def _options(camera_path, fov_deg, config_path, hint_values: dict, **given) -> O
 def _report(note, name: str, record: dict, prior_alone: bool) -> None:
     """The -v line of an input, and (a --prior without --track) one stderr line when it
     was solved lost-in-space instead."""
-    note(_summary(record))
+    note(summary_line(record))
     if prior_alone and "fallback" in record:
         click.echo(f"note: {name}: not solved near --prior ({record['fallback']}); solved "
                    "lost-in-space", err=True)
@@ -246,68 +257,3 @@ def _solver(options, track: bool, prior, prior_sigma_deg: float):
         return pipeline
     return SequenceSolver(pipeline, track=track, prior=None if prior is None
                           else prior_from_radec_roll(*prior, prior_sigma_deg))
-
-
-def _around_bar(emit):
-    """``emit`` that lifts the progress bar off the terminal while it prints."""
-    from tqdm import tqdm
-
-    def emit_clear(record: dict) -> None:
-        with tqdm.external_write_mode(file=sys.stdout):
-            emit(record)
-    return emit_clear
-
-
-def _notes(quiet: bool, verbose: bool):
-    """A function printing a note on stderr when -v is given (never with -q)."""
-    def note(text: str) -> None:
-        if verbose and not quiet:
-            click.echo(text, err=True)
-    return note
-
-
-def _summary(record: dict) -> str:
-    n = len(record["stars"])
-    ms = record["timing_ms"]["total"]
-    what = f"solved, {n} stars" if record["status"] == "solved" else \
-        f"not solved ({record.get('reason', 'no_match')})"
-    return f"{record.get('input', '')}: {what}, {ms:.0f} ms"
-
-
-def _progress(inputs, quiet: bool, stack: contextlib.ExitStack):
-    """The inputs, with a progress bar on stderr for a batch when stderr is a terminal, a
-    line every few seconds when it is not (startrack.progress)."""
-    if quiet or len(inputs) < PROGRESS_MIN_INPUTS:
-        return inputs
-    if not sys.stderr.isatty():
-        from startrack.progress import iterate
-
-        return iterate(inputs, desc="identify", unit="input")
-    from tqdm import tqdm
-
-    return stack.enter_context(tqdm(inputs, file=sys.stderr, unit="input", desc="identify",
-                                    leave=False, dynamic_ncols=True))
-
-
-class _NothingAnswered(Exception):
-    """Every input was bad: the atomic output is discarded rather than written."""
-
-
-def _writer(fh, fmt: str, several: bool):
-    """A function writing one record to ``fh`` in ``fmt`` (the CSV header first)."""
-    from startrack.output import CSV_HEADER, csv_rows, format_table  # as in identify()
-
-    writer = csv.writer(fh, lineterminator="\n") if fmt == "csv" else None
-    if writer is not None:
-        writer.writerow(CSV_HEADER)
-
-    def emit(record: dict) -> None:
-        if fmt == "json":
-            fh.write(json.dumps(record) + "\n")
-        elif writer is not None:
-            writer.writerows(csv_rows(record))
-        else:
-            fh.write(format_table(record) + ("\n" if several else ""))
-        fh.flush()
-
-    return emit

@@ -1,0 +1,102 @@
+"""`startrack compare`'s other modes (``--frames-dir``, ``--mode tracking``, ``--replay``)
+and the lines a finished run prints."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from startrack.defaults import DEFAULT_METHOD
+from startrack.errors import InputError
+
+
+def report_writer(ctx, reports: list):
+    """``finish(result, replay_for=None)``: writes report.md (while the run holds --out)
+    and appends its path to ``reports``."""
+    def finish(result, replay_for=None) -> None:
+        from startrack.bench.report import NOT_REPLAYED, command_line, write_report
+
+        reports.append(write_report(result, command_line(ctx),
+                                    command_line(ctx, drop=NOT_REPLAYED), replay_for))
+    return finish
+
+
+def print_finished(result, report: Path) -> None:
+    """Print the tables and where the files are (``report``: report.md, written)."""
+    from startrack.bench.session import format_table
+
+    click.echo(format_table(result.summary))
+    loads = ", ".join(f"{k} {v:.2f} s" for k, v in result.load_seconds.items())
+    click.echo(f"\nload (sky, database+prepare per method): {loads}")
+    click.echo(f"wrote {report}, {result.frames_csv} (per frame), {result.summary_csv} "
+               f"(per condition), {result.db_csv}, plots: "
+               f"{', '.join(p.name for p in result.plots) or 'none (nothing swept)'} "
+               f"in {result.out}/ ({result.wall_seconds:.1f} s)")
+
+
+def frames_dir_run(folder, names, out_dir, max_stars, threshold_arcsec, quiet, note, overwrite,
+                finish, reports: list) -> None:
+    """``--frames-dir``: every method on the folder's frames (startrack.bench.frames_dir)."""
+    from startrack.bench.frames_dir import compare_frames_folder, identify_command
+
+    def announce(data) -> None:
+        note(f"compare: {', '.join(names)} on {len(data.truth)} frame(s) of {folder}")
+
+    try:
+        result = compare_frames_folder(folder, names, out_dir, max_stars=max_stars,
+                                       threshold_arcsec=threshold_arcsec, quiet=quiet,
+                                       announce=announce, overwrite=overwrite,
+                                       finish=lambda r: finish(r, identify_command(folder)))
+    except InputError:
+        raise
+    except OSError as exc:
+        raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
+    print_finished(result, reports[0])
+
+
+def tracking_run(cfg, spec_sky, names, frames, rates, noise_px, false_stars, missing, fps,
+              seed, out_dir, threshold_arcsec, note, folder: dict) -> None:
+    """``--mode tracking``: the options as given (unset ones take the tracking defaults)."""
+    from click.core import ParameterSource
+
+    from startrack.bench import tracking_report as tr
+
+    ctx = click.get_current_context()
+    given = {n: ctx.get_parameter_source(n) == ParameterSource.COMMANDLINE
+             for n in ("methods", "frames")}
+    names = names if given["methods"] else (DEFAULT_METHOD,)
+    levels = tr.parse_levels({"rate_dps": rates, "noise_px": noise_px,
+                              "false_stars": false_stars, "missing": missing})
+    from startrack.bench.session import run_in_folder
+    from startrack.bench.store import run_identity
+
+    run = dict(methods=names, levels=levels,
+               frames=frames if given["frames"] else tr.DEFAULT_FRAMES, fps=fps,
+               seed=cfg.frames.seed if seed is None else seed,
+               threshold_arcsec=threshold_arcsec)
+    identity = run_identity({"mode": "tracking", "camera": cfg.camera.to_dict(),
+                             "sky": spec_sky.to_dict(), **run})
+    summary, _ = run_in_folder(out_dir, identity, lambda out: tr.compare_tracking(
+        cfg.camera, spec_sky, out=out, **run, progress=note), **folder)
+    click.echo(tr.markdown_table(summary))
+    click.echo(f"wrote frames.csv, summary.csv, time_ratio.csv, report.md and plots in "
+               f"{out_dir}/")
+
+
+def replay_one(spec, text: str) -> None:
+    """Run one (condition, frame) unit of ``spec`` and print every method's answer."""
+    from startrack.bench.report import replay_text
+    from startrack.bench.runner import run_unit
+
+    try:
+        condition, frame = (int(p) for p in text.split(","))
+    except ValueError:
+        raise InputError(f"--replay: expected CONDITION,FRAME (two integers), got {text!r}") \
+            from None
+    if not 0 <= condition < len(spec.conditions) or not 0 <= frame < spec.frames:
+        raise InputError(f"--replay: this run has conditions 0..{len(spec.conditions) - 1} "
+                         f"and frames 0..{spec.frames - 1}, got {text!r}")
+    click.echo(f"condition {condition} ({spec.conditions[condition].to_dict()}), "
+               f"frame {frame}:")
+    click.echo(replay_text(run_unit(spec, condition, frame)))

@@ -1,0 +1,78 @@
+"""How `startrack identify` writes its answers: records in a format, notes, progress."""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import json
+import sys
+
+import click
+
+#: a batch of at least this many inputs shows a progress bar (when stderr is a terminal)
+PROGRESS_MIN_INPUTS = 3
+
+
+def around_bar(emit):
+    """``emit`` that lifts the progress bar off the terminal while it prints."""
+    from tqdm import tqdm
+
+    def emit_clear(record: dict) -> None:
+        with tqdm.external_write_mode(file=sys.stdout):
+            emit(record)
+    return emit_clear
+
+
+def verbose_notes(quiet: bool, verbose: bool):
+    """A function printing a note on stderr when -v is given (never with -q)."""
+    def note(text: str) -> None:
+        if verbose and not quiet:
+            click.echo(text, err=True)
+    return note
+
+
+def summary_line(record: dict) -> str:
+    n = len(record["stars"])
+    ms = record["timing_ms"]["total"]
+    what = f"solved, {n} stars" if record["status"] == "solved" else \
+        f"not solved ({record.get('reason', 'no_match')})"
+    return f"{record.get('input', '')}: {what}, {ms:.0f} ms"
+
+
+def inputs_with_progress(inputs, quiet: bool, stack: contextlib.ExitStack):
+    """The inputs, with a progress bar on stderr for a batch when stderr is a terminal, a
+    line every few seconds when it is not (startrack.progress)."""
+    if quiet or len(inputs) < PROGRESS_MIN_INPUTS:
+        return inputs
+    if not sys.stderr.isatty():
+        from startrack.progress import iterate
+
+        return iterate(inputs, desc="identify", unit="input")
+    from tqdm import tqdm
+
+    return stack.enter_context(tqdm(inputs, file=sys.stderr, unit="input", desc="identify",
+                                    leave=False, dynamic_ncols=True))
+
+
+class NothingAnswered(Exception):
+    """Every input was bad: the atomic output is discarded rather than written."""
+
+
+def record_writer(fh, fmt: str, several: bool):
+    """A function writing one record to ``fh`` in ``fmt`` (the CSV header first)."""
+    from startrack.output import CSV_HEADER, csv_rows, format_table  # as in identify()
+
+    writer = csv.writer(fh, lineterminator="\n") if fmt == "csv" else None
+    if writer is not None:
+        writer.writerow(CSV_HEADER)
+
+    def emit(record: dict) -> None:
+        if fmt == "json":
+            fh.write(json.dumps(record) + "\n")
+        elif writer is not None:
+            writer.writerows(csv_rows(record))
+        else:
+            fh.write(format_table(record) + ("\n" if several else ""))
+        fh.flush()
+
+    return emit
