@@ -207,7 +207,7 @@ def test_progress_bar_on_a_terminal_lines_otherwise_none_with_quiet(monkeypatch)
     import io
     import sys
 
-    from startrack.cli import identify as cli_identify
+    from startrack.cli._identify_output import inputs_with_progress
 
     class Terminal(io.StringIO):
         def isatty(self):
@@ -216,14 +216,14 @@ def test_progress_bar_on_a_terminal_lines_otherwise_none_with_quiet(monkeypatch)
     inputs = ("a", "b", "c")
     monkeypatch.setattr(sys, "stderr", io.StringIO())
     with contextlib.ExitStack() as stack:
-        assert cli_identify._progress(inputs, True, stack) is inputs
+        assert inputs_with_progress(inputs, True, stack) is inputs
         # not a terminal: the inputs counted for progress lines (none in a short run)
-        assert list(cli_identify._progress(inputs, False, stack)) == list(inputs)
+        assert list(inputs_with_progress(inputs, False, stack)) == list(inputs)
     assert sys.stderr.getvalue() == ""
     monkeypatch.setattr(sys, "stderr", Terminal())
     with contextlib.ExitStack() as stack:
-        assert cli_identify._progress(inputs, True, stack) is inputs
-        assert list(cli_identify._progress(inputs, False, stack)) == list(inputs)
+        assert inputs_with_progress(inputs, True, stack) is inputs
+        assert list(inputs_with_progress(inputs, False, stack)) == list(inputs)
     assert "identify" in sys.stderr.getvalue()
 
 
