@@ -7,23 +7,10 @@ import warnings
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from test_validation import one_line_error, run
 
 import startrack
-from startrack.cli import main
 from startrack.outputs import OutputError, Writer
-
-
-def run(*args):
-    result = CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
-    return result.exit_code, result.stdout, result.stderr
-
-
-def one_line_error(code, stderr, *words) -> None:
-    assert code == 2, stderr
-    assert len(stderr.splitlines()) == 1 and "Traceback" not in stderr, stderr
-    for word in words:
-        assert word in stderr, stderr
 
 
 def test_identify_output_dash_is_standard_output(tmp_path, monkeypatch):
