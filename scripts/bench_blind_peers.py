@@ -5,7 +5,7 @@ or no FOV at all. A peer that is not installed is skipped with a one-line note.
 
 * startrack: ``Options(fov_deg=estimate, fov_tolerance=0.10)`` (it searches
   estimate x (1 +- 10 %) widened by startrack.fov.MARGIN), or no FOV (its blind search of
-  startrack.fov.BLIND_FOV_RANGE on its default sky with no camera: Tycho-2 when
+  startrack.defaults.BLIND_FOV_RANGE on its default sky with no camera: Tycho-2 when
   installed, else Gaia).
 * tetra3 and tetra3rs: the same estimate with ``fov_max_error`` the half-width startrack
   searches, on one database per FOV spanning every estimate's range; no FOV: their own

@@ -166,7 +166,7 @@ class Solver:
     Give the camera as ``fov_deg`` (with ``size=(width, height)`` for centroid arrays;
     images give their own size) or ``camera`` (a :class:`Camera` or a camera file path);
     either is nominal, good to ``fov_tolerance`` (a fraction; 0: exact). With neither, the
-    field of view is searched (:data:`startrack.fov.BLIND_FOV_RANGE`).
+    field of view is searched (:data:`startrack.defaults.BLIND_FOV_RANGE`).
     The other keywords are ``startrack identify``'s options (``time``: ISO 8601 text or an
     astropy Time, for the aberration correction).
 
