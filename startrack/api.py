@@ -23,9 +23,8 @@ from startrack.centroids import (
     Centroids,
     bad_centroid_row,
 )
-from startrack.defaults import DEFAULT_METHOD
+from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD
 from startrack.errors import InputError, as_builtin
-from startrack.fov import DEFAULT_FOV_TOLERANCE
 from startrack.frame_input import FrameInput, image_input, read_input
 from startrack.identifier import FrameResult
 from startrack.pipeline import Options, Pipeline

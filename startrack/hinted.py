@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 from collections import OrderedDict
 
-from startrack.fov import BLIND_FOV_RANGE
+from startrack.defaults import BLIND_FOV_RANGE
 from startrack.frame_input import FrameInput
 from startrack.hints import (
     Hints,

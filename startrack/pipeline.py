@@ -20,13 +20,9 @@ from pathlib import Path
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.deadline import Deadline
+from startrack.defaults import BLIND_FOV_RANGE
 from startrack.errors import InputError
-from startrack.fov import (
-    BLIND_FOV_RANGE,
-    BlindSolver,
-    refit_fov,
-    solve_approximate,
-)
+from startrack.fov import BlindSolver, refit_fov, solve_approximate
 from startrack.frame_input import FrameInput, read_input
 from startrack.identifier import FrameResult, Identifier, SetupClock, frame_timing
 from startrack.matchers import get_matcher

@@ -19,7 +19,7 @@ from startrack.api import Solver
 from startrack.attitude import boresight_error_arcsec
 from startrack.bench.tracking import RATE_AXIS, TrackCondition, seeded_rotations
 from startrack.camera import Camera
-from startrack.fov import DEFAULT_FOV_TOLERANCE
+from startrack.defaults import DEFAULT_FOV_TOLERANCE
 from startrack.render import render_frame
 from startrack.scene import observe
 from startrack.sensor import SensorModel
