@@ -45,14 +45,20 @@ def evidence_problem(solution: Solution, f_px: float, match_radius_px: float) ->
     return None
 
 
+def refuse_without_evidence(solution: Solution, f_px: float,
+                            match_radius_px: float) -> Solution:
+    """``solution`` unchanged, or not solved with reason ``unverified`` when
+    :func:`evidence_problem` finds a problem."""
+    if evidence_problem(solution, f_px, match_radius_px) is None:
+        return solution
+    return Solution(False, solution.method, diagnostics=solution.diagnostics,
+                    identify_ms=solution.identify_ms, reason="unverified", mode=solution.mode,
+                    lock=solution.lock)
+
+
 def require_evidence(result):
-    """``result`` (a :class:`startrack.identifier.FrameResult`) unchanged, or not solved
-    with reason ``unverified`` when :func:`evidence_problem` finds a problem."""
-    problem = evidence_problem(result.solution, result.camera.f_px, result.match_radius_px)
-    if problem is None:
-        return result
-    sol = result.solution
-    refused = Solution(False, sol.method, diagnostics=sol.diagnostics,
-                       identify_ms=sol.identify_ms, reason="unverified", mode=sol.mode,
-                       lock=sol.lock)
-    return dataclasses.replace(result, solution=refused)
+    """``result`` (a :class:`startrack.identifier.FrameResult`) with its solution passed
+    through :func:`refuse_without_evidence`."""
+    sol = refuse_without_evidence(result.solution, result.camera.f_px,
+                                  result.match_radius_px)
+    return result if sol is result.solution else dataclasses.replace(result, solution=sol)

@@ -22,6 +22,7 @@ from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
 from startrack.database import StarDatabase
 from startrack.deadline import Deadline
 from startrack.errors import InputError
+from startrack.evidence import refuse_without_evidence
 from startrack.frame_input import FrameInput
 from startrack.identify import identify
 from startrack.matchers import MatcherConfig, get_matcher
@@ -192,8 +193,11 @@ class Identifier:
         ``deadline`` (the input's, shared with other stages) if given, else within this
         identifier's ``timeout_ms``."""
         if deadline is not None:
-            return identify(obs, self.matcher, self.verify_config, deadline=deadline)
-        return identify(obs, self.matcher, self.verify_config, timeout_ms=self.timeout_ms)
+            sol = identify(obs, self.matcher, self.verify_config, deadline=deadline)
+        else:
+            sol = identify(obs, self.matcher, self.verify_config, timeout_ms=self.timeout_ms)
+        # the bench and the command line count "solved" alike (startrack.evidence)
+        return refuse_without_evidence(sol, self.camera.f_px, self.verify_config.radius_px(obs))
 
     def solve(self, frame: FrameInput,
               identify: Callable[[Observation], Solution] | None = None) -> FrameResult:
