@@ -6,7 +6,8 @@ STAMP := $(VENV)/.installed
 
 .PHONY: demo test lint bench clean astrometry astrometry-ci
 
-$(STAMP): pyproject.toml
+# The compiled core is built by the install: a changed kernel source reinstalls.
+$(STAMP): pyproject.toml setup.py $(wildcard startrack/_core/*.pyx startrack/_core/*.pxd)
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[dev]'
