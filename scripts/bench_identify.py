@@ -106,16 +106,14 @@ def bench_method(name: str, database: StarDatabase, frames: list[Frame], max_sta
             "prepare_s": prepare_s, "wrong_frames": wrong_frames}
 
 
-def bench_pipeline(name: str, catalog, frames: list[Frame], args, sigma: float) -> dict:
-    """:func:`bench_method` through the pipeline, told the FOV ``args.fov_error`` off and
-    good to ``args.fov_tolerance``: the time is the solution's identify_ms (the nominal
-    try, the refit and any search), after one throwaway frame."""
-    t0 = time.perf_counter()
-    told = args.fov * (1.0 + args.fov_error)
-    pipeline = Pipeline(Options(method=name, fov_deg=told, size=(args.size, args.size),
-                                sky=args.sky, mag_limit=args.mag_limit,
-                                max_stars=args.max_stars, sigma_px=max(sigma, 0.05),
-                                fov_tolerance=args.fov_tolerance))
+def pipeline_solver(name: str, camera: Camera, spec: SkySpec, fov_error: float,
+                    fov_tolerance: float, max_stars: int, sigma_px: float):
+    """A function solving one :class:`Frame` as ``startrack identify`` does, told the FOV
+    ``fov_error`` off (a fraction) and good to ``fov_tolerance``: its FrameResult."""
+    pipeline = Pipeline(Options(method=name, fov_deg=camera.fov_deg * (1.0 + fov_error),
+                                size=(camera.width, camera.height), sky=spec.kind,
+                                mag_limit=spec.mag_limit, max_stars=max_stars,
+                                sigma_px=max(sigma_px, 0.05), fov_tolerance=fov_tolerance))
 
     def solve(frame: Frame):
         obs = frame.obs
@@ -123,6 +121,17 @@ def bench_pipeline(name: str, catalog, frames: list[Frame], args, sigma: float) 
         return pipeline.identify_frame(FrameInput("frame", Centroids(
             obs.x, obs.y, ranks, photometric=False)))
 
+    return solve
+
+
+def bench_pipeline(name: str, catalog, frames: list[Frame], args, sigma: float) -> dict:
+    """:func:`bench_method` through the pipeline (:func:`pipeline_solver`): the time is
+    the solution's identify_ms (the nominal try, the refit and any search), after one
+    throwaway frame."""
+    t0 = time.perf_counter()
+    camera = Camera.from_fov(args.size, args.size, args.fov)
+    solve = pipeline_solver(name, camera, SkySpec(kind=args.sky, mag_limit=args.mag_limit),
+                            args.fov_error, args.fov_tolerance, args.max_stars, sigma)
     solve(frames[0])  # compiled code, tables and the refit loaded: not timed
     prepare_s = time.perf_counter() - t0
     times, solved, wrong, hyps, errors, wrong_frames = [], 0, 0, [], [], []
