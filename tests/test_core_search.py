@@ -70,8 +70,10 @@ def test_pyramid_search_gives_the_reference_answers(hip_db):
     sky = list(frames(hip_db.catalog, hip_db.camera, 4, seed=5, noise_px=1.0,
                       false_stars=4, missing=0.2))
     assert sky
-    checked = 0
-    for obs in [f.obs for f in sky] + _junk(hip_db.camera, 2, seed=9):
+    checked = three_star_answers = 0
+    three = [Observation.from_pixels(f.obs.x[r], f.obs.y[r], hip_db.camera, 1.0)
+             for f in sky for r in [np.flatnonzero(f.truth_rows >= 0)[:3]]]  # no 4th star
+    for obs in [f.obs for f in sky] + _junk(hip_db.camera, 2, seed=9) + three:
         got, got_stats = _compiled_search(matcher, obs)
         want, want_stats = _reference_search(matcher, obs)
         assert got_stats == want_stats
@@ -80,7 +82,8 @@ def test_pyramid_search_gives_the_reference_answers(hip_db):
             assert s_a == s_b
             assert np.array_equal(c_a, c_b) and np.array_equal(r_a, r_b)
             checked += len(r_a)
-    assert checked > 0
+            three_star_answers += len(c_a) == 3 and len(r_a) > 0
+    assert checked > 0 and three_star_answers > 0
 
 
 def test_neighbour_lists_list_each_stars_partners_by_angle():

@@ -26,6 +26,8 @@ cdef class PyramidSearch:
     cdef PairNeighbours full
     cdef Py_ssize_t max_triangles, max_pyramids
     cdef int[:, ::1] heads
+    cdef int[:, ::1] links
+    cdef long long[:, ::1] tri
     cdef object buf
 
     def __init__(self, cat, PairNeighbours full, Py_ssize_t max_triangles,
@@ -35,7 +37,14 @@ cdef class PyramidSearch:
         self.max_triangles = max_triangles
         self.max_pyramids = max_pyramids
         self.heads = np.full((2, self.cat.shape[0]), -1, np.int32)
+        self.links = np.empty((4, 4096), np.int32)  # next and partner, two groupings
+        self.tri = np.empty((max_triangles + 1, 3), np.int64)
         self.buf = np.empty(4096, np.int64)
+
+    cdef void room(self, Py_ssize_t size):
+        """``links`` rows of at least ``size``."""
+        if size > self.links.shape[1]:
+            self.links = np.empty((4, 2 * size), np.int32)
 
 
 cdef class PyramidFrame:
@@ -109,16 +118,16 @@ cdef void _triad(const double[:, ::1] vec, Py_ssize_t i, Py_ssize_t j,
             rot[r, k] = s[r][0] * c[k][0] + s[r][1] * c[k][1] + s[r][2] * c[k][2]
 
 
-cdef class _Windows:
-    """The table entries [start, stop) of an observed triple's three sides (i, j), (j, k),
-    (i, k)."""
-    cdef Py_ssize_t[3] start
-    cdef Py_ssize_t[3] stop
+cdef struct Windows:
+    # The table entries [start, stop) of an observed triple's three sides (i, j), (j, k),
+    # (i, k).
+    Py_ssize_t start[3]
+    Py_ssize_t stop[3]
 
 
-cdef _Windows _windows(PyramidFrame f, PairNeighbours tab, Py_ssize_t i, Py_ssize_t j,
-                       Py_ssize_t k):
-    cdef _Windows w = _Windows.__new__(_Windows)
+cdef Windows _windows(PyramidFrame f, PairNeighbours tab, Py_ssize_t i, Py_ssize_t j,
+                      Py_ssize_t k) noexcept:
+    cdef Windows w
     cdef Py_ssize_t m, n = tab.angle.shape[0]
     cdef Py_ssize_t[3] a = [i, j, i]
     cdef Py_ssize_t[3] b = [j, k, k]
@@ -130,25 +139,23 @@ cdef _Windows _windows(PyramidFrame f, PairNeighbours tab, Py_ssize_t i, Py_ssiz
     return w
 
 
-cdef tuple _triangles(PyramidSearch s, PyramidFrame f, PairNeighbours tab, _Windows w,
-                      Py_ssize_t i, Py_ssize_t j, Py_ssize_t k):
+cdef Py_ssize_t _triangles(PyramidSearch s, PyramidFrame f, PairNeighbours tab, Windows w,
+                           Py_ssize_t i, Py_ssize_t j, Py_ssize_t k):
     """Catalog triangles (I, J, K) whose three sides match the observed triple i < j < k,
     mirror images removed, in the order of the joins (I, J) by table entry, then K.
-    Returns (rows, count); count > max_triangles means "too many" (the search stopped
-    there)."""
-    out = np.empty((s.max_triangles + 1, 3), np.int64)
-    cdef long long[:, ::1] rows = out
+    Returns how many, written into ``s.tri``; more than max_triangles means "too many"
+    (the search stopped there)."""
+    cdef long long[:, ::1] rows = s.tri
     cdef Py_ssize_t s0 = w.start[0], s1 = w.stop[0], t0 = w.start[1], t1 = w.stop[1]
     cdef Py_ssize_t u0 = w.start[2], u1 = w.stop[2]
     if s1 <= s0 or t1 <= t0 or u1 <= u0:
-        return out[:0], 0
+        return 0
     cdef double observed = _triple(f.vec, i, f.vec, j, f.vec, k)
     cdef double sides = sin(f.ang[j, k]) + sin(f.ang[i, k]) + sin(f.ang[i, j])
     cdef bint check = fabs(observed) > f.tol * sides  # a flat triangle keeps both hands
-    cdef int[::1] nxt_jk = np.empty(2 * (t1 - t0), np.int32)
-    cdef int[::1] val_jk = np.empty(2 * (t1 - t0), np.int32)
-    cdef int[::1] nxt_ik = np.empty(2 * (u1 - u0), np.int32)
-    cdef int[::1] val_ik = np.empty(2 * (u1 - u0), np.int32)
+    s.room(2 * max(t1 - t0, u1 - u0))
+    cdef int[::1] nxt_jk = s.links[0], val_jk = s.links[1]
+    cdef int[::1] nxt_ik = s.links[2], val_ik = s.links[3]
     cdef int[::1] head_jk = s.heads[0], head_ik = s.heads[1]
     group_window(tab.pi, tab.pj, t0, t1, False, head_jk, nxt_jk, val_jk)
     group_window(tab.pi, tab.pj, u0, u1, False, head_ik, nxt_ik, val_ik)
@@ -173,7 +180,7 @@ cdef tuple _triangles(PyramidSearch s, PyramidFrame f, PairNeighbours tab, _Wind
                 count += 1
     ungroup_window(tab.pi, tab.pj, t0, t1, head_jk)
     ungroup_window(tab.pi, tab.pj, u0, u1, head_ik)
-    return out[:min(count, s.max_triangles + 1)], count
+    return count
 
 
 cdef inline double _cosine(const double[:, ::1] rot, const double[:, ::1] vec, Py_ssize_t r,
@@ -247,23 +254,23 @@ def search(PyramidSearch matcher, PyramidFrame frame, PairNeighbours tab,
     hypothesis rows of catalog stars); next = T when none did. The frame's counters
     accumulate."""
     cdef Py_ssize_t n = frame.vec.shape[0], t, count, r, i, j, k
-    cdef _Windows w
+    cdef Windows w
     for t in range(start, triples.shape[0]):
         i, j, k = triples[t, 0], triples[t, 1], triples[t, 2]
         frame.triples += 1
         w = _windows(frame, tab, i, j, k)
         frame.candidates += (w.stop[0] - w.start[0] + w.stop[1] - w.start[1]
                              + w.stop[2] - w.start[2])
-        tri, count = _triangles(matcher, frame, tab, w, i, j, k)
+        count = _triangles(matcher, frame, tab, w, i, j, k)
         frame.triangles += min(count, matcher.max_triangles)
         if count == 0 or count > matcher.max_triangles:
             continue
         if n == 3:
             if count <= matcher.max_pyramids:
-                return t + 1, np.array([i, j, k], np.int64), tri
+                return t + 1, np.array([i, j, k], np.int64), np.array(matcher.tri[:count])
             continue
         frame.pivots += 3 * (n - 3)
-        r, rows = _confirm(matcher, frame, tri, triples[t])
+        r, rows = _confirm(matcher, frame, matcher.tri[:count], triples[t])
         if r >= 0:
             return t + 1, np.array([i, j, k, r], np.int64), rows
     return triples.shape[0], np.zeros(0, np.int64), np.zeros((0, 4), np.int64)
