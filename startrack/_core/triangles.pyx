@@ -16,7 +16,7 @@ import numpy as np
 
 cimport cython
 
-from startrack._core._sort cimport Span, kvector_range
+from startrack._core._sort cimport Span, first_at_least, kvector_range
 from startrack._core._stable cimport merge_sort
 from startrack._core._triangle cimport Features, chord, sign, triple_product
 from startrack._core._triangle cimport features as _features
@@ -137,7 +137,7 @@ cdef object _join_pivot(const long long[:, :] left, Py_ssize_t col_p, Py_ssize_t
     cdef long long[:, ::1] out = out_arr
     for r in range(m):
         key = left[r, col_p] * base + left[r, col_q]
-        p = _first_key(keys, key)
+        p = first_at_least(keys, 0, n_right, key)
         while p < n_right and keys[p] == key:
             new = right[order[p], 2]
             p += 1
@@ -151,17 +151,6 @@ cdef object _join_pivot(const long long[:, :] left, Py_ssize_t col_p, Py_ssize_t
             out[count, w] = new
             count += 1
     return out_arr[:count]
-
-
-cdef inline Py_ssize_t _first_key(const long long[::1] keys, long long key) noexcept nogil:
-    cdef Py_ssize_t lo = 0, hi = keys.shape[0], mid
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if keys[mid] < key:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
 
 
 def join_pivot(left, Py_ssize_t col_p, Py_ssize_t col_q, right):
