@@ -42,7 +42,7 @@ def child() -> None:
     import numpy as np
 
     from startrack._core import database as kernels
-    from startrack.camera import Camera
+    from startrack.camera._model import Camera
     from startrack.database import StarDatabase
     from startrack.defaults import DEFAULT_METHOD
     from startrack.matchers import get_matcher
@@ -163,7 +163,7 @@ def bench_tables(name: str) -> None:
     loaded by a second database on that cache, in this process."""
     import numpy as np
 
-    from startrack.camera import Camera
+    from startrack.camera._model import Camera
     from startrack.database import StarDatabase
 
     cache = Path(tempfile.mkdtemp(prefix="startrack-dbbench-"))
