@@ -28,19 +28,22 @@ cdef class SearchBuffers:
     costs a page fault per 4 kB touched, more than the lookups themselves on a junk
     frame. ``kept`` rows are (catalog rows x 3, sides x 3, handedness) of the triangles
     the polar filter kept; ``store`` rows the mapped catalog rows; ``scratch`` the polar
-    filter's picks from one area window."""
+    filter's picks from one area window; ``picks`` and ``err`` the vertex mapping's of
+    one lookup."""
 
-    cdef readonly object kept, store, scratch
+    cdef readonly object kept, store, scratch, picks, err
 
     def __init__(self, Py_ssize_t rows=1 << 12):
         self.kept = np.empty((rows, KEPT_COLUMNS))
         self.store = np.empty((rows, 3), np.int64)
         self.scratch = np.empty(4 * rows, np.int64)
+        self.picks, self.err = np.empty((3, rows), np.int64), np.empty(rows)
 
     @property
     def nbytes(self):
-        """The bytes the three arrays hold."""
-        return self.kept.nbytes + self.store.nbytes + self.scratch.nbytes
+        """The bytes the arrays hold."""
+        return sum(a.nbytes for a in (self.kept, self.store, self.scratch, self.picks,
+                                      self.err))
 
 
 cdef object _grown(object arr, Py_ssize_t fill, Py_ssize_t need):
@@ -142,12 +145,15 @@ cdef class TriangleSearch:
             if self.kept_info[key, 0] < 0:
                 self._keep(key)
             s0, m = self.kept_info[key, 0], self.kept_info[key, 1]
-            cand, perm, order = (np.empty(6 * m, np.int64) for _ in range(3))
+            if 6 * m > self.memory.err.shape[0]:
+                self.memory.picks = np.empty((3, 12 * m), np.int64)
+                self.memory.err = np.empty(12 * m)
             # the mirror is refused unless the triangle is too flat to tell
             count = _map_sides(&self.vec[a, 0], &self.vec[b, 0], &self.vec[c, 0], self.kept,
                                s0, m, self.side_tol, self.feats[self.lut[key], 0]
-                               > self.k * self.feats[self.lut[key], 2], cand, perm, order)
-            self._store(s0, count, cand, perm, order)
+                               > self.k * self.feats[self.lut[key], 2], self.memory.picks,
+                               self.memory.err)
+            self._store(s0, count, self.memory.picks)
             self.info[code, 0], self.info[code, 1] = self.store_fill - count, count
             self.candidates += self.kept_info[key, 2]
             self.polar_kept += m
@@ -156,17 +162,17 @@ cdef class TriangleSearch:
         span.stop = span.start + self.info[code, 1]
         return span
 
-    cdef void _store(self, Py_ssize_t s0, Py_ssize_t count, const long long[::1] cand,
-                     const long long[::1] perm, const long long[::1] order) except *:
+    cdef void _store(self, Py_ssize_t s0, Py_ssize_t count,
+                     const long long[:, ::1] picks) except *:
         """The mapped catalog rows of a lookup, in rank order, appended to ``store``."""
         cdef Py_ssize_t fill = self.store_fill, r, e, v
         self.memory.store = _grown(self.memory.store, fill, count)
         self.store = self.memory.store
-        for r in range(count):
-            e = order[r]
+        for r in range(count):  # picks: candidate, vertex order, rank
+            e = picks[2, r]
             for v in range(3):
-                self.store[fill + r, v] = <long long>self.kept[s0 + cand[e],
-                                                               _PERMS[3 * perm[e] + v]]
+                self.store[fill + r, v] = <long long>self.kept[s0 + picks[0, e],
+                                                               _PERMS[3 * picks[1, e] + v]]
         self.store_fill = fill + count
 
     cdef tuple _pivots(self, hyps, long long[::1] stars, Py_ssize_t min_stars):

@@ -55,16 +55,15 @@ cdef inline void _describe(const double* v0, const double* v1, const double* v2,
 
 cdef Py_ssize_t _map_sides(const double* o0, const double* o1, const double* o2,
                            const double[:, ::1] kept, Py_ssize_t s0, Py_ssize_t m,
-                           double side_tol, bint check_mirror, long long[::1] cand,
-                           long long[::1] perm, long long[::1] order) except -1:
+                           double side_tol, bint check_mirror, long long[:, ::1] picks,
+                           double[::1] err) except -1:
     """The vertex orders of the kept triangles ``kept[s0:s0 + m]`` whose sides all agree
     with the observed triangle's within ``side_tol`` (and, if ``check_mirror``, whose
-    handedness agrees): candidate r and order k into ``cand`` and ``perm``, and into
-    ``order`` their ranks, best side agreement first (ties: by order, then candidate).
-    The three arrays hold 6 m. Returns how many."""
+    handedness agrees): candidate r and order k into rows 0 and 1 of ``picks``, and
+    into its row 2 their ranks, best side agreement first (ties: by order, then
+    candidate); ``err`` is scratch. Each holds at least 6 m. Returns how many."""
     cdef double obs[4]
     _describe(o0, o1, o2, obs)
-    cdef double[::1] err = np.empty(6 * m)
     cdef Py_ssize_t count = 0, k, r
     cdef int s0k, s1k, s2k
     cdef double e, d
@@ -84,9 +83,9 @@ cdef Py_ssize_t _map_sides(const double* o0, const double* o1, const double* o2,
                 continue
             if check_mirror and kept[s0 + r, HAND] * _HAND[k] != obs[3]:
                 continue
-            cand[count], perm[count], err[count], order[count] = r, k, e, count
+            picks[0, count], picks[1, count], picks[2, count], err[count] = r, k, count, e
             count += 1
-    if count and merge_sort(&order[0], &err[0], 0, count) < 0:
+    if count and merge_sort(&picks[2, 0], &err[0], 0, count) < 0:
         raise MemoryError("triangle search: no memory to sort the vertex mapping")
     return count
 
@@ -103,10 +102,11 @@ def map_vertices(obs_tri, tri_rows, vectors, double side_tol, bint check_mirror)
     for r in range(m):
         _describe(&cat[rows[r, 0], 0], &cat[rows[r, 1], 0], &cat[rows[r, 2], 0],
                   &kept[r, SIDES])
-    cand, perm, order = (np.empty(6 * m, np.int64) for _ in range(3))
+    picks = np.empty((3, 6 * m), np.int64)
     count = _map_sides(&obs[0, 0], &obs[1, 0], &obs[2, 0], kept, 0, m, side_tol,
-                       check_mirror, cand, perm, order)
-    return cand[order[:count]], perm[order[:count]]
+                       check_mirror, picks, np.empty(6 * m))
+    order = picks[2, :count]
+    return picks[0, order], picks[1, order]
 
 
 cdef inline bint _holds(const long long[:] row, Py_ssize_t w, long long x) noexcept nogil:
@@ -125,10 +125,16 @@ cdef object _join_pivot(const long long[:, :] left, Py_ssize_t col_p, Py_ssize_t
     cdef Py_ssize_t m = left.shape[0], w = left.shape[1], n_right = right.shape[0]
     if m == 0 or n_right == 0:
         return np.zeros((0, w + 1), np.int64)
-    cdef long long base = max(np.max(left), np.max(right)) + 1, key, new
+    cdef long long base = 0, key, new
+    cdef Py_ssize_t p, r, count = 0, col
+    for r in range(m):
+        for col in range(w):
+            base = max(base, left[r, col])
+    for p in range(n_right):
+        base = max(base, right[p, 0], right[p, 1], right[p, 2])
+    base += 1
     keys_arr, order_arr = np.empty(n_right, np.int64), np.arange(n_right, dtype=np.int64)
     cdef long long[::1] keys = keys_arr, order = order_arr
-    cdef Py_ssize_t p, r, count = 0, col
     for p in range(n_right):
         keys[p] = right[p, 0] * base + right[p, 1]
     if merge_sort(&order[0], &keys[0], 0, n_right) < 0:
