@@ -128,8 +128,8 @@ def close_pairs(const double[:, ::1] vectors, double max_angle):
     cdef Py_ssize_t n = vectors.shape[0], a, b, m = 0, cap = 1024
     order_arr = np.argsort(np.asarray(vectors)[:, 2], kind="stable")
     # The sweep reads the stars in z order: copied so, the inner loop runs along memory.
-    xyz_arr = np.asarray(vectors)[order_arr].T.copy()
-    cdef const double[:, ::1] xyz = xyz_arr
+    xyz = np.asarray(vectors)[order_arr].T.copy()
+    cdef const double[::1] x = xyz[0], y = xyz[1], z = xyz[2]
     cdef const long long[::1] order = order_arr
     cdef double band = 2.0 * sin(max_angle / 2.0)  # |dz| <= chord
     cdef double cos_max = cos(max_angle), d
@@ -140,14 +140,14 @@ def close_pairs(const double[:, ::1] vectors, double max_angle):
     for a in range(n):
         i = order[a]
         for b in range(a + 1, n):
-            if xyz[2, b] - xyz[2, a] > band:
+            if z[b] - z[a] > band:
                 break
-            d = xyz[0, a] * xyz[0, b] + xyz[1, a] * xyz[1, b] + xyz[2, a] * xyz[2, b]
+            d = x[a] * x[b] + y[a] * y[b] + z[a] * z[b]
             if d < cos_max:
                 continue
             if m == cap:
                 cap *= 2
-                out = [np.concatenate((x, np.empty_like(x))) for x in out]
+                out = [np.concatenate((v, np.empty_like(v))) for v in out]
                 pi, pj, ang = out[0], out[1], out[2]
             j = order[b]
             pi[m], pj[m] = min(i, j), max(i, j)

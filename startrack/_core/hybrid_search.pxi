@@ -16,7 +16,10 @@ cdef class HybridSearch:
     cdef const unsigned char[:, ::1] short
     cdef const double[:, ::1] cat
     cdef PairNeighbours neighbours
-    cdef long long[::1] heads, buf, side
+    cdef long long[::1] heads, buf, side, nxt
+    cdef object rows_buf, err_buf  # the triangles of one triple, grown as needed
+    cdef long long[:, ::1] rows
+    cdef double[::1] err
     cdef Py_ssize_t keep_n
     cdef long long[:, ::1] best_rows_v
     cdef double[::1] best_err_v
@@ -31,6 +34,9 @@ cdef class HybridSearch:
         self.cat = np.ascontiguousarray(catalog, dtype=np.float64)
         self.heads, self.keep_n = heads, keep_n
         self.buf, self.side = np.empty(4096, np.int64), np.empty(4096, np.int64)
+        self.nxt = np.empty(1024, np.int64)
+        self.rows_buf, self.err_buf = np.empty((64, 3), np.int64), np.empty(64)
+        self.rows, self.err = self.rows_buf, self.err_buf
         self.best_rows = np.empty((max(max_unconfirmed, 0), 6), np.int64)
         self.best_err = np.empty(max(max_unconfirmed, 0))
         self.best_rows_v, self.best_err_v = self.best_rows, self.best_err
@@ -41,19 +47,22 @@ cdef class HybridSearch:
         the windows of its features and, unless its hand is 0, whose handedness is its
         hand. Rows in the order of the (x, y) pairs, then of y's pairs in (b, c).
         Returns (rows, err in sigmas); :attr:`tested` counts the triplets tested."""
+        cdef Py_ssize_t m = self._triangles(t)
+        return self.rows_buf[:m].copy(), self.err_buf[:m].copy()
+
+    cdef Py_ssize_t _triangles(self, Py_ssize_t t) except -1:
+        """:meth:`triangles` into ``rows`` and ``err``; returns how many."""
         cdef Py_ssize_t n = self.pairs.n, ab, bc, s0, s1, p, q, m = 0
         cdef const long long[:, ::1] tri = self.frame.triples
         ab, bc = tri[t, 0] * n + tri[t, 1], tri[t, 1] * n + tri[t, 2]
         cdef const long long[::1] start = self.pairs.start_v, xs = self.pairs.xs_v
         cdef const long long[::1] ys = self.pairs.ys_v
         s0, s1 = start[bc], start[bc + 1]
-        cdef long long[::1] nxt = np.empty(s1 - s0, np.int64)
+        if s1 - s0 > self.nxt.shape[0]:
+            self.nxt = np.empty(2 * (s1 - s0), np.int64)
         for p in range(s1 - 1, s0 - 1, -1):  # linked backwards: partners come out forwards
-            nxt[p - s0] = self.heads[xs[p]]
+            self.nxt[p - s0] = self.heads[xs[p]]
             self.heads[xs[p]] = p
-        rows_arr, err_arr = np.empty((64, 3), np.int64), np.empty(64)
-        cdef long long[:, ::1] rows = rows_arr
-        cdef double[::1] err = err_arr
         cdef long long x, y, z
         cdef double e
         try:
@@ -62,7 +71,7 @@ cdef class HybridSearch:
                 p = self.heads[y]
                 while p >= 0:
                     z = ys[p]
-                    p = nxt[p - s0]
+                    p = self.nxt[p - s0]
                     if z == x:
                         continue
                     self.tested += 1
@@ -70,26 +79,27 @@ cdef class HybridSearch:
                                       self.frame.k, self.frame.hands[t])
                     if e < 0:
                         continue
-                    if m == rows.shape[0]:
-                        rows_arr = np.concatenate((rows_arr, np.empty_like(rows_arr)))
-                        err_arr = np.concatenate((err_arr, np.empty_like(err_arr)))
-                        rows, err = rows_arr, err_arr
-                    rows[m, 0], rows[m, 1], rows[m, 2], err[m] = x, y, z, e
+                    if m == self.rows.shape[0]:
+                        self.rows_buf = np.concatenate((self.rows_buf, self.rows_buf))
+                        self.err_buf = np.concatenate((self.err_buf, self.err_buf))
+                        self.rows, self.err = self.rows_buf, self.err_buf
+                    self.rows[m, 0], self.rows[m, 1], self.rows[m, 2] = x, y, z
+                    self.err[m] = e
                     m += 1
         finally:
             for p in range(s0, s1):
                 self.heads[xs[p]] = -1
-        return rows_arr[:m], err_arr[:m]
+        return m
 
     def next_triangles(self, Py_ssize_t start):
         """The first triple, from index ``start`` on, with catalog triangles among the
         shortlisted pairs: (its index, rows, err); the index is the number of triples
         when none is left."""
-        cdef Py_ssize_t t, n_triples = self.frame.triples.shape[0]
+        cdef Py_ssize_t t, m, n_triples = self.frame.triples.shape[0]
         for t in range(start, n_triples):
-            rows, err = self.triangles(t)
-            if rows.shape[0]:
-                return t, rows, err
+            m = self._triangles(t)
+            if m:
+                return t, self.rows_buf[:m].copy(), self.err_buf[:m].copy()
         return n_triples, np.empty((0, 3), np.int64), np.empty(0)
 
     cdef bint _has_partner(self, long long star, long long other, double lo,
@@ -130,11 +140,12 @@ cdef class HybridSearch:
         rows of catalog stars for (a, b, c, d)); index the number of triples when none is
         left. Triangles no star confirms go to the best so far."""
         cdef const long long[:, ::1] tri = self.frame.triples
-        cdef Py_ssize_t t, d, r, n = self.short.shape[0], n_keep
+        cdef Py_ssize_t t, d, r, m, n = self.short.shape[0]
         for t in range(start, tri.shape[0]):
-            rows, err = self.triangles(t)
-            if rows.shape[0] == 0:
+            m = self._triangles(t)
+            if m == 0:
                 continue
+            rows, err = self.rows_buf[:m].copy(), self.err_buf[:m].copy()
             order = np.arange(rows.shape[0], dtype=np.int64)
             _stable_order(order, err.copy())
             keep = order[:self.keep_n]
