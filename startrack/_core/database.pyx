@@ -5,7 +5,6 @@ over up to millions of entries."""
 
 import numpy as np
 
-cimport cython
 from libc.math cimport acos, cos, sin
 from libc.stdlib cimport qsort
 

@@ -14,7 +14,6 @@ import itertools
 
 import numpy as np
 
-cimport cython
 
 from startrack._core._sort cimport Span, first_at_least, kvector_range
 from startrack._core._stable cimport merge_sort
