@@ -7,10 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from startrack._core import parse as parse_kernels
 from startrack.database import build_kernels, sort_kernels
 from startrack.database.kvector import KVector
 from startrack.database.pairs import build_pair_arrays
-from startrack.sky import parse_kernels, random_sky
+from startrack.sky import random_sky
 
 
 def test_merge_counts_are_searchsorted():

@@ -83,8 +83,8 @@ def join_runs(const long long[:, ::1] runs, double[:, ::1] acc):
 
 def stars(const double[:, ::1] comp, const double[::1] box, double hot_fraction,
           double hot_margin, long long min_area, long long max_area, long long max_saturated):
-    """The components of ``comp`` that are stars, as (x, y, flux, saturated, area) arrays
-    in their order: area within [min_area, max_area] (``max_saturated`` with a saturated
+    """The components of ``comp`` that are stars, as a dict of arrays (``x``, ``y``,
+    ``flux``, ``saturated``, ``area``; the fields of ``Centroids``) in their order: area within [min_area, max_area] (``max_saturated`` with a saturated
     pixel), positive weight and flux, and not a hot pixel: the peak holds no more than
     ``hot_fraction`` of the 3 x 3 ``box`` around it, whose other pixels hold at least
     ``hot_margin``."""
@@ -105,4 +105,5 @@ def stars(const double[:, ::1] comp, const double[::1] box, double hot_fraction,
             xo[n], yo[n] = comp[i, SWX] / comp[i, SW], comp[i, SWY] / comp[i, SW]
             fo[n], so[n], ao[n] = comp[i, FLUX], sat, area
             n += 1
-    return x[:n].copy(), y[:n].copy(), flux[:n].copy(), saturated[:n].copy(), areas[:n].copy()
+    return {"x": x[:n].copy(), "y": y[:n].copy(), "flux": flux[:n].copy(),
+            "saturated": saturated[:n].copy(), "area": areas[:n].copy()}

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
+from startrack._core import parse as parse_kernels
 from startrack.errors import InputError
 from startrack.io._cache import cache_dir, cached_parse
-from startrack.sky import parse_kernels
 from startrack.sky.catalog import Catalog, vectors_to_radec
 
 # Bump when the parsed arrays change meaning, so stale caches are never reused.
@@ -68,7 +68,7 @@ def _column(raw: np.ndarray, start: int, stop: int) -> np.ndarray:
 def parse_hip2(path: Path) -> dict[str, np.ndarray]:
     """HIP, J1991.25 position, proper motion and Hp of every usable record in ``path``.
 
-    The fixed-width fields are read by the compiled parser (:mod:`parse_kernels`), not
+    The fixed-width fields are read by the compiled parser (:mod:`startrack._core.parse`), not
     ``pandas.read_fwf`` or ``astropy.io.ascii``: the same numbers many times faster, which
     counts on a first run that has no cache yet (scripts/bench_library_fits.py).
 
