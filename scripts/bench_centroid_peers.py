@@ -9,8 +9,8 @@ all of them alike; the table gives medians and the ratio ours / tetra3rs.
 Both are timed with their defaults (startrack: a thread per core the process may
 use, fewer when the machine is busy; tetra3rs: every core) and on one thread
 (CentroidConfig(threads=1), tetra3rs threads=1). Agreement: of the tetra3rs centroids,
-how many have one of ours within 1 px, and the other way round (tetra3rs's origin is the image centre, (W-1)/2).
-On rendered frames both are scored against the truth: stars found within 1.5 px and the
+how many have one of ours within 1 px, and the other way round (tetra3rs's origin is
+the image centre, (W-1)/2). On rendered frames both are scored against the truth: stars found within 1.5 px and the
 RMS position error of those of signal above 3000 e- (where both should be near the
 photon limit).
 
