@@ -40,9 +40,13 @@ cdef inline void residual_row(const pixel_t[:, ::1] image, const PixelSky* sky, 
     cdef const double* hi = sky.rows + sky.row_hi[r] * sky.width
     cdef double t = sky.row_t[r], v
     cdef Py_ssize_t c
-    for c in range(out.shape[0]):
-        v = <double>image[r, c]
-        out[c] = v - (lo[c] * (1.0 - t) + hi[c] * t) if isfinite(v) else 0.0
+    if pixel_t is float or pixel_t is double:
+        for c in range(out.shape[0]):
+            v = <double>image[r, c]
+            out[c] = v - (lo[c] * (1.0 - t) + hi[c] * t) if isfinite(v) else 0.0
+    else:  # an integer is finite: no test, and the loop vectorises
+        for c in range(out.shape[0]):
+            out[c] = <double>image[r, c] - (lo[c] * (1.0 - t) + hi[c] * t)
 
 
 cdef inline Py_ssize_t reflect101(Py_ssize_t i, Py_ssize_t n) noexcept nogil:
