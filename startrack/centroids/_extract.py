@@ -1,4 +1,4 @@
-"""Centroid extraction: a grey frame in, the stars' sub-pixel positions out (numba kernels).
+"""Centroid extraction: a grey frame in, the stars' sub-pixel positions out (compiled core).
 
 Pipeline: local sky background removed (tile medians of 4 x 4 block means, interpolated;
 estimated twice, the second time without the blocks the first one showed to hold
@@ -8,37 +8,31 @@ unsmoothed background-removed pixels; hot pixels and oversized blobs rejected; s
 spots flagged. Pixel convention (docs/conventions.md): (0, 0) is the centre of the top-left
 pixel, x = column, y = row.
 
-The frame is read twice in full: once for the block means (``startrack.extract_blocks``,
-from which the whole sky model is made) and once, row by row, for detection and
-moments (``startrack.extract_kernels``, which evaluates the sky model on the fly). Both
-read the frame in its own dtype: besides the frame, an extraction holds the block means
-(1/16 of the pixels) and a few rows.
+The frame is read twice in full, in its own dtype: once for the block means
+(``startrack._core.sky_blocks``, from which the sky model is made; ``sky_grid`` cleans
+its tiles) and once, row by row, for detection and moments (``startrack._core.extract``,
+which evaluates the sky model on the fly; ``blobs`` joins the runs and picks the stars).
 
-Threads: the passes over the pixels (block means and tile medians, the tile medians of
-the later passes, the noise samples and their MADs, the blob finder of
-``startrack.extract_runs``) run on bands of rows at once, on ``CentroidConfig.threads``
-threads (default: numba's limit ``NUMBA_NUM_THREADS``, the cores this process may use,
-or one when the load average says the cores are taken); a frame under ~2 x 65536 px
-stays on one. The kernels release the GIL and a few Python helper threads run them
-(``startrack.extract_parallel``; no numba threading layer); the caller and the helpers
-take the next band until none is left, so a helper that wakes late costs nothing. Each
-band writes its own part of a result, and the blobs' runs are joined in raster order, so
-the centroids are the same, bit for bit and in the same order, whatever the thread count.
+Threads: the passes over the pixels run on bands of rows at once, on
+``CentroidConfig.threads`` threads (default: the cores this process may use, or one when
+the load average says they are taken); a frame under ~2 x 65536 px stays on one. The
+compiled kernels release the GIL and a thread pool runs them (``centroids._threads``).
+Each band writes its own part of a result, and the blobs' runs are joined in raster
+order, so the centroids are the same, bit for bit and in the same order, whatever the
+thread count.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from startrack import extract_blocks as blocks
-from startrack import extract_grid as tiles
-from startrack import extract_kernels as kern
-from startrack import extract_parallel as par
-from startrack import extract_runs as runs
-from startrack import extract_sky as sky
+from startrack._core import blobs, sky_blocks, sky_grid
+from startrack._core import extract as kern
+from startrack.centroids import _threads as par
 from startrack.centroids._table import Centroids
 
 _MAD_TO_SIGMA = 1.4826
@@ -71,10 +65,9 @@ class CentroidConfig:
     fast: one sky model, without the second, source-masked estimate: somewhat faster, at
         the cost of the faintest stars near bright ones (bright stars' wings leak into
         the sky model); ``FAST`` is this preset.
-    threads: threads that the passes over the pixels run on (None = numba's limit,
-        ``NUMBA_NUM_THREADS``, by default the cores this process may use, or fewer when
-        other processes keep them busy). The result is the same, bit for bit, whatever
-        the number.
+    threads: threads that the passes over the pixels run on (None = the cores this
+        process may use, or fewer when other processes keep them busy). The result is
+        the same, bit for bit, whatever the number.
     """
 
     k_sigma: float = 5.0
@@ -123,9 +116,9 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
 
     Parameters
     ----------
-    image : 2-D array of any real dtype (uint8, uint16 and float frames are read as they
-        are; other dtypes are converted to float64). NaN and infinite pixels are dead:
-        neutral for the sky model and never detected.
+    image : 2-D array of any real dtype (uint8, uint16, int16 and float frames are read as
+        they are; other dtypes are converted to float64). NaN and infinite pixels are
+        dead: neutral for the sky model and never detected.
     config : CentroidConfig, optional
 
     Returns
@@ -136,8 +129,7 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
     image = np.asarray(image)
     if image.ndim != 2 or image.size == 0:
         raise ValueError(f"extract_centroids needs a non-empty 2-D image, got {image.shape}")
-    if image.dtype.type not in _NATIVE:
-        image = image.astype(np.float64)
+    image = _native(image)
     sat_level = _saturation_level(image.dtype, config.saturation)
     threads = par.thread_count(config.threads)
     model = _sky_model(image, config.background_size, config.fast, threads)
@@ -148,11 +140,11 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
     if len(comp) == 0:
         return _empty()
 
-    box = kern.peak_boxes(image, model, comp[:, runs.PEAK_AT])
+    box = kern.peak_boxes(image, model, comp[:, kern.COLUMNS["peak_at"]])
     # A star's image spreads onto its neighbours; a hot pixel's does not (beyond noise).
-    out = Centroids(*runs.stars(comp, box, config.hot_pixel_fraction,
-                                2.0 * math.sqrt(8.0) * sigma, config.min_area,
-                                *config.area_limits(image.shape)))
+    out = Centroids(**blobs.stars(comp, box, config.hot_pixel_fraction,
+                                  2.0 * math.sqrt(8.0) * sigma, config.min_area,
+                                  *config.area_limits(image.shape)))
     return out if config.max_stars is None else out.brightest(config.max_stars)
 
 
@@ -166,46 +158,60 @@ def estimate_background(frame: np.ndarray, tile: int,
     spreads the tile's values), so the second pass takes the medians of what the first
     left over.
     """
-    frame = np.asarray(frame)
-    if frame.dtype.type not in _NATIVE:
-        frame = frame.astype(np.float64)
-    lay = blocks.layout(tuple(frame.shape), tile)
-    pixel_w, block_w = blocks.weights(tuple(frame.shape), lay)
-    means = blocks.block_means(frame, _dead_pixel_fill(frame), lay)
+    frame = _native(np.asarray(frame))
+    lay, pixel_w, block_w = _geometry(frame.shape, tile)
+    means = sky_blocks.block_means(frame, _dead_pixel_fill(frame), lay)
     mask = _NO_MASK
     if ignore is not None:
-        mask = (blocks.block_means(np.asarray(ignore, np.uint8), 0.0, lay) > 0).astype(np.uint8)
-    raw = blocks.tile_medians(means, mask, lay[7], lay[8], _NO_GRID, block_w, _NO_GRID)
+        ignored = np.ascontiguousarray(ignore, np.uint8)
+        mask = (sky_blocks.block_means(ignored, 0.0, lay) > 0).astype(np.uint8)
+    raw = sky_blocks.tile_medians(means, mask, lay, _NO_GRID, block_w, _NO_GRID)
     grid = _sky_grid(means, lay, block_w, mask, float(np.median(means)), raw, 1)
-    model = (grid,) + pixel_w + (kern.column_rows(grid, *pixel_w[3:]),)
-    return kern.background_image(model, *frame.shape)
+    return kern.SkyModel(grid, pixel_w).image()
 
 
-def _sky_model(image: np.ndarray, tile: int, fast: bool, threads: int) -> tuple:
-    """The sky model (``extract_kernels``'s tuple) of ``image`` from its block means."""
-    lay = blocks.layout(tuple(image.shape), tile)
-    pixel_w, block_w = blocks.weights(tuple(image.shape), lay)
-    means = np.empty((lay[0] * lay[7], lay[1] * lay[8]), np.float32)
-    raw = np.empty((lay[0], lay[1]))
+def _native(image: np.ndarray) -> np.ndarray:
+    """``image`` as the compiled kernels read it: a dtype of theirs (else float64), in
+    the machine's byte order, C-contiguous."""
+    if image.dtype.type not in _NATIVE:
+        image = image.astype(np.float64)
+    elif not image.dtype.isnative:
+        image = image.astype(image.dtype.newbyteorder("="))
+    return np.ascontiguousarray(image)
+
+
+@functools.lru_cache(maxsize=16)
+def _geometry(shape: tuple[int, int], tile: int) -> tuple:
+    """(Layout, pixel Weights, block Weights) of a frame shape: shared, read only."""
+    lay = sky_blocks.Layout(shape[0], shape[1], tile)
+    return (lay, *sky_blocks.weights(shape[0], shape[1], lay))
+
+
+def _sky_model(image: np.ndarray, tile: int, fast: bool, threads: int) -> kern.SkyModel:
+    """The sky model of ``image`` from its block means."""
+    lay, pixel_w, block_w = _geometry(image.shape, tile)
+    means = np.empty(lay.means_shape, np.float32)
+    raw = np.empty(lay.grid_shape)
     fill = _dead_pixel_fill(image)
-    par.run(blocks.sky_rows, [(image, fill, lay, block_w, a, b, means, raw)
-                              for a, b in _tile_bands(lay, threads, image.size)], threads)
+    par.run(sky_blocks.sky_rows, [(image, fill, lay, block_w, a, b, means, raw)
+                                  for a, b in _tile_bands(lay, threads, image.size)], threads)
     grid = _sky_grid(means, lay, block_w, _NO_MASK, 0.0, raw, threads)
     if not fast:
         # Twice: the second sky model ignores the blocks the first showed to hold
         # sources, so bright stars and glows do not leak into it (nor, extrapolated, to
         # the border). A block mean is already smoothed: 3 of its sigmas mark a source.
-        resid = blocks.residual(means, grid, *block_w)
-        sources = blocks.sources(resid, _MASK_SIGMA * _mad_sigma(resid[::2, ::2].ravel(),
-                                                                 image.dtype))
+        resid = sky_blocks.residual(means, grid, block_w)
+        sources = sky_blocks.sources(resid, _MASK_SIGMA * _mad_sigma(resid[::2, ::2].ravel(),
+                                                                     image.dtype))
         masked = _tile_medians(means, sources, lay, _NO_GRID, block_w, raw, threads)
-        grid = _sky_grid(means, lay, block_w, sources, sky.median_of(grid.ravel()), masked,
+        grid = _sky_grid(means, lay, block_w, sources, sky_grid.median(grid.ravel()), masked,
                          threads)
-    return (grid,) + pixel_w + (kern.column_rows(grid, *pixel_w[3:]),)
+    return kern.SkyModel(grid, pixel_w)
 
 
-def _sky_grid(means: np.ndarray, lay: tuple, block_w: tuple, ignore: np.ndarray,
-              fallback: float, raw: np.ndarray, threads: int) -> np.ndarray:
+def _sky_grid(means: np.ndarray, lay: sky_blocks.Layout, block_w: sky_blocks.Weights,
+              ignore: np.ndarray, fallback: float, raw: np.ndarray,
+              threads: int) -> np.ndarray:
     """Tile values of the two-pass sky model from the block means and their tile medians.
 
     First the tile medians ``raw``, cleaned of spikes and smoothed; then the median of
@@ -213,26 +219,27 @@ def _sky_grid(means: np.ndarray, lay: tuple, block_w: tuple, ignore: np.ndarray,
     the sky glow from tile to tile. ``ignore``: blocks left out; ``fallback``: the value
     when every block is.
     """
-    grid = tiles.clean_grid(raw, True, fallback)
+    grid = sky_grid.clean_grid(raw, True, fallback)
     extra = _tile_medians(means, ignore, lay, grid, block_w, _NO_GRID, threads)
-    return grid + tiles.clean_grid(extra, False, 0.0)
+    return grid + sky_grid.clean_grid(extra, False, 0.0)
 
 
-def _tile_bands(lay: tuple, threads: int, pixels: int) -> list[tuple[int, int]]:
-    return par.bands(lay[0], par.parts_for(threads, pixels))
+def _tile_bands(lay: sky_blocks.Layout, threads: int, pixels: int) -> list[tuple[int, int]]:
+    return par.bands(lay.tiles_down, par.parts_for(threads, pixels))  # of tile rows
 
 
-def _tile_medians(means: np.ndarray, ignore: np.ndarray, lay: tuple, grid: np.ndarray,
-                  block_w: tuple, known: np.ndarray, threads: int) -> np.ndarray:
-    """``extract_blocks.tile_medians``, bands of tile rows on ``threads`` threads."""
-    out = np.empty((lay[0], lay[1]))
-    par.run(blocks.tile_rows, [(means, ignore, lay[7], lay[8], grid, block_w, known, a, b, out)
-                               for a, b in _tile_bands(lay, threads, 16 * means.size)],
+def _tile_medians(means: np.ndarray, ignore: np.ndarray, lay: sky_blocks.Layout,
+                  grid: np.ndarray, block_w: sky_blocks.Weights, known: np.ndarray,
+                  threads: int) -> np.ndarray:
+    """``sky_blocks.tile_medians``, bands of tile rows on ``threads`` threads."""
+    out = np.empty(lay.grid_shape)
+    par.run(sky_blocks.tile_rows, [(means, ignore, lay, grid, block_w, known, a, b, out)
+                                   for a, b in _tile_bands(lay, threads, 16 * means.size)],
             threads)
     return out
 
 
-def _noise(image: np.ndarray, model: tuple, step: int, smooth: bool,
+def _noise(image: np.ndarray, model: kern.SkyModel, step: int, smooth: bool,
            threads: int) -> tuple[float, float]:
     """Noise sigma of the residual and of the detection image, from samples on the grid
     [::step, ::step]."""
@@ -241,26 +248,28 @@ def _noise(image: np.ndarray, model: tuple, step: int, smooth: bool,
     parts = par.bands(n_rows, par.parts_for(threads, 9 * res.size))
     par.run(kern.samples, [(image, model, step, smooth, a, b, res, det) for a, b in parts],
             threads)
-    sigmas = par.run(sky.mad_sigma, [(res, _MAD_TO_SIGMA), (det, _MAD_TO_SIGMA)], threads)
+    sigmas = par.run(sky_grid.mad_sigma, [(res, _MAD_TO_SIGMA), (det, _MAD_TO_SIGMA)],
+                     threads)
     return _mad_sigma(res, image.dtype, sigmas[0]), _mad_sigma(det, image.dtype, sigmas[1])
 
 
-def _components(image: np.ndarray, model: tuple, threshold: float, smooth: bool,
+def _components(image: np.ndarray, model: kern.SkyModel, threshold: float, smooth: bool,
                 sat_level: float, threads: int) -> np.ndarray:
-    """Components of detection > ``threshold`` (``extract_runs``), bands of rows on
-    ``threads`` threads."""
+    """Components of detection > ``threshold`` (``extract.band_runs`` joined by
+    ``blobs.join_runs``), bands of rows on ``threads`` threads."""
     parts = par.bands(image.shape[0], par.parts_for(threads, image.size))
-    pieces = par.run(runs.band_runs, [(image, model, threshold, smooth, sat_level, a, b)
+    pieces = par.run(kern.band_runs, [(image, model, threshold, smooth, sat_level, a, b)
                                       for a, b in parts], threads)
     found = np.concatenate([p[0] for p in pieces]) if len(pieces) > 1 else pieces[0][0]
     acc = np.concatenate([p[1] for p in pieces]) if len(pieces) > 1 else pieces[0][1]
-    return runs.join_runs(found, acc)
+    return blobs.join_runs(found, acc)
 
 
 def _mad_sigma(sample: np.ndarray, dtype: np.dtype, sigma: float | None = None) -> float:
     """Noise sigma from the median absolute deviation (stars barely move it); ``sigma``:
-    that of ``extract_sky.mad_sigma`` when known."""
-    sigma = sky.mad_sigma(sample, _MAD_TO_SIGMA) if sigma is None else sigma
+    that of ``sky_grid.mad_sigma`` when known."""
+    if sigma is None:
+        sigma = sky_grid.mad_sigma(np.asarray(sample, np.float64), _MAD_TO_SIGMA)
     if sigma > 0:
         return sigma
     sigma = float(np.std(sample))  # a nearly flat or heavily quantised frame
