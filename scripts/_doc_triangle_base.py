@@ -71,19 +71,15 @@ def _claim_block(claim: claims.Claim, table: pd.DataFrame, extra: str) -> str:
         quote += f"\n*Translation:* \"{claim.english}\"\n"
     text = f"#### {claim.key}. {claim.where}\n\n{quote}\n"
     rows = table[table["claim"] == claim.key]
-    words = []
     if len(rows):
         text += ("| test | per frame | a vs b | scope | frames | a [95% CI] | b [95% CI] "
                  "| a only / b only | McNemar p | verdict | rows |\n"
                  + "|---" * 11 + "|\n")
         for _, g in rows.groupby("test", sort=True):
-            line, word = _test_line(g)
-            text += line
-            words.append(word)
-    overall = ("reproduced" if words and all(w == "reproduced" for w in words) else
-               "not reproduced" if words and all(w == "not reproduced" for w in words) else
-               "reproduced only under the conditions and for the methods named above"
-               if words else "see below")
+            text += _test_line(g)[0]
+    overall = claims.claim_verdict(rows) or "see below"
+    if overall == "reproduced only under":
+        overall += " the conditions and for the methods named above"
     note = f" ({claim.note})" if claim.note else ""
     return text + f"\n**Verdict: {overall}**{note}.\n{extra}\n"
 
@@ -269,3 +265,19 @@ def section(folder: Path, run: dict) -> str:
               f"method; on {run['CPU']} ({run['cpus']} CPUs shared with other work), load "
               f"average {load[0]:g} at the start and {load[3]:g} at the end of the "
               f"timing:\n\n```\n{_timing(timing)}\n```\n\n" + _fov(fov, run))
+
+
+def summary(folder: Path, run: dict) -> str:
+    """One sentence for the README: each claim's verdict, as the section gives it."""
+    table = pd.read_csv(folder / "claims.csv")
+    verdicts = {c: claims.claim_verdict(table[table["claim"] == c.key])
+                for c in claims.CLAIMS}
+    groups = {}
+    for c, word in verdicts.items():
+        if word:
+            groups.setdefault(word, []).append(f"{c.short} ({c.key})")
+    said = "; ".join(f"{word.replace('under', 'under named conditions')}: "
+                     f"{', '.join(keys)}" for word, keys in groups.items())
+    return (f"{len(verdicts)} claims quoted in full, {sum(map(bool, verdicts.values()))} "
+            f"judged by paired tests on {run['frames']} verified and {run['raw_frames']} "
+            f"raw frames per condition ({said})")

@@ -38,6 +38,7 @@ class Test:
 @dataclass(frozen=True)
 class Claim:
     key: str
+    short: str  # the claim in a few words, for the README
     where: str
     original: str
     english: str  # "" when the original is English
@@ -100,43 +101,55 @@ HUNDREDS_EN = ("Testing each possible answer against the first triangle instead 
                "tests, a binary test tree is created.")
 
 CLAIMS = (
-    Claim("C1", "Abstract (English, as printed)", ANGLE_EN, "",
+    Claim("C1", "the angle method's pivoting does not always answer",
+          "Abstract (English, as printed)", ANGLE_EN, "",
           (Test("answers", "triangle", "angle", "grid"),
            Test("answers", "triangle_first", "angle_open", "grid"))),
-    Claim("C2", "Abstract (English, as printed)", TRIANGLE_EN, "",
+    Claim("C2", "triangles narrow faster, pivot less and are right more often than angles",
+          "Abstract (English, as printed)", TRIANGLE_EN, "",
           (Test("fewer_candidates", "triangle", "angle", "grid"),
            Test("fewer_pivots", "triangle", "angle", "grid"),
            Test("fewer_pivots", "triangle_first", "angle_open", "grid"),
            Test("raw_right", "triangle", "angle", "grid"),
            Test("raw_right", "triangle_first", "angle_open", "grid"))),
-    Claim("C3", "Abstract (English, as printed): speed", HYBRID_EN, "",
+    Claim("C3", "the hybrid is faster than the triangle method",
+          "Abstract (English, as printed): speed", HYBRID_EN, "",
           (Test("faster", "hybrid", "triangle", "noise"),
            Test("faster", "hybrid", "triangle", "false"),
            Test("faster", "hybrid_single", "triangle_first", "noise"))),
-    Claim("C4", "Abstract (Persian): speed and accuracy", SPEED_FA, SPEED_EN,
-          (Test("raw_right", "hybrid", "angle", "grid"),
+    Claim("C4", "the hybrid is faster than triangles and more accurate than angles",
+          "Abstract (Persian): speed and accuracy", SPEED_FA, SPEED_EN,
+          (Test("faster", "hybrid", "triangle", "noise"),
+           Test("raw_right", "hybrid", "angle", "grid"),
            Test("raw_right", "hybrid_single", "angle_open", "grid"),
            Test("verified", "hybrid", "angle", "grid"))),
-    Claim("C5", "Abstract (English, as printed): no pivoting", HYBRID_EN, "",
+    Claim("C5", "the hybrid needs no pivoting",
+          "Abstract (English, as printed): no pivoting", HYBRID_EN, "",
           (Test("no_pivots", "hybrid", "triangle", "grid"),
            Test("no_pivots", "hybrid_single", "triangle_first", "grid"),
            Test("raw_right", "hybrid_single", "hybrid", "grid", "as good")),
           note="the last test asks what leaving the pivots out costs"),
-    Claim("C6", "Abstract (English, as printed)", FALSE_EN, "",
+    Claim("C6", "the hybrid is robust to false stars",
+          "Abstract (English, as printed)", FALSE_EN, "",
           (Test("raw_right", "hybrid", "triangle", "false"),
            Test("raw_right", "hybrid", "angle", "false"),
            Test("raw_right", "hybrid_single", "triangle_first", "false"),
            Test("raw_right", "hybrid_single", "angle_open", "false"),
            Test("verified", "hybrid", "triangle", "false"),
            Test("verified", "hybrid", "angle", "false"))),
-    Claim("C7", "Abstract (Persian): false stars", FALSE_FA, FALSE_FA_EN,
+    Claim("C7", "the hybrid is more robust to false stars than either method",
+          "Abstract (Persian): false stars", FALSE_FA, FALSE_FA_EN,
           (Test("raw_right", "hybrid", "triangle", "false"),
-           Test("raw_right", "hybrid", "angle", "false")),
-          note="the same tests as C6's raw ones: the Persian sentence says 'than either'"),
-    Claim("C8", "Triangle method section (Persian)", STARS_FA, STARS_EN,
+           Test("raw_right", "hybrid", "angle", "false"),
+           Test("verified", "hybrid", "triangle", "false"),
+           Test("verified", "hybrid", "angle", "false")),
+          note="C6's tests of ours: the Persian sentence says 'than either' method"),
+    Claim("C8", "triangles need fewer stars than angles",
+          "Triangle method section (Persian)", STARS_FA, STARS_EN,
           (Test("verified", "triangle", "angle", "fov10"),
            Test("verified", "triangle", "angle", "grid"))),
-    Claim("C9", "Triangle method section (Persian)", HUNDREDS_FA, HUNDREDS_EN, (),
+    Claim("C9", "hundreds of catalog triangles per observed one",
+          "Triangle method section (Persian)", HUNDREDS_FA, HUNDREDS_EN, (),
           note="no two methods compared: the catalog triangles per lookup are counted"),
 )
 
@@ -226,8 +239,11 @@ def _conditions(picked: pd.DataFrame, every: pd.DataFrame) -> str:
 
 
 def verdict(rows: pd.DataFrame) -> tuple[str, str]:
-    """(verdict, detail) of one test from its rows (the pooled row last): "reproduced",
-    "reproduced only under ..." or "not reproduced", read from the p-values."""
+    """(verdict, detail) of one test from its rows (the pooled row last), read from the
+    p-values: "reproduced" when the pooled row and at least half the conditions show
+    ``a`` significantly better and none ``b``; "reproduced only under" the conditions
+    that show it (the reverse named too); else "not reproduced". With ``sense`` "as
+    good": reproduced unless ``b`` is significantly better somewhere."""
     cond, pooled = rows.iloc[:-1], rows.iloc[-1]
     sig = cond["p"] < ALPHA
     a_sig = cond[sig & (cond["only_a"] > cond["only_b"])]
@@ -239,10 +255,27 @@ def verdict(rows: pd.DataFrame) -> tuple[str, str]:
         if not len(b_sig) and not pooled_b:
             return "reproduced", "no condition where the second is significantly better"
         return "not reproduced", f"the second is significantly better at {named or 'pooled'}"
-    if pooled_a and not len(b_sig):
+    reverse = f"; the reverse at {_conditions(b_sig, cond)}" if len(b_sig) else ""
+    if pooled_a and not len(b_sig) and len(a_sig) >= len(cond) / 2:
         return "reproduced", f"significant in {len(a_sig)} of {len(cond)} conditions"
     if len(a_sig):
-        return "reproduced only under", _conditions(a_sig, cond)
+        return "reproduced only under", _conditions(a_sig, cond) + reverse
+    if pooled_a:
+        return "reproduced only under", "the conditions pooled, in none alone" + reverse
     if pooled_b or len(b_sig):
         return "not reproduced", f"the reverse is significant at {named or 'pooled'}"
     return "not reproduced", "no significant difference"
+
+
+def claim_verdict(rows: pd.DataFrame) -> str:
+    """A claim's verdict from its tests' rows: "reproduced" when every test is,
+    "not reproduced" when none is even in part, else "reproduced only under" the
+    conditions and for the methods its tests name; "" when it has no test."""
+    words = [verdict(g)[0] for _, g in rows.groupby("test", sort=True)]
+    if not words:
+        return ""
+    if all(w == "reproduced" for w in words):
+        return "reproduced"
+    if all(w == "not reproduced" for w in words):
+        return "not reproduced"
+    return "reproduced only under"

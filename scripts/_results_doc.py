@@ -235,6 +235,23 @@ def render_section(section: Section) -> str:
     return head + module.section(section.folder, load_run(section.folder))
 
 
+def section_summary(section: Section) -> str:
+    """A section's one-line summary for the README: its module's ``summary(folder, run)``
+    when it has one, with the stamp; says so when the section is not saved."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    why = unstamped(section.folder)
+    if why is not None:
+        return f"*{section.title}*: not run ({why})."
+    run = load_run(section.folder)
+    module = importlib.import_module(section.module)
+    said = module.summary(section.folder, run) if hasattr(module, "summary") else (
+        "see docs/results.md")
+    commit = str(run["git commit"])
+    return (f"*{section.title}*: {said}; made by `{run['command']}` at commit "
+            f"`{commit[:12]}{'+dirty' if commit.endswith('+dirty') else ''}` on "
+            f"{run['date (UTC)']} UTC.")
+
+
 def render(doc: Path = DOC) -> Path:
     """Write docs/results.md from every section's saved tables."""
     sys.path.insert(0, str(Path(__file__).parent))

@@ -200,7 +200,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--fov-frames", type=int, default=200,
                     help="bench frames per condition of the field-width runs")
     ap.add_argument("--reuse", action="store_true",
-                    help="no measuring: the per-frame tables of the last run in --out")
+                    help="no measuring: the per-frame tables of the last run in --out, "
+                         "stamped with that run's record (give the same sizes)")
     results_doc.add_run_args(ap, "paper2011", SLUG)
     return ap.parse_args(argv)
 
@@ -246,7 +247,15 @@ def main(argv: list[str] | None = None) -> int:
     record = results_doc.run_record(argv, "scripts/paper2011.py")
     t_start = time.perf_counter()
     spec = make_spec(args.frames, methods=tuple(args.methods.split(",")))
-    data = reuse(args.out) if args.reuse else measure(args, spec)
+    if args.reuse:  # stamped with the run that measured the frames, not this one
+        data = reuse(args.out)
+        record = {**json.loads((args.out / "record.json").read_text()),
+                  "re-rendered": {k: record[k] for k in ("command", "git commit",
+                                                         "date (UTC)")}}
+    else:
+        (args.out).mkdir(parents=True, exist_ok=True)
+        (args.out / "record.json").write_text(json.dumps(record))
+        data = measure(args, spec)
     table = summary_table(data["verified"], data["raw"])
     timing = timing_table(data["timing"])
     claim_rows = claims.claims_table(data)
