@@ -44,7 +44,7 @@ from startrack.bench.rate_plots import RatePanel, plot_rate_grid
 from startrack.bench.raw import raw_pass, timed_runs
 from startrack.bench.runner import RunSpec, bench_frame, load_bench
 from startrack.bench.session import run_comparison
-from startrack.config import load_config
+from startrack.simulate._config import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "paper2011.toml"
@@ -138,7 +138,7 @@ def fov_runs(fovs, frames: int, jobs: int, out: Path) -> tuple[pd.DataFrame, pd.
     """The bench at other field widths (same sky, same 1024 px, five brightest stars,
     noise 0 and 1 px x 0 and 3 false stars): (summary per field, condition and method
     with the stars in view; the frames of the narrowest field)."""
-    from startrack.camera import Camera
+    from startrack.camera._model import Camera
 
     tables, narrow = [], None
     for fov in fovs:
