@@ -32,10 +32,13 @@ script makes these measurements on them:
   unverified, scored against the truth, and how many wrong hypotheses come before the
   first right one. The papers had no separate verification stage, so their "accuracy"
   is this one.
-* **time**: the bench's median `identify_ms` (worker processes on a shared machine),
-  and a pass in one process that keeps the fastest of a few runs per frame (`t_seq`),
-  split into the time inside the matcher's hypothesis generator (`t_match`) and the
-  rest (verification and attitude). Methods are compared by ratios within one pass.
+* **time**: a pass in one process that keeps the fastest of a few runs per frame,
+  split into the time inside the matcher's hypothesis generator and the rest
+  (verification and attitude); each section states its warm-up, repeats, median and
+  p95, and the machine and its load. Methods are compared within one pass.
+* **paired tests**: every method sees the same frames, so two methods are compared frame
+  by frame with the exact McNemar test (`startrack/bench/stats.py`); every rate carries
+  its 95% Wilson interval.
 """
 
 CLAIMS = """\

@@ -147,6 +147,7 @@ CLAIMS = (
     Claim("C8", "triangles need fewer stars than angles",
           "Triangle method section (Persian)", STARS_FA, STARS_EN,
           (Test("verified", "triangle", "angle", "fov10"),
+           Test("verified", "triangle_first", "angle_open", "fov10"),
            Test("verified", "triangle", "angle", "grid"))),
     Claim("C9", "hundreds of catalog triangles per observed one",
           "Triangle method section (Persian)", HUNDREDS_FA, HUNDREDS_EN, (),
@@ -209,7 +210,7 @@ def paired_rows(claim: Claim, number: int, test: Test, sources: dict) -> list[di
         rows.append({"row": f"{claim.key}.{number}" + ("" if pooled else f".{j}"),
                      "claim": claim.key, "test": number, "measure": test.measure,
                      "a": test.a, "b": test.b, "scope": test.scope, "sense": test.sense,
-                     "condition": "pooled" if pooled else f"{noise:g} px, {int(false)} false",
+                     "condition": "pooled" if pooled else f"{noise:g} px/{int(false)} false",
                      "noise_px": noise, "false_stars": false, "n": res.frames,
                      "k_a": int(g["oa"].sum()), "k_b": int(g["ob"].sum()),
                      "only_a": res.only_a, "only_b": res.only_b, "p": res.p})

@@ -271,7 +271,7 @@ def main(argv: list[str] | None = None) -> int:
     results_doc.save_tables(args.data, record, {
         "table": table, "timing": timing, "fov": data["fov"], "claims": claim_rows},
         wall_s=time.perf_counter() - t_start, figure=str(figure.relative_to(ROOT)), **extra)
-    print(claim_rows.to_string(index=False))
+    print(claim_rows[claim_rows["condition"] == "pooled"].to_string(index=False))
     print(f"\nwrote {args.data}/, {figure} and {results_doc.render()}")
     return 0
 

@@ -44,7 +44,7 @@ def test_verdicts_follow_the_p_values():
     assert claims.verdict(_rows(_frames([0.95, 0.95], [0.3, 0.3])))[0] == "reproduced"
     assert claims.verdict(_rows(_frames([0.95, 0.5], [0.3, 0.5])))[0] == "reproduced"
     word, detail = claims.verdict(_rows(_frames([0.95, 0.5, 0.5], [0.3, 0.5, 0.5])))
-    assert word == "reproduced only under" and detail == "0 px, 0 false"
+    assert word == "reproduced only under" and detail == "0 px/0 false"
     word, detail = claims.verdict(_rows(_frames([0.3, 0.3], [0.95, 0.95])))
     assert word == "not reproduced" and "reverse" in detail
     assert claims.verdict(_rows(_frames([0.5, 0.5], [0.5, 0.5])))[0] == "not reproduced"
