@@ -6,7 +6,9 @@ load). :func:`render` always builds the whole page from every section's saved ta
 re-running one paper's script can never drop another's section; a section whose tables
 are missing renders as "not run" and ``tests/test_results_doc.py`` fails on it.
 ``python scripts/_results_doc.py`` re-renders from the saved tables alone, and
-``--check`` exits 1 naming any section that is missing or unstamped.
+``--check`` exits 1 naming any section that is missing, unstamped, made from uncommitted
+changes or older than the last commit that changed startrack/ (the final regeneration's
+test; the unit tests check only that each section is saved and stamped).
 """
 
 from __future__ import annotations
@@ -266,11 +268,28 @@ def render(doc: Path = DOC) -> Path:
     return doc
 
 
+def stale(folder: Path) -> str | None:
+    """Why the saved section in ``folder`` is older than the code, None when it is not:
+    made from uncommitted changes, or startrack/ changed in a commit after its own."""
+    import subprocess
+
+    commit = str(load_run(folder)["git commit"])
+    if commit.endswith("+dirty"):
+        return f"made from uncommitted changes at {commit[:12]}"
+    log = subprocess.run(["git", "-C", str(ROOT), "log", "--oneline", f"{commit}..HEAD",
+                          "--", "startrack/"], capture_output=True, text=True)
+    if log.returncode != 0:
+        return f"its commit {commit[:12]} is not in this checkout"
+    changes = log.stdout.splitlines()
+    return f"{len(changes)} commit(s) changed startrack/ since {commit[:12]}" if changes \
+        else None
+
+
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     if "--check" in args:
         problems = [f"{s.title}: {why}" for s in SECTIONS
-                    if (why := unstamped(s.folder)) is not None]
+                    if (why := unstamped(s.folder) or stale(s.folder)) is not None]
         for line in problems:
             print(line, file=sys.stderr)
         return 1 if problems else 0
