@@ -10,6 +10,7 @@ converts to the structure.
 
 import numpy as np
 
+from startrack._core._cone cimport ConeTable, cone_rows as _cone_rows
 from startrack._core._labelling cimport LabelParams, Labels, label
 
 
@@ -21,3 +22,9 @@ def label_stars(const double[::1] ox, const double[::1] oy, const double[::1] x,
     magnitudes ``mag`` and catalog ``rows``. Returns (observed index ascending, catalog
     rows, withheld counts, residual scatter, brightness scatter, brightness used)."""
     return tuple(label(ox, oy, x, y, mag, rows, flux, params))
+
+
+def cone_rows(ConeTable table, const double[:] direction, double radius):
+    """Catalog rows within ``radius`` (rad) of the unit vector ``direction``, ascending
+    (:class:`startrack.database.cone.ConeIndex` holds the table)."""
+    return _cone_rows(table, direction, radius).base
