@@ -8,7 +8,8 @@
 #
 #     from startrack._core._verify cimport (Frame, Stars, CheckParams, Matches, FirstTest,
 #         Labelled, project, within, match, first_match, refine_and_label, binomial_tail,
-#         residual_arcsec, scipy_quaternion)
+#         residual_arcsec)
+#     from startrack._core._wahba cimport matrix_to_quaternion   # for Rotation.from_quat
 #     from startrack._core._nearest cimport Pairs, pairs_within
 #
 #     frame = Frame(obs_vectors, ox, oy, flux, geometry)    # once per frame
@@ -46,7 +47,7 @@ cdef struct CheckParams:
     double radius_px        # the match radius (px)
     double cos_radius       # the first test: cos of the hypothesis's fit radius (rad)
     double cone_radius      # radius of the catalog cone looked up around an attitude (rad)
-    double margin_cos       # a cone serves while the boresight stays within; -2: rows fixed
+    double margin_cos       # a cone serves while the boresight stays within (cos of the turn)
     double capture          # the refinement's wider capture, in match radii
     Py_ssize_t max_rounds   # refinement rounds at most
     Py_ssize_t min_confirmed  # stars outside the hypothesis that must be confirmed
@@ -60,7 +61,6 @@ cpdef enum Status:
     REJECTED = 1       # a pair of the hypothesis lies beyond the match radius at its fit
     NOT_ACCEPTED = 2   # too little independent evidence
     ACCEPTED = 3
-    BEYOND_CONE = 4    # refined beyond the cone's margin: the caller looks a cone up again
 
 
 cdef class Frame:
@@ -121,7 +121,9 @@ cdef class Verdict:
     """One hypothesis checked: the status, the first attitude, the cone's stars (None with
     fixed rows), the pairs (the first test's unless ACCEPTED; catalog rows), the bound, the
     confirmed count, the final attitude and, once ACCEPTED, the residuals in arcseconds
-    and scipy's quaternion ``[x, y, z, w]`` of the final attitude."""
+    and the quaternion ``[x, y, z, w]`` of the final attitude (_wahba's
+    matrix_to_quaternion: what ``Rotation.from_quat`` takes); ``cones``: how many catalog
+    cones were looked up (a refinement beyond the first cone's margin looks more up)."""
     cdef readonly int status
     cdef double[:, ::1] first
     cdef Stars cone
@@ -132,6 +134,7 @@ cdef class Verdict:
     cdef double[:, ::1] final
     cdef double[::1] residuals
     cdef double[::1] quaternion
+    cdef readonly int cones
 
 
 cdef double binomial_tail(long long k, long long n, double p) noexcept nogil
@@ -156,10 +159,8 @@ cdef FirstTest first_match(Frame frame, const long long[::1] hyp_obs,
 cdef Labelled refine_and_label(Frame frame, Stars stars, Matches start, CheckParams params,
                                Py_ssize_t max_rounds)
 
-cdef double[::1] residual_arcsec(Frame frame, const long long[::1] obs,
+cdef double[::1] residual_arcsec(const double[:, ::1] obs_vectors, const long long[::1] obs,
                                  const double[:, :] matrix, const double[:, :] cat_vectors)
-
-cdef void scipy_quaternion(const double[:, :] matrix, double[::1] out) noexcept nogil
 
 cdef Verdict check_fixed(Frame frame, const long long[::1] hyp_obs,
                          const long long[::1] hyp_rows, const double[:, ::1] catalog,
