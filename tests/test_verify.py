@@ -190,7 +190,7 @@ def test_refinement_beyond_the_cone_margin_gives_the_same_answer(random_db, monk
         np.asarray(h.obs_index, np.int64), np.asarray(h.cat_index, np.int64)).cones
         for h, obs in cases]
     accepted = [p.accepted for p in plain]
-    assert sum(accepted) > 0 and all(c >= 2 for c, a in zip(cones, accepted) if a)
+    assert sum(accepted) > 0 and all(c >= 2 for c, a in zip(cones, accepted, strict=True) if a)
     for a, b in zip(plain, forced, strict=True):
         assert a.accepted == b.accepted
         np.testing.assert_array_equal(a.obs_index, b.obs_index)
