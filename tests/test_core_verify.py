@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 from scipy.special import bdtrc
+from startrack._core.verify import NOT_ACCEPTED, binomial_tail
 from synth import synthetic_frame
 
 from startrack._core import shared
-from startrack._core.verify import NOT_ACCEPTED, binomial_tail
 from startrack.attitude import random_attitudes
 from startrack.camera import Camera
 from startrack.database import StarDatabase

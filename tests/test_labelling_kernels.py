@@ -9,7 +9,6 @@ import math
 import numpy as np
 import pytest
 from labelling_dense_reference import label_kernel as dense_kernel
-
 from startrack._core.verify import label_stars
 
 # The order of the labelling's thresholds after the positions in the cases below (the

@@ -203,9 +203,10 @@ def test_pairs_within_is_the_brute_force_list(radius2):
 def test_compiled_projection_is_the_cameras(k1):
     """Verification projects through the compiled kernel; it must land every catalog
     vector where Camera.vector_to_pixel and in_image put it, lens included."""
+    from startrack._core.verify import project
+
     from startrack.camera._distortion import RadialDistortion
     from startrack.camera._model import Camera
-    from startrack._core.verify import project
     from startrack.verify._frame import camera_geometry
 
     camera = Camera.from_fov(1024, 768, 20.0, distortion=RadialDistortion(k1=k1))
@@ -226,8 +227,9 @@ def test_compiled_projection_is_the_cameras(k1):
 
 
 def test_compiled_wahba_and_quaternion_agree_with_scipy():
-    from startrack.attitude import wahba_matrices
     from startrack._core.shared import matrix_to_quaternion, wahba
+
+    from startrack.attitude import wahba_matrices
 
     rng = np.random.default_rng(17)
     for _ in range(50):
