@@ -138,3 +138,15 @@ def test_too_few_confirmations_are_not_accepted_with_their_bound(random_db):
         assert verdict.status == NOT_ACCEPTED and verdict.confirmed <= 1
         seen += 1
     assert seen >= 3
+
+
+def test_angle_table_is_numpys_arccos():
+    from startrack.matching.geometry import angle_table
+
+    rng = np.random.default_rng(9)
+    a = rng.normal(size=(40, 3))
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    a[1] = a[0]  # a dot product that rounds beyond 1 is clipped, not NaN
+    want = np.arccos(np.clip(a @ a[:7].T, -1.0, 1.0))
+    np.testing.assert_allclose(angle_table(a, a[:7]), want, rtol=0, atol=1e-12)
+    assert np.all(np.isfinite(angle_table(a)))
