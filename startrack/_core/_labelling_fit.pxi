@@ -16,15 +16,15 @@ cdef _Fit _brightness(Pairs pairs, const double[::1] flux, const double[::1] mag
                       const long long[::1] iso_pair, LabelParams p):
     cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_obs = flux.shape[0], i, k, n_fit = 0
     cdef _Fit fit = _Fit.__new__(_Fit)
-    fit.ok, fit.log_b = np.ones(n_pairs, np.uint8), np.zeros(n_pairs)
+    fit.ok, fit.log_b = ones_u8(n_pairs), zeros_f64(n_pairs)
     fit.sigma, fit.used = NAN, False
     if not p.has_flux:
         return fit
-    cdef double[::1] inst = np.full(n_obs, NAN)
+    cdef double[::1] inst = full_f64(n_obs, NAN)
     for i in range(n_obs):
         if isfinite(flux[i]) and flux[i] > 0.0:
             inst[i] = -2.5 * log10(flux[i])
-    cdef double[::1] offset = np.empty(iso_pair.shape[0])
+    cdef double[::1] offset = empty_f64(iso_pair.shape[0])
     for k in range(iso_pair.shape[0]):
         i = pairs.obs[iso_pair[k]]
         if not isnan(inst[i]):
@@ -62,7 +62,7 @@ cdef _Fit _brightness(Pairs pairs, const double[::1] flux, const double[::1] mag
 cdef long long[::1] _isolated(Pairs pairs, const long long[::1] per_cat):
     """The pairs that are each other's only candidate, by observed index."""
     cdef Py_ssize_t n = pairs.start.shape[0] - 1, i, k = 0
-    out = np.empty(n, np.int64)
+    out = empty_i64(n)
     cdef long long[::1] view = out
     for i in range(n):
         if pairs.start[i + 1] - pairs.start[i] == 1 and per_cat[pairs.cat[pairs.start[i]]] == 1:
@@ -78,7 +78,7 @@ cdef double _residual_sigma(Pairs pairs, const long long[::1] iso_pair, LabelPar
     cdef Py_ssize_t k
     cdef double[::1] d2
     if iso_pair.shape[0] >= p.min_fit:
-        d2 = np.empty(iso_pair.shape[0])
+        d2 = empty_f64(iso_pair.shape[0])
         for k in range(iso_pair.shape[0]):
             d2[k] = pairs.d2[iso_pair[k]]
         sigma = sqrt(median_inplace(d2) * _MEDIAN_R2_TO_SIGMA2)
