@@ -14,6 +14,7 @@ import argparse
 import math
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -89,8 +90,8 @@ def main() -> None:
     for obs, hyp, right in _cases(db, args.frames, seed=1):
         checker = FrameVerifier(obs, db, config)
         obs_h, cat_h = (np.asarray(a, np.int64) for a in (hyp.obs_index, hyp.cat_index))
-        compiled = _median_us(lambda: verify(hyp, obs, db, config, checker))
-        call = _median_us(lambda: checker.check(obs_h, cat_h))
+        compiled = _median_us(partial(verify, hyp, obs, db, config, checker))
+        call = _median_us(partial(checker.check, obs_h, cat_h))
         try:
             numba = _median_us(_numba_call(obs, db, config, hyp))
         except ImportError:
