@@ -7,29 +7,31 @@ cimport numpy as cnp
 from libc.string cimport memset
 
 
-cdef inline cnp.ndarray empty_f64(Py_ssize_t n):
+cdef inline cnp.ndarray _new(Py_ssize_t n, int typenum, bint zero):
     cdef cnp.npy_intp d = n
-    return cnp.PyArray_EMPTY(1, &d, cnp.NPY_FLOAT64, 0)
+    if zero:
+        return cnp.PyArray_ZEROS(1, &d, typenum, 0)
+    return cnp.PyArray_EMPTY(1, &d, typenum, 0)
+
+
+cdef inline cnp.ndarray empty_f64(Py_ssize_t n):
+    return _new(n, cnp.NPY_FLOAT64, False)
 
 
 cdef inline cnp.ndarray empty_i64(Py_ssize_t n):
-    cdef cnp.npy_intp d = n
-    return cnp.PyArray_EMPTY(1, &d, cnp.NPY_INT64, 0)
+    return _new(n, cnp.NPY_INT64, False)
 
 
 cdef inline cnp.ndarray zeros_f64(Py_ssize_t n):
-    cdef cnp.npy_intp d = n
-    return cnp.PyArray_ZEROS(1, &d, cnp.NPY_FLOAT64, 0)
+    return _new(n, cnp.NPY_FLOAT64, True)
 
 
 cdef inline cnp.ndarray zeros_i64(Py_ssize_t n):
-    cdef cnp.npy_intp d = n
-    return cnp.PyArray_ZEROS(1, &d, cnp.NPY_INT64, 0)
+    return _new(n, cnp.NPY_INT64, True)
 
 
 cdef inline cnp.ndarray zeros_u8(Py_ssize_t n):
-    cdef cnp.npy_intp d = n
-    return cnp.PyArray_ZEROS(1, &d, cnp.NPY_UINT8, 0)
+    return _new(n, cnp.NPY_UINT8, True)
 
 
 cdef inline cnp.ndarray empty_rows(Py_ssize_t n, Py_ssize_t width):
