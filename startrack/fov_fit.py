@@ -10,13 +10,14 @@ import math
 import numpy as np
 from scipy.stats import chi2, norm
 
+from startrack._core.fov_fit import BAD_FOCAL
+from startrack._core.fov_fit import fit_focal as fit_focal_kernel
 from startrack.attitude import solve_wahba
 from startrack.calibrate_sigma import SIGNIFICANCE
 from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.distortion import RadialDistortion
 from startrack.errors import InputError
-from startrack.fov_fit_kernels import BAD_FOCAL, fit_iterations
 from startrack.identify import residuals_arcsec
 from startrack.types import Hypothesis, Observation
 from startrack.verify import Verification, VerifyConfig, verify
@@ -42,7 +43,7 @@ def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.nda
     """``camera`` with the focal length that, with its best attitude, fits the pixels
     ``x``, ``y`` to the catalog directions: alternate Wahba's problem and the linear least
     squares of ``pixel - centre = f * D(tangent-plane position)`` (D the lens model), at
-    most ``iterations`` times (compiled: :func:`startrack.fov_fit_kernels.fit_iterations`).
+    most ``iterations`` times (compiled: :func:`startrack._core.fov_fit.fit_focal`).
     With ``lens``, a pinhole ``camera`` and at least ``LENS_MIN_STARS`` stars reaching
     ``LENS_MIN_R2``, the radial ``k1`` too (``f k1`` is linear as well): a lens nobody
     described still has its wide-field stars fitted. A focal length that is not positive
@@ -50,15 +51,10 @@ def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.nda
     :class:`InputError`, as :meth:`Camera.with_distortion` makes it."""
     x = np.ascontiguousarray(x, dtype=np.float64)
     y = np.ascontiguousarray(y, dtype=np.float64)
-    described = camera.distortion
-    k = (np.zeros(3) if described is None
-         else np.array([described.k1, described.k2, described.k3], dtype=np.float64))
-    cap = math.inf if described is None else math.sqrt(described.max_r2)
-    with_k1 = lens and described is None and len(x) >= LENS_MIN_STARS
-    status, f, k1 = fit_iterations(x, y, np.ascontiguousarray(cat_vectors, dtype=np.float64),
-                                   camera.cx, camera.cy, camera.width, camera.height,
-                                   camera.f_px, k, cap, with_k1, iterations, LENS_MIN_R2,
-                                   LENS_MAX_K1)
+    with_k1 = lens and camera.distortion is None and len(x) >= LENS_MIN_STARS
+    status, f, k1 = fit_focal_kernel(camera.optics, x, y,
+                                     np.ascontiguousarray(cat_vectors, dtype=np.float64),
+                                     iterations, with_k1, LENS_MIN_R2, LENS_MAX_K1)
     cam = dataclasses.replace(camera, f_px=f)
     if status == BAD_FOCAL or not k1:
         return cam
