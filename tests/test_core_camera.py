@@ -10,8 +10,8 @@ from camera_reference import (
     reference_undistort,
     reference_vector_to_pixel,
 )
-
 from startrack._core.camera import Optics, RadialLens
+
 from startrack.camera import Camera
 from startrack.distortion import RadialDistortion
 
