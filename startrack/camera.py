@@ -70,12 +70,12 @@ class Camera:
         itself inside the frame is an error."""
         if distortion is None or distortion.is_identity:
             return dataclasses.replace(self, distortion=None)
-        corners_x = np.array([-0.5, self.width - 0.5]) - self.cx
-        corners_y = np.array([-0.5, self.height - 0.5]) - self.cy
-        rd2 = float((np.abs(corners_x).max() ** 2 + np.abs(corners_y).max() ** 2)
-                    / self.f_px**2)
+        # in scalars, not arrays: a fitted lens is checked in every FOV refit
+        ex = max(abs(-0.5 - self.cx), abs(self.width - 0.5 - self.cx))
+        ey = max(abs(-0.5 - self.cy), abs(self.height - 0.5 - self.cy))
+        rd2 = (ex**2 + ey**2) / self.f_px**2
         r2 = distortion.max_r2
-        if math.isfinite(r2) and rd2 >= r2 * distortion.factor(np.array(r2)) ** 2:
+        if math.isfinite(r2) and rd2 >= r2 * distortion.factor(r2) ** 2:
             raise InputError(f"camera: distortion {distortion.to_dict()} folds back inside "
                              "the image (not invertible at the corners)")
         return dataclasses.replace(self, distortion=distortion)

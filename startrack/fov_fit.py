@@ -113,6 +113,9 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
 #: the given camera stands unless the fitted one lowers the matched stars' chi-square
 #: by more than a 3-sigma chance would (the calibrate rule, startrack.calibrate_sigma)
 GIVEN_REJECT_P = 2.0 * float(norm.sf(SIGNIFICANCE))
+#: the chi-square quantile of GIVEN_REJECT_P for the 1 or 2 parameters fitted (the focal
+#: length, and k1): computed once, not in every refit
+_GIVEN_REJECT_CHI2 = {n: float(chi2.isf(GIVEN_REJECT_P, n)) for n in (1, 2)}
 #: stars of an accepted answer used as the hypothesis when its FOV is refitted or its
 #: given camera verified again: the rest of the frame is the independent evidence
 #: verification counts
@@ -148,7 +151,7 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     if fit_sq <= 0.0:
         return found
     drop = (squared(given_obs) - fit_sq) / (fit_sq / dof)
-    if drop > chi2.isf(GIVEN_REJECT_P, n_params):
+    if drop > _GIVEN_REJECT_CHI2[n_params]:
         return found
     first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]
     hyp = Hypothesis(check.obs_index[first], check.cat_index[first])
