@@ -61,7 +61,7 @@ def saved_run(out: Path, run: dict | None, preset: str):
     ``configs/<preset>``; None when the run has not been made."""
     if run is None or not (out / "table.csv").exists():
         return None
-    from startrack.config import load_config
+    from startrack.simulate._config import load_config
 
     cfg = load_config(ROOT / "configs" / preset)
     return pd.read_csv(out / "table.csv"), cfg, float(np.degrees(1.0 / cfg.camera.f_px) * 3600.0)

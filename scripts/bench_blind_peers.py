@@ -4,7 +4,8 @@ bench_blind.py's frames, given the same information: a FOV estimate off by 0, 2,
 or no FOV at all. A peer that is not installed is skipped with a one-line note.
 
 * startrack: ``Options(fov_deg=estimate, fov_tolerance=0.10)`` (it searches
-  estimate x (1 +- 10 %) widened by startrack.fov.MARGIN), or no FOV (its blind search of
+  estimate x (1 +- 10 %) widened by startrack.solver._fov_search.MARGIN), or no FOV (its blind
+  search of
   startrack.defaults.BLIND_FOV_RANGE on its default sky with no camera: Tycho-2 when
   installed, else Gaia).
 * tetra3 and tetra3rs: the same estimate with ``fov_max_error`` the half-width startrack
@@ -56,11 +57,11 @@ from bench_blind import (  # noqa: E402
 )
 from bench_blind_peer_solvers import PEERS  # noqa: E402
 
-from startrack.centroids import Centroids  # noqa: E402
+from startrack.centroids._table import Centroids  # noqa: E402
 from startrack.errors import InputError  # noqa: E402
-from startrack.fov import MARGIN  # noqa: E402
-from startrack.pipeline import FrameInput, Options, Pipeline  # noqa: E402
 from startrack.sky.hipparcos import CATALOG_EPOCH  # noqa: E402
+from startrack.solver._fov_search import MARGIN  # noqa: E402
+from startrack.solver._pipeline import FrameInput, Options, Pipeline  # noqa: E402
 
 TOLERANCE = 0.10
 #: the half-width (a fraction of the estimate) of the FOVs startrack searches: the peers'

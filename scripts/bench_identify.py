@@ -1,6 +1,6 @@
 """Identify benchmark: every method on the same noisy random-attitude frames.
 
-Frames: random attitudes over the sky; the catalog stars in view (startrack.scene.observe)
+Frames: random attitudes over the sky; the catalog stars in view (startrack.simulate._scene.observe)
 with 10% dropped, false stars at random brightness ranks, and Gaussian centroid noise.
 A solution is wrong when any reported identity is wrong (a false star given a catalog
 id counts as wrong) or its boresight is more than 1 arcmin from the truth. The column
@@ -25,14 +25,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from startrack.attitude import angle_between_deg, boresight_error_arcsec, random_attitudes
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
-from startrack.identify import identify
 from startrack.matchers import MatcherConfig, available_methods, get_matcher
-from startrack.scene import observe
+from startrack.simulate._scene import observe
 from startrack.sky import UNRESOLVED_PIXELS, SkySpec, load_sky
+from startrack.solver._lost_in_space import identify
 from startrack.types import Observation
-from startrack.verify import VerifyConfig
+from startrack.verify._verification import VerifyConfig
 
 
 @dataclass(frozen=True)

@@ -39,7 +39,7 @@ from startrack.bench.conditions import build_conditions
 from startrack.bench.raw import raw_unit, summarise_raw
 from startrack.bench.runner import RunSpec
 from startrack.bench.session import format_table, run_comparison
-from startrack.config import load_config
+from startrack.simulate._config import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "paper2011.toml"
@@ -100,7 +100,7 @@ def combine(summary: pd.DataFrame, seq: pd.DataFrame) -> pd.DataFrame:
 def fov_sensitivity(fovs, frames: int, jobs: int, out: Path) -> pd.DataFrame:
     """The bench at other field widths (same sky, same 1024 px, five brightest stars):
     exact centroids, 1 px noise and 3 false stars, with the stars in view per frame."""
-    from startrack.camera import Camera
+    from startrack.camera._model import Camera
 
     rows = []
     for fov in fovs:

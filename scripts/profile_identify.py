@@ -29,12 +29,12 @@ from bench_identify import Frame, make_frames  # noqa: E402
 from bench_peers import misidentified  # noqa: E402
 from false_positives import random_sets  # noqa: E402
 
-from startrack.camera import Camera  # noqa: E402
+from startrack.camera._model import Camera  # noqa: E402
 from startrack.database import StarDatabase  # noqa: E402
-from startrack.identify import identify  # noqa: E402
 from startrack.matchers import MatcherConfig, get_matcher  # noqa: E402
 from startrack.sky import SkySpec, load_sky  # noqa: E402
-from startrack.verify import VerifyConfig  # noqa: E402
+from startrack.solver._lost_in_space import identify  # noqa: E402
+from startrack.verify._verification import VerifyConfig  # noqa: E402
 
 
 def _param(text: str) -> tuple[str, object]:

@@ -33,7 +33,7 @@ from startrack.bench.conditions import build_conditions
 from startrack.bench.raw import raw_pass, summarise_raw
 from startrack.bench.runner import RunSpec
 from startrack.bench.session import format_table, run_comparison
-from startrack.config import load_config
+from startrack.simulate._config import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "radial_triangles.toml"

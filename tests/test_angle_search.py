@@ -11,9 +11,9 @@ import pytest
 from angle_chain_reference import reference_hypotheses
 from synth import frames, prepared_matcher
 
-from startrack.identify import identify
+from startrack.solver._lost_in_space import identify
 from startrack.types import MatchDiagnostics, Observation
-from startrack.verify import VerifyConfig, verify
+from startrack.verify._verification import VerifyConfig, verify
 
 
 def _junk(camera, n_sets: int, seed: int) -> list[Observation]:

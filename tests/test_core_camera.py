@@ -12,8 +12,8 @@ from camera_reference import (
 )
 from startrack._core.camera import Optics, RadialLens
 
-from startrack.camera import Camera
-from startrack.distortion import RadialDistortion
+from startrack.camera._distortion import RadialDistortion
+from startrack.camera._model import Camera
 
 LENSES = [RadialDistortion(k1=-0.2), RadialDistortion(k1=0.1),
           RadialDistortion(k1=-0.05, k2=0.01, k3=-0.002), RadialDistortion(k1=0.3, k3=-2.0)]

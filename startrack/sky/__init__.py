@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.defaults import max_pairs
 from startrack.errors import InputError
 from startrack.sky.catalog import (
@@ -130,7 +130,7 @@ def resolve_sky(spec: SkySpec, camera: Camera | None) -> SkySpec:
     """``spec`` with its defaults made explicit for ``camera``: the one home of the
     default magnitude rule (simulate, identify and compare all apply it). With no camera
     (an unknown field of view) a Gaia sky keeps every star; the blind search cuts it per
-    field of view (:mod:`startrack.fov`)."""
+    field of view (:mod:`startrack.solver._fov_search`)."""
     if spec.mag_limit is not None or camera is None:
         return spec
     if spec.kind == "hipparcos":
