@@ -67,6 +67,11 @@ cdef class TrackSetup:
         """The match radius (px)."""
         return self.params.check.radius_px
 
+    @property
+    def area(self):
+        """Pi over the image's area (px^-2): the bound's chance per px^2 of window."""
+        return self.params.area
+
     def window_px(self, double sigma):
         """The match window (px) of a prediction of 1-sigma ``sigma`` rad."""
         return self.params.window_per_sigma * sigma + self.params.check.radius_px
@@ -96,6 +101,11 @@ cdef class HeldRows:
         self.stars = Stars(vectors, mags, rows)
         self.matrix = np.array(matrix, dtype=np.float64)
         self.turn = turn
+
+    @property
+    def vectors(self):
+        """The held rows' unit vectors (read only)."""
+        return np.asarray(self.stars.vectors)
 
 
 cdef class Attempt:
