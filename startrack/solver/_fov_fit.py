@@ -12,7 +12,7 @@ from scipy.stats import chi2, norm
 
 from startrack._core.fov_fit import BAD_FOCAL
 from startrack._core.fov_fit import fit_focal as fit_focal_kernel
-from startrack.attitude import solve_wahba
+from startrack._core.shared import wahba
 from startrack.camera._distortion import RadialDistortion
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
@@ -136,11 +136,12 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     check, fitted, obs = found
     if fitted == given:
         return found
-    cat = database.vectors[check.cat_index]
+    cat = np.ascontiguousarray(database.vectors[check.cat_index], dtype=np.float64)
     given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
 
     def squared(o: Observation) -> float:
-        rotation = solve_wahba(o.vectors[check.obs_index], cat)
+        # the compiled Wahba fit verification uses (no scipy Rotation in every refit)
+        rotation = wahba(np.ascontiguousarray(o.vectors[check.obs_index]), cat)
         return float(np.sum(residuals_arcsec(rotation, o, check.obs_index, cat) ** 2))
 
     n_params = 1 + int(fitted.distortion != given.distortion)
