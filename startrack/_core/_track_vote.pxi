@@ -26,6 +26,36 @@ cdef void _stable_order(const double[::1] key, long long[::1] order) noexcept no
         order[j] = t
 
 
+cdef unsigned char[::1] _nearest_each(const long long[::1] oi, const long long[::1] ci,
+                                      const double[::1] dx, const double[::1] dy,
+                                      Py_ssize_t best, double tol, long long[::1] pick,
+                                      double[::1] dist):
+    """Per observed star, its pair nearest the displacement of pair ``best`` within
+    ``tol`` px (``pick``, ``dist``: squared px), each catalog star kept once (nearest wins,
+    ties: the lower observed index): which observed stars keep their pair."""
+    cdef Py_ssize_t p = oi.shape[0], n_obs = pick.shape[0], n_cat = 0, j, o
+    cdef double t2 = tol * tol, ddx, ddy, d
+    for j in range(p):
+        ddx, ddy = dx[best] - dx[j], dy[best] - dy[j]
+        d = ddx * ddx + ddy * ddy
+        if d <= t2 and d < dist[oi[j]]:
+            pick[oi[j]], dist[oi[j]] = j, d
+    for j in range(p):
+        n_cat = max(n_cat, ci[j] + 1)
+    cdef unsigned char[::1] keep = np.zeros(n_obs, np.uint8)
+    cdef long long[::1] owner = np.full(n_cat, -1, np.int64)  # per catalog star, its star
+    cdef long long c
+    for o in range(n_obs):
+        if pick[o] < 0:
+            continue
+        c = ci[pick[o]]
+        if owner[c] < 0 or dist[o] < dist[owner[c]]:  # the nearer keeps it; ties: earlier
+            if owner[c] >= 0:
+                keep[owner[c]] = 0
+            owner[c], keep[o] = o, 1
+    return keep
+
+
 cdef long long[::1] _vote(const long long[::1] oi, const long long[::1] ci,
                           const double[::1] dx, const double[::1] dy, double vote_tol,
                           double tol, Py_ssize_t centres):
@@ -35,8 +65,8 @@ cdef long long[::1] _vote(const long long[::1] oi, const long long[::1] ci,
     within ``tol`` px of it, per observed star the pair nearest it, each catalog star once
     (nearest wins, ties: the lower observed index); sorted by the distance of their
     displacement from the winner's. ``oi`` ascending, at least one pair."""
-    cdef Py_ssize_t p = oi.shape[0], n_obs = oi[p - 1] + 1, n_cat = 0, i, j, o, n_keep = 0
-    cdef double v2 = vote_tol * vote_tol, t2 = tol * tol, d, best_d = np.inf, ddx, ddy
+    cdef Py_ssize_t p = oi.shape[0], n_obs = oi[p - 1] + 1, i, j, o, n_keep = 0
+    cdef double v2 = vote_tol * vote_tol, d, best_d = np.inf, ddx, ddy
     cdef long long[::1] seen = np.full(n_obs, -1, np.int64)
     cdef Py_ssize_t best = -1, best_votes = -1, votes
     # The true displacement is shared by nearly every real star's pair, so the brightest
@@ -57,24 +87,7 @@ cdef long long[::1] _vote(const long long[::1] oi, const long long[::1] ci,
         return np.zeros(0, np.int64)
     cdef long long[::1] pick = np.full(n_obs, -1, np.int64)
     cdef double[::1] dist = np.full(n_obs, np.inf)
-    for j in range(p):
-        ddx, ddy = dx[best] - dx[j], dy[best] - dy[j]
-        d = ddx * ddx + ddy * ddy
-        if d <= t2 and d < dist[oi[j]]:
-            pick[oi[j]], dist[oi[j]] = j, d
-    for j in range(p):
-        n_cat = max(n_cat, ci[j] + 1)
-    cdef unsigned char[::1] keep = np.zeros(n_obs, np.uint8)
-    cdef long long[::1] owner = np.full(n_cat, -1, np.int64)  # per catalog star, its star
-    cdef long long c
-    for o in range(n_obs):
-        if pick[o] < 0:
-            continue
-        c = ci[pick[o]]
-        if owner[c] < 0 or dist[o] < dist[owner[c]]:  # the nearer keeps it; ties: earlier
-            if owner[c] >= 0:
-                keep[owner[c]] = 0
-            owner[c], keep[o] = o, 1
+    cdef unsigned char[::1] keep = _nearest_each(oi, ci, dx, dy, best, tol, pick, dist)
     cdef long long[::1] chosen = np.empty(n_obs, np.int64), order
     cdef double[::1] key = np.empty(n_obs)
     for o in range(n_obs):

@@ -136,6 +136,25 @@ cdef (double, double) _lens_step(const double[:, ::1] t, const double[::1] dx,
 
 
 @cython.cdivision(True)
+cdef bint _focal_step(const double[:, ::1] t, const double[::1] dx, const double[::1] dy,
+                      double* f) noexcept nogil:
+    """The focal length's least squares, (dx . tx + dy . ty) / sum r^2, into ``f``;
+    False (``f`` untouched) when the sum is not positive."""
+    cdef double r2_sum = 0.0, fx = 0.0, fy = 0.0
+    cdef Py_ssize_t i
+    for i in range(dx.shape[0]):
+        r2_sum += t[i, 2]
+    if not r2_sum > 0.0:
+        return False
+    for i in range(dx.shape[0]):
+        fx += dx[i] * t[i, 0]
+    for i in range(dx.shape[0]):
+        fy += dy[i] * t[i, 1]
+    f[0] = (fx + fy) / r2_sum
+    return True
+
+
+@cython.cdivision(True)
 def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
               const double[:, ::1] cat, int iterations, bint with_k1, double min_r2,
               double max_k1):
@@ -151,7 +170,7 @@ def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
     for i in range(m):
         dx[i], dy[i] = x[i] - g.cx, y[i] - g.cy
     cdef double[:, ::1] cam = np.empty((m, 3)), t = np.empty((m, 3)), rot = np.empty((3, 3))
-    cdef double f = g.f_px, k1 = 0.0, f_new, k1_new, top, r2_sum
+    cdef double f = g.f_px, k1 = 0.0, f_new, k1_new, top
     cdef bint done
     cdef int _
     for _ in range(iterations):
@@ -161,18 +180,9 @@ def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
         if with_k1 and top >= min_r2:
             f_new, k1_new = _lens_step(t, dx, dy, max_k1)
         else:
-            r2_sum = 0.0
-            for i in range(m):
-                r2_sum += t[i, 2]
-            if not r2_sum > 0.0:
+            k1_new = 0.0
+            if not _focal_step(t, dx, dy, &f_new):  # no star off the axis: nothing to fit
                 break
-            f_new, k1_new = 0.0, 0.0
-            for i in range(m):
-                f_new += dx[i] * t[i, 0]
-            top = 0.0
-            for i in range(m):
-                top += dy[i] * t[i, 1]
-            f_new = (f_new + top) / r2_sum
         done = fabs(f_new - f) <= 1e-10 * fabs(f) and fabs(k1_new - k1) <= 1e-12
         f, k1 = f_new, k1_new
         if not (f > 0.0 and isfinite(f)):

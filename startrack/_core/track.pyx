@@ -229,6 +229,19 @@ cdef Labelled _settle(Frame frame, Stars stars, TrackParams* p, const long long[
     return refine_and_label(frame, stars, test.matches, p.check, rounds)
 
 
+cdef FirstTest _first_test(Frame frame, Stars stars, Consistent pairs,
+                           const long long[::1] triple, TrackParams* p,
+                           long long[::1] hyp_obs, double[:, ::1] hyp_sky):
+    """Verification's first test of the hypothesis made of the consistent pairs
+    ``triple`` (``hyp_obs``, ``hyp_sky``: its buffers)."""
+    cdef int k
+    for k in range(3):
+        hyp_obs[k] = pairs.obs[triple[k]]
+        hyp_sky[k, :] = stars.vectors[pairs.pos[triple[k]], :]
+    return first_match(frame, hyp_obs, hyp_sky, stars, p.check.radius_px,
+                       p.check.cos_radius)
+
+
 def attempt(HeldRows held, Frame frame, prior_matrix, double sigma, TrackSetup setup,
             Py_ssize_t start=0):
     """The consistent pairs at the prediction (:func:`consistent_pairs`), then their
@@ -245,7 +258,7 @@ def attempt(HeldRows held, Frame frame, prior_matrix, double sigma, TrackSetup s
         return out
     out.status = NONE
     cdef double turn_trace = 1.0 + 2.0 * cos(min(turn, M_PI))
-    cdef Py_ssize_t m = min(frame.n, p.max_stars), h, k
+    cdef Py_ssize_t m = min(frame.n, p.max_stars), h
     cdef Consistent pairs = _consistent_pairs(held.stars.vectors, prior, frame.x[:m],
                                               frame.y[:m], setup.geometry, window,
                                               min(tol, p.vote_radii * r), tol,
@@ -259,10 +272,7 @@ def attempt(HeldRows held, Frame frame, prior_matrix, double sigma, TrackSetup s
     cdef double prob
     for h in range(start, triples.shape[0]):
         out.tried += 1
-        for k in range(3):
-            hyp_obs[k] = pairs.obs[triples[h, k]]
-            hyp_sky[k, :] = held.stars.vectors[pairs.pos[triples[h, k]], :]
-        test = first_match(frame, hyp_obs, hyp_sky, held.stars, r, p.check.cos_radius)
+        test = _first_test(frame, held.stars, pairs, triples[h], p, hyp_obs, hyp_sky)
         if not test.fits or not near(test.matrix, prior, turn_trace) \
                 or test.confirmed < p.check.min_confirmed:
             continue
