@@ -1,5 +1,5 @@
-"""The camera fit in numpy, as startrack.solver._fov_fit computed it before its iterations were
-compiled (startrack.fov_fit_kernels): kept as the reference that tests/test_fov_fit.py
+"""The camera fit in numpy, as startrack.solver._fov_fit computed it before its iterations
+were compiled (startrack._core.fov_fit): kept as the reference that tests/test_fov_fit.py
 holds the compiled fit to."""
 
 from __future__ import annotations

@@ -9,14 +9,14 @@ import math
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from startrack._core.verify import project
 
 from startrack.attitude import boresight_error_arcsec
 from startrack.bench.tracking import TrackCondition, make_sequence
 from startrack.camera._distortion import RadialDistortion
 from startrack.camera._model import Camera
-from startrack.matching.verify_kernels import project
 from startrack.tracking._track import CatalogCone, Prior, TrackConfig, _attempt, hypotheses, track
-from startrack.verify._frame import CAPTURE
+from startrack.verify._frame import CAPTURE, camera_geometry
 from startrack.verify._verification import VerifyConfig, verify
 
 
@@ -31,7 +31,7 @@ def _first_accepted(hyps, obs, db, config, start):
 def _run_from(obs, db, prior, config, start):
     cone = CatalogCone()
     setup = cone.setup(obs, config, TrackConfig())
-    window = setup[1][0] * prior.sigma_rad + setup[0]
+    window = setup.window_px(prior.sigma_rad)
     return _attempt(obs, db, prior, cone, window, setup, start, test_prior=False)
 
 
@@ -60,9 +60,9 @@ def test_attempt_accepts_and_rejects_as_verify_does(hip_db):
                     seen["rejected"] += 1
                     continue
                 assert tried == k - start + 1
-                matrix, obs_index, cat_index, prob, resid, _ = got
-                assert resid is None  # the three-star attempt leaves them to track()
-                assert prob == pytest.approx(ref.false_probability, rel=1e-9)
+                matrix, obs_index, cat_index = got.matrix, got.obs_index, got.rows
+                assert got.hypothesis == k
+                assert got.probability == pytest.approx(ref.false_probability, rel=1e-9)
                 order = np.argsort(ref.obs_index)
                 np.testing.assert_array_equal(obs_index, ref.obs_index[order])
                 np.testing.assert_array_equal(cat_index, ref.cat_index[order])
@@ -89,7 +89,7 @@ def test_cone_holds_every_star_an_allowed_turn_brings_in(hip_db, distortion):
             axis = rng.normal(size=3)
             w = axis / np.linalg.norm(axis) * cone.turn * rng.uniform(0.5, 1.0)
             at = np.ascontiguousarray(prior @ Rotation.from_rotvec(w).as_matrix())
-            _, _, inside = project(vectors, at, camera.geometry, CAPTURE * radius)
+            _, _, inside = project(vectors, at, camera_geometry(camera), CAPTURE * radius)
             assert set(np.flatnonzero(inside).tolist()) <= held
 
 

@@ -1,4 +1,4 @@
-"""The prediction tested as its own hypothesis (startrack.prior_kernels): its bound is
+"""The prediction tested as its own hypothesis (startrack._core.track): its bound is
 verification's binomial tail, a true prediction is accepted with the true identities, a
 wrong one or a frame of no stars is never accepted, and a window too wide for the test
 leaves the frame to the three-star hypotheses."""
@@ -11,28 +11,25 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 from scipy.stats import binom
+from startrack._core.track import ACCEPTED, NONE, attempt_at_prior, prior_bound
 
 from startrack.attitude import boresight_error_arcsec
 from startrack.bench.tracking import TrackCondition, make_sequence
-from startrack.prior_kernels import attempt_at_prior, prior_bound
 from startrack.solver._lost_in_space import residuals_arcsec
-from startrack.tracking._track import CatalogCone, Prior, TrackConfig, frame_args, track
-from startrack.tracking_kernels import S_HALF_SIDE, S_WINDOW
+from startrack.tracking._track import CatalogCone, Prior, TrackConfig, track, track_frame
 from startrack.types import Observation
 from startrack.verify._verification import VerifyConfig
 
 
 def _prior_attempt(obs, db, prior):
-    """attempt_at_prior on ``obs`` near ``prior``, its rows looked up for it: (status,
-    matched, catalog stars in the image, bound, observed index, catalog rows, attitude,
-    residuals, quaternion)."""
+    """attempt_at_prior on ``obs`` near ``prior``, its rows looked up for it (an
+    :class:`startrack._core.track.Attempt`)."""
     cone = CatalogCone()
     setup = cone.setup(obs, VerifyConfig(), TrackConfig())
-    radius_px, scan = setup[0], setup[1]
-    window = scan[S_WINDOW] * prior.sigma_rad + radius_px
-    args = frame_args(obs, prior, setup)
-    cone.look_up(db, obs.camera, args[4], window / scan[S_HALF_SIDE], radius_px)
-    return attempt_at_prior(cone.vectors, cone.mags, cone.rows, cone.matrix, cone.turn, *args)
+    window = setup.window_px(prior.sigma_rad)
+    cone.look_up(db, obs.camera, prior.matrix, setup.turn(window), setup.radius_px)
+    return attempt_at_prior(cone.held, track_frame(obs, setup), prior.matrix,
+                            prior.sigma_rad, setup)
 
 
 @pytest.mark.parametrize("matched,n_obs,n_in,window", [
@@ -53,9 +50,11 @@ def test_a_true_prediction_is_accepted_with_the_true_identities(hip_db):
         # A prediction 2 px off with a 1 px sigma, as a tracked sequence gives.
         off = Rotation.from_rotvec([4e-4, -5e-4, 3e-4])
         prior = Prior.from_rotation(frame.rotation * off, 1.0 / hip_db.camera.f_px)
-        status, matched, _, prob, obs_i, rows, matrix, resid, quat = _prior_attempt(
-            frame.obs, hip_db, prior)
-        assert status == 1 and prob <= VerifyConfig().max_false_probability
+        found = _prior_attempt(frame.obs, hip_db, prior)
+        obs_i, rows, matrix, resid, quat = (found.obs_index, found.rows, found.matrix,
+                                            found.residuals, found.quaternion)
+        assert found.status == ACCEPTED
+        assert found.probability <= VerifyConfig().max_false_probability
         assert len(obs_i) >= 0.8 * (frame.truth_rows >= 0).sum()
         np.testing.assert_array_equal(rows, frame.truth_rows[obs_i])
         error = boresight_error_arcsec(Rotation.from_matrix(matrix), frame.rotation)
@@ -80,8 +79,7 @@ def test_a_wrong_prediction_is_not_accepted(hip_db, turn_deg):
         axis *= math.radians(turn_deg) / np.linalg.norm(axis)
         prior = Prior.from_rotation(frame.rotation * Rotation.from_rotvec(axis),
                                     1.5 / hip_db.camera.f_px)
-        status = _prior_attempt(frame.obs, hip_db, prior)[0]
-        assert status != 1
+        assert _prior_attempt(frame.obs, hip_db, prior).status != ACCEPTED
 
 
 def test_random_points_are_never_accepted(hip_db):
@@ -96,7 +94,7 @@ def test_random_points_are_never_accepted(hip_db):
         obs = Observation.from_pixels(x, y, camera, 0.5)
         prior = Prior.from_rotation(Rotation.random(random_state=rng),
                                     rng.uniform(0.3, 3.0) / camera.f_px)
-        accepted += _prior_attempt(obs, hip_db, prior)[0] == 1
+        accepted += _prior_attempt(obs, hip_db, prior).status == ACCEPTED
     assert accepted == 0
 
 
@@ -108,8 +106,8 @@ def test_a_window_too_wide_for_the_test_leaves_it_to_the_hypotheses(hip_db):
     frame = seq[1]
     prior = Prior.from_rotation(frame.rotation * Rotation.from_rotvec([2e-3, 0.0, 1e-3]),
                                 8e-3)
-    status, matched, n_in, prob = _prior_attempt(frame.obs, hip_db, prior)[:4]
-    assert status == 0 and prob > VerifyConfig().max_false_probability
+    found = _prior_attempt(frame.obs, hip_db, prior)
+    assert found.status == NONE and found.probability > VerifyConfig().max_false_probability
     solution = track(frame.obs, hip_db, prior)
     assert solution.solved and solution.diagnostics.hypotheses > 1
     np.testing.assert_array_equal(solution.cat_index, frame.truth_rows[solution.obs_index])

@@ -1,7 +1,8 @@
 """The camera of docs/conventions.md: pixels <-> camera-frame unit vectors.
 
 A pinhole with optional Brown-Conrady radial distortion (:mod:`startrack.camera._distortion`);
-every pixel -> direction and direction -> pixel in startrack goes through this class.
+every pixel -> direction and direction -> pixel in startrack goes through this class, and
+it through the compiled model (:class:`startrack._core.camera.Optics`).
 """
 
 from __future__ import annotations
@@ -9,10 +10,11 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 
+from startrack._core.camera import Optics
 from startrack.camera._distortion import RadialDistortion
 from startrack.errors import InputError
 
@@ -68,12 +70,12 @@ class Camera:
         itself inside the frame is an error."""
         if distortion is None or distortion.is_identity:
             return dataclasses.replace(self, distortion=None)
-        corners_x = np.array([-0.5, self.width - 0.5]) - self.cx
-        corners_y = np.array([-0.5, self.height - 0.5]) - self.cy
-        rd2 = float((np.abs(corners_x).max() ** 2 + np.abs(corners_y).max() ** 2)
-                    / self.f_px**2)
+        # in scalars, not arrays: a fitted lens is checked in every FOV refit
+        ex = max(abs(-0.5 - self.cx), abs(self.width - 0.5 - self.cx))
+        ey = max(abs(-0.5 - self.cy), abs(self.height - 0.5 - self.cy))
+        rd2 = (ex**2 + ey**2) / self.f_px**2
         r2 = distortion.max_r2
-        if math.isfinite(r2) and rd2 >= r2 * distortion.factor(np.array(r2)) ** 2:
+        if math.isfinite(r2) and rd2 >= r2 * distortion.factor(r2) ** 2:
             raise InputError(f"camera: distortion {distortion.to_dict()} folds back inside "
                              "the image (not invertible at the corners)")
         return dataclasses.replace(self, distortion=distortion)
@@ -102,38 +104,26 @@ class Camera:
         v = self.pixel_to_vector(corners_x, corners_y)
         return float(np.degrees(np.arccos(np.clip(v[:, 2], -1, 1))).max())
 
+    @cached_property
+    def optics(self) -> Optics:
+        """The camera as the compiled core takes it (its one implementation of the
+        pinhole and the lens), built once per camera."""
+        lens = None if self.distortion is None else self.distortion.compiled
+        return Optics(self.f_px, self.cx, self.cy, self.width, self.height, lens)
+
     def ideal_pixels(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Where observed pixels would be without distortion (the pinhole image)."""
-        x = np.asarray(x, dtype=np.float64)
-        y = np.asarray(y, dtype=np.float64)
-        if self.distortion is None:
-            return x, y
-        u, v = self.distortion.undistort((x - self.cx) / self.f_px, (y - self.cy) / self.f_px)
-        return self.cx + self.f_px * u, self.cy + self.f_px * v
+        return self.optics.ideal_pixels(x, y)
 
     def pixel_to_vector(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Camera-frame unit vectors (N x 3) for pixel coordinates."""
-        x = np.asarray(x, dtype=np.float64)
-        y = np.asarray(y, dtype=np.float64)
-        u, v = (x - self.cx) / self.f_px, (y - self.cy) / self.f_px
-        if self.distortion is not None:
-            u, v = self.distortion.undistort(u, v)
-        vec = np.stack([u, v, np.ones_like(u)], axis=-1)
-        return vec / np.linalg.norm(vec, axis=-1, keepdims=True)
+        return self.optics.pixel_to_vector(x, y)
 
     def vector_to_pixel(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pixel (x, y) of camera-frame vectors, and a mask of those in front (z > 0) and,
-        with distortion, inside the radius where the lens model is invertible."""
-        v = np.asarray(v, dtype=np.float64)
-        z = v[..., 2]
-        front = z > 1e-12
-        zs = np.where(front, z, 1.0)
-        u, w = v[..., 0] / zs, v[..., 1] / zs
-        if self.distortion is not None:
-            # Beyond the fold a far-off star would land back inside the image.
-            front = front & (u * u + w * w < self.distortion.max_r2)
-            u, w = self.distortion.distort(u, w)
-        return self.cx + self.f_px * u, self.cy + self.f_px * w, front
+        with distortion, inside the radius where the lens model is invertible (beyond the
+        fold a far-off star would land back inside the image)."""
+        return self.optics.vector_to_pixel(v)
 
     @property
     def geometry(self) -> np.ndarray:

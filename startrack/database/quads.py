@@ -20,9 +20,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from scipy.spatial import cKDTree
 
+from startrack._core.quad_table import enumerate_quads
 from startrack.io._cache import cached_arrays
 
 STARS_PER_FRAME = 25  # pattern stars in an average frame of a level's FOV
@@ -64,37 +64,6 @@ def keys_of(r: np.ndarray) -> np.ndarray:
     """The int64 key of each row of quantised ratios."""
     q = np.clip((r / BIN).astype(np.int64), 0, NBINS - 1)
     return (q * (NBINS ** np.arange(5))).sum(axis=1)
-
-
-@njit(cache=True)
-def _dot(v, a, b):
-    return v[a, 0] * v[b, 0] + v[a, 1] * v[b, 1] + v[a, 2] * v[b, 2]
-
-
-@njit(cache=True)
-def _enumerate(indptr, indices, vectors, cos_max, max_higher, out):
-    """Every pattern (a, b, c, d), a < b < c < d, with b, c, d among the first
-    ``max_higher[a]`` higher neighbours of a and every edge within the angle whose cosine
-    is ``cos_max[a]``; writes them to ``out`` when it is large enough and returns how many
-    there are."""
-    m = 0
-    for a in range(len(indptr) - 1):
-        lo, hi = indptr[a], min(indptr[a + 1], indptr[a] + max_higher[a])
-        cm = cos_max[a]
-        for i in range(lo, hi):
-            b = indices[i]
-            for j in range(i + 1, hi):
-                c = indices[j]
-                if _dot(vectors, b, c) < cm:
-                    continue
-                for k in range(j + 1, hi):
-                    d = indices[k]
-                    if _dot(vectors, b, d) < cm or _dot(vectors, c, d) < cm:
-                        continue
-                    if m < out.shape[0]:
-                        out[m, 0], out[m, 1], out[m, 2], out[m, 3] = a, b, c, d
-                    m += 1
-    return m
 
 
 def _chord(angle_rad: float) -> float:
@@ -159,10 +128,7 @@ def all_quads(vectors: np.ndarray, max_edge_rad: float, sparse_edge_rad: float =
     cos_max = np.cos(np.where(sparse, np.minimum(2.0 * radii, max(sparse_edge_rad,
                                                                   max_edge_rad)), radii))
     cap = np.where(sparse, max(k, max_higher), max_higher).astype(np.int64)
-    m = _enumerate(indptr, indices, v, cos_max, cap, np.zeros((0, 4), np.int64))
-    out = np.zeros((m, 4), np.int64)
-    _enumerate(indptr, indices, v, cos_max, cap, out)
-    return out
+    return enumerate_quads(indptr, indices, v, np.ascontiguousarray(cos_max), cap)
 
 
 def level_stars(level_deg: float) -> int:

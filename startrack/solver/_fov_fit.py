@@ -10,12 +10,13 @@ import math
 import numpy as np
 from scipy.stats import chi2, norm
 
-from startrack.attitude import solve_wahba
+from startrack._core.fov_fit import BAD_FOCAL
+from startrack._core.fov_fit import fit_focal as fit_focal_kernel
+from startrack._core.shared import wahba
 from startrack.camera._distortion import RadialDistortion
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.errors import InputError
-from startrack.fov_fit_kernels import BAD_FOCAL, fit_iterations
 from startrack.solver._calibrate_sigma import SIGNIFICANCE
 from startrack.solver._lost_in_space import residuals_arcsec
 from startrack.types import Hypothesis, Observation
@@ -42,7 +43,7 @@ def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.nda
     """``camera`` with the focal length that, with its best attitude, fits the pixels
     ``x``, ``y`` to the catalog directions: alternate Wahba's problem and the linear least
     squares of ``pixel - centre = f * D(tangent-plane position)`` (D the lens model), at
-    most ``iterations`` times (compiled: :func:`startrack.fov_fit_kernels.fit_iterations`).
+    most ``iterations`` times (compiled: :func:`startrack._core.fov_fit.fit_focal`).
     With ``lens``, a pinhole ``camera`` and at least ``LENS_MIN_STARS`` stars reaching
     ``LENS_MIN_R2``, the radial ``k1`` too (``f k1`` is linear as well): a lens nobody
     described still has its wide-field stars fitted. A focal length that is not positive
@@ -50,15 +51,10 @@ def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.nda
     :class:`InputError`, as :meth:`Camera.with_distortion` makes it."""
     x = np.ascontiguousarray(x, dtype=np.float64)
     y = np.ascontiguousarray(y, dtype=np.float64)
-    described = camera.distortion
-    k = (np.zeros(3) if described is None
-         else np.array([described.k1, described.k2, described.k3], dtype=np.float64))
-    cap = math.inf if described is None else math.sqrt(described.max_r2)
-    with_k1 = lens and described is None and len(x) >= LENS_MIN_STARS
-    status, f, k1 = fit_iterations(x, y, np.ascontiguousarray(cat_vectors, dtype=np.float64),
-                                   camera.cx, camera.cy, camera.width, camera.height,
-                                   camera.f_px, k, cap, with_k1, iterations, LENS_MIN_R2,
-                                   LENS_MAX_K1)
+    with_k1 = lens and camera.distortion is None and len(x) >= LENS_MIN_STARS
+    status, f, k1 = fit_focal_kernel(camera.optics, x, y,
+                                     np.ascontiguousarray(cat_vectors, dtype=np.float64),
+                                     iterations, with_k1, LENS_MIN_R2, LENS_MAX_K1)
     cam = dataclasses.replace(camera, f_px=f)
     if status == BAD_FOCAL or not k1:
         return cam
@@ -117,6 +113,9 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
 #: the given camera stands unless the fitted one lowers the matched stars' chi-square
 #: by more than a 3-sigma chance would (the calibrate rule, startrack.solver._calibrate_sigma)
 GIVEN_REJECT_P = 2.0 * float(norm.sf(SIGNIFICANCE))
+#: the chi-square quantile of GIVEN_REJECT_P for the 1 or 2 parameters fitted (the focal
+#: length, and k1): computed once, not in every refit
+_GIVEN_REJECT_CHI2 = {n: float(chi2.isf(GIVEN_REJECT_P, n)) for n in (1, 2)}
 #: stars of an accepted answer used as the hypothesis when its FOV is refitted or its
 #: given camera verified again: the rest of the frame is the independent evidence
 #: verification counts
@@ -137,11 +136,12 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     check, fitted, obs = found
     if fitted == given:
         return found
-    cat = database.vectors[check.cat_index]
+    cat = np.ascontiguousarray(database.vectors[check.cat_index], dtype=np.float64)
     given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
 
     def squared(o: Observation) -> float:
-        rotation = solve_wahba(o.vectors[check.obs_index], cat)
+        # the compiled Wahba fit verification uses (no scipy Rotation in every refit)
+        rotation = wahba(np.ascontiguousarray(o.vectors[check.obs_index]), cat)
         return float(np.sum(residuals_arcsec(rotation, o, check.obs_index, cat) ** 2))
 
     n_params = 1 + int(fitted.distortion != given.distortion)
@@ -152,7 +152,7 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     if fit_sq <= 0.0:
         return found
     drop = (squared(given_obs) - fit_sq) / (fit_sq / dof)
-    if drop > chi2.isf(GIVEN_REJECT_P, n_params):
+    if drop > _GIVEN_REJECT_CHI2[n_params]:
         return found
     first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]
     hyp = Hypothesis(check.obs_index[first], check.cat_index[first])

@@ -1,18 +1,19 @@
 """Tracking: solve a frame near a predicted attitude, held to lost-in-space's proof.
 
-A star tracker runs lost-in-space once and then tracks. :class:`startrack.tracking._tracker.Tracker`
-predicts each frame's attitude and its uncertainty from the frames before it; :func:`track`
-first tests the prediction itself as the hypothesis: the frame's stars matched to the
-catalog stars projected at it within a window sized from that uncertainty, accepted only
-when so many matches would come from an unrelated frame with no more than verification's
-false-match probability, then refined and labelled as verification does
-(:mod:`startrack.prior_kernels`). Where the window is too wide for that test to have power
-(after unsolved frames, say), a vote on the image displacement picks consistent pairs,
-and three-star hypotheses from them are tested exactly as
-:func:`startrack.verify._verification.verify`
-tests them: the same Wahba fit, the same match radius and the same binomial bound, with
-evidence only from stars outside the hypothesis, then the same labelling
-(:func:`startrack.tracking_kernels.attempt`). Both run compiled over catalog rows that a
+A star tracker runs lost-in-space once and then tracks.
+:class:`startrack.tracking._tracker.Tracker` predicts each frame's attitude and its
+uncertainty from the frames before it; :func:`track` first tests the prediction itself as
+the hypothesis: the frame's stars matched to the catalog stars projected at it within a
+window sized from that uncertainty, accepted only when so many matches would come from
+an unrelated frame with no more than verification's false-match probability, then
+refined and labelled as verification does (:func:`startrack._core.track.attempt_at_prior`).
+Where the window is too wide for that test to have power (after unsolved frames, say), a
+vote on the image displacement picks consistent pairs, and three-star hypotheses from
+them are tested exactly as :func:`startrack.verify._verification.verify` tests them: the
+same Wahba fit, the same match radius and the same binomial bound, with evidence only
+from stars outside the hypothesis, then the same labelling
+(:func:`startrack._core.track.attempt`). Both run compiled, calling the one compiled
+verification (``startrack/_core/_verify.pxd``) itself, over catalog rows that a
 :class:`CatalogCone` keeps from frame to frame. A tracked attitude is therefore never
 easier to accept wrongly than a lost-in-space one. When tracking fails, the frame falls
 back to lost-in-space.
@@ -29,18 +30,23 @@ from functools import lru_cache
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from startrack import prior_kernels
-from startrack import tracking_kernels as tk
+from startrack._core.track import (
+    ACCEPTED,
+    UNCOVERED,
+    Attempt,
+    HeldRows,
+    TrackSetup,
+    attempt,
+    attempt_at_prior,
+    consistent_pairs,
+    nearby,
+)
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.database.cone import warm_up as warm_up_cone_lookup
-from startrack.matching.check_kernels import scipy_quaternion
-from startrack.prior_kernels import attempt_at_prior
-from startrack.solver._lost_in_space import residuals_arcsec
-from startrack.tracking_kernels import attempt, consistent_pairs, nearby
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
 from startrack.verify._frame import CAPTURE, CONE_LOOKUP_MARGIN, MAX_REFINEMENTS, cone_radius
-from startrack.verify._labelling import kernel_params
+from startrack.verify._labelling import label_params
 from startrack.verify._verification import VerifyConfig, rotation_of
 
 # The vote looks for the densest spot of displacements within this many match radii: the
@@ -49,7 +55,7 @@ VOTE_RADII = 3.0
 # Hypotheses are drawn from this many of the most consistent pairs.
 HYPOTHESIS_PAIRS = 12
 # A hypothesis whose matches miss at most this many of the consistent pairs' stars is
-# labelled at their fit at once (tracking_kernels._settle); else refined step by step.
+# labelled at their fit at once (startrack._core.track's _settle); else refined step by step.
 SETTLE_MISSES = 0
 # The vote tries the pairs of this many of the brightest stars as its centres.
 VOTE_CENTRES = 24
@@ -105,12 +111,13 @@ class CatalogCone:
     a cone, less those whose projection at the prediction lies too far outside the image
     for such a turn to bring them in. It is looked up for ``CONE_REUSE_RAD`` more turn;
     the attempt kernel keeps it while a later prediction, turned by its own allowance,
-    stays inside that (:func:`startrack.tracking_kernels.attempt`)."""
+    stays inside that (:func:`startrack._core.track.attempt`)."""
 
     def __init__(self) -> None:
         self.database: StarDatabase | None = None
         self.matrix = np.eye(3)
         self.turn = -1.0
+        self.held: HeldRows | None = None  # the rows as the compiled attempts take them
         self._key: tuple | None = None
 
     def look_up(self, database: StarDatabase, camera: Camera, matrix: np.ndarray,
@@ -125,40 +132,40 @@ class CatalogCone:
             stretch = _lens_stretch(camera, math.ceil(math.tan(need) * 100.0) / 100.0)
             margin = CAPTURE * radius_px + turn * camera.f_px * stretch + 1.0
             rows = rows[nearby(np.ascontiguousarray(database.vectors[rows]), matrix,
-                               camera.geometry, margin)]
-        self.rows = rows
+                               camera.optics, margin)]
+        self.rows = np.ascontiguousarray(rows, dtype=np.int64)
         self.vectors = np.ascontiguousarray(database.vectors[rows])
         self.mags = np.ascontiguousarray(database.catalog.mag[rows], dtype=np.float64)
         self.database, self.matrix, self.turn = database, matrix.copy(), turn
+        self.held = HeldRows(self.vectors, self.mags, self.rows, self.matrix, turn)
 
-    def setup(self, obs: Observation, vc: VerifyConfig, config: TrackConfig) -> tuple:
-        """What stays from frame to frame of one camera and centroid error: the match
-        radius, the attempt kernel's ``scan``, the labelling's floats and ``min_fit``
-        (:func:`startrack.verify._labelling.kernel_params`) and the camera's geometry."""
-        key = (obs.camera, obs.sigma_rad, vc, config)
+    def setup(self, obs: Observation, vc: VerifyConfig, config: TrackConfig) -> TrackSetup:
+        """What stays from frame to frame of one camera, centroid error and flux
+        (:class:`startrack._core.track.TrackSetup`): the camera, verification's own
+        thresholds (match radius, capture, refinement rounds, bound, labelling) and the
+        tracking window's."""
+        key = (obs.camera, obs.sigma_rad, obs.flux is not None, vc, config)
         if key != self._key:
             cam = obs.camera
             radius_px = vc.radius_px(obs)
-            label = kernel_params(obs, radius_px)
-            half = 0.5 * min(cam.width, cam.height)
+            check = {"radius_px": radius_px, "cos_radius": math.cos(radius_px / cam.f_px),
+                     "cone_radius": 0.0, "margin_cos": -2.0,  # the held rows: no cone
+                     "capture": CAPTURE, "max_rounds": MAX_REFINEMENTS,
+                     "min_confirmed": vc.min_confirmed,
+                     "max_probability": vc.max_false_probability,
+                     "label": label_params(obs, radius_px)}
             # Off-axis, an angle spans more pixels: 1 + tan^2 at the farthest corner.
             stretch = 1.0 + math.tan(math.radians(cam.half_diagonal_deg)) ** 2
-            scan = np.empty(tk.N_SCAN)
-            scan[tk.S_WINDOW] = config.window_sigma * cam.f_px * stretch
-            scan[tk.S_KEEP] = config.window_sigma * math.hypot(cam.width, cam.height)
-            scan[tk.S_VOTE_RADII], scan[tk.S_RADIUS], scan[tk.S_CAPTURE] = (
-                VOTE_RADII, radius_px, CAPTURE)
-            scan[tk.S_COS_RADIUS] = math.cos(radius_px / cam.f_px)
-            scan[tk.S_MAX_STARS], scan[tk.S_ROUNDS] = config.max_stars, MAX_REFINEMENTS
-            scan[tk.S_MIN_CONFIRMED] = vc.min_confirmed
-            scan[tk.S_MAX_HYPOTHESES], scan[tk.S_PAIRS] = (config.max_hypotheses,
-                                                           HYPOTHESIS_PAIRS)
-            scan[tk.S_MAX_FALSE] = vc.max_false_probability
-            scan[tk.S_AREA] = math.pi / (cam.width * cam.height)
-            scan[tk.S_HALF_SIDE], scan[tk.S_SETTLE_MISSES] = half, SETTLE_MISSES
-            scan[tk.S_VOTE_CENTRES], scan[tk.S_CONE_REUSE] = VOTE_CENTRES, CONE_REUSE_RAD
-            self._setup = (radius_px, scan, np.array(label[2:11], dtype=np.float64),
-                           label[11], cam.geometry)
+            track = {"window_per_sigma": config.window_sigma * cam.f_px * stretch,
+                     "keep_per_sigma": config.window_sigma * math.hypot(cam.width,
+                                                                        cam.height),
+                     "vote_radii": VOTE_RADII, "max_stars": config.max_stars,
+                     "max_hypotheses": config.max_hypotheses, "pairs": HYPOTHESIS_PAIRS,
+                     "area": math.pi / (cam.width * cam.height),
+                     "half_side": 0.5 * min(cam.width, cam.height),
+                     "settle_misses": SETTLE_MISSES, "vote_centres": VOTE_CENTRES,
+                     "cone_reuse": CONE_REUSE_RAD}
+            self._setup = TrackSetup(cam.optics, check, track)
             self._key = key
         return self._setup
 
@@ -169,9 +176,11 @@ def _lens_stretch(camera: Camera, rho_top: float) -> float:
     the angle off the boresight): a turn moves the tangent-plane point by up to
     (1 + rho^2) per radian and the lens scales that by at most max(|s|, |s + 2 rho^2 s'|)
     (its tangential and radial gains); a star that the lens model cannot place at the
-    prediction is kept whatever its position (:func:`~startrack.tracking_kernels.nearby`).
+    prediction is kept whatever its position (:func:`~startrack._core.track.nearby`).
     Sampled finely, with 1% to spare."""
-    k1, k2, k3, max_r2 = (float(v) for v in camera.geometry[5:9])
+    d = camera.distortion
+    k1, k2, k3, max_r2 = (0.0, 0.0, 0.0, math.inf) if d is None else (d.k1, d.k2, d.k3,
+                                                                        d.max_r2)
     rho = np.linspace(0.0, min(rho_top, math.sqrt(max_r2)), 4097)
     r2 = rho * rho
     s = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
@@ -191,83 +200,67 @@ def track(obs: Observation, database: StarDatabase, prior: Prior,
     config = config or TrackConfig()
     cone = cone or CatalogCone()
     t0 = time.perf_counter()
-    result, counts = None, (0, 0)
+    found, counts = None, (0, 0)
     setup = cone.setup(obs, verify_config, config)
-    radius_px, scan = setup[0], setup[1]
-    window = scan[tk.S_WINDOW] * prior.sigma_rad + radius_px
+    window = setup.window_px(prior.sigma_rad)
     if len(obs) >= 3 and window <= config.max_window_px:
-        result, counts = _attempt(obs, database, prior, cone, window, setup)
-    if result is not None:
-        matrix, obs_index, cat_index, prob, residuals, quat = result
-        if residuals is None:  # the three-star attempt: its identities by observed index
-            order = np.argsort(obs_index)
-            obs_index, cat_index = obs_index[order], cat_index[order]
-            residuals = residuals_arcsec(matrix, obs, obs_index, database.vectors[cat_index])
-            quat = scipy_quaternion(matrix)
+        found, counts = _attempt(obs, database, prior, cone, window, setup)
     # The time of matching, verification, the attitude, its quaternion and residuals, as
-    # identify() counts lost-in-space's (verification's one-call path computes them; the
+    # identify() counts lost-in-space's (the compiled attempt computes them; the
     # Solution's Rotation is built from them after the clock stops in both).
     elapsed = (time.perf_counter() - t0) * 1000.0
     diag = MatchDiagnostics(candidates=counts[0], hypotheses=counts[1])
-    if result is None:
+    if found is None:
         return Solution(False, method, diagnostics=diag, identify_ms=elapsed,
                         reason="no_track" if len(obs) >= 3 else "too_few_stars",
                         mode="tracking")
-    rotation = rotation_of(matrix, quat)  # as Verification.rotation builds it
-    return Solution(True, method, rotation=rotation, obs_index=obs_index, cat_index=cat_index,
-                    residual_arcsec=residuals, false_probability=float(prob),
-                    diagnostics=diag, identify_ms=elapsed, mode="tracking")
+    rotation = rotation_of(found.matrix, found.quaternion)  # as verification builds it
+    return Solution(True, method, rotation=rotation, obs_index=found.obs_index,
+                    cat_index=found.rows, residual_arcsec=found.residuals,
+                    false_probability=float(found.probability), diagnostics=diag,
+                    identify_ms=elapsed, mode="tracking")
 
 
-def frame_args(obs: Observation, prior: Prior, setup: tuple) -> tuple:
-    """The frame's arguments of the attempt kernels, after the held rows' (``obs``'s
-    vectors, x, y, camera geometry, the prior's matrix and sigma, then ``setup``'s scan,
-    the flux (x when there is none) and whether there is one, the labelling's floats and
-    ``min_fit``), as :func:`startrack.verify._labelling.kernel_params` passes them."""
-    radius_px, scan, floats, min_fit, geometry = setup
-    has_flux = obs.flux is not None
-    return (np.ascontiguousarray(obs.vectors, dtype=np.float64),
-            np.ascontiguousarray(obs.x, dtype=np.float64),
-            np.ascontiguousarray(obs.y, dtype=np.float64), geometry,
-            np.ascontiguousarray(prior.matrix, dtype=np.float64), float(prior.sigma_rad),
-            scan, obs.kernel_flux(), has_flux, floats, min_fit)
+def track_frame(obs: Observation, setup: TrackSetup):
+    """``obs``'s stars as the compiled verification takes them (its ``Frame``)."""
+    return setup.frame(np.ascontiguousarray(obs.vectors, dtype=np.float64),
+                       np.ascontiguousarray(obs.x, dtype=np.float64),
+                       np.ascontiguousarray(obs.y, dtype=np.float64), obs.kernel_flux())
 
 
-def _attempt(obs, database, prior, cone, window, setup, start=0, test_prior=True):
+def _attempt(obs: Observation, database: StarDatabase, prior: Prior, cone: CatalogCone,
+             window: float, setup: TrackSetup, start: int = 0,
+             test_prior: bool = True) -> tuple[Attempt | None, tuple[int, int]]:
     """The compiled attempts: the prediction tested as its own hypothesis
-    (:func:`startrack.prior_kernels.attempt_at_prior`), then, when that is not accepted,
-    the vote and three-star hypotheses (:func:`startrack.tracking_kernels.attempt`), with
-    the held rows looked up again where they do not cover the prediction. Returns
-    ((attitude, observed index, catalog rows, bound, residuals, quaternion: the last two
-    None from the three-star attempt) or None, (pairs in the window, hypotheses, the
-    prediction counted as one when tested)); ``start``: the first
+    (:func:`startrack._core.track.attempt_at_prior`), then, when that is not accepted,
+    the vote and three-star hypotheses (:func:`startrack._core.track.attempt`), with the
+    held rows looked up again where they do not cover the prediction. Returns (the
+    accepted :class:`~startrack._core.track.Attempt` or None, (pairs in the window,
+    hypotheses, the prediction counted as one when tested)); ``start``: the first
     three-star hypothesis tried; ``test_prior``: whether the prediction is tested first
     (tests of the three-star attempt alone set it False)."""
-    radius_px, scan = setup[0], setup[1]
-    args = frame_args(obs, prior, setup)
-    matrix, turn = args[4], window / scan[tk.S_HALF_SIDE]
+    frame = track_frame(obs, setup)
+    matrix = np.ascontiguousarray(prior.matrix, dtype=np.float64)
+    turn = setup.turn(window)
     looked_up = cone.database is not database
     if looked_up:
-        cone.look_up(database, obs.camera, matrix, turn, radius_px)
+        cone.look_up(database, obs.camera, matrix, turn, setup.radius_px)
     tested = int(test_prior)
     while True:
-        held = (cone.vectors, cone.mags, cone.rows, cone.matrix, cone.turn)
-        status, n_pairs, tried = 0, 0, 0
+        found = None
         if tested:
-            status, n_pairs, _, prob, obs_i, rows, final, resid, quat = attempt_at_prior(
-                *held, *args)
-            if status == 1:
-                return (final, obs_i, rows, prob, resid, quat), (n_pairs, tested)
-        if status != 4:
-            status, _, tried, n_pairs, _, _, prob, obs_i, rows, final = attempt(
-                *held, *args, start)
-            if status == 1:
-                return (final, obs_i, rows, prob, None, None), (n_pairs, tried + tested)
-        if status == 4 and not looked_up:  # once: fresh rows cover it
-            cone.look_up(database, obs.camera, matrix, turn, radius_px)
+            found = attempt_at_prior(cone.held, frame, matrix, prior.sigma_rad, setup)
+            if found.status == ACCEPTED:
+                return found, (found.pairs, tested)
+        if found is None or found.status != UNCOVERED:
+            found = attempt(cone.held, frame, matrix, prior.sigma_rad, setup, start)
+            if found.status == ACCEPTED:
+                return found, (found.pairs, found.tried + tested)
+        if found.status == UNCOVERED and not looked_up:  # once: fresh rows cover it
+            cone.look_up(database, obs.camera, matrix, turn, setup.radius_px)
             looked_up = True
             continue
-        return None, (n_pairs, tried + tested)
+        return None, (found.pairs, found.tried + tested)
 
 
 def hypotheses(obs: Observation, database: StarDatabase, prior: Prior,
@@ -276,23 +269,20 @@ def hypotheses(obs: Observation, database: StarDatabase, prior: Prior,
     """The three-star hypotheses :func:`track` tries on ``obs`` near ``prior``, in its
     order (to check its decisions against :func:`startrack.verify._verification.verify`'s)."""
     vc, config, cone = verify_config or VerifyConfig(), config or TrackConfig(), CatalogCone()
-    radius_px, scan = cone.setup(obs, vc, config)[:2]
-    window = scan[tk.S_WINDOW] * prior.sigma_rad + radius_px
-    tol = scan[tk.S_KEEP] * prior.sigma_rad + radius_px
+    setup = cone.setup(obs, vc, config)
+    window = setup.window_px(prior.sigma_rad)
     matrix = np.ascontiguousarray(prior.matrix, dtype=np.float64)
-    cone.look_up(database, obs.camera, matrix, window / scan[tk.S_HALF_SIDE], radius_px)
+    cone.look_up(database, obs.camera, matrix, setup.turn(window), setup.radius_px)
     m = min(len(obs), config.max_stars)
     oi, cj, _ = consistent_pairs(cone.vectors, matrix, np.ascontiguousarray(obs.x[:m]),
-                                 np.ascontiguousarray(obs.y[:m]), obs.camera.geometry,
-                                 window, min(tol, VOTE_RADII * radius_px), tol, VOTE_CENTRES)
+                                 np.ascontiguousarray(obs.y[:m]), prior.sigma_rad, setup)
     picks = itertools.islice(itertools.combinations(range(min(len(oi), HYPOTHESIS_PAIRS)), 3),
                              config.max_hypotheses)
     return [Hypothesis(oi[list(p)], cone.rows[cj[list(p)]]) for p in picks]
 
 
 def warm_up() -> None:
-    """Compile (or load from numba's cache) every kernel a tracked frame runs, so that the
-    first frame of a sequence is not timed with the compilation."""
-    tk.warm_up()
-    prior_kernels.warm_up()
-    warm_up_cone_lookup()  # the held rows' first lookup
+    """Fill what a tracked frame's first use would (the held rows' first lookup), so that
+    the first frame of a sequence is not timed with it; the prediction and the attempts
+    are compiled at install."""
+    warm_up_cone_lookup()

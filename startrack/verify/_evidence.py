@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from startrack.prior_kernels import HYPOTHESIS_STARS
+from startrack._core.track import HYPOTHESIS_STARS
 from startrack.types import Solution
 from startrack.verify._verification import VerifyConfig
 

@@ -1,0 +1,15 @@
+# The compiled camera's classes, for the stages that take a camera (cimport Optics and
+# read its ``geometry``).
+
+from startrack._core._camera cimport Geometry, Lens
+
+
+cdef class RadialLens:
+    cdef readonly Lens lens
+
+
+cdef class Optics:
+    cdef readonly Geometry geometry
+    cdef readonly RadialLens lens
+    cdef Lens _lens
+    cdef tuple _normalised(self, x, y)

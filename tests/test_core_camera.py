@@ -1,0 +1,62 @@
+"""The compiled camera model (startrack._core.camera) held to the numpy model it replaced
+(tests/camera_reference.py), to the last bit."""
+
+import pickle
+
+import numpy as np
+from camera_reference import (
+    reference_distort,
+    reference_pixel_to_vector,
+    reference_undistort,
+    reference_vector_to_pixel,
+)
+from startrack._core.camera import Optics, RadialLens
+
+from startrack.camera._distortion import RadialDistortion
+from startrack.camera._model import Camera
+
+LENSES = [RadialDistortion(k1=-0.2), RadialDistortion(k1=0.1),
+          RadialDistortion(k1=-0.05, k2=0.01, k3=-0.002), RadialDistortion(k1=0.3, k3=-2.0)]
+
+
+def _lens(d: RadialDistortion) -> RadialLens:
+    return RadialLens(d.k1, d.k2, d.k3, d.max_r2)
+
+
+def test_undistort_and_distort_are_numpys_to_the_bit():
+    rng = np.random.default_rng(5)
+    for d in LENSES:
+        u, v = rng.normal(0.0, 0.4, (2, 500))
+        u[:3] = 0.0, np.nan, 5.0  # the centre, a NaN, one far beyond any fold
+        v[:3] = 0.0, 0.1, 5.0
+        got, want = _lens(d).undistort(u, v), reference_undistort(d, u, v)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+        got, want = _lens(d).distort(u, v), reference_distort(d, u, v)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+
+
+def test_the_camera_calls_the_compiled_model_in_any_shape():
+    rng = np.random.default_rng(6)
+    for d in [None, *LENSES[:3]]:
+        cam = Camera.from_fov(1200, 800, 25.0, distortion=d)
+        x, y = rng.uniform(-50, 1250, (2, 4, 60))
+        np.testing.assert_array_equal(cam.pixel_to_vector(x, y),
+                                      reference_pixel_to_vector(cam, x, y))
+        vec = rng.normal(size=(7, 30, 3))
+        vec[0, :5, 2] = 0.0  # behind or on the image plane
+        for got, want in zip(cam.vector_to_pixel(vec), reference_vector_to_pixel(cam, vec),
+                             strict=True):
+            assert got.shape == want.shape == (7, 30)
+            np.testing.assert_array_equal(got, want)
+    assert Camera.from_fov(100, 100, 10.0).pixel_to_vector(3.0, 4.0).shape == (3,)
+
+
+def test_optics_pickles_and_takes_empty_inputs():
+    optics = Optics(500.0, 50.0, 40.0, 101, 81, RadialLens(-0.1, 0.0, 0.0, 10 / 3))
+    again = pickle.loads(pickle.dumps(optics))
+    x, y = np.array([0.0, 100.0]), np.array([80.0, 3.0])
+    np.testing.assert_array_equal(again.pixel_to_vector(x, y), optics.pixel_to_vector(x, y))
+    assert again.geometry["k1"] == -0.1 and again.geometry["max_r2"] == 10 / 3
+    assert optics.pixel_to_vector(np.zeros(0), np.zeros(0)).shape == (0, 3)
