@@ -1,0 +1,284 @@
+"""Scale-free four-star pattern search of one focal-length window (the ``quad`` matcher)
+in one call: each image pattern's 32 neighbouring keys looked up in a level's sorted key
+table through a bucket index, the first ratio test, the best of the 24 star orders, and
+the candidates ranked by edge agreement (see :mod:`startrack.matchers.quad`)."""
+
+import numpy as np
+
+from libc.math cimport fabs, sqrt
+from libc.stdlib cimport qsort
+
+
+cdef class QuadTable:
+    """One level's pattern table (sorted int64 keys, int32 quads, uint8 ratios) with a
+    bucket index: ``bucket[b]`` is the first row whose key is at least ``b * width``, so a
+    key's rows are found within its bucket, not in the whole table."""
+    cdef const long long[::1] keys
+    cdef const int[:, ::1] quads
+    cdef const unsigned char[:, ::1] ratios
+    cdef const long long[::1] bucket
+    cdef long long width
+
+    def __init__(self, keys, quads, ratios, long long width):
+        keys = np.ascontiguousarray(keys, np.int64)
+        self.keys = keys
+        self.quads = np.ascontiguousarray(quads, np.int32)
+        self.ratios = np.ascontiguousarray(ratios, np.uint8)
+        self.width = width
+        top = int(keys[len(keys) - 1]) // width + 1 if len(keys) else 0
+        self.bucket = np.searchsorted(keys, np.arange(top + 1, dtype=np.int64) * width)
+
+
+cdef class QuadRules:
+    """The matcher's constants: the ratio tolerance of a key lookup and of the edge test,
+    the key quantisation, the first test's bound on the stored ratios, the candidate cap,
+    the six edges of a pattern, and for each of the 24 star orders its star order
+    (``perms``) and the catalog edge that each image edge corresponds to (``perm_edges``)."""
+    cdef double tolerance, bin, near, ratio_unit
+    cdef long long nbins, max_candidates
+    cdef const long long[:, ::1] edges
+    cdef const long long[:, ::1] perms
+    cdef const long long[:, ::1] perm_edges
+
+    def __init__(self, *, double tolerance, double bin, long long nbins, double near,
+                 double ratio_unit, long long max_candidates, edges, perms, perm_edges):
+        self.tolerance, self.bin, self.nbins = tolerance, bin, nbins
+        self.near, self.ratio_unit, self.max_candidates = near, ratio_unit, max_candidates
+        self.edges = np.ascontiguousarray(edges, np.int64)
+        self.perms = np.ascontiguousarray(perms, np.int64)
+        self.perm_edges = np.ascontiguousarray(perm_edges, np.int64)
+
+
+cdef class QuadMatches:
+    """Observed and catalog patterns that agree, best first: observation rows (K x 4),
+    catalog rows in matching order (K x 4), scale (observed / catalog size) and the
+    largest edge-ratio disagreement."""
+    cdef readonly object obs
+    cdef readonly object cat
+    cdef readonly object scale
+    cdef readonly object error
+
+
+cdef struct Ranked:
+    double error
+    Py_ssize_t pair
+
+
+cdef int _by_error(const void *a, const void *b) noexcept nogil:
+    cdef const Ranked *x = <const Ranked *>a
+    cdef const Ranked *y = <const Ranked *>b
+    if x.error != y.error:
+        return -1 if x.error < y.error else 1
+    return -1 if x.pair < y.pair else (1 if x.pair > y.pair else 0)
+
+
+cdef int _by_value(const void *a, const void *b) noexcept nogil:
+    cdef long long x = (<const long long *>a)[0], y = (<const long long *>b)[0]
+    return -1 if x < y else (1 if x > y else 0)
+
+
+cdef inline Py_ssize_t _bound(const long long[::1] keys, Py_ssize_t lo, Py_ssize_t hi,
+                              long long key, bint after) noexcept nogil:
+    """The first position in [lo, hi) whose key is >= ``key`` (> ``key`` if ``after``)."""
+    cdef Py_ssize_t mid
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if keys[mid] < key or (after and keys[mid] == key):
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+cdef class _Ints:
+    """A growing int64 array."""
+    cdef long long[::1] a
+    cdef Py_ssize_t n
+
+    def __cinit__(self):
+        self.a = np.empty(256, np.int64)
+        self.n = 0
+
+    cdef inline void push(self, long long v):
+        cdef long long[::1] b
+        if self.n == self.a.shape[0]:
+            b = np.empty(2 * self.n, np.int64)
+            b[:self.n] = self.a[:self.n]
+            self.a = b
+        self.a[self.n] = v
+        self.n += 1
+
+
+cdef void _near_rows(QuadTable t, QuadRules rules, const double *r, const long long *lo,
+                     const long long *hi, _Ints out):
+    """Append to ``out`` the table rows of the 32 keys within the tolerance of ratios
+    ``r`` whose stored ratios pass the first test."""
+    cdef Py_ssize_t a, b, row, nb = t.bucket.shape[0] - 1
+    cdef long long key, mult, q
+    cdef int p, j
+    cdef double worst, d
+    for p in range(32):
+        key, mult = 0, 1
+        for j in range(5):
+            q = hi[j] if (p >> (4 - j)) & 1 else lo[j]
+            key += q * mult
+            mult *= rules.nbins
+        if key // t.width >= nb:
+            continue
+        a = _bound(t.keys, t.bucket[key // t.width], t.bucket[key // t.width + 1], key, False)
+        b = _bound(t.keys, a, t.bucket[key // t.width + 1], key, True)
+        for row in range(a, b):
+            worst = 0.0
+            for j in range(5):
+                d = fabs(t.ratios[row, j] * rules.ratio_unit - r[j])
+                if d > worst:
+                    worst = d
+            if worst <= rules.near:
+                out.push(row)
+
+
+cdef void _key_ranges(QuadRules rules, const double[:, ::1] edges, Py_ssize_t m, double *r,
+                      long long *lo, long long *hi) noexcept:
+    """Pattern ``m``'s sorted edge ratios and the key bins within the tolerance of each."""
+    cdef double s[6]
+    cdef double v, largest
+    cdef int i, j
+    for i in range(6):
+        v = edges[m, i]
+        j = i
+        while j > 0 and s[j - 1] > v:
+            s[j] = s[j - 1]
+            j -= 1
+        s[j] = v
+    largest = s[5] if s[5] > 0 else 1.0
+    for j in range(5):
+        r[j] = s[j] / largest
+        lo[j] = min(max(<long long>((r[j] - rules.tolerance) / rules.bin), 0), rules.nbins - 1)
+        hi[j] = min(max(<long long>((r[j] + rules.tolerance) / rules.bin), 0), rules.nbins - 1)
+
+
+cdef void _pairs(QuadTable t, QuadRules rules, const double[:, ::1] edges, _Ints pat,
+                 _Ints row):
+    """Every (image pattern, table row) that passes the first test, once, by pattern then
+    row."""
+    cdef _Ints rows = _Ints()
+    cdef double r[5]
+    cdef long long lo[5]
+    cdef long long hi[5]
+    cdef Py_ssize_t m, k
+    for m in range(edges.shape[0]):
+        _key_ranges(rules, edges, m, r, lo, hi)
+        rows.n = 0
+        _near_rows(t, rules, r, lo, hi, rows)
+        if rows.n == 0:
+            continue
+        qsort(&rows.a[0], rows.n, sizeof(long long), _by_value)
+        for k in range(rows.n):
+            if k == 0 or rows.a[k] != rows.a[k - 1]:
+                pat.push(m)
+                row.push(rows.a[k])
+
+
+cdef object _catalog_edges(QuadTable t, QuadRules rules, const double[:, ::1] cat, _Ints row):
+    """The six edge angles (P x 6, radians) of each paired table row, as
+    :func:`startrack.database.quads.edge_angles` computes them (numpy's own arcsin, so
+    that they agree to the last bit)."""
+    out = np.empty((row.n, 6))
+    cdef double[:, ::1] half = out
+    cdef Py_ssize_t p, a, b
+    cdef int k
+    cdef double d0, d1, d2
+    for p in range(row.n):
+        for k in range(6):
+            a = t.quads[row.a[p], rules.edges[k, 0]]
+            b = t.quads[row.a[p], rules.edges[k, 1]]
+            d0, d1, d2 = cat[a, 0] - cat[b, 0], cat[a, 1] - cat[b, 1], cat[a, 2] - cat[b, 2]
+            half[p, k] = min(max(sqrt(d0 * d0 + d1 * d1 + d2 * d2) / 2.0, 0.0), 1.0)
+    np.arcsin(out, out=out)
+    out *= 2.0
+    return out
+
+
+cdef Py_ssize_t _best_orders(QuadRules rules, const double[:, ::1] edges, _Ints pat,
+                             const double[:, ::1] cat_edges, long long[::1] best,
+                             Ranked *good) noexcept:
+    """Each pair's best star order (``best``) and, for the pairs whose largest edge-ratio
+    disagreement is within the tolerance, that disagreement (``good``); returns how many
+    are good."""
+    cdef double img[6]
+    cdef double c[6]
+    cdef double largest, cmax, worst, least = 0.0, d
+    cdef Py_ssize_t p, m, n = 0
+    cdef int k, o
+    for p in range(pat.n):
+        m = pat.a[p]
+        largest, cmax = edges[m, 0], cat_edges[p, 0]
+        for k in range(1, 6):
+            largest = max(largest, edges[m, k])
+            cmax = max(cmax, cat_edges[p, k])
+        for k in range(6):
+            img[k] = edges[m, k] / largest
+            c[k] = cat_edges[p, k] / cmax
+        for o in range(24):
+            worst = 0.0
+            for k in range(6):
+                d = fabs(img[k] - c[rules.perm_edges[o, k]])
+                if d > worst:
+                    worst = d
+            if o == 0 or worst < least:
+                least, best[p] = worst, o
+        if least <= rules.tolerance:
+            good[n].error, good[n].pair = least, p
+            n += 1
+    return n
+
+
+cdef QuadMatches _ranked(QuadTable t, QuadRules rules, const long long[:, ::1] quads,
+                         const double[:, ::1] edges, _Ints pat, _Ints row,
+                         const double[:, ::1] cat_edges, const long long[::1] best,
+                         const Ranked *good, Py_ssize_t n):
+    """The first ``n`` of ``good`` as :class:`QuadMatches`, with catalog rows in the
+    matching order and the scale of each pattern."""
+    res = QuadMatches()
+    res.obs, res.cat = np.empty((n, 4), np.int64), np.empty((n, 4), np.int64)
+    res.scale, res.error = np.empty(n), np.empty(n)
+    cdef long long[:, ::1] obs = res.obs
+    cdef long long[:, ::1] cat = res.cat
+    cdef double[::1] scale = res.scale
+    cdef double[::1] error = res.error
+    cdef Py_ssize_t g, p, o
+    cdef int k
+    cdef double num, den
+    for g in range(n):
+        p = good[g].pair
+        o = best[p]
+        error[g] = good[g].error
+        num, den = 0.0, 0.0
+        for k in range(6):
+            num += edges[pat.a[p], k]
+            den += cat_edges[p, rules.perm_edges[o, k]]
+        scale[g] = num / den
+        for k in range(4):
+            obs[g, k] = quads[pat.a[p], k]
+            cat[g, k] = t.quads[row.a[p], rules.perms[o, k]]
+    return res
+
+
+def match_window(QuadTable table, QuadRules rules, const double[:, ::1] cat,
+                 const long long[:, ::1] quads, const double[:, ::1] edges):
+    """Observed patterns (``quads``, M x 4 rows of the image's stars, with their six
+    ``edges``) matched against ``table`` (rows of the catalog vectors ``cat``): the
+    :class:`QuadMatches` best first (smallest disagreement, then lookup order), at most
+    the rules' ``max_candidates``."""
+    cdef _Ints pat = _Ints(), row = _Ints()
+    if quads.shape[0] and table.keys.shape[0]:
+        _pairs(table, rules, edges, pat, row)
+    cat_edges = _catalog_edges(table, rules, cat, row)
+    cdef long long[::1] best = np.empty(pat.n, np.int64)
+    ranked = np.empty(max(pat.n, 1) * sizeof(Ranked), np.uint8)
+    cdef unsigned char[::1] raw = ranked
+    cdef Ranked *good = <Ranked *>&raw[0]
+    cdef Py_ssize_t n = _best_orders(rules, edges, pat, cat_edges, best, good)
+    qsort(good, n, sizeof(Ranked), _by_error)
+    return _ranked(table, rules, quads, edges, pat, row, cat_edges, best, good,
+                   min(n, rules.max_candidates))
