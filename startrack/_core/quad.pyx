@@ -10,23 +10,22 @@ from libc.stdlib cimport qsort
 
 
 cdef class QuadTable:
-    """One level's pattern table (sorted int64 keys, int32 quads, uint8 ratios) with a
-    bucket index: ``bucket[b]`` is the first row whose key is at least ``b * width``, so a
-    key's rows are found within its bucket, not in the whole table."""
-    cdef const long long[::1] keys
+    """One level's pattern table (sorted keys, quads, uint8 ratios) with a bucket index
+    on a key's three highest ratio digits: ``bucket[b]`` is the first row whose key is at
+    least ``b * nbins**2``, so a key's rows are found by a short scan of its bucket."""
+    cdef const int[::1] keys
     cdef const int[:, ::1] quads
     cdef const unsigned char[:, ::1] ratios
-    cdef const long long[::1] bucket
-    cdef long long width
+    cdef const int[::1] bucket
 
-    def __init__(self, keys, quads, ratios, long long width):
-        keys = np.ascontiguousarray(keys, np.int64)
+    def __init__(self, keys, quads, ratios, long long nbins):
+        keys = np.ascontiguousarray(keys, np.int32)  # nbins**5 < 2**31
         self.keys = keys
         self.quads = np.ascontiguousarray(quads, np.int32)
         self.ratios = np.ascontiguousarray(ratios, np.uint8)
-        self.width = width
-        top = int(keys[len(keys) - 1]) // width + 1 if len(keys) else 0
-        self.bucket = np.searchsorted(keys, np.arange(top + 1, dtype=np.int64) * width)
+        top = int(keys[len(keys) - 1]) // nbins ** 2 + 1 if len(keys) else 0
+        starts = np.arange(top + 1, dtype=np.int64) * nbins ** 2
+        self.bucket = np.searchsorted(keys, starts).astype(np.int32)
 
 
 cdef class QuadRules:
@@ -72,24 +71,6 @@ cdef int _by_error(const void *a, const void *b) noexcept nogil:
     return -1 if x.pair < y.pair else (1 if x.pair > y.pair else 0)
 
 
-cdef int _by_value(const void *a, const void *b) noexcept nogil:
-    cdef long long x = (<const long long *>a)[0], y = (<const long long *>b)[0]
-    return -1 if x < y else (1 if x > y else 0)
-
-
-cdef inline Py_ssize_t _bound(const long long[::1] keys, Py_ssize_t lo, Py_ssize_t hi,
-                              long long key, bint after) noexcept nogil:
-    """The first position in [lo, hi) whose key is >= ``key`` (> ``key`` if ``after``)."""
-    cdef Py_ssize_t mid
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if keys[mid] < key or (after and keys[mid] == key):
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
-
-
 cdef class _Ints:
     """A growing int64 array."""
     cdef long long[::1] a
@@ -109,32 +90,59 @@ cdef class _Ints:
         self.n += 1
 
 
+cdef inline bint _bit(int p, int bit, const long long *lo, const long long *hi,
+                      int j, long long *q) noexcept nogil:
+    """Digit ``j`` of pick ``p``: ``hi[j]`` if the pick's ``bit`` is set, else ``lo[j]``;
+    False when that repeats the other choice (lo == hi), so each key is visited once."""
+    if (p >> bit) & 1:
+        q[0] = hi[j]
+        return hi[j] != lo[j]
+    q[0] = lo[j]
+    return True
+
+
+cdef inline bint _passes(QuadTable t, QuadRules rules, Py_ssize_t row,
+                         const double *r) noexcept nogil:
+    """The first test: the table's stored ratios within the tolerance of ``r``."""
+    cdef double d
+    cdef int j
+    cdef double worst = 0.0
+    for j in range(5):
+        d = fabs(t.ratios[row, j] * rules.ratio_unit - r[j])
+        if d > worst:
+            worst = d
+    return worst <= rules.near
+
+
 cdef void _near_rows(QuadTable t, QuadRules rules, const double *r, const long long *lo,
                      const long long *hi, _Ints out):
-    """Append to ``out`` the table rows of the 32 keys within the tolerance of ratios
-    ``r`` whose stored ratios pass the first test."""
-    cdef Py_ssize_t a, b, row, nb = t.bucket.shape[0] - 1
-    cdef long long key, mult, q
-    cdef int p, j
-    cdef double worst, d
-    for p in range(32):
-        key, mult = 0, 1
-        for j in range(5):
-            q = hi[j] if (p >> (4 - j)) & 1 else lo[j]
-            key += q * mult
-            mult *= rules.nbins
-        if key // t.width >= nb:
+    """Append to ``out``, ascending and once each, the table rows of the keys within the
+    tolerance of ratios ``r`` (each digit ``lo`` or ``hi``) that pass the first test: the
+    buckets of the three high digits in ascending order, each scanned for the two low."""
+    cdef long long n1 = rules.nbins, n2 = rules.nbins * rules.nbins
+    cdef long long low[4]
+    cdef long long q0, q1, q2, q3, q4, base, key
+    cdef Py_ssize_t row, b, nb = t.bucket.shape[0] - 1
+    cdef int p, k, nlow = 0
+    for p in range(4):
+        if _bit(p, 1, lo, hi, 1, &q1) and _bit(p, 0, lo, hi, 0, &q0):
+            low[nlow] = q0 + n1 * q1
+            nlow += 1
+    for p in range(8):
+        if not (_bit(p, 2, lo, hi, 4, &q4) and _bit(p, 1, lo, hi, 3, &q3)
+                and _bit(p, 0, lo, hi, 2, &q2)):
             continue
-        a = _bound(t.keys, t.bucket[key // t.width], t.bucket[key // t.width + 1], key, False)
-        b = _bound(t.keys, a, t.bucket[key // t.width + 1], key, True)
-        for row in range(a, b):
-            worst = 0.0
-            for j in range(5):
-                d = fabs(t.ratios[row, j] * rules.ratio_unit - r[j])
-                if d > worst:
-                    worst = d
-            if worst <= rules.near:
-                out.push(row)
+        b = q2 + n1 * q3 + n2 * q4
+        if b >= nb:
+            continue
+        base = b * n2
+        for row in range(t.bucket[b], t.bucket[b + 1]):
+            key = t.keys[row] - base
+            for k in range(nlow):
+                if key == low[k]:
+                    if _passes(t, rules, row, r):
+                        out.push(row)
+                    break
 
 
 cdef void _key_ranges(QuadRules rules, const double[:, ::1] edges, Py_ssize_t m, double *r,
@@ -170,13 +178,9 @@ cdef void _pairs(QuadTable t, QuadRules rules, const double[:, ::1] edges, _Ints
         _key_ranges(rules, edges, m, r, lo, hi)
         rows.n = 0
         _near_rows(t, rules, r, lo, hi, rows)
-        if rows.n == 0:
-            continue
-        qsort(&rows.a[0], rows.n, sizeof(long long), _by_value)
         for k in range(rows.n):
-            if k == 0 or rows.a[k] != rows.a[k - 1]:
-                pat.push(m)
-                row.push(rows.a[k])
+            pat.push(m)
+            row.push(rows.a[k])
 
 
 cdef object _catalog_edges(QuadTable t, QuadRules rules, const double[:, ::1] cat, _Ints row):

@@ -73,11 +73,11 @@ def image_patterns(vectors: np.ndarray, level_deg: float,
 
 def compiled_table(table: Q.QuadLevel) -> QuadTable:
     """``table`` as the compiled search reads it (built once per level): its keys are
-    bucketed by all but their two lowest ratio digits."""
+    bucketed by their three highest ratio digits."""
     compiled = table.__dict__.get("_compiled")
     if compiled is None:
         compiled = table.__dict__["_compiled"] = QuadTable(table.keys, table.quads,
-                                                           table.ratios, Q.NBINS ** 2)
+                                                           table.ratios, Q.NBINS)
     return compiled
 
 
