@@ -1,15 +1,34 @@
-"""The numpy quad search of one window that the compiled ``_core.quad.match_window`` replaced,
-kept to hold it to: the key lookup by searchsorted of the 32 neighbouring keys, the
-sorted-ratio first test, the best of the 24 star orders, the ranking by edge agreement."""
+"""The numpy quad search of one window that the compiled ``_core.quad.match_window``
+replaced, kept to hold it to: the image's patterns by the table builder's k-d tree rule,
+the key lookup by searchsorted of the 32 neighbouring keys, the sorted-ratio first test,
+the best of the 24 star orders, the ranking by edge agreement."""
 
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
 from startrack.database import quads as Q
-from startrack.matchers.quad import MAX_CANDIDATES, PERM_EDGES, PERMS, RATIO_TOLERANCE
+from startrack.matchers.quad import (
+    IMAGE_NEAREST,
+    IMAGE_STARS,
+    MAX_CANDIDATES,
+    PERM_EDGES,
+    PERMS,
+    RATIO_TOLERANCE,
+)
+
+
+def image_patterns(vectors: np.ndarray, level_deg: float,
+                   slack: float) -> tuple[np.ndarray, np.ndarray]:
+    """Observed patterns (M x 4 rows) and their six edges, by the table builder's rule."""
+    top = np.arange(min(len(vectors), IMAGE_STARS))
+    size = math.radians(level_deg) * slack
+    quads = Q.all_quads(vectors[top], Q.PATTERN_SIZE * size, Q.MAX_PATTERN_SIZE * size,
+                        max_higher=IMAGE_STARS, k=IMAGE_NEAREST)
+    return quads, Q.edge_angles(vectors, quads)
 
 
 def _query_keys(r: np.ndarray) -> np.ndarray:

@@ -7,13 +7,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from startrack._core.quad import image_quads
 
 from startrack.camera._model import Camera
 from startrack.database import quads as Q
-from startrack.matchers.quad import image_patterns, match_patterns
+from startrack.matchers.quad import RULES, match_patterns
 from startrack.simulate._scene import stars_in_view
 from startrack.sky import SkySpec, load_sky
-from tests.quad_reference import match_quads
+from tests.quad_reference import image_patterns, match_quads
 
 
 @pytest.fixture(scope="module")
@@ -54,6 +55,20 @@ def test_the_compiled_window_search_is_the_numpy_one(sky, levels, seed):
         for g, w in zip(got, want, strict=True):
             assert g.dtype == w.dtype and np.array_equal(g, w)
     assert len(got[0]) > 0
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("level_deg, slack", [(16.0, 1.0), (16.0, 1.05), (4.0, 1.3)])
+def test_the_image_patterns_follow_the_table_builders_rule(sky, seed, level_deg, slack):
+    """A frame seen at its own level, and at a level so narrow that its stars are sparse
+    (their patterns reach out to their nearest stars)."""
+    vectors = _frame(sky, Camera.from_fov(1024, 1024, 16.0), seed)
+    size = np.radians(level_deg) * slack
+    got = image_quads(RULES, vectors, Q.PATTERN_SIZE * size, Q.MAX_PATTERN_SIZE * size)
+    want = image_patterns(vectors, level_deg, slack)
+    assert len(want[0]) > 0
+    for g, w in zip(got, want, strict=True):
+        assert np.array_equal(g, w)
 
 
 def test_no_patterns_and_an_empty_table_give_no_candidates(sky, levels):

@@ -5,7 +5,7 @@ the candidates ranked by edge agreement (see :mod:`startrack.matchers.quad`)."""
 
 import numpy as np
 
-from libc.math cimport fabs, sqrt
+from libc.math cimport INFINITY, M_PI, fabs, isfinite, sin, sqrt
 from libc.stdlib cimport qsort
 
 
@@ -31,16 +31,21 @@ cdef class QuadTable:
 cdef class QuadRules:
     """The matcher's constants: the ratio tolerance of a key lookup and of the edge test,
     the key quantisation, the first test's bound on the stored ratios, the candidate cap,
-    the six edges of a pattern, and for each of the 24 star orders its star order
+    the image stars that make patterns (at most 64) and the nearest stars a sparse one
+    reaches, the six edges of a pattern, and for each of the 24 star orders its star order
     (``perms``) and the catalog edge that each image edge corresponds to (``perm_edges``)."""
     cdef double tolerance, bin, near, ratio_unit
-    cdef long long nbins, max_candidates
+    cdef long long nbins, max_candidates, image_stars, image_nearest
     cdef const long long[:, ::1] edges
     cdef const long long[:, ::1] perms
     cdef const long long[:, ::1] perm_edges
 
     def __init__(self, *, double tolerance, double bin, long long nbins, double near,
-                 double ratio_unit, long long max_candidates, edges, perms, perm_edges):
+                 double ratio_unit, long long max_candidates, long long image_stars,
+                 long long image_nearest, edges, perms, perm_edges):
+        if not 0 < image_stars <= 64:
+            raise ValueError(f"image_stars {image_stars}: must be in 1..64")
+        self.image_stars, self.image_nearest = image_stars, image_nearest
         self.tolerance, self.bin, self.nbins = tolerance, bin, nbins
         self.near, self.ratio_unit, self.max_candidates = near, ratio_unit, max_candidates
         self.edges = np.ascontiguousarray(edges, np.int64)
@@ -183,23 +188,15 @@ cdef void _pairs(QuadTable t, QuadRules rules, const double[:, ::1] edges, _Ints
             row.push(rows.a[k])
 
 
-cdef object _catalog_edges(QuadTable t, QuadRules rules, const double[:, ::1] cat, _Ints row):
-    """The six edge angles (P x 6, radians) of each paired table row, as
-    :func:`startrack.database.quads.edge_angles` computes them (numpy's own arcsin, so
-    that they agree to the last bit)."""
-    out = np.empty((row.n, 6))
-    cdef double[:, ::1] half = out
-    cdef Py_ssize_t p, a, b
+cdef object _table_rows(QuadTable t, _Ints row):
+    """The catalog rows (P x 4) of the paired table rows."""
+    out = np.empty((row.n, 4), np.int64)
+    cdef long long[:, ::1] q = out
+    cdef Py_ssize_t p
     cdef int k
-    cdef double d0, d1, d2
     for p in range(row.n):
-        for k in range(6):
-            a = t.quads[row.a[p], rules.edges[k, 0]]
-            b = t.quads[row.a[p], rules.edges[k, 1]]
-            d0, d1, d2 = cat[a, 0] - cat[b, 0], cat[a, 1] - cat[b, 1], cat[a, 2] - cat[b, 2]
-            half[p, k] = min(max(sqrt(d0 * d0 + d1 * d1 + d2 * d2) / 2.0, 0.0), 1.0)
-    np.arcsin(out, out=out)
-    out *= 2.0
+        for k in range(4):
+            q[p, k] = t.quads[row.a[p], k]
     return out
 
 
@@ -269,15 +266,16 @@ cdef QuadMatches _ranked(QuadTable t, QuadRules rules, const long long[:, ::1] q
 
 
 def match_window(QuadTable table, QuadRules rules, const double[:, ::1] cat,
-                 const long long[:, ::1] quads, const double[:, ::1] edges):
-    """Observed patterns (``quads``, M x 4 rows of the image's stars, with their six
-    ``edges``) matched against ``table`` (rows of the catalog vectors ``cat``): the
-    :class:`QuadMatches` best first (smallest disagreement, then lookup order), at most
-    the rules' ``max_candidates``."""
+                 const double[:, ::1] vectors, double max_edge, double sparse_edge):
+    """The image's patterns (:func:`image_quads` of its unit ``vectors``) matched against
+    ``table`` (rows of the catalog vectors ``cat``): the :class:`QuadMatches` best first
+    (smallest disagreement, then image pattern, then table row), at most the rules'
+    ``max_candidates``."""
+    quads, edges = image_quads(rules, vectors, max_edge, sparse_edge)
     cdef _Ints pat = _Ints(), row = _Ints()
     if quads.shape[0] and table.keys.shape[0]:
         _pairs(table, rules, edges, pat, row)
-    cat_edges = _catalog_edges(table, rules, cat, row)
+    cat_edges = _edges(rules, cat, _table_rows(table, row))
     cdef long long[::1] best = np.empty(pat.n, np.int64)
     ranked = np.empty(max(pat.n, 1) * sizeof(Ranked), np.uint8)
     cdef unsigned char[::1] raw = ranked
@@ -286,3 +284,6 @@ def match_window(QuadTable table, QuadRules rules, const double[:, ::1] cat,
     qsort(good, n, sizeof(Ranked), _by_error)
     return _ranked(table, rules, quads, edges, pat, row, cat_edges, best, good,
                    min(n, rules.max_candidates))
+
+
+include "_quad_patterns.pxi"

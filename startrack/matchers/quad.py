@@ -45,7 +45,8 @@ PERM_EDGES = np.array([[_EDGE_INDEX[tuple(sorted((p[a], p[b])))] for a, b in Q.E
 PERMS = np.array(list(itertools.permutations(range(4))))
 RULES = QuadRules(tolerance=RATIO_TOLERANCE, bin=Q.BIN, nbins=Q.NBINS,
                   near=RATIO_TOLERANCE + 0.5 / Q.RATIO_STEPS, ratio_unit=1.0 / Q.RATIO_STEPS,
-                  max_candidates=MAX_CANDIDATES, edges=Q.EDGES, perms=PERMS,
+                  max_candidates=MAX_CANDIDATES, image_stars=IMAGE_STARS,
+                  image_nearest=IMAGE_NEAREST, edges=Q.EDGES, perms=PERMS,
                   perm_edges=PERM_EDGES)
 
 
@@ -57,18 +58,6 @@ class ScaledHypothesis:
     f_px: float
     error: float  # largest edge-ratio disagreement
     confirmed: int = 0  # other bright stars near a catalog star (:func:`confirmations`)
-
-
-def image_patterns(vectors: np.ndarray, level_deg: float,
-                   slack: float) -> tuple[np.ndarray, np.ndarray]:
-    """Observed patterns (M x 4 observation rows) and their six edges, for one level:
-    every four of the ``IMAGE_STARS`` brightest stars whose edges fit the level.
-    ``slack``: how much larger than assumed the scale may be."""
-    top = np.arange(min(len(vectors), IMAGE_STARS))
-    size = math.radians(level_deg) * slack
-    quads = Q.all_quads(vectors[top], Q.PATTERN_SIZE * size, Q.MAX_PATTERN_SIZE * size,
-                        max_higher=IMAGE_STARS, k=IMAGE_NEAREST)
-    return quads, Q.edge_angles(vectors, quads)
 
 
 def compiled_table(table: Q.QuadLevel) -> QuadTable:
@@ -83,15 +72,18 @@ def compiled_table(table: Q.QuadLevel) -> QuadTable:
 
 def match_patterns(vectors: np.ndarray, table: Q.QuadLevel, cat_vectors: np.ndarray,
                    slack: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Observed and catalog patterns that agree: (obs rows M x 4, catalog rows M x 4 in
+    """Observed and catalog patterns that agree (the image's patterns: every four of the
+    ``IMAGE_STARS`` brightest stars whose edges fit the level; ``slack``: how much larger
+    than assumed the scale may be): (obs rows M x 4, catalog rows M x 4 in
     matching order, scale = observed / catalog size, error), best first (smallest error,
     then image pattern and table row). Each pattern's key is looked up with the ratio
     tolerance (the 32 bin combinations it may fall in); sorting moves no ratio by more
     than the largest edge error, so a test on the table's stored sorted ratios drops most
     candidates before their stars are read (:func:`startrack._core.quad.match_window`)."""
-    quads, edges = image_patterns(vectors, table.level_deg, slack)
+    size = math.radians(table.level_deg) * slack
     found = match_window(compiled_table(table), RULES, np.ascontiguousarray(cat_vectors),
-                         np.ascontiguousarray(quads, np.int64), np.ascontiguousarray(edges))
+                         np.ascontiguousarray(vectors, np.float64), Q.PATTERN_SIZE * size,
+                         Q.MAX_PATTERN_SIZE * size)
     return found.obs, found.cat, found.scale, found.error
 
 
