@@ -36,7 +36,7 @@ from startrack.matching import verify_kernels as vk
 from startrack.simulate._config import load_config
 from startrack.sky import load_sky, resolve_sky
 from startrack.solver._identifier import Identifier
-from startrack.tracking._track import _track as tracking
+from startrack.tracking import _track as tracking
 from startrack.tracking._tracker import Tracker
 
 ROOT = Path(__file__).resolve().parents[1]

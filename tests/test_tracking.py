@@ -206,7 +206,7 @@ from startrack.solver._lost_in_space import identify
 from startrack.matchers import get_matcher
 from startrack.sky import random_sky
 from startrack.tracking._tracker import Tracker
-from startrack.tracking._track import _track as tracking
+from startrack.tracking import _track as tracking
 from startrack.verify._verification import VerifyConfig
 
 camera = Camera.from_fov(1024, 1024, 17.5)

@@ -3,8 +3,13 @@
 from libc.math cimport ceil, floor
 
 
-cdef inline Py_ssize_t first_at_least(const double[::1] values, Py_ssize_t lo, Py_ssize_t hi,
-                                      double x) noexcept nogil:
+ctypedef fused sorted_value:
+    double
+    long long
+
+
+cdef inline Py_ssize_t first_at_least(const sorted_value[::1] values, Py_ssize_t lo,
+                                      Py_ssize_t hi, sorted_value x) noexcept nogil:
     """The first position in ascending ``values[lo:hi]`` whose value is >= ``x`` (``hi``
     if none)."""
     cdef Py_ssize_t mid
