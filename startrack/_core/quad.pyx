@@ -6,7 +6,8 @@ the candidates ranked by edge agreement (see :mod:`startrack.matchers.quad`)."""
 import numpy as np
 
 from libc.math cimport INFINITY, M_PI, fabs, isfinite, sin, sqrt
-from libc.stdlib cimport qsort
+
+from startrack._core._stable cimport merge_sort
 
 
 cdef class QuadTable:
@@ -61,19 +62,6 @@ cdef class QuadMatches:
     cdef readonly object cat
     cdef readonly object scale
     cdef readonly object error
-
-
-cdef struct Ranked:
-    double error
-    Py_ssize_t pair
-
-
-cdef int _by_error(const void *a, const void *b) noexcept nogil:
-    cdef const Ranked *x = <const Ranked *>a
-    cdef const Ranked *y = <const Ranked *>b
-    if x.error != y.error:
-        return -1 if x.error < y.error else 1
-    return -1 if x.pair < y.pair else (1 if x.pair > y.pair else 0)
 
 
 cdef class _Ints:
@@ -202,10 +190,10 @@ cdef object _table_rows(QuadTable t, _Ints row):
 
 cdef Py_ssize_t _best_orders(QuadRules rules, const double[:, ::1] edges, _Ints pat,
                              const double[:, ::1] cat_edges, long long[::1] best,
-                             Ranked *good) noexcept:
-    """Each pair's best star order (``best``) and, for the pairs whose largest edge-ratio
-    disagreement is within the tolerance, that disagreement (``good``); returns how many
-    are good."""
+                             long long[::1] good, double[::1] error) noexcept:
+    """Each pair's best star order (``best``) and the pairs whose largest edge-ratio
+    disagreement is within the tolerance (``good``, with that disagreement in ``error``);
+    returns how many are good."""
     cdef double img[6]
     cdef double c[6]
     cdef double largest, cmax, worst, least = 0.0, d
@@ -229,7 +217,7 @@ cdef Py_ssize_t _best_orders(QuadRules rules, const double[:, ::1] edges, _Ints 
             if o == 0 or worst < least:
                 least, best[p] = worst, o
         if least <= rules.tolerance:
-            good[n].error, good[n].pair = least, p
+            good[n], error[n] = p, least
             n += 1
     return n
 
@@ -237,7 +225,8 @@ cdef Py_ssize_t _best_orders(QuadRules rules, const double[:, ::1] edges, _Ints 
 cdef QuadMatches _ranked(QuadTable t, QuadRules rules, const long long[:, ::1] quads,
                          const double[:, ::1] edges, _Ints pat, _Ints row,
                          const double[:, ::1] cat_edges, const long long[::1] best,
-                         const Ranked *good, Py_ssize_t n):
+                         const long long[::1] good, const double[::1] good_error,
+                         Py_ssize_t n):
     """The first ``n`` of ``good`` as :class:`QuadMatches`, with catalog rows in the
     matching order and the scale of each pattern."""
     res = QuadMatches()
@@ -251,9 +240,9 @@ cdef QuadMatches _ranked(QuadTable t, QuadRules rules, const long long[:, ::1] q
     cdef int k
     cdef double num, den
     for g in range(n):
-        p = good[g].pair
+        p = good[g]
         o = best[p]
-        error[g] = good[g].error
+        error[g] = good_error[g]
         num, den = 0.0, 0.0
         for k in range(6):
             num += edges[pat.a[p], k]
@@ -277,12 +266,12 @@ def match_window(QuadTable table, QuadRules rules, const double[:, ::1] cat,
         _pairs(table, rules, edges, pat, row)
     cat_edges = _edges(rules, cat, _table_rows(table, row))
     cdef long long[::1] best = np.empty(pat.n, np.int64)
-    ranked = np.empty(max(pat.n, 1) * sizeof(Ranked), np.uint8)
-    cdef unsigned char[::1] raw = ranked
-    cdef Ranked *good = <Ranked *>&raw[0]
-    cdef Py_ssize_t n = _best_orders(rules, edges, pat, cat_edges, best, good)
-    qsort(good, n, sizeof(Ranked), _by_error)
-    return _ranked(table, rules, quads, edges, pat, row, cat_edges, best, good,
+    cdef long long[::1] good = np.empty(pat.n, np.int64)
+    cdef double[::1] error = np.empty(pat.n)
+    cdef Py_ssize_t n = _best_orders(rules, edges, pat, cat_edges, best, good, error)
+    if n and merge_sort(&good[0], &error[0], 0, n) < 0:
+        raise MemoryError("quad search: no scratch for sorting the candidates")
+    return _ranked(table, rules, quads, edges, pat, row, cat_edges, best, good, error,
                    min(n, rules.max_candidates))
 
 
