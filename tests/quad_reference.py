@@ -39,6 +39,16 @@ def _query_keys(r: np.ndarray) -> np.ndarray:
     return (q * (Q.NBINS ** np.arange(5))).sum(axis=2)
 
 
+def _lookup(table: Q.QuadLevel, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each query key, the table rows holding it: (query index, table row)."""
+    lo = np.searchsorted(table.keys, keys, side="left")
+    hi = np.searchsorted(table.keys, keys, side="right")
+    counts = hi - lo
+    query = np.repeat(np.arange(len(keys)), counts)
+    offset = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    return query, np.repeat(lo, counts) + offset
+
+
 def match_quads(quads: np.ndarray, edges: np.ndarray, table: Q.QuadLevel,
                 cat_vectors: np.ndarray):
     """(obs rows, catalog rows in matching order, scale, error) of the image patterns
@@ -47,7 +57,7 @@ def match_quads(quads: np.ndarray, edges: np.ndarray, table: Q.QuadLevel,
     if len(quads) == 0 or len(table) == 0:
         return empty
     r, largest = Q.ratios(edges)
-    qi, rows = table.lookup(_query_keys(r).ravel())
+    qi, rows = _lookup(table, _query_keys(r).ravel())
     qi //= 32
     step = 0.5 / Q.RATIO_STEPS
     near = np.abs(table.ratios[rows] * (1.0 / Q.RATIO_STEPS) - r[qi]).max(axis=1)
