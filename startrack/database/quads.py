@@ -153,7 +153,8 @@ def build_level_arrays(vectors: np.ndarray, level_deg: float) -> dict[str, np.nd
 
 
 class QuadLevel:
-    """One level's table, looked up by key ranges."""
+    """One level's table: keys, quads and stored ratios, looked up by the compiled search
+    (:func:`startrack.matchers.quad.compiled_table`)."""
 
     def __init__(self, level_deg: float, arrays: dict[str, np.ndarray]) -> None:
         self.level_deg = level_deg
@@ -163,15 +164,6 @@ class QuadLevel:
 
     def __len__(self) -> int:
         return len(self.keys)
-
-    def lookup(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """For each query key, the table rows holding it: (query index, table row)."""
-        lo = np.searchsorted(self.keys, keys, side="left")
-        hi = np.searchsorted(self.keys, keys, side="right")
-        counts = hi - lo
-        query = np.repeat(np.arange(len(keys)), counts)
-        offset = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-        return query, np.repeat(lo, counts) + offset
 
 
 def quad_level(catalog, level_deg: float) -> QuadLevel:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from startrack._core.quad import QuadRules, QuadTable, match_window
 from startrack.attitude import wahba_matrices
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
@@ -42,6 +43,11 @@ _EDGE_INDEX = {tuple(e): k for k, e in enumerate(Q.EDGES.tolist())}
 PERM_EDGES = np.array([[_EDGE_INDEX[tuple(sorted((p[a], p[b])))] for a, b in Q.EDGES]
                        for p in itertools.permutations(range(4))])
 PERMS = np.array(list(itertools.permutations(range(4))))
+RULES = QuadRules(tolerance=RATIO_TOLERANCE, bin=Q.BIN, nbins=Q.NBINS,
+                  near=RATIO_TOLERANCE + 0.5 / Q.RATIO_STEPS, ratio_unit=1.0 / Q.RATIO_STEPS,
+                  max_candidates=MAX_CANDIDATES, image_stars=IMAGE_STARS,
+                  image_nearest=IMAGE_NEAREST, edges=Q.EDGES, perms=PERMS,
+                  perm_edges=PERM_EDGES)
 
 
 @dataclass(frozen=True)
@@ -54,62 +60,31 @@ class ScaledHypothesis:
     confirmed: int = 0  # other bright stars near a catalog star (:func:`confirmations`)
 
 
-def _query_keys(r: np.ndarray) -> np.ndarray:
-    """The (M x 32) keys of every bin combination within the ratio tolerance (a window
-    of +-RATIO_TOLERANCE meets at most two bins, as ``Q.BIN >= 2 * RATIO_TOLERANCE``)."""
-    lo = np.clip(((r - RATIO_TOLERANCE) / Q.BIN).astype(np.int64), 0, Q.NBINS - 1)
-    hi = np.clip(((r + RATIO_TOLERANCE) / Q.BIN).astype(np.int64), 0, Q.NBINS - 1)
-    pick = np.array(list(itertools.product((0, 1), repeat=5)))  # 32 x 5
-    q = np.where(pick[None, :, :] == 0, lo[:, None, :], hi[:, None, :])
-    return (q * (Q.NBINS ** np.arange(5))).sum(axis=2)
-
-
-def image_patterns(vectors: np.ndarray, level_deg: float,
-                   slack: float) -> tuple[np.ndarray, np.ndarray]:
-    """Observed patterns (M x 4 observation rows) and their six edges, for one level:
-    every four of the ``IMAGE_STARS`` brightest stars whose edges fit the level.
-    ``slack``: how much larger than assumed the scale may be."""
-    top = np.arange(min(len(vectors), IMAGE_STARS))
-    size = math.radians(level_deg) * slack
-    quads = Q.all_quads(vectors[top], Q.PATTERN_SIZE * size, Q.MAX_PATTERN_SIZE * size,
-                        max_higher=IMAGE_STARS, k=IMAGE_NEAREST)
-    return quads, Q.edge_angles(vectors, quads)
+def compiled_table(table: Q.QuadLevel) -> QuadTable:
+    """``table`` as the compiled search reads it (built once per level): its keys are
+    bucketed by their three highest ratio digits."""
+    compiled = table.__dict__.get("_compiled")
+    if compiled is None:
+        compiled = table.__dict__["_compiled"] = QuadTable(table.keys, table.quads,
+                                                           table.ratios, Q.NBINS)
+    return compiled
 
 
 def match_patterns(vectors: np.ndarray, table: Q.QuadLevel, cat_vectors: np.ndarray,
                    slack: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Observed and catalog patterns that agree: (obs rows M x 4, catalog rows M x 4 in
-    matching order, scale = observed / catalog size, error), best first."""
-    quads, edges = image_patterns(vectors, table.level_deg, slack)
-    empty = (np.zeros((0, 4), np.int64), np.zeros((0, 4), np.int64), np.zeros(0), np.zeros(0))
-    if len(quads) == 0 or len(table) == 0:
-        return empty
-    r, largest = Q.ratios(edges)
-    qi, rows = table.lookup(_query_keys(r).ravel())
-    qi //= 32
-    # sorting moves no ratio by more than the largest edge error: a test on the sorted
-    # ratios drops most candidates before their stars are read
-    step = 0.5 / Q.RATIO_STEPS
-    near = np.abs(table.ratios[rows] * (1.0 / Q.RATIO_STEPS) - r[qi]).max(axis=1)
-    qi, rows = qi[near <= RATIO_TOLERANCE + step], rows[near <= RATIO_TOLERANCE + step]
-    if len(qi) == 0:
-        return empty
-    pair = np.unique(qi * len(table) + rows)  # one per (pattern, table row)
-    qi, rows = pair // len(table), pair % len(table)
-    img = edges[qi] / largest[qi, None]  # (P, 6)
-    cat_quads = table.quads[rows].astype(np.int64)
-    cat_edges = Q.edge_angles(cat_vectors, cat_quads)
-    cat = cat_edges / cat_edges.max(axis=1, keepdims=True)
-    err = np.abs(img[:, None, :] - cat[:, PERM_EDGES]).max(axis=2)  # (P, 24)
-    best = np.argmin(err, axis=1)
-    error = err[np.arange(len(qi)), best]
-    good = np.flatnonzero(error <= RATIO_TOLERANCE)
-    good = good[np.argsort(error[good], kind="stable")][:MAX_CANDIDATES]
-    perm = PERMS[best[good]]
-    cat_ordered = np.take_along_axis(cat_quads[good], perm, axis=1)
-    scale = edges[qi[good]].sum(axis=1) / np.take_along_axis(
-        cat_edges[good], PERM_EDGES[best[good]], axis=1).sum(axis=1)
-    return quads[qi[good]], cat_ordered, scale, error[good]
+    """Observed and catalog patterns that agree (the image's patterns: every four of the
+    ``IMAGE_STARS`` brightest stars whose edges fit the level; ``slack``: how much larger
+    than assumed the scale may be): (obs rows M x 4, catalog rows M x 4 in
+    matching order, scale = observed / catalog size, error), best first (smallest error,
+    then image pattern and table row). Each pattern's key is looked up with the ratio
+    tolerance (the 32 bin combinations it may fall in); sorting moves no ratio by more
+    than the largest edge error, so a test on the table's stored sorted ratios drops most
+    candidates before their stars are read (:func:`startrack._core.quad.match_window`)."""
+    size = math.radians(table.level_deg) * slack
+    found = match_window(compiled_table(table), RULES, np.ascontiguousarray(cat_vectors),
+                         np.ascontiguousarray(vectors, np.float64), Q.PATTERN_SIZE * size,
+                         Q.MAX_PATTERN_SIZE * size)
+    return found.obs, found.cat, found.scale, found.error
 
 
 def _pinhole(x: np.ndarray, y: np.ndarray, camera: Camera, f: np.ndarray) -> np.ndarray:

@@ -1,0 +1,148 @@
+# Pattern geometry of the quad search (included by quad.pyx): the image's own patterns, by
+# the rule of startrack.database.quads.all_quads on the few brightest stars of one frame, by
+# brute force (no k-d tree for 16 stars), and the edge angles of image and catalog patterns;
+# numpy's own arcsin and cos, so that every radius, bound and edge agrees with the table
+# builder's to the last bit.
+
+
+cdef object _edges(QuadRules rules, const double[:, ::1] vec, const long long[:, ::1] quads):
+    """The six edge angles (M x 6, radians) of each pattern (rows of ``vec``), as
+    :func:`startrack.database.quads.edge_angles` computes them (numpy's own arcsin, so
+    that they agree to the last bit)."""
+    out = np.empty((quads.shape[0], 6))
+    cdef double[:, ::1] half = out
+    cdef Py_ssize_t p, a, b
+    cdef int k
+    cdef double d0, d1, d2
+    for p in range(quads.shape[0]):
+        for k in range(6):
+            a, b = quads[p, rules.edges[k, 0]], quads[p, rules.edges[k, 1]]
+            d0, d1, d2 = vec[a, 0] - vec[b, 0], vec[a, 1] - vec[b, 1], vec[a, 2] - vec[b, 2]
+            half[p, k] = min(max(sqrt(d0 * d0 + d1 * d1 + d2 * d2) / 2.0, 0.0), 1.0)
+    np.arcsin(out, out=out)
+    out *= 2.0
+    return out
+
+
+cdef void _nearest_rows(const double[:, ::1] v, Py_ssize_t n, Py_ssize_t kk, double bound2,
+                        double[::1] kth, long long[:, ::1] near) noexcept:
+    """Each row's distance to its ``kk``-th nearest other row (inf beyond the chord bound,
+    whose square is ``bound2``) and those ``kk`` rows (``n`` beyond the bound), nearest
+    first."""
+    cdef double d2[64]
+    cdef int order[64]
+    cdef Py_ssize_t a, b, i, j
+    cdef double dx, dy, dz
+    for a in range(n):
+        for b in range(n):
+            dx, dy, dz = v[a, 0] - v[b, 0], v[a, 1] - v[b, 1], v[a, 2] - v[b, 2]
+            d2[b] = dx * dx + dy * dy + dz * dz
+            j = b
+            while j > 0 and d2[order[j - 1]] > d2[b]:
+                order[j] = order[j - 1]
+                j -= 1
+            order[j] = <int>b
+        kth[a] = sqrt(d2[order[kk]]) if d2[order[kk]] < bound2 else INFINITY
+        for i in range(kk):
+            near[a, i] = order[i + 1] if d2[order[i + 1]] < bound2 else n
+
+
+cdef object _pattern_radii(const double[:, ::1] v, Py_ssize_t n, Py_ssize_t kk,
+                           double min_rad, double max_rad, long long[:, ::1] near):
+    """Each row's pattern radius (numpy array), as ``quads.pattern_radii``; ``near`` keeps
+    a row's nearest rows only where its radius exceeds ``min_rad``."""
+    kth = np.empty(n)
+    _nearest_rows(v, n, kk, (2.0 * sin(min(max_rad, M_PI) / 2.0)) ** 2, kth, near)
+    angle = 2.0 * np.arcsin(np.clip(kth / 2.0, 0.0, 1.0))
+    cdef double[::1] a = angle
+    cdef const double[::1] k = kth
+    cdef Py_ssize_t i, j
+    for i in range(n):
+        a[i] = min(max(a[i] if isfinite(k[i]) else max_rad, min_rad), max_rad)
+        if not a[i] > min_rad:
+            for j in range(kk):
+                near[i, j] = n
+    return angle
+
+
+cdef void _linked(const double[:, ::1] v, Py_ssize_t n, Py_ssize_t kk, double min_chord2,
+                  const long long[:, ::1] near, unsigned char[:, ::1] link) noexcept:
+    """``link[a, b]`` (a < b): b is within the pattern radius of a (the pairs within
+    ``min_rad``, and a sparse row's nearest rows)."""
+    cdef Py_ssize_t a, b
+    cdef double dx, dy, dz
+    for a in range(n):
+        for b in range(a + 1, n):
+            dx, dy, dz = v[a, 0] - v[b, 0], v[a, 1] - v[b, 1], v[a, 2] - v[b, 2]
+            link[a, b] = (dx * dx + dy * dy + dz * dz) <= min_chord2
+        for b in range(kk):
+            if a < near[a, b] < n:
+                link[a, near[a, b]] = 1
+
+
+cdef inline double _dot(const double[:, ::1] v, Py_ssize_t a, Py_ssize_t b) noexcept nogil:
+    return v[a, 0] * v[b, 0] + v[a, 1] * v[b, 1] + v[a, 2] * v[b, 2]
+
+
+cdef void _enumerate(const double[:, ::1] v, Py_ssize_t n, const unsigned char[:, ::1] link,
+                     const double[::1] cos_max, const long long[::1] cap, _Ints out):
+    """Every pattern (a, b, c, d), a < b < c < d, with b, c, d among the first ``cap[a]``
+    linked rows of a and every edge within the angle whose cosine is ``cos_max[a]``."""
+    cdef long long rows[64]
+    cdef Py_ssize_t a, b, i, j, k, m
+    cdef double cm
+    for a in range(n):
+        m = 0
+        for b in range(a + 1, n):
+            if link[a, b] and m < cap[a]:
+                rows[m] = b
+                m += 1
+        cm = cos_max[a]
+        for i in range(m):
+            for j in range(i + 1, m):
+                if _dot(v, rows[i], rows[j]) < cm:
+                    continue
+                for k in range(j + 1, m):
+                    if _dot(v, rows[i], rows[k]) < cm or _dot(v, rows[j], rows[k]) < cm:
+                        continue
+                    out.push(a)
+                    out.push(rows[i])
+                    out.push(rows[j])
+                    out.push(rows[k])
+
+
+cdef object _image_quads(QuadRules rules, const double[:, ::1] vectors, double max_edge,
+                         double sparse_edge):
+    """The image's patterns (M x 4 rows of ``vectors``), as ``quads.all_quads`` makes them
+    of its first ``image_stars`` rows with ``image_nearest`` nearest rows."""
+    cdef Py_ssize_t n = min(vectors.shape[0], rules.image_stars)
+    cdef Py_ssize_t kk = min(rules.image_nearest, n - 1)
+    cdef _Ints out = _Ints()
+    if n < 4:
+        return np.zeros((0, 4), np.int64)
+    near_rows = np.full((n, max(kk, 0)), n, np.int64)
+    cdef long long[:, ::1] near = near_rows
+    if kk <= 0 or sparse_edge <= max_edge:
+        radii, kk = np.full(n, max_edge), 0
+    else:
+        radii = _pattern_radii(vectors, n, kk, max_edge, sparse_edge, near)
+    link = np.zeros((n, n), np.uint8)
+    _linked(vectors, n, kk, (2.0 * sin(min(max_edge, M_PI) / 2.0)) ** 2, near, link)
+    if not link.any():
+        return np.zeros((0, 4), np.int64)
+    sparse = radii > max_edge
+    cos_max = np.cos(np.where(sparse, np.minimum(2.0 * radii, max(sparse_edge, max_edge)),
+                              radii))
+    cap = np.where(sparse, max(rules.image_nearest, rules.image_stars),
+                   rules.image_stars).astype(np.int64)
+    _enumerate(vectors, n, link, cos_max, cap, out)
+    return np.asarray(out.a[:out.n]).reshape(-1, 4).copy()
+
+
+def image_quads(QuadRules rules, const double[:, ::1] vectors, double max_edge,
+                double sparse_edge):
+    """The image's patterns and their six edge angles (radians), as the search makes them:
+    ``quads.all_quads`` of the first ``image_stars`` rows of ``vectors`` (brightest first)
+    with pattern edges up to ``max_edge``, or ``sparse_edge`` where the stars are sparse."""
+    quads = _image_quads(rules, vectors, max_edge, sparse_edge)
+    return quads, _edges(rules, vectors, quads)

@@ -1,0 +1,84 @@
+"""The compiled quad search of one window (``_core.quad.match_window``) against the numpy
+search it replaced (tests/quad_reference.py): the same candidates in the same order, with
+the same scales and errors, on seeded noisy frames with false and missing stars."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+from startrack._core.quad import image_quads
+
+from startrack.camera._model import Camera
+from startrack.database import quads as Q
+from startrack.matchers.quad import RULES, match_patterns
+from startrack.simulate._scene import stars_in_view
+from startrack.sky import SkySpec, load_sky
+from tests.quad_reference import image_patterns, match_quads
+
+
+@pytest.fixture(scope="module")
+def sky():
+    return load_sky(SkySpec(kind="random", n_stars=6000, seed=7))
+
+
+@pytest.fixture(scope="module")
+def levels(sky):
+    return {deg: Q.QuadLevel(deg, Q.build_level_arrays(sky.vectors, deg))
+            for deg in (Q.level_for(16.0), Q.level_for(16.0 / Q.LEVEL_STEP))}
+
+
+def _frame(sky, camera: Camera, seed: int) -> np.ndarray:
+    """Unit vectors of a noisy frame: 10% of the stars missing, 3 false stars at random
+    brightness ranks, 0.3 px centroid noise, brightest first."""
+    rng = np.random.default_rng(seed)
+    rot = Rotation.from_quat(rng.normal(size=4))
+    _, x, y = stars_in_view(sky, camera, rot)
+    keep = rng.random(len(x)) >= 0.1
+    x, y = x[keep] + rng.normal(0, 0.3, keep.sum()), y[keep] + rng.normal(0, 0.3, keep.sum())
+    for _ in range(3):
+        at = int(rng.integers(0, len(x) + 1))
+        x = np.insert(x, at, rng.uniform(0, camera.width))
+        y = np.insert(y, at, rng.uniform(0, camera.height))
+    return camera.pixel_to_vector(x, y)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_the_compiled_window_search_is_the_numpy_one(sky, levels, seed):
+    camera = Camera.from_fov(1024, 1024, 16.0 * (1.0 + 0.02 * (seed % 3 - 1)))
+    vectors = _frame(sky, camera, seed)
+    for deg, level in levels.items():
+        slack = 1.05 if seed % 2 else 1.3
+        got = match_patterns(vectors, level, sky.vectors, slack)
+        quads, edges = image_patterns(vectors, deg, slack)
+        want = match_quads(quads, edges, level, sky.vectors)
+        for g, w in zip(got, want, strict=True):
+            assert g.dtype == w.dtype and np.array_equal(g, w)
+    assert len(got[0]) > 0
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("level_deg, slack", [(16.0, 1.0), (16.0, 1.05), (4.0, 1.3)])
+def test_the_image_patterns_follow_the_table_builders_rule(sky, seed, level_deg, slack):
+    """A frame seen at its own level, and at a level so narrow that its stars are sparse
+    (their patterns reach out to their nearest stars)."""
+    vectors = _frame(sky, Camera.from_fov(1024, 1024, 16.0), seed)
+    size = np.radians(level_deg) * slack
+    got = image_quads(RULES, vectors, Q.PATTERN_SIZE * size, Q.MAX_PATTERN_SIZE * size)
+    want = image_patterns(vectors, level_deg, slack)
+    assert len(want[0]) > 0
+    for g, w in zip(got, want, strict=True):
+        assert np.array_equal(g, w)
+
+
+def test_no_patterns_and_an_empty_table_give_no_candidates(sky, levels):
+    level = next(iter(levels.values()))
+    none = match_patterns(sky.vectors[:3], level, sky.vectors, 1.05)
+    empty = Q.QuadLevel(level.level_deg, {"keys": np.zeros(0, np.int32),
+                                          "quads": np.zeros((0, 4), np.int32),
+                                          "ratios": np.zeros((0, 5), np.uint8)})
+    camera = Camera.from_fov(1024, 1024, 16.0)
+    vectors = _frame(sky, camera, 1)
+    for obs_q, cat_q, scale, error in (none, match_patterns(vectors, empty, sky.vectors, 1.05)):
+        assert obs_q.shape == (0, 4) and cat_q.shape == (0, 4)
+        assert len(scale) == 0 and len(error) == 0
