@@ -6,9 +6,9 @@ in a new process: imports, the compiled core's start (its first call), the catal
 (resolve_sky + load_sky), the pair and triangle tables and the default method's
 ``prepare``. Three cases, with empty temporary caches made for this run:
 
-* first ever: no startrack cache and no numba cache (every kernel is compiled);
-* cold: no startrack cache, the compiled kernels cached by the run before;
-* warm: both caches filled, so the tables are read back and checked.
+* first ever: no startrack cache (the first process after install);
+* cold: no startrack cache again (the operating system's file cache now warm);
+* warm: the cache filled, so the tables are read back and checked.
 
 "total" is the sum of the stages after the imports (which are listed apart). Cold and
 warm are the median of ``--repeat`` runs. Then, per sky, each table's in-process build
@@ -69,8 +69,8 @@ def child() -> None:
                       "triangles": len(db.triangles)}))
 
 
-def run_child(cache: Path, numba_cache: Path, code: str | None) -> dict:
-    env = {**os.environ, "STARTRACK_CACHE_DIR": str(cache), "NUMBA_CACHE_DIR": str(numba_cache)}
+def run_child(cache: Path, code: str | None) -> dict:
+    env = {**os.environ, "STARTRACK_CACHE_DIR": str(cache)}
     if code:
         env["PYTHONPATH"] = code
     out = subprocess.run([sys.executable, __file__, "--child"], env=env, check=True,
@@ -86,7 +86,7 @@ def end_to_end(repeat: int, root: Path, codes: dict[str, str | None]) -> None:
                          ("warm", ["cold0"] * repeat)):
         for name in caches:
             for k, (label, code) in enumerate(codes.items()):
-                got = run_child(root / f"code{k}" / name, root / f"code{k}" / "numba", code)
+                got = run_child(root / f"code{k}" / name, code)
                 runs[label].setdefault(case, []).append(got)
     for label, by_case in runs.items():
         info = by_case["first ever"][0]
@@ -209,8 +209,6 @@ def main() -> None:
     codes: dict[str, str | None] = {"": None}
     if args.compare_with:  # another checkout's startrack, e.g. `git archive` of main
         codes = {f"[{args.compare_with}] ": args.compare_with, "[this checkout] ": None}
-    # The tables below are timed without compiling: on the kernels the runs above cached.
-    os.environ["NUMBA_CACHE_DIR"] = str(root / f"code{len(codes) - 1}" / "numba")
     if not args.no_end_to_end:
         end_to_end(max(1, args.repeat), root, codes)
     for name in args.skies.split(","):

@@ -5,10 +5,6 @@
 and the command line start fast.
 """
 
-from startrack import _numba_cache
-
-_numba_cache.configure()  # before any module imports numba
-
 __version__ = "0.1.0"
 
 __all__ = ["Solver", "SolveResult", "solve", "__version__"]

@@ -1,17 +1,20 @@
-"""Commands import what they use: ``--help`` and ``--version`` load neither numba, nor a
-startrack kernel module, nor astropy, scipy.spatial or matplotlib."""
+"""Commands import what they use: ``--help`` and ``--version`` load neither the compiled
+core nor astropy, scipy.spatial or matplotlib; and no command ever loads a JIT compiler
+(the core is compiled when the package is installed)."""
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 from startrack.defaults import BUILTIN_METHODS
 from startrack.matchers import available_methods
 from startrack.matchers.base import registry
 
-HEAVY = ("numba", "astropy", "scipy.spatial", "matplotlib")
+HEAVY = ("numba", "llvmlite", "astropy", "scipy.spatial", "matplotlib")
 QUICK = [["--version"], ["--help"], *[[c, "--help"] for c in
                                       ("identify", "compare", "simulate", "calibrate",
                                        "cache")]]
@@ -37,7 +40,7 @@ def test_help_and_version_load_no_heavy_module():
     assert all(n > 20 for _, _, n in out["answers"])  # each printed its help or version
     loaded = out["modules"]
     heavy = [m for m in loaded if m.split(".")[0] in HEAVY or m.startswith(HEAVY)]
-    kernels = [m for m in loaded if m.startswith("startrack") and "kernel" in m]
+    kernels = [m for m in loaded if m.startswith("startrack._core")]
     assert heavy == [] and kernels == []
 
 
@@ -48,3 +51,21 @@ def test_builtin_methods_are_the_registered_ones():
             if (cls.__mro__[1] if getattr(cls, "variant_of", None) else cls)
             .__module__.startswith("startrack.matchers.")}
     assert set(BUILTIN_METHODS) == ours
+
+
+SOLVE = """
+import sys
+from pathlib import Path
+import startrack
+frame = Path(sys.argv[1])
+s = startrack.solve(frame, fov_deg=11.42, sky="hipparcos", epoch=2019.6)
+print(s.solved, any(m.split(".")[0] in ("numba", "llvmlite") for m in sys.modules))
+"""
+
+
+def test_a_solve_loads_no_jit_compiler(tmp_path):
+    frame = Path(__file__).parent / "data" / "realsky_azi45.png"
+    env = dict(os.environ, STARTRACK_CACHE_DIR=str(tmp_path))
+    proc = subprocess.run([sys.executable, "-c", SOLVE, str(frame)], capture_output=True,
+                          text=True, check=True, env=env)
+    assert proc.stdout.split() == ["True", "False"]

@@ -19,7 +19,7 @@ from startrack.bench.plots import wilson
 from startrack.io._writer import atomic_text
 
 REPORT_FILE = "report.md"
-LIBRARIES = ("numpy", "scipy", "pandas", "numba", "astropy", "opencv-python-headless",
+LIBRARIES = ("numpy", "scipy", "pandas", "astropy", "opencv-python-headless",
              "matplotlib", "click")
 #: failed frames listed per method and kind (wrong, not solved); the rest are counted
 MAX_LISTED = 10

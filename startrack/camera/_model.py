@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from functools import cached_property, lru_cache
+from functools import cached_property
 
 import numpy as np
 
@@ -125,13 +125,6 @@ class Camera:
         fold a far-off star would land back inside the image)."""
         return self.optics.vector_to_pixel(v)
 
-    @property
-    def geometry(self) -> np.ndarray:
-        """The camera as the compiled kernels take it (startrack.matching.verify_kernels):
-        ``[f_px, cx, cy, width, height, k1, k2, k3, max_r2]``; shared, not to be written
-        (a read-only array would be a second type to the kernels, compiled twice)."""
-        return _geometry(self)
-
     def in_image(self, x: np.ndarray, y: np.ndarray, margin: float = 0.0) -> np.ndarray:
         """Mask of pixel positions inside the image, ``margin`` pixels from every edge."""
         return ((x >= -0.5 + margin) & (x <= self.width - 0.5 - margin)
@@ -144,13 +137,3 @@ class Camera:
         if self.distortion is not None:
             out["distortion"] = self.distortion.to_dict()
         return out
-
-
-@lru_cache(maxsize=64)
-def _geometry(camera: Camera) -> np.ndarray:
-    d = camera.distortion
-    k1, k2, k3, max_r2 = (0.0, 0.0, 0.0, math.inf) if d is None else (d.k1, d.k2, d.k3,
-                                                                        d.max_r2)
-    out = np.array([camera.f_px, camera.cx, camera.cy, camera.width, camera.height,
-                    k1, k2, k3, max_r2], dtype=np.float64)
-    return out

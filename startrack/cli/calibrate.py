@@ -10,7 +10,6 @@ from pathlib import Path
 
 import click
 
-from startrack.camera._file import load_camera
 from startrack.cli import main
 from startrack.cli.hint_options import hint_options, hints_from
 from startrack.cli.identify import _size
@@ -165,6 +164,8 @@ def _nominal(frames, fov_deg, camera_path, size, preset_camera=None):
         raise InputError(f"calibrate: the images differ in size ({sorted(sizes)}); "
                          "calibrate one camera at a time")
     if camera_path is not None:
+        # the camera (and the compiled core under it) loads only when a command runs
+        from startrack.camera import load_camera
         camera = load_camera(camera_path)
     elif preset_camera is not None:
         camera = preset_camera

@@ -9,7 +9,6 @@ from typing import TYPE_CHECKING
 
 import click
 
-from startrack.camera._file import load_camera
 from startrack.centroids._table import DEFAULT_SIGMA_PX
 from startrack.cli import main
 from startrack.cli._identify_output import (
@@ -231,6 +230,8 @@ def _options(camera_path, fov_deg, config_path, hint_values: dict, **given) -> O
     if camera_path and fov_deg is not None:
         raise click.UsageError("give --camera FILE or --fov DEG, not both (the camera file "
                                "sets the field of view)")
+    # the camera (and the compiled core under it) loads only when a command runs
+    from startrack.camera import load_camera
     camera = load_camera(camera_path) if camera_path else None
     hints = hints_from(hint_values, fov_given=camera is not None or fov_deg is not None)
     camera, sky_spec = preset(config_path, camera, fov_deg, hints)

@@ -10,8 +10,6 @@ from typing import TYPE_CHECKING
 import click
 import numpy as np
 
-from startrack.camera._file import load_camera
-from startrack.camera._model import Camera
 from startrack.cli import Terminated, main
 from startrack.cli.options import (
     SKY_HELP,
@@ -38,7 +36,8 @@ from startrack.validate import (
     SEED,
 )
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the camera loads the compiled core: only when a command runs
+    from startrack.camera import Camera
     from startrack.simulate._config import FrameOptions
     from startrack.sky import SkySpec
 
@@ -93,6 +92,8 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
 
     cfg = load_config(config_path) if config_path else config_from_dict(DEFAULT_CONFIG,
                                                                         "default config")
+    # the camera (and the compiled core under it) loads only when a command runs
+    from startrack.camera import load_camera
     camera = load_camera(camera_path) if camera_path else cfg.camera
     check_pixels(camera.width, camera.height,
                  camera_path or (f"{config_path} [camera]" if config_path else "camera"))

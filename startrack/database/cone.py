@@ -50,11 +50,3 @@ class ConeIndex:
         """Rows within ``radius_rad`` of the unit vector ``direction``, ascending."""
         direction = np.ascontiguousarray(direction, dtype=np.float64)
         return cone_rows(self.table, direction, min(float(radius_rad), math.pi))
-
-
-def warm_up() -> None:
-    """A lookup on a tiny index. The lookup is compiled at install, so nothing is left to
-    warm; kept for the tracking warm-up that still calls it."""
-    v = np.array([[0.0, 0.0, 1.0], [0.01, 0.0, 1.0], [0.0, 0.01, 1.0]])
-    ConeIndex.build(v / np.sqrt((v * v).sum(axis=1))[:, None]).rows(np.array([0.0, 0.0, 1.0]),
-                                                                     0.1)

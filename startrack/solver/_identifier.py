@@ -156,8 +156,8 @@ class Identifier:
 
     def warm_up(self) -> None:
         """Solve one throwaway frame, the stars around the catalog's brightest one, so the
-        first real frame pays no one-time cost (kernels compiled or loaded from numba's
-        cache, lazy tables filled): that cost lands in :attr:`load_seconds`, which
+        first real frame pays no one-time cost (lazy tables filled, the database's first
+        lookups): that cost lands in :attr:`load_seconds`, which
         ``timing_ms.setup`` reports, and never in an input's identify time."""
         if len(self.catalog):
             pointing = from_radec_roll(float(self.catalog.ra_deg[0]),

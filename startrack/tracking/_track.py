@@ -43,7 +43,6 @@ from startrack._core.track import (
 )
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
-from startrack.database.cone import warm_up as warm_up_cone_lookup
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
 from startrack.verify._frame import CAPTURE, CONE_LOOKUP_MARGIN, MAX_REFINEMENTS, cone_radius
 from startrack.verify._labelling import label_params
@@ -280,9 +279,3 @@ def hypotheses(obs: Observation, database: StarDatabase, prior: Prior,
                              config.max_hypotheses)
     return [Hypothesis(oi[list(p)], cone.rows[cj[list(p)]]) for p in picks]
 
-
-def warm_up() -> None:
-    """Fill what a tracked frame's first use would (the held rows' first lookup), so that
-    the first frame of a sequence is not timed with it; the prediction and the attempts
-    are compiled at install."""
-    warm_up_cone_lookup()

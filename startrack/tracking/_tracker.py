@@ -23,7 +23,7 @@ import numpy as np
 
 from startrack._core.predict import Motion, predict_attitude
 from startrack.database import StarDatabase
-from startrack.tracking._track import CatalogCone, Prior, TrackConfig, track, warm_up
+from startrack.tracking._track import CatalogCone, Prior, TrackConfig, track
 from startrack.types import Observation, Solution
 from startrack.verify._verification import VerifyConfig
 
@@ -48,7 +48,6 @@ class Tracker:
     def __init__(self, config: TrackConfig | None = None, initial: Prior | None = None) -> None:
         self.config = config or TrackConfig()
         self.initial = initial  # a prior attitude for the first frame (``--prior``)
-        warm_up()
         self.reset()
 
     def reset(self) -> None:

@@ -137,10 +137,3 @@ def label_params(obs: Observation, radius_px: float, config: LabelConfig | None 
         "min_sigma_px": float(config.min_sigma_px),
         "min_fit": int(config.min_fit),
     }
-
-
-def kernel_params(obs: Observation, radius_px: float, config: LabelConfig | None = None,
-                  ) -> tuple:
-    """:func:`label_params` as the numba tracking kernels still take them: the fluxes,
-    then the fields in their order (until tracking calls the compiled verification)."""
-    return (obs.kernel_flux(), *label_params(obs, radius_px, config).values())
