@@ -1,4 +1,5 @@
-"""Radial features (seed 002): which rings around a star hold a neighbour, as packed bits.
+"""Radial features (Zhang, Wei and Jiang 2008; the improved triangle paper): which rings
+around a star hold a neighbour, as packed bits.
 
 Around a star, the disc of angular radius R is cut into ``n_rings = ceil(R / dr)`` rings
 of width dr; ring h covers angles [h dr, (h + 1) dr). Bit h of the feature is set when
