@@ -202,7 +202,7 @@ class RadialMatcher(Matcher):
         cat = [self.database.vectors[s] for s in lists]
         for a, b, c in combinations(usable, 3):
             diag.pivots += 1
-            found = self._sss(lists, cat, obs_d, (a, b, c), eps)
+            found = self.triangle_matches(lists, cat, obs_d, (a, b, c), eps)
             if found is None:
                 continue
             (ia, ib, ic), (ra, rb, rc) = found
@@ -224,7 +224,7 @@ class RadialMatcher(Matcher):
             yield from with_fourth
             yield from plain
 
-    def _sss(self, lists, cat, obs_d, stars, eps):
+    def triangle_matches(self, lists, cat, obs_d, stars, eps):
         """Side-side-side over the shortlists (or every catalog star): positions in the
         lists and catalog rows of the matching triangles, None when there is none."""
         a, b, c = stars
