@@ -1,17 +1,20 @@
-"""The fixed prose of docs/results.md: what the seed papers say (their numbers, not ours)."""
+"""The fixed prose of docs/results.md: what the two papers say (their numbers, not ours)."""
 
 HEADER = """\
-# Results: the two seed papers' comparisons, re-run on the startrack bench
+# Results: the two papers' comparisons, re-run on the startrack bench
 
-This page is written by `scripts/_results_doc.py` from the tables that
-`scripts/paper2011.py` and `scripts/seed002_radial.py` save under `out/`; each section
-says the commit, command, date and machine it was made with. Nothing here is typed by
-hand except prose that states no number. To regenerate it:
+This page is written by `scripts/_results_doc.py` from the small tables each paper's
+script saves in the repository under `docs/data/<section>/`, each with a `run.json` that
+records the command, commit, date and machine it was made with; every section below
+states them. Nothing here is typed by hand except prose that states no number. The page
+is always rebuilt from every section's saved tables, so re-running one paper's script
+leaves the other's section as it was. To regenerate it:
 
 ```
-.venv/bin/python scripts/paper2011.py         # --frames, --timing-frames, --fov-frames: run size
-.venv/bin/python scripts/seed002_radial.py    # --frames, --raw-frames: run size
-.venv/bin/python scripts/_results_doc.py      # re-render from the saved tables alone
+.venv/bin/python scripts/paper2011.py --jobs 2      # --frames ...: run size
+.venv/bin/python scripts/seed002_radial.py --jobs 2 # --frames, --raw-frames: run size
+.venv/bin/python scripts/_results_doc.py            # re-render from the saved tables alone
+.venv/bin/python scripts/_results_doc.py --check    # exit 1 if a section is unsaved
 ```
 
 Each section below gives the exact command, and so the frame counts, of the run shown.
@@ -38,13 +41,13 @@ script makes these measurements on them:
 CLAIMS = """\
 ## What the papers claim
 
-### Seed 000: Sedaghat, Toloei, Ghanbarpoor (2011)
+### Sedaghat, Toloei, Ghanbarpoor (2011): triangle base and search speed
 
 "Automatic star identification using triangle base and increase search speed" (Persian,
 English abstract).
 
 
-The stored copy (`/work/shared/seeds/000_*.txt`) ends at Figure 9 (the flowchart of the
+The copy we have ends at Figure 9 (the flowchart of the
 triangle method). **It contains no results section: no table or figure of time,
 accuracy, noise levels or false-star results, and no number to quote.** What it does say:
 
@@ -69,7 +72,7 @@ accuracy, noise levels or false-star results, and no number to quote.** What it 
   without pivoting is slow because "there are hundreds of answers for every triangle in
   the field of view".
 
-### Seed 002: radial features + triangles (2017 or after)
+### Radial features + triangles (2017 or after)
 
 "An improved triangle star identification algorithm with radial features" (Chinese, Rocket
 Force University of Engineering, Xi'an; it builds on the radial features of Zhang, Wei and
@@ -101,10 +104,10 @@ Jiang 2008).
 LIMITS = """\
 ## Limits of these comparisons
 
-* Seed 000's numbers could not be compared because its results are not in the stored
-  text; we test its stated claims only, at field widths of our choosing (section 1).
-* Seed 002 worked on real ground images of one sky patch with the navigation stars of
-  that patch; we use simulated centroids (Gaussian noise, uniform false stars) over the
-  whole sky, which makes the search harder than the paper's for every method.
+* The 2011 paper's numbers could not be compared because its results are not in the stored
+  text; we test its stated claims only, at field widths of our choosing.
+* The radial-features paper worked on real ground images of one sky patch with the
+  navigation stars of that patch; we use simulated centroids (Gaussian noise, uniform
+  false stars) over the whole sky, which makes the search harder than the paper's for every method.
 * Timings come from a shared machine; read them as ratios within one pass.
 """

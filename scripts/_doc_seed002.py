@@ -1,4 +1,4 @@
-"""Section 2 of docs/results.md (seed 002 on the bench), from out/seed002_radial/'s tables."""
+"""The radial-features paper's section of docs/results.md, from docs/data/radial-features/."""
 
 from __future__ import annotations
 
@@ -124,7 +124,7 @@ def _cost(t: pd.DataFrame) -> str:
 
 def section(out: Path, run: dict | None) -> str:
     """The markdown of section 2, or a note when the run has not been made."""
-    head = "## 2. Seed 002 on the bench: triangles with and without radial features\n\n"
+    head = ""  # the renderer writes the section's title
     saved = saved_run(out, run, "radial_triangles.toml")
     if saved is None:
         return head + run_block(None, "scripts/seed002_radial.py")

@@ -33,7 +33,7 @@ from pathlib import Path
 import _results_doc as results_doc
 import numpy as np
 import pandas as pd
-from _doc_seed000 import COLUMNS, FOV_COLUMNS
+from _doc_triangle_base import COLUMNS, FOV_COLUMNS
 
 from startrack.bench.conditions import build_conditions
 from startrack.bench.raw import raw_unit, summarise_raw

@@ -187,7 +187,7 @@ def _fov(out: Path, run: dict) -> str:
 
 def section(out: Path, run: dict | None) -> str:
     """The markdown of section 1, or a note when the run has not been made."""
-    head = "## 1. Seed 000 on the bench: angle vs triangle vs hybrid\n\n"
+    head = ""  # the renderer writes the section's title
     saved = saved_run(out, run, "paper2011.toml")
     if saved is None:
         return head + run_block(None, "scripts/paper2011.py")
