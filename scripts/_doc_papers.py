@@ -12,7 +12,7 @@ leaves the other's section as it was. To regenerate it:
 
 ```
 .venv/bin/python scripts/paper2011.py --jobs 2      # --frames ...: run size
-.venv/bin/python scripts/seed002_radial.py --jobs 2 # --frames, --raw-frames: run size
+.venv/bin/python scripts/radial_features.py --jobs 2 # --frames, --raw-frames, --label-frames
 .venv/bin/python scripts/_results_doc.py            # re-render from the saved tables alone
 .venv/bin/python scripts/_results_doc.py --check    # exit 1 if a section is unsaved
 ```

@@ -1,0 +1,131 @@
+"""The radial-features paper's section of docs/results.md, from docs/data/radial-features/
+(saved by scripts/radial_features.py): every claim with its verdict, then the tables."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+from _radial_claims import CLAIMS, paired_verdict
+from _radial_plot import LABEL_COLUMNS
+from _radial_tables_doc import our_tables_text, paper_tables_text
+from _results_doc import fmt_table, run_block
+
+from startrack.bench.stats import format_p, format_rate, wilson
+
+BENCH_COLUMNS = [("noise", "noise_px", "{:g}"), ("false", "false_stars", None),
+                 ("method", "method", None), ("n", "frames", None),
+                 ("correct [95%]", "correct_ci", None), ("wrong", "wrong", None),
+                 ("raw_n", "raw_frames", None), ("raw1_right [95%]", "raw_ci", None),
+                 ("raw_none", "none", None), ("raw1_wrong", "first_wrong_frames", None),
+                 ("dup", "duplicates", None), ("t_seq", "seq_ms_median", "{:.1f}"),
+                 ("p95", "seq_ms_p95", "{:.1f}"), ("t_match", "matcher_ms_median", "{:.1f}"),
+                 ("cand", "cand_median", "{:.0f}"), ("short", "shortlist_mean", "{:.1f}")]
+LEGEND = """\
+`correct`: verified solutions with every identity right, over `n` frames, with the 95%
+Wilson interval; `wrong`: accepted but wrong. Raw (the matcher's first hypothesis,
+unverified) over `raw_n` frames: `raw1_right`, `raw_none` (no hypothesis), `raw1_wrong`,
+`dup` (a catalog star given to two observed stars). Time: `t_seq` median and `p95` of
+identify() in worker processes, each frame run once after the bench's warm-up frame (no
+compile, import or table build inside the timed span), `t_match` the matcher's part;
+`cand`: median candidates per frame (the radial family: shortlisted stars; `sss`: every
+catalog star; `triangle`: catalog triangles in its area window); `short`: mean shortlist.
+"""
+
+
+def _ci(k: pd.Series, n: pd.Series) -> pd.Series:
+    low, high = wilson(k, n)
+    return pd.Series([f"{a / b:.1%} [{100 * lo:.1f}, {100 * hi:.1f}]" if b else "-"
+                      for a, b, lo, hi in zip(k, n, low, high, strict=True)], index=k.index)
+
+
+def _identified(labels: pd.DataFrame, method: str) -> str:
+    r = labels[labels["method"] == method]
+    if r.empty:
+        return f"`{method}` not run"
+    return (f"`{method}` identifies {format_rate(int(r['identified'].sum()), int(r['real'].sum()))}"
+            f" of the real stars, {int(r['misidentified'].sum())} misidentified "
+            f"({int(r['false_labelled'].sum())} of them false stars)")
+
+
+def _evidence(claim, t: pd.DataFrame, labels: pd.DataFrame, paired: pd.DataFrame) -> str:
+    if claim.kind == "misid":
+        lines = [paired_verdict(paired, "no misidentified star", a, b) + "; "
+                 + _identified(labels, a) + "; " + _identified(labels, b)
+                 for a, b in claim.pairs]
+        lines.append("After the shared verification: " + "; ".join(
+            paired_verdict(paired, "verified correct", a, b) for a, b in claim.pairs))
+    elif claim.kind == "duplicates":
+        lines = [paired_verdict(paired, "no star given twice", a, b) + "; duplicates "
+                 + ", ".join(f"`{m}` {int(labels.loc[labels['method'] == m, 'duplicates'].sum())}"
+                             for m in (a, b)) for a, b in claim.pairs]
+    elif claim.kind == "time":
+        lines = [paired_verdict(paired, "matcher faster", a, b) for a, b in claim.pairs]
+        for a, b in claim.pairs:
+            med = t.groupby("method")["matcher_ms_median"].median()
+            if a in med and b in med:
+                lines.append(f"median over conditions of the median matcher time: `{a}` "
+                             f"{med[a]:.1f} ms, `{b}` {med[b]:.1f} ms")
+    elif claim.kind in ("shortlist", "literal"):
+        lines = [_identified(labels, m) for pair in claim.pairs for m in pair]
+        short = t.groupby("method")["shortlist_mean"].mean() if "shortlist_mean" in t else {}
+        lines.append("mean shortlist per star: " + ", ".join(
+            f"`{m}` {short[m]:.2f}" for m in ("radial", "radial_patch", "radial_paper_patch")
+            if m in short))
+        if claim.kind == "literal":
+            lines.insert(0, "**not reproduced**: a star with k neighbours sets at most k "
+                         "rings, so l >= 3/4 Nq needs k >= 3/4 R/dr; with R and dr from "
+                         "equation 3 no star reaches it")
+        else:
+            lines.insert(0, paired_verdict(paired, "no misidentified star",
+                                           "radial_patch", "radial_paper_patch")
+                         .split(" (")[0] + " for our rule only")
+    else:
+        lines = ["see *Tables 2 to 4* below: the verdict rests on the per-image counts "
+                 "of the claims on Figure 6"]
+    return "".join(f"  * {line}\n" for line in lines)
+
+
+def claims_text(t, labels, paired) -> str:
+    out = ["### Every claim and its verdict\n\n"]
+    for k, c in enumerate(CLAIMS, 1):
+        out.append(f"{k}. **{c.where}.** 「{c.original}」\n   \"{c.english}\"\n"
+                   + _evidence(c, t, labels, paired).replace("  * ", "   * ") + "\n")
+    return "".join(out)
+
+
+def _paired_table(paired: pd.DataFrame) -> str:
+    p = paired[paired["condition"] == -1].copy()
+    p["p_text"] = p["p"].map(format_p)
+    return fmt_table(p, [("measure", "measure", None), ("A", "a", None), ("B", "b", None),
+                         ("units", "frames", None), ("A ok", "a_ok", None),
+                         ("B ok", "b_ok", None), ("only A", "only_a", None),
+                         ("only B", "only_b", None), ("p", "p_text", None)])
+
+
+def section(folder: Path, run: dict) -> str:
+    """The markdown of the section (the renderer writes its title)."""
+    read = {n: pd.read_csv(folder / f"{n}.csv") for n in run["tables"]}
+    t, labels, paired = read["table"], read["labels"], read["paired"]
+    t["correct_ci"] = _ci(t["correct"], t["frames"])
+    t["raw_ci"] = _ci(t["first_right"], t["raw_frames"])
+    intro = (f"configs/radial_triangles.toml (the paper's camera: 4 x 4 deg, 4096 x 4096 "
+             f"px of 9 um; Hipparcos Hp <= 8, {run['view_mean']:.1f} stars in view on "
+             f"average, {run['view_min']} to {run['view_max']}), simulated centroids over "
+             f"a full grid of centroid noise x false stars. Verified: {run['frames']} "
+             f"frames per condition; raw: the first {run['raw_frames']}; every star "
+             f"labelled: the first {run['label_frames']}. Lost in space unless the name "
+             f"ends in `_patch` (a known 4 deg patch around the true boresight, as the "
+             f"paper's navigation stars of the field). Stage times (s): "
+             f"{run.get('seconds', {})}.\n\n")
+    return (run_block(run, "scripts/radial_features.py") + "\n" + intro
+            + claims_text(t, labels, paired)
+            + "### Paired tests, pooled over all conditions\n\n"
+            + f"```\n{_paired_table(paired)}\n```\n\n"
+            + "Per condition: `docs/data/radial-features/paired.csv`.\n\n"
+            + "### Misidentified stars per image (the paper's Figure 6)\n\n"
+            + f"```\n{fmt_table(labels, LABEL_COLUMNS)}\n```\n\n"
+            + "![misidentified stars per image](figures/radial_features_misid.png)\n\n"
+            + "### Verified and raw, every condition\n\n"
+            + f"```\n{fmt_table(t, BENCH_COLUMNS)}\n```\n\n{LEGEND}\n"
+            + paper_tables_text(read["paper_tables"]) + our_tables_text(read["our_tables"]))
