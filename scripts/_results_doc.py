@@ -232,7 +232,7 @@ def render_section(section: Section) -> str:
     head = f"## {section.title}\n\n"
     if unstamped(section.folder) is not None:
         return head + run_block(None, section.script)
-    return module.section(section.folder, load_run(section.folder))
+    return head + module.section(section.folder, load_run(section.folder))
 
 
 def render(doc: Path = DOC) -> Path:

@@ -7,6 +7,13 @@ by comparing the three side lengths, and the mirror image is refused (triple pro
 While several catalog triangles remain, the matcher pivots on a triangle that shares two
 stars with the last one and keeps the hypotheses in which the shared stars agree.
 
+The 2011 paper (Sedaghat, Toloei, Ghanbarpoor) pivots instead on triangles that share two
+stars with the *first* triangle (``pivot_first=True``), only while more than one answer is
+left, and calls a search that runs out of stars indeterminate: the variant
+``triangle_first``. Its "binary test tree" (to cut the combinations of three tests) is
+named in one sentence, with no structure given, so it is not built here: the k-vector
+range on area, the polar-moment filter and the sorted join do that job.
+
 The lookups, the vertex mapping and the pivot joins run compiled
 (:mod:`startrack.matching.triangle_search`), returning at each triple that leaves an
 answer so that verification's first acceptance ends the search.
@@ -45,9 +52,13 @@ class PlanarTriangleMatcher(Matcher):
     description = "planar triangles (area + polar moment, k-vector), pivoting"
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
-                 max_ambiguous: int = 5, min_stars: int = 4) -> None:
+                 max_ambiguous: int = 5, min_stars: int = 4,
+                 pivot_first: bool = False) -> None:
         super().__init__(database, config)
         self.max_ambiguous = max_ambiguous  # hypotheses yielded when pivots run out
+        # Every pivot triangle shares two stars with the first triangle (the paper), not
+        # with the last one (ours: a chain that spreads over the frame).
+        self.pivot_first = bool(pivot_first)
         # Pivot at least once even when the first triangle is unique: a fourth star costs
         # one lookup, removes most chance matches, and a hypothesis spread over more of the
         # frame gives verification a better first attitude.
@@ -105,7 +116,8 @@ class PlanarTriangleMatcher(Matcher):
         t = 0
         while t < len(triples):
             t, stars, rows, memo[0] = next_answer(t, triples, frame, table, memo[0], state,
-                                                  self.min_stars, self.max_ambiguous)
+                                                  self.min_stars, self.max_ambiguous,
+                                                  self.pivot_first)
             diag.candidates = base[0] + int(state[tl.CANDIDATES])
             diag.pivots = base[1] + int(state[tl.PIVOTS])
             if state[tl.LOOKUPS]:
@@ -117,3 +129,7 @@ class PlanarTriangleMatcher(Matcher):
 
 register_variant(PlanarTriangleMatcher, "triangle_nopivot",
                  "planar triangles, no forced pivot on a unique triangle (variant)", min_stars=3)
+register_variant(PlanarTriangleMatcher, "triangle_first",
+                 "planar triangles pivoting on the first triangle, one answer or none "
+                 "(2011 paper literal, variant)", min_stars=3, max_ambiguous=1,
+                 pivot_first=True)

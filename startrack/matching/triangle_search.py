@@ -2,7 +2,8 @@
 
 Each observed triple in turn is looked up (:func:`startrack.matching.triangle_lookup.lookup`);
 while more than one hypothesis is left (or fewer than ``min_stars`` stars are in), the
-search pivots on a triangle that shares the newest two stars and joins the two on them by
+search pivots on a triangle that shares the newest two stars (or, with ``pivot_first``,
+two stars of the first triangle: the 2011 paper's reading) and joins the two on them by
 a sorted key (:func:`join_pivot`). :func:`next_answer` returns at each triple that leaves
 an answer, so that verification's first acceptance ends the search; the counters and
 the lookups' memo carry over between calls. See :mod:`startrack.matchers.planar_triangle`
@@ -57,10 +58,11 @@ def _holds(row, w, x):
 
 
 @njit(cache=True)
-def _pivots(hyps, stars, frame, table, memo, state, min_stars):
+def _pivots(hyps, stars, frame, table, memo, state, min_stars, pivot_first):
     """Pivot from the triple in ``stars[:3]`` while more than one row is left or fewer
-    than ``min_stars`` stars are in: a triangle (newest two chain stars, a new star in
-    index order) joined on the shared two. Returns (rows, number of chain stars, memo)."""
+    than ``min_stars`` stars are in: a triangle (newest two chain stars, or the first
+    triangle's last two when ``pivot_first``, and a new star in index order) joined on
+    the shared two. Returns (rows, number of chain stars, memo)."""
     n = frame[0].shape[0]
     n_stars, cp, cq = 3, 1, 2
     while len(hyps) > 1 or n_stars < min_stars:
@@ -74,7 +76,9 @@ def _pivots(hyps, stars, frame, table, memo, state, min_stars):
             if len(joined):
                 hyps = joined
                 stars[n_stars] = extra
-                cp, cq, n_stars = cq, n_stars, n_stars + 1
+                if not pivot_first:
+                    cp, cq = cq, n_stars
+                n_stars += 1
                 found = True
                 break
         if not found:
@@ -83,7 +87,8 @@ def _pivots(hyps, stars, frame, table, memo, state, min_stars):
 
 
 @njit(cache=True)
-def next_answer(start, triples, frame, table, memo, state, min_stars, max_ambiguous):
+def next_answer(start, triples, frame, table, memo, state, min_stars, max_ambiguous,
+                pivot_first=False):
     """From triple ``start`` on, the first whose lookup leaves catalog triangles: (its
     index, chain stars, at most ``max_ambiguous`` rows of catalog stars after the pivots,
     memo); the index is len(triples) when none is left.
@@ -91,7 +96,8 @@ def next_answer(start, triples, frame, table, memo, state, min_stars, max_ambigu
     ``frame`` is :func:`startrack.matching.triangle_lookup.frame_tuple`'s; ``table`` the
     triangle table's (area, k-vector k, m, q, polar, rows) and the catalog vectors;
     ``memo`` (:func:`~startrack.matching.triangle_lookup.frame_memo`'s, pass on the one
-    returned) and ``state`` (the counters) carry over between calls."""
+    returned) and ``state`` (the counters) carry over between calls. ``pivot_first``:
+    every pivot triangle shares two stars with the first one (see :func:`_pivots`)."""
     stars = np.empty(frame[0].shape[0], np.int64)
     for t in range(start, len(triples)):
         a, b, c = triples[t, 0], triples[t, 1], triples[t, 2]
@@ -99,6 +105,7 @@ def next_answer(start, triples, frame, table, memo, state, min_stars, max_ambigu
         if len(hyps) == 0:
             continue  # a false star, or a star outside the pattern set
         stars[0], stars[1], stars[2] = a, b, c
-        hyps, n_stars, memo = _pivots(hyps, stars, frame, table, memo, state, min_stars)
+        hyps, n_stars, memo = _pivots(hyps, stars, frame, table, memo, state, min_stars,
+                                      pivot_first)
         return t, stars[:n_stars].copy(), hyps[:max_ambiguous].copy(), memo
     return len(triples), stars[:0].copy(), np.empty((0, 3), np.int64), memo
