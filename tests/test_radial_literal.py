@@ -109,3 +109,18 @@ def test_score_labels_counts_wrong_false_and_twice_given_stars():
     score = score_labels(labels, np.array([5, 6, 7, 8, -1]))
     assert score == {"stars": 5, "real": 4, "identified": 4, "right": 2,
                      "misidentified": 2, "false_labelled": 1, "duplicates": 1}
+
+
+def test_a_patch_shortlist_is_the_full_one_filtered(random_db):
+    """Scoring only the patch's rows ranks them as scoring every row and then filtering."""
+    from startrack.database.radial import observed_masks
+
+    frame = _frame(random_db)
+    matcher = _pointed("radial_patch", random_db, frame, patch_deg=15.0)
+    table, patch = matcher.table, matcher.in_patch()
+    single, double, need = observed_masks(frame.obs.vectors, np.arange(5), table.radius_rad,
+                                          table.ring_width_rad, 1e-4)
+    for k in range(5):
+        full, _ = table.shortlist(single[k], double[k], int(need[k]), cap=len(random_db.vectors))
+        part, _ = table.shortlist(single[k], double[k], int(need[k]), cap=10, among=patch)
+        np.testing.assert_array_equal(part, full[np.isin(full, patch)][:10])

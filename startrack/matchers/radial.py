@@ -172,7 +172,6 @@ class RadialMatcher(Matcher):
         tol = self.angle_tolerance(obs) if self.edge_tolerance else 0.0
         single, double, need = observed_masks(obs.vectors, np.arange(n), table.radius_rad,
                                               table.ring_width_rad, tol)
-        cap = self.cap if patch is None else len(self.database.vectors)
         lists = []
         for k in range(n):
             if need[k] < self.min_rings:
@@ -180,9 +179,8 @@ class RadialMatcher(Matcher):
                 continue
             # The paper's l >= 3/4 Nq counts every ring; ours the rings star k occupies.
             base = table.n_rings if self.threshold == "all" else int(need[k])
-            rows, _ = table.shortlist(single[k], double[k], base, self.frac, cap)
-            if patch is not None:
-                rows = rows[np.isin(rows, patch)][: self.cap]
+            rows, _ = table.shortlist(single[k], double[k], base, self.frac, self.cap,
+                                      among=patch)
             lists.append(rows.astype(np.int64))
         return lists
 
