@@ -23,23 +23,43 @@ LABEL_COLUMNS = [("noise", "noise_px", "{:g}"), ("false", "false_stars", None),
 FIGURE_METHODS = ("sss", "radial", "sss_patch", "radial_patch", "radial_paper_patch")
 
 
-def _per_image(ax, images: pd.DataFrame, methods: list[str], shown: int = 40) -> None:
-    """The paper's Figure 6: misidentified stars of each of the first ``shown`` base
-    images, one line per method."""
+def worst_condition(summary: pd.DataFrame, baseline: str = "sss") -> int:
+    """The condition where the plain triangle method misidentifies the most stars (the
+    first on a tie; the base condition when it misidentifies none): Figure 6's images."""
+    rows = summary[summary["method"] == baseline]
+    if rows.empty or rows["misidentified"].max() == 0:
+        return int(summary["condition"].min())
+    return int(rows.loc[rows["misidentified"].idxmax(), "condition"])
+
+
+def _held(summary: pd.DataFrame, var: str, baseline: str = "sss") -> float:
+    """The level of the other swept variable at which the baseline misidentifies most."""
+    other = "false_stars" if var == "noise_px" else "noise_px"
+    rows = summary[summary["method"] == baseline]
+    if rows.empty:
+        return float(summary[other].min())
+    return float(rows.groupby(other)["misidentified"].sum().idxmax())
+
+
+def _per_image(ax, images: pd.DataFrame, methods: list[str], where: str,
+               shown: int = 40) -> None:
+    """The paper's Figure 6: misidentified stars of each of the first ``shown`` images of
+    one condition, one line per method."""
     for j, m in enumerate(methods):
         r = images[images["method"] == m].sort_values("frame").head(shown)
         ax.plot(r["frame"] + 1 + 0.08 * (j - len(methods) / 2), r["misidentified"],
                 **method_style(j, m))
-    ax.set_xlabel("image (base condition)")
+    ax.set_xlabel("image")
     ax.set_ylabel("misidentified stars")
-    ax.set_title("per image, every star identified", fontsize=9)
+    ax.set_title(f"per image, every star identified ({where})", fontsize=9)
 
 
 def _sweep(ax, summary: pd.DataFrame, methods: list[str], var: str) -> None:
-    """Mean misidentified stars per image along ``var`` (the other swept variable at its
-    lowest level), with a 95% normal interval of the mean."""
+    """Mean misidentified stars per image along ``var`` (the other swept variable where
+    the baseline misidentifies most), with a 95% normal interval of the mean."""
     other = "false_stars" if var == "noise_px" else "noise_px"
-    part = summary[summary[other] == summary[other].min()]
+    held = _held(summary, var)
+    part = summary[summary[other] == held]
     values = np.sort(part[var].unique().astype(float))
     shift = offsets(values, len(methods))
     for j, m in enumerate(methods):
@@ -49,7 +69,7 @@ def _sweep(ax, summary: pd.DataFrame, methods: list[str], var: str) -> None:
                     capsize=2, **method_style(j, m))
     ax.set_xlabel(LABELS[var])
     ax.set_ylabel("misidentified stars per image")
-    ax.set_title("mean per image (95% interval)", fontsize=9)
+    ax.set_title(f"mean per image (95% interval), {LABELS[other]} = {held:g}", fontsize=9)
 
 
 def misid_figure(summary: pd.DataFrame, images: pd.DataFrame, path: Path,
@@ -63,12 +83,14 @@ def misid_figure(summary: pd.DataFrame, images: pd.DataFrame, path: Path,
 
     methods = [m for m in FIGURE_METHODS if m in set(summary["method"])]
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), layout="constrained")
-    _per_image(axes[0], images, methods)
+    cond = summary[summary["condition"] == worst_condition(summary)].iloc[0]
+    _per_image(axes[0], images, methods,
+               f"noise {cond.noise_px:g} px, {int(cond.false_stars)} false stars")
     _sweep(axes[1], summary, methods, "noise_px")
     _sweep(axes[2], summary, methods, "false_stars")
     for ax in axes:
         ax.grid(True, alpha=0.3)
-        ax.set_ylim(bottom=-0.05)
+        ax.set_ylim(bottom=-0.05, top=max(ax.get_ylim()[1], 1.0))
     axes[0].legend(fontsize=7)
     commit = str(record.get("git commit", "?"))[:12]
     fig.suptitle("Radial features + triangles against plain side-side-side triangles: "

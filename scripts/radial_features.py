@@ -103,12 +103,12 @@ def main(argv: list[str] | None = None) -> int:
     frames = pd.read_csv(result.frames_csv)
     for name, table in (("raw", raw), ("labels", labels)):
         table.to_csv(args.out / f"{name}.csv", index=False, float_format="%.6g")
-    tables = {"table": combine(result.summary, raw, frames),
-              "labels": label_summary(labels),
+    summary = label_summary(labels)
+    worst = labels["condition"] == _radial_plot.worst_condition(summary)
+    tables = {"table": combine(result.summary, raw, frames), "labels": summary,
               "paired": paired_tests(frames, raw, labels),
-              "label_images": labels[labels["condition"] == 0][
-                  ["frame", "method", "stars", "identified", "misidentified",
-                   "duplicates"]],
+              "label_images": labels[worst][["condition", "frame", "method", "stars",
+                                             "identified", "misidentified", "duplicates"]],
               **timed("paper tables", seconds, _radial_tables.tables, spec)}
     print(results_doc.fmt_table(tables["labels"], _radial_plot.LABEL_COLUMNS))
     _radial_plot.misid_figure(tables["labels"], tables["label_images"],
