@@ -21,6 +21,27 @@ BENCH_COLUMNS = [("noise", "noise_px", "{:g}"), ("false", "false_stars", None),
                  ("dup", "duplicates", None), ("t_seq", "seq_ms_median", "{:.1f}"),
                  ("p95", "seq_ms_p95", "{:.1f}"), ("t_match", "matcher_ms_median", "{:.1f}"),
                  ("cand", "cand_median", "{:.0f}"), ("short", "shortlist_mean", "{:.1f}")]
+METHOD = """\
+**What is compared.** The paper's baseline is the classic side-side-side triangle test
+(its equation 5) over every navigation star: `sss` (lost in space, through the catalog's
+pair table) and `sss_patch` (the catalog stars of the known patch). The improved method
+is the same test over each star's radial shortlist: ours, `radial` and `radial_patch`
+(R from the catalog density, rings a few noise sigmas wide, l over the rings the observed
+star occupies, ring edges tolerant of noise, at most 10 candidates), and the paper's as
+written, `radial_paper` and `radial_paper_patch` (R and dr the largest and smallest
+separation among the observed and the navigation stars, l >= 3/4 Nq over every ring,
+bits as measured; at most 50 candidates, a bound on memory). `triangle` is our planar
+triangle matcher, a different method, shown for scale.
+
+**Every star identified** (the paper's Figures 5 and 6, Tables 3 and 4): each observed
+star forms triangles with pairs of its 4 nearest observed stars; a triangle matching
+exactly one catalog triangle votes for its three stars' identities; a star takes the
+catalog star with the most votes, none on a tie (`startrack/matchers/radial_label.py`).
+Stars are labelled one by one, so two can get the same catalog star, as in the paper's
+Table 4. A misidentified star is one labelled with a wrong catalog star, or a false star
+labelled at all.
+
+"""
 LEGEND = """\
 `correct`: verified solutions with every identity right, over `n` frames, with the 95%
 Wilson interval; `wrong`: accepted but wrong. Raw (the matcher's first hypothesis,
@@ -146,7 +167,7 @@ def section(folder: Path, run: dict) -> str:
              f"ends in `_patch` (a known 4 deg patch around the true boresight, as the "
              f"paper's navigation stars of the field). Stage times: " + ", ".join(
                  f"{k} {v:.0f} s" for k, v in run.get("seconds", {}).items()) + ".\n\n")
-    return (run_block(run, "scripts/radial_features.py") + "\n" + intro
+    return (run_block(run, "scripts/radial_features.py") + "\n" + intro + METHOD
             + claims_text(t, labels, paired, read["our_tables"])
             + "### Paired tests, pooled over all conditions\n\n"
             + f"```\n{_paired_table(paired)}\n```\n\n"

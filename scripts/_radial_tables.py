@@ -7,8 +7,10 @@ degrees), typed from the paper, not measured here.
 
 from __future__ import annotations
 
+import astropy.units as u
 import numpy as np
 import pandas as pd
+from astropy.coordinates import SkyCoord
 
 from startrack.bench.runner import bench_frame, load_bench, point_patch
 from startrack.matchers.radial_label import label_every_star
@@ -33,6 +35,8 @@ PAPER_ROWS = [
     (4, 3, 1575.91, 1644.82, 109.7102, 34.1462), (4, 4, 3284.58, 2239.62, 109.7102, 34.1462),
 ]
 COLUMNS = ["table", "row", "x", "y", "lon", "lat"]
+#: the sky frames the printed "longitude, latitude" are tried in (astropy names)
+FRAMES = ("icrs", "fk4", "galactic", "geocentrictrueecliptic", "supergalactic")
 
 
 def sky_vectors(lon_deg, lat_deg) -> np.ndarray:
@@ -64,7 +68,8 @@ def similarity_fit(rows: pd.DataFrame) -> tuple[float, np.ndarray]:
 
 def paper_checks(catalog, f_px: float) -> pd.DataFrame:
     """The paper's rows with, per row, the residual of Table 3's similarity fit (Table 3
-    only), the distance to the nearest catalog star in ICRS (arcsec) and whether the same
+    only), the distance to the nearest catalog star reading the positions in each of
+    :data:`FRAMES` (arcsec) and whether the same
     navigation star is another observed star's identity elsewhere in Tables 2 and 3."""
     rows = pd.DataFrame(PAPER_ROWS, columns=COLUMNS)
     t3 = rows["table"] == 3
@@ -73,9 +78,12 @@ def paper_checks(catalog, f_px: float) -> pd.DataFrame:
     rows.loc[t3, "fit_resid_arcsec"] = resid
     rows["fit_scale_deg_px"] = np.where(t3, scale, np.nan)
     rows["stated_scale_deg_px"] = np.degrees(1.0 / f_px)
-    near = np.degrees(np.arccos(np.clip(sky_vectors(rows["lon"], rows["lat"])
-                                        @ catalog.vectors.T, -1.0, 1.0))).min(axis=1)
-    rows["nearest_catalog_arcsec"] = near * 3600.0
+    for frame in FRAMES:
+        icrs = SkyCoord(rows["lon"].to_numpy() * u.deg, rows["lat"].to_numpy() * u.deg,
+                        frame=frame).icrs
+        near = np.degrees(np.arccos(np.clip(sky_vectors(icrs.ra.deg, icrs.dec.deg)
+                                            @ catalog.vectors.T, -1.0, 1.0))).min(axis=1)
+        rows[f"nearest_{frame}_arcsec"] = near * 3600.0
     star = rows["lon"].round(3).astype(str) + "," + rows["lat"].round(3).astype(str)
     pixel = rows["x"].round(0).astype(str) + "," + rows["y"].round(0).astype(str)
     two = rows["table"].isin((2, 3))
