@@ -25,7 +25,8 @@ MEASURES = {
 
 def combine(summary: pd.DataFrame, raw: pd.DataFrame, frames: pd.DataFrame) -> pd.DataFrame:
     """Verified and raw counts side by side, one row per (condition, method)."""
-    verified = summary[["condition", "method", "frames", "correct_rate", "wrong"]].copy()
+    verified = summary[["condition", "method", "frames", "correct_rate", "wrong",
+                        "time_median_ms"]].copy()
     verified["correct"] = np.rint(verified.pop("correct_rate") * verified["frames"]).astype(int)
     ids = frames.groupby(["condition", "method"], sort=False)["n_id_wrong"].sum()
     verified = verified.merge(ids.rename("verified_wrong_ids").reset_index())

@@ -120,10 +120,13 @@ def our_tables(spec) -> pd.DataFrame:
     rows = []
 
     def add(table, k, c):
-        rows.append({"table": table, "condition": cond, "frame": frame, "star": k,
+        level = spec.conditions[cond]
+        rows.append({"table": table, "condition": cond, "noise_px": level.noise_px,
+                     "false_stars": level.false_stars, "frame": frame, "star": k,
                      "x": bf.obs.x[k], "y": bf.obs.y[k], "ra": cat.ra_deg[c] if c >= 0
                      else np.nan, "dec": cat.dec_deg[c] if c >= 0 else np.nan,
-                     "true": bool(c == bf.truth_rows[k]), "false_star": bf.truth_rows[k] < 0})
+                     "true": bool(c >= 0 and c == bf.truth_rows[k]),
+                     "false_star": bool(bf.truth_rows[k] < 0)})
 
     for k, short in enumerate(radial.shortlists(bf.obs, min(10, len(bf.obs)))):
         for c in short:

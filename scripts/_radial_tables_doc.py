@@ -91,8 +91,11 @@ def our_tables_text(ours: pd.DataFrame) -> str:
     if ours.empty:
         return ""
     r0 = ours.iloc[0]
-    head = (f"### The same tables on our frame {int(r0.frame)} of condition "
-            f"{int(r0.condition)} (known patch)\n\n")
+    level = (f"noise {r0.noise_px:g} px, {int(r0.false_stars)} false stars"
+             if "noise_px" in ours else f"condition {int(r0.condition)}")
+    head = (f"### The same tables on our frame {int(r0.frame)} ({level}, known patch)\n\n"
+            "The first frame of that condition where the plain triangle method "
+            "misidentifies a star; `true`: the label is the star's catalog star.\n\n")
     parts = []
     for table, what in ((2, "initial identification: `radial_patch`'s shortlists of the "
                             "ten brightest stars"),
