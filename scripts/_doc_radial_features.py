@@ -37,7 +37,7 @@ triangle matcher, a different method, shown for scale.
 **Every star identified** (the paper's Figures 5 and 6, Tables 3 and 4): each observed
 star forms triangles with pairs of its 4 nearest observed stars; a triangle matching
 exactly one catalog triangle votes for its three stars' identities; a star takes the
-catalog star with the most votes, none on a tie (`startrack/matchers/radial_label.py`).
+catalog star with the most votes, none on a tie (`startrack/bench/star_labels.py`).
 Stars are labelled one by one, so two can get the same catalog star, as in the paper's
 Table 4. A misidentified star is one labelled with a wrong catalog star, or a false star
 labelled at all.

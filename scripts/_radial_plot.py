@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from startrack.bench.plots import LABELS, method_style, offsets, save_figure
+from startrack.bench.plots import LABELS, SHORT, method_style, offsets, save_figure
 
 #: the label pass's printed columns (header, column, format)
 LABEL_COLUMNS = [("noise", "noise_px", "{:g}"), ("false", "false_stars", None),
@@ -69,7 +69,7 @@ def _sweep(ax, summary: pd.DataFrame, methods: list[str], var: str) -> None:
                     capsize=2, **method_style(j, m))
     ax.set_xlabel(LABELS[var])
     ax.set_ylabel("misidentified stars per image")
-    ax.set_title(f"mean per image (95% interval), {LABELS[other]} = {held:g}", fontsize=9)
+    ax.set_title(f"mean per image (95% interval), {SHORT[other]} {held:g}", fontsize=9)
 
 
 def misid_figure(summary: pd.DataFrame, images: pd.DataFrame, path: Path,

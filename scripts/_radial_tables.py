@@ -13,7 +13,7 @@ import pandas as pd
 from astropy.coordinates import SkyCoord
 
 from startrack.bench.runner import bench_frame, load_bench, point_patch
-from startrack.matchers.radial_label import label_every_star
+from startrack.bench.star_labels import label_every_star
 
 # (table, row, x, y, longitude, latitude); Table 2 lists a star once per candidate.
 PAPER_ROWS = [

@@ -1,5 +1,5 @@
 """The radial-features paper's literal variants (equations 3 and 4, the known patch) and its
-own measure, every star identified (startrack.matchers.radial_label)."""
+own measure, every star identified (startrack.bench.star_labels)."""
 
 from __future__ import annotations
 
@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 from synth import assert_correct, frames, prepared_matcher, with_false_star
 
-from startrack.identify import identify
-from startrack.matchers.radial_label import (
+from startrack.bench.star_labels import (
     StarLabels,
     label_every_star,
     score_labels,
     star_triangles,
 )
-from startrack.matchers.radial_rings import paper_rings, separation_range
+from startrack.identify import identify
+from startrack.matchers._radial_rings import paper_rings, separation_range
 from startrack.matching.geometry import angle_table
 
 

@@ -1,6 +1,6 @@
 """Misidentified stars per image, the improved triangle paper's own measure (its Figures 5
 and 6): every star of a bench frame labelled by a radial-family matcher
-(:func:`startrack.matchers.radial_label.label_every_star`), scored against the truth."""
+(:func:`startrack.bench.star_labels.label_every_star`), scored against the truth."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pandas as pd
 
 from startrack.bench.raw import map_units
 from startrack.bench.runner import RunSpec, bench_frame, point_patch
-from startrack.matchers.radial_label import label_every_star, score_labels
+from startrack.bench.star_labels import label_every_star, score_labels
 
 DEFAULT_NEIGHBOURS = 4
 
@@ -19,7 +19,7 @@ def label_unit(spec: RunSpec, condition_index: int, frame: int, *,
                neighbours: int = DEFAULT_NEIGHBOURS) -> list[dict]:
     """Frame ``frame`` of condition ``condition_index`` through every method of ``spec``
     (each a radial matcher or variant): one row per method with the image's counts
-    (:func:`~startrack.matchers.radial_label.score_labels`) and ``label_ms``."""
+    (:func:`~startrack.bench.star_labels.score_labels`) and ``label_ms``."""
     bench, condition, bf = bench_frame(spec, condition_index, frame)
     rows = []
     for name in spec.methods:

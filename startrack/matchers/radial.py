@@ -37,8 +37,7 @@ from startrack.database.radial import (
     observed_masks,
     radial_table_from_arrays,
 )
-from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
-from startrack.matchers.radial_rings import (
+from startrack.matchers._radial_rings import (
     catalog_range,
     dense_triangles,
     field_rings,
@@ -46,6 +45,7 @@ from startrack.matchers.radial_rings import (
     paper_rings,
     separation_range,
 )
+from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
 from startrack.matching.geometry import angle_table, handedness, triple_products
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
