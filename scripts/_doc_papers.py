@@ -14,7 +14,7 @@ leaves the other's section as it was. To regenerate it:
 .venv/bin/python scripts/paper2011.py --jobs 2      # --frames ...: run size
 .venv/bin/python scripts/radial_features.py --jobs 2 # --frames, --raw-frames, --label-frames
 .venv/bin/python scripts/_results_doc.py            # re-render from the saved tables alone
-.venv/bin/python scripts/_results_doc.py --check    # exit 1 if a section is unsaved
+.venv/bin/python scripts/_results_doc.py --check    # exit 1: a section unsaved or stale
 ```
 
 Each section below gives the exact command, and so the frame counts, of the run shown.
@@ -32,10 +32,13 @@ script makes these measurements on them:
   unverified, scored against the truth, and how many wrong hypotheses come before the
   first right one. The papers had no separate verification stage, so their "accuracy"
   is this one.
-* **time**: the bench's median `identify_ms` (worker processes on a shared machine),
-  and a pass in one process that keeps the fastest of a few runs per frame (`t_seq`),
-  split into the time inside the matcher's hypothesis generator (`t_match`) and the
-  rest (verification and attitude). Methods are compared by ratios within one pass.
+* **time**: a pass in one process that keeps the fastest of a few runs per frame,
+  split into the time inside the matcher's hypothesis generator and the rest
+  (verification and attitude); each section states its warm-up, repeats, median and
+  p95, and the machine and its load. Methods are compared within one pass.
+* **paired tests**: every method sees the same frames, so two methods are compared frame
+  by frame with the exact McNemar test (`startrack/bench/stats.py`); every rate carries
+  its 95% Wilson interval.
 """
 
 CLAIMS = """\
@@ -47,9 +50,9 @@ CLAIMS = """\
 English abstract).
 
 
-The copy we have ends at Figure 9 (the flowchart of the
-triangle method). **It contains no results section: no table or figure of time,
-accuracy, noise levels or false-star results, and no number to quote.** What it does say:
+The copy we have ends at Figure 9 (the flowchart of the triangle method). **It contains
+no results section: no table or figure of time, accuracy, noise levels or false-star
+results, and no number to quote.** What it does say:
 
 * Setup (introduction, translated): "We take a sky with a random distribution of 2000
   stars, assume the camera's field of view (0.025 x 0.025), select the five larger
@@ -57,20 +60,11 @@ accuracy, noise levels or false-star results, and no number to quote.** What it 
   the triangle method and the new hybrid method, and compared with one another in time
   required, accuracy and the effect of noise." The unit of 0.025 is not given. If it is
   radians (1.43 deg) over the whole sky, a 2000-star random sky would put almost no star
-  in the field; section 1 reads it two ways (a wider field, and 0.025 rad over a
-  2000-star patch) and says what each implies.
-* Abstract (English, verbatim in substance): the planar triangle (area + polar moment)
-  "very quickly narrow[s]" the candidates, needs "fewer pivots" and "is more likely to
-  yield the correct solution than the angle method"; the new method "first, by angle
-  method candidate[s] some stars", then the triangle method completes the identification
-  "in fewer time"; "this new method is faster than triangle and more accurate than angle
-  method and we do not [need] pivoting"; "simulation results show ... its robustness
-  with respect to including false stars". The Persian abstract adds: "[the hybrid] is
-  more robust against false stars in the field of view than either of the methods".
-* Triangle section (translated): the triangle method "does not work with fewer than 3
-  stars in the field of view, while the angle method needs 2"; testing each candidate
-  without pivoting is slow because "there are hundreds of answers for every triangle in
-  the field of view".
+  in the field; its section below reads it two ways (a wider field, and 0.025 rad over
+  a 2000-star patch) and says what each implies.
+* Every claim the paper makes about the three methods is quoted in full (the English
+  abstract as printed, the Persian sentences with a translation) in its section below,
+  each with its verdict and paired tests.
 
 ### Radial features + triangles (2017 or after)
 

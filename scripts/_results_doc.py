@@ -6,7 +6,9 @@ load). :func:`render` always builds the whole page from every section's saved ta
 re-running one paper's script can never drop another's section; a section whose tables
 are missing renders as "not run" and ``tests/test_results_doc.py`` fails on it.
 ``python scripts/_results_doc.py`` re-renders from the saved tables alone, and
-``--check`` exits 1 naming any section that is missing or unstamped.
+``--check`` exits 1 naming any section that is missing, unstamped, made from uncommitted
+changes or older than the last commit that changed startrack/ (the final regeneration's
+test; the unit tests check only that each section is saved and stamped).
 """
 
 from __future__ import annotations
@@ -127,7 +129,7 @@ def saved_run(out: Path, run: dict | None, preset: str):
     ``configs/<preset>``; None when the run has not been made."""
     if run is None or not (out / "table.csv").exists():
         return None
-    from startrack.config import load_config
+    from startrack.simulate._config import load_config
 
     cfg = load_config(ROOT / "configs" / preset)
     return pd.read_csv(out / "table.csv"), cfg, float(np.degrees(1.0 / cfg.camera.f_px) * 3600.0)
@@ -235,6 +237,23 @@ def render_section(section: Section) -> str:
     return head + module.section(section.folder, load_run(section.folder))
 
 
+def section_summary(section: Section) -> str:
+    """A section's one-line summary for the README: its module's ``summary(folder, run)``
+    when it has one, with the stamp; says so when the section is not saved."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    why = unstamped(section.folder)
+    if why is not None:
+        return f"*{section.title}*: not run ({why})."
+    run = load_run(section.folder)
+    module = importlib.import_module(section.module)
+    said = module.summary(section.folder, run) if hasattr(module, "summary") else (
+        "see docs/results.md")
+    commit = str(run["git commit"])
+    return (f"*{section.title}*: {said}; made by `{run['command']}` at commit "
+            f"`{commit[:12]}{'+dirty' if commit.endswith('+dirty') else ''}` on "
+            f"{run['date (UTC)']} UTC.")
+
+
 def render(doc: Path = DOC) -> Path:
     """Write docs/results.md from every section's saved tables."""
     sys.path.insert(0, str(Path(__file__).parent))
@@ -249,11 +268,28 @@ def render(doc: Path = DOC) -> Path:
     return doc
 
 
+def stale(folder: Path) -> str | None:
+    """Why the saved section in ``folder`` is older than the code, None when it is not:
+    made from uncommitted changes, or startrack/ changed in a commit after its own."""
+    import subprocess
+
+    commit = str(load_run(folder)["git commit"])
+    if commit.endswith("+dirty"):
+        return f"made from uncommitted changes at {commit[:12]}"
+    log = subprocess.run(["git", "-C", str(ROOT), "log", "--oneline", f"{commit}..HEAD",
+                          "--", "startrack/"], capture_output=True, text=True)
+    if log.returncode != 0:
+        return f"its commit {commit[:12]} is not in this checkout"
+    changes = log.stdout.splitlines()
+    return f"{len(changes)} commit(s) changed startrack/ since {commit[:12]}" if changes \
+        else None
+
+
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     if "--check" in args:
         problems = [f"{s.title}: {why}" for s in SECTIONS
-                    if (why := unstamped(s.folder)) is not None]
+                    if (why := unstamped(s.folder) or stale(s.folder)) is not None]
         for line in problems:
             print(line, file=sys.stderr)
         return 1 if problems else 0

@@ -4,7 +4,8 @@
 Frames are the bench's (startrack.bench.frames.make_frame): true stars of the default sky
 for each camera (gaia below 8 deg, hipparcos above) with centroid noise, dropouts, false
 stars and magnitude noise (so the brightness order is not the catalog's). Each frame is
-solved through the pipeline (startrack.fov) given the FOV times (1 + error), half of the
+solved through the pipeline (startrack.solver._fov_search) given the FOV times (1 + error), half of
+the
 frames with the error positive and half negative, and with no FOV. A solution is wrong
 when its boresight is more than 60 arcsec from the truth. With ``--peers`` tetra3 and
 tetra3rs are run on the same frames given the same FOV estimate and a maximum error of
@@ -30,10 +31,10 @@ import numpy as np
 from startrack.bench.conditions import Condition
 from startrack.bench.frames import make_frame
 from startrack.bench.report import _git_commit
-from startrack.camera import Camera
-from startrack.centroids import Centroids
-from startrack.pipeline import FrameInput, Options, Pipeline
+from startrack.camera._model import Camera
+from startrack.centroids._table import Centroids
 from startrack.sky import UNRESOLVED_PIXELS, SkySpec, default_sky_kind, load_sky, resolve_sky
+from startrack.solver._pipeline import FrameInput, Options, Pipeline
 
 CONDITION = Condition(noise_px=0.3, false_stars=3, missing=0.05, mag_noise=0.3)
 WRONG_ARCSEC = 60.0

@@ -44,9 +44,9 @@ from bench_blind import (  # noqa: E402
 
 from startrack.bench.conditions import Condition  # noqa: E402
 from startrack.bench.frames import BenchFrame, make_frame  # noqa: E402
-from startrack.camera import Camera  # noqa: E402
-from startrack.pipeline import Options  # noqa: E402
+from startrack.camera._model import Camera  # noqa: E402
 from startrack.sky import GAIA_MAG_MAX, SkySpec, default_sky_kind, load_sky  # noqa: E402
+from startrack.solver._pipeline import Options  # noqa: E402
 from startrack.types import Observation  # noqa: E402
 
 #: (horizontal FOV in deg, width, height, lens k1 the solver is not told)

@@ -1,11 +1,11 @@
 """Why a frame of scripts/bench_blind_cameras.py is not solved: per frame, where the true
-pattern is lost in the quad search of :mod:`startrack.fov`.
+pattern is lost in the quad search of :mod:`startrack.solver._fov_search`.
 
 For each frame (of one camera, FOV told 4 % off or not at all) this prints the
 detections' truth (rank of each catalog star in the brightness order), whether the
 pipeline solved it, and per search window: the candidates, the true candidates among
 them (every star real and named right), the best true candidate's rank and confirmation
-count, and whether verification accepts it (:func:`startrack.fov.verify_fitted`, its
+count, and whether verification accepts it (:func:`startrack.solver._fov_search.verify_fitted`, its
 confirmed count and false-match probability).
 
     .venv/bin/python scripts/bench_blind_diagnose.py --fov 1 [--frames 0,3] [--blind]
@@ -26,11 +26,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_blind import _pipeline, solve_ours  # noqa: E402
 from bench_blind_cameras import CAMERAS, FOV_ERROR, camera_frames, score  # noqa: E402
 
-from startrack import fov as F  # noqa: E402
-from startrack.pipeline import Options  # noqa: E402
 from startrack.sky import SkySpec  # noqa: E402
+from startrack.solver import _fov_search as F  # noqa: E402
+from startrack.solver._pipeline import Options  # noqa: E402
 from startrack.types import MatchDiagnostics, Observation  # noqa: E402
-from startrack.verify import verify  # noqa: E402
+from startrack.verify._verification import verify  # noqa: E402
 
 
 def solver_rows(frame, bench_catalog, solver_catalog) -> np.ndarray:
@@ -95,7 +95,7 @@ def diagnose(spec, cam, frames, bench_catalog, index: int, blind: bool) -> None:
         spans = [w for w in spans if w[0] <= frame.obs.camera.f_px * 1.3
                  and w[1] >= frame.obs.camera.f_px / 1.3]
     else:
-        from startrack.camera import Camera
+        from startrack.camera._model import Camera
 
         camera = base = Camera.from_fov(width, height, options.fov_deg)
         spans = F.windows(*F.focal_range(camera, options.fov_tolerance))

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.cache import cached_file
 from startrack.errors import InputError
+from startrack.io._cache import cached_file
 from startrack.matchers._peer import positions_to_indices, write_gaia_binary, write_hip_main
 from startrack.matchers.astrometry import INSTALL, solve_field, solve_field_available
 from startrack.matchers.tetra3 import attitude_from_tetra3, tetra3_centroids

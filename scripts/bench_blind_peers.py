@@ -4,7 +4,8 @@ bench_blind.py's frames, given the same information: a FOV estimate off by 0, 2,
 or no FOV at all. A peer that is not installed is skipped with a one-line note.
 
 * startrack: ``Options(fov_deg=estimate, fov_tolerance=0.10)`` (it searches
-  estimate x (1 +- 10 %) widened by startrack.fov.MARGIN), or no FOV (its blind search of
+  estimate x (1 +- 10 %) widened by startrack.solver._fov_search.MARGIN), or no FOV (its blind
+  search of
   startrack.defaults.BLIND_FOV_RANGE on its default sky with no camera: Tycho-2 when
   installed, else Gaia).
 * tetra3 and tetra3rs: the same estimate with ``fov_max_error`` the half-width startrack
@@ -56,16 +57,19 @@ from bench_blind import (  # noqa: E402
 )
 from bench_blind_peer_solvers import PEERS  # noqa: E402
 
-from startrack.centroids import Centroids  # noqa: E402
+from startrack.centroids._table import Centroids  # noqa: E402
 from startrack.errors import InputError  # noqa: E402
-from startrack.fov import MARGIN  # noqa: E402
-from startrack.pipeline import FrameInput, Options, Pipeline  # noqa: E402
 from startrack.sky.hipparcos import CATALOG_EPOCH  # noqa: E402
+from startrack.solver._fov_search import MARGIN  # noqa: E402
+from startrack.solver._pipeline import FrameInput, Options, Pipeline  # noqa: E402
 
-TOLERANCE = 0.10
-#: the half-width (a fraction of the estimate) of the FOVs startrack searches: the peers'
-#: fov_max_error
-SEARCH = (1.0 + TOLERANCE) * (1.0 + MARGIN) - 1.0
+TOLERANCE = 0.10  # startrack's --fov-tolerance unless --tolerance says otherwise
+
+
+def search_half_width(tolerance: float) -> float:
+    """The half-width (a fraction of the estimate) of the FOVs startrack searches at
+    ``tolerance``: the peers' fov_max_error (an exact FOV, 0, is searched as given)."""
+    return (1.0 + tolerance) * (1.0 + MARGIN) - 1.0 if tolerance > 0 else 0.0
 SOLVERS = ("startrack", "tetra3", "tetra3rs", "astrometry")
 
 
@@ -76,8 +80,8 @@ def estimate(fov: float, err: float | None, i: int) -> float | None:
 class Ours:
     """startrack through its pipeline, one per estimate (loaded once, warmed on junk)."""
 
-    def __init__(self, camera, sky_kind: str, timeout_ms: float) -> None:
-        self.camera, self.timeout_ms = camera, timeout_ms
+    def __init__(self, camera, sky_kind: str, timeout_ms: float, tolerance: float) -> None:
+        self.camera, self.timeout_ms, self.tolerance = camera, timeout_ms, tolerance
         # a blind search uses Gaia: carried to the epoch of the (Hipparcos) frames
         self.epoch = CATALOG_EPOCH if sky_kind == "hipparcos" else None
         self._pipelines: dict[float | None, Pipeline] = {}
@@ -85,7 +89,7 @@ class Ours:
     def pipeline(self, est: float | None) -> Pipeline:
         if est not in self._pipelines:
             size = (self.camera.width, self.camera.height)
-            options = Options(fov_deg=est, size=size, fov_tolerance=TOLERANCE,
+            options = Options(fov_deg=est, size=size, fov_tolerance=self.tolerance,
                               epoch=None if est is not None else self.epoch)
             pipeline = Pipeline(options)
             pipeline.solve(junk_input(size))  # every table loaded, untimed, no limit
@@ -113,13 +117,13 @@ def run(args) -> list[dict]:
     for fov in (float(v) for v in args.fovs.split(",")):
         camera, frames, catalog = frames_for(fov, args.frames, args.seed, with_catalog=True)
         kind = catalog.source["kind"]
-        solvers = {"startrack": Ours(camera, kind, args.timeout_ms)}
+        solvers = {"startrack": Ours(camera, kind, args.timeout_ms, args.tolerance)}
         for name, make in PEERS.items():
             if name not in args.peers.split(","):
                 continue
             try:
-                solvers[name] = make(catalog, camera, fov, SEARCH, TOLERANCE, args.peer_span,
-                                     args.timeout_ms)
+                solvers[name] = make(catalog, camera, fov, search_half_width(args.tolerance),
+                                     args.tolerance, args.peer_span, args.timeout_ms)
             except (ImportError, InputError) as exc:
                 print(f"skipping {name}: {str(exc).splitlines()[0]}", file=sys.stderr)
         names = [n for n in SOLVERS if n in solvers]
@@ -186,6 +190,9 @@ def main() -> None:
     ap.add_argument("--fovs", default="11.4,20")
     ap.add_argument("--errors", default="0,2,5,10")
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--tolerance", type=float, default=TOLERANCE,
+                    help="startrack's --fov-tolerance; the peers' fov_max_error follows it "
+                         "(0: the FOV declared exact)")
     ap.add_argument("--timeout-ms", type=float, default=5000.0,
                     help="wall-clock limit per frame, the same for every solver")
     ap.add_argument("--peer-span", type=float, default=2.0,
@@ -207,7 +214,8 @@ def main() -> None:
             f"{line} Run with the peers' venv (`PYTHONPATH=. /work/peers-venv/bin/python`).\n"
             "wrong: frames with a wrong pointing or a wrong star; (pointing): of them, "
             "those whose boresight is more than 60\" off. FOV search half-width given to "
-            f"the peers: {SEARCH:.3f} of the estimate; per-frame limit {args.timeout_ms:g} ms."
+            f"the peers: {search_half_width(args.tolerance):.3f} of the estimate (startrack's "
+            f"--fov-tolerance {args.tolerance:g}); per-frame limit {args.timeout_ms:g} ms."
             f"\n\n{table(rows)}"))
 
 

@@ -19,11 +19,11 @@ import numpy as np
 
 from startrack.bench.conditions import Condition
 from startrack.bench.frames import make_frame, true_camera
-from startrack.calibrate import calibrate
-from startrack.camera import Camera
-from startrack.centroids import Centroids
-from startrack.pipeline import FrameInput, read_input
+from startrack.camera._model import Camera
+from startrack.centroids._table import Centroids
 from startrack.sky import SkySpec, load_sky, resolve_sky
+from startrack.solver._calibrate import calibrate
+from startrack.solver._pipeline import FrameInput, read_input
 
 REAL_SKY = Path(__file__).resolve().parents[1].parent.parent / "shared" / "real-sky"
 REAL_FOV = 11.42

@@ -1,6 +1,6 @@
 """Print centroid accuracy, detection completeness and speed of ``extract_centroids``.
 
-Frames come from the project's renderer (startrack.render / scene / sensor, default
+Frames come from the project's renderer (startrack.simulate._render / scene / sensor, default
 SensorModel: PSF sigma 1 px, read noise 10 e-, 16-bit ADC), so the truth is exact.
 
 1. RMS centroid error (px) against star signal (electrons), 1024 x 1024 frames with a
@@ -26,13 +26,13 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from startrack.attitude import random_attitudes
-from startrack.camera import Camera
-from startrack.extract import FAST, CentroidConfig
-from startrack.extract import extract_centroids as _extract
-from startrack.imageio import read_image
-from startrack.render import deposit_gaussians, digitise, render_frame
-from startrack.scene import observe
-from startrack.sensor import SensorModel
+from startrack.camera._model import Camera
+from startrack.centroids._extract import FAST, CentroidConfig
+from startrack.centroids._extract import extract_centroids as _extract
+from startrack.io._images import read_image
+from startrack.simulate._render import deposit_gaussians, digitise, render_frame
+from startrack.simulate._scene import observe
+from startrack.simulate._sensor import SensorModel
 from startrack.sky.random_sky import random_sky
 
 REAL_SKY = Path(__file__).resolve().parents[1] / "tests" / "data" / "realsky_azi45.png"

@@ -20,7 +20,7 @@ import time
 CHILD = """
 import json, resource, sys, time
 import numpy as np
-from startrack.extract import extract_centroids
+from startrack.centroids._extract import extract_centroids
 size = int(sys.argv[1])
 rng = np.random.default_rng(size)
 image = np.empty((size, size), np.uint16)

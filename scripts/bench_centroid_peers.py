@@ -1,7 +1,7 @@
 """Time startrack's extract_centroids beside tetra3rs's on the same pixels, and compare lists.
 
 Image sets: the four real frames of ../shared/real-sky (1024 x 768, 16-bit, sky glow,
-hot pixels, saturated stars) and rendered 1024^2 and 4096^2 frames (startrack.render,
+hot pixels, saturated stars) and rendered 1024^2 and 4096^2 frames (startrack.simulate._render,
 default SensorModel, a random sky to magnitude 8 seen at 20 deg, seeded). Each repeat
 times every extractor once on the same array, in turn, so that load on the machine hits
 all of them alike; the table gives medians and the ratio ours / tetra3rs.
@@ -27,12 +27,12 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from startrack.attitude import random_attitudes
-from startrack.camera import Camera
-from startrack.extract import FAST, CentroidConfig, extract_centroids
-from startrack.imageio import read_image
-from startrack.render import render_frame
-from startrack.scene import observe
-from startrack.sensor import SensorModel
+from startrack.camera._model import Camera
+from startrack.centroids._extract import FAST, CentroidConfig, extract_centroids
+from startrack.io._images import read_image
+from startrack.simulate._render import render_frame
+from startrack.simulate._scene import observe
+from startrack.simulate._sensor import SensorModel
 from startrack.sky.random_sky import random_sky
 
 REAL_SKY = Path(__file__).resolve().parents[2].parent / "shared" / "real-sky"

@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 from scipy.ndimage import binary_dilation
 
-from startrack import extract, extract_kernels
-from startrack.imageio import read_image
+from startrack import extract_kernels
+from startrack.centroids import _extract as extract
+from startrack.io._images import read_image
 
 REAL_SKY = Path(__file__).resolve().parents[2].parent / "shared" / "real-sky"
 

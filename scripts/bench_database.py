@@ -41,7 +41,7 @@ def child() -> None:
     """One identify start-up in this process; prints its stage times as JSON."""
     import numpy as np
 
-    from startrack.camera import Camera
+    from startrack.camera._model import Camera
     from startrack.database import StarDatabase, build_kernels
     from startrack.defaults import DEFAULT_METHOD
     from startrack.matchers import get_matcher
@@ -162,7 +162,7 @@ def bench_tables(name: str) -> None:
     loaded by a second database on that cache, in this process."""
     import numpy as np
 
-    from startrack.camera import Camera
+    from startrack.camera._model import Camera
     from startrack.database import StarDatabase
 
     cache = Path(tempfile.mkdtemp(prefix="startrack-dbbench-"))

@@ -4,7 +4,7 @@ the model in the camera file.
 The camera is the hipparcos20 preset (20 deg, 1024 x 1024, Hipparcos Hp <= 6.5); k1 = -0.3
 moves the image corners by about 14 px. For each k1 the same seeded frames (the bench's
 deterministic frames, startrack.bench.frames) are solved twice: with the camera file that
-carries the distortion (written to JSON and read back with startrack.camera_file, as a
+carries the distortion (written to JSON and read back with startrack.camera._file, as a
 user would give it) and with the pinhole camera file alone. A frame is correct when the
 boresight is within 60 arcsec and no reported identity is wrong (startrack.bench.metrics);
 ``wrong`` counts solved frames that are not correct, ``bad_ids`` those with a wrong
@@ -26,10 +26,10 @@ import numpy as np
 from startrack.bench.conditions import Condition
 from startrack.bench.frames import make_frame, true_camera
 from startrack.bench.metrics import score_frame
-from startrack.camera import Camera
-from startrack.camera_file import load_camera
-from startrack.identifier import Identifier
+from startrack.camera._file import load_camera
+from startrack.camera._model import Camera
 from startrack.sky import SkySpec, load_sky
+from startrack.solver._identifier import Identifier
 
 
 def _camera_file(camera: Camera, folder: Path, name: str) -> Camera:

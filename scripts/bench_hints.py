@@ -42,7 +42,7 @@ def write_frames(folder: Path) -> dict[str, Path]:
     from astropy.io import fits
     from astropy.wcs import WCS
 
-    from startrack.imageio import read_image
+    from startrack.io._images import read_image
 
     image = read_image(FRAME)
     paths = {"tiff": folder / "azi45.tiff", "fits": folder / "azi45.fits",
@@ -65,7 +65,7 @@ def write_frames(folder: Path) -> dict[str, Path]:
 TIMED = """
 import sys, time
 from click.testing import CliRunner
-import astropy.coordinates, astropy.wcs, startrack.cli.identify, startrack.pipeline
+import astropy.coordinates, astropy.wcs, startrack.cli.identify, startrack.solver._pipeline
 from startrack.cli import main
 t0 = time.perf_counter()
 out = CliRunner().invoke(main, ["identify", *sys.argv[1:], "--format", "json"])

@@ -34,7 +34,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
 
-    from startrack.camera import Camera
+    from startrack.camera._model import Camera
     from startrack.database import StarDatabase
     from startrack.database.kvector import binary_search_range
     from startrack.sky import SkySpec, load_sky

@@ -38,8 +38,8 @@ def sip_fit() -> None:
     from astropy.wcs.utils import fit_wcs_from_points
 
     import startrack
+    from startrack.outputs._wcs import sip_order_for, solved_wcs_header
     from startrack.sky.catalog import vectors_to_radec
-    from startrack.wcs import sip_order_for, solved_wcs_header
 
     s = startrack.solve(ROOT / "tests/data/realsky_azi45.png", fov_deg=11.42,
                         sky="hipparcos", epoch=2019.6)
@@ -139,7 +139,7 @@ def proper_motion() -> None:
 def aberration() -> None:
     from astropy.coordinates import GCRS, CartesianRepresentation, SkyCoord
 
-    from startrack.aberration import aberrate, earth_velocity, parse_time
+    from startrack.solver._aberration import aberrate, earth_velocity, parse_time
 
     when = parse_time("2019-07-29T20:47:26Z")
     for n in (60, 100_000):  # one frame's matched stars; a whole catalog (simulate)

@@ -30,13 +30,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_identify import is_wrong, make_frames  # noqa: E402
 
 from startrack.attitude import boresight_error_arcsec  # noqa: E402
-from startrack.camera import Camera  # noqa: E402
+from startrack.camera._model import Camera  # noqa: E402
 from startrack.database import StarDatabase  # noqa: E402
 from startrack.errors import InputError  # noqa: E402
-from startrack.identify import identify  # noqa: E402
 from startrack.matchers import MatcherConfig, available_methods, get_matcher  # noqa: E402
 from startrack.sky import SkySpec, load_sky  # noqa: E402
-from startrack.verify import VerifyConfig  # noqa: E402
+from startrack.solver._lost_in_space import identify  # noqa: E402
+from startrack.verify._verification import VerifyConfig  # noqa: E402
 
 PEERS = ("tetra3", "tetra3rs", "astrometry")
 CONDITIONS = ((0.3, 0, 0.0), (1.0, 5, 0.2))  # noise px, false stars, missing fraction

@@ -24,11 +24,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from synth import synthetic_frame  # noqa: E402
 
 from startrack.attitude import angle_between_deg, random_attitudes  # noqa: E402
-from startrack.camera import Camera  # noqa: E402
+from startrack.camera._model import Camera  # noqa: E402
 from startrack.database import StarDatabase  # noqa: E402
-from startrack.identify import identify  # noqa: E402
 from startrack.matchers import get_matcher  # noqa: E402
 from startrack.sky import SkySpec, load_sky  # noqa: E402
+from startrack.solver._lost_in_space import identify  # noqa: E402
 
 
 def paper_camera() -> Camera:

@@ -16,10 +16,10 @@ import time
 import numpy as np
 
 from startrack.attitude import from_radec_roll
-from startrack.camera import Camera
-from startrack.render import digitise, render_expected, render_frame, render_stars
-from startrack.scene import Scene
-from startrack.sensor import SensorModel
+from startrack.camera._model import Camera
+from startrack.simulate._render import digitise, render_expected, render_frame, render_stars
+from startrack.simulate._scene import Scene
+from startrack.simulate._sensor import SensorModel
 
 
 def synthetic_scene(camera: Camera, n: int, rng: np.random.Generator) -> Scene:

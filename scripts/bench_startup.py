@@ -29,11 +29,11 @@ CHILD = """
 import json, sys, time
 t0 = time.perf_counter()
 import numpy as np
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
-from startrack.identify import identify
+from startrack.solver._lost_in_space import identify
 from startrack.matchers import MatcherConfig, get_matcher
-from startrack.scene import stars_in_view
+from startrack.simulate._scene import stars_in_view
 from startrack.sky import SkySpec, load_sky
 from startrack.attitude import random_attitudes
 from startrack.types import Observation

@@ -26,10 +26,10 @@ import numpy as np
 from startrack.bench import tracking as tb
 from startrack.bench import tracking_images as ti
 from startrack.bench import tracking_report as tr
-from startrack.config import load_config
-from startrack.identifier import Identifier
-from startrack.outputs import atomic_text
+from startrack.io._writer import atomic_text
+from startrack.simulate._config import load_config
 from startrack.sky import load_sky, resolve_sky
+from startrack.solver._identifier import Identifier
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from profile_tracking import report as profile_report  # noqa: E402
@@ -200,7 +200,7 @@ evidence for it, and the number within the window of a catalog star must be one 
 unrelated frame gives with no more than verification's false-match probability (the same
 binomial bound, over the window's area). When the window is too wide for that, three-star
 hypotheses from a vote on the image displacement pass lost-in-space's own test
-(`startrack/tracking.py`). Either way the frame is then refined and labelled as
+(`startrack/tracking/_track.py`). Either way the frame is then refined and labelled as
 lost-in-space's accepted hypothesis is; failing both, it falls back to lost-in-space.
 Lost-in-space frames of `identify --track` are solved as a single input is (a nominal FOV
 refitted, an unknown one searched for, a deep narrow-field sky by the quad search), and

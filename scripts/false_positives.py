@@ -21,16 +21,16 @@ import time
 
 import numpy as np
 
-from startrack.camera import Camera
-from startrack.centroids import DEFAULT_SIGMA_PX
+from startrack.camera._model import Camera
+from startrack.centroids._table import DEFAULT_SIGMA_PX
 from startrack.database import StarDatabase
 from startrack.defaults import DEFAULT_METHOD
 from startrack.errors import InputError
-from startrack.identify import identify
 from startrack.matchers import MatcherConfig, available_methods, get_matcher
 from startrack.sky import SkySpec, load_sky
+from startrack.solver._lost_in_space import identify
 from startrack.types import Observation
-from startrack.verify import VerifyConfig
+from startrack.verify._verification import VerifyConfig
 
 
 def random_sets(camera: Camera, n_sets: int, seed: int, lo: int, hi: int,

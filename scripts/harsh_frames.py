@@ -33,11 +33,11 @@ from startrack.attitude import boresight_error_arcsec
 from startrack.bench.conditions import Condition
 from startrack.bench.frames import make_frame
 from startrack.bench.metrics import DEFAULT_THRESHOLD_ARCSEC, NOISE_SIGMAS
-from startrack.camera import Camera
-from startrack.identifier import Identifier
-from startrack.identify import identify
+from startrack.camera._model import Camera
 from startrack.sky import UNRESOLVED_PIXELS, SkySpec, load_sky
-from startrack.verify import VerifyConfig
+from startrack.solver._identifier import Identifier
+from startrack.solver._lost_in_space import identify
+from startrack.verify._verification import VerifyConfig
 
 METHODS = "angle,triangle,hybrid,radial,pyramid"
 

@@ -30,14 +30,14 @@ from pathlib import Path
 import numpy as np
 
 from startrack import prior_kernels as pk
-from startrack import tracking
 from startrack import tracking_kernels as tk
 from startrack.bench import tracking as tb
-from startrack.config import load_config
-from startrack.identifier import Identifier
 from startrack.matching import verify_kernels as vk
+from startrack.simulate._config import load_config
 from startrack.sky import load_sky, resolve_sky
-from startrack.tracker import Tracker
+from startrack.solver._identifier import Identifier
+from startrack.tracking import _track as tracking
+from startrack.tracking._tracker import Tracker
 
 ROOT = Path(__file__).resolve().parents[1]
 WHOLE_KEY = "prediction's test (whole)"

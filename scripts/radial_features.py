@@ -38,7 +38,7 @@ from startrack.bench.labels import label_pass
 from startrack.bench.raw import raw_pass
 from startrack.bench.runner import RunSpec
 from startrack.bench.session import run_comparison
-from startrack.config import load_config
+from startrack.simulate._config import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "radial_triangles.toml"

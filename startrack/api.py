@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from startrack.api_checks import api_camera, api_prior, api_size, api_time, check_solver_numbers
+from startrack._api_checks import api_camera, api_prior, api_size, api_time, check_solver_numbers
 from startrack.attitude import to_quaternion, to_radec_roll
-from startrack.camera import Camera
-from startrack.centroids import (
+from startrack.camera._model import Camera
+from startrack.centroids._table import (
     DEFAULT_SIGMA_PX,
     MAX_CENTROID_COORD_PX,
     Centroids,
@@ -25,9 +25,9 @@ from startrack.centroids import (
 )
 from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD
 from startrack.errors import InputError, as_builtin
-from startrack.frame_input import FrameInput, image_input, read_input
-from startrack.identifier import FrameResult
-from startrack.pipeline import Options, Pipeline
+from startrack.solver._identifier import FrameResult
+from startrack.solver._inputs import FrameInput, image_input, read_input
+from startrack.solver._pipeline import Options, Pipeline
 from startrack.validate import NumberTypeError
 
 STAR_COLUMNS = ["x", "y", "catalog_id", "ra_deg", "dec_deg", "residual_arcsec"]
@@ -56,7 +56,8 @@ class SolveResult:
 
     @property
     def lock(self) -> str | None:
-        """A tracking Solver's lock state after this frame (startrack.tracker); else None."""
+        """A tracking Solver's lock state after this frame (startrack.tracking._tracker); else
+        None."""
         return self.frame.solution.lock
 
     @property
@@ -111,7 +112,7 @@ class SolveResult:
 
         from astropy.wcs import WCS, FITSFixedWarning
 
-        from startrack.wcs import solved_wcs_header
+        from startrack.outputs._wcs import solved_wcs_header
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FITSFixedWarning)
@@ -140,7 +141,7 @@ class SolveResult:
         return pd.DataFrame(self.to_dict()["stars"], columns=STAR_COLUMNS)
 
     def to_dict(self) -> dict:
-        """The interfaces.md solution record (``input`` is left out for arrays)."""
+        """The docs/conventions.md solution record (``input`` is left out for arrays)."""
         return self.frame.record(with_input=self.frame.input != "<array>")
 
 
@@ -169,7 +170,7 @@ class Solver:
     The other keywords are ``startrack identify``'s options (``time``: ISO 8601 text or an
     astropy Time, for the aberration correction).
 
-    Hints (:mod:`startrack.hints`): ``ra``, ``dec``, ``radius`` (the boresight lies within
+    Hints (:mod:`startrack.solver._hints`): ``ra``, ``dec``, ``radius`` (the boresight lies within
     ``radius`` of (ra, dec)); ``scale_low``, ``scale_high`` in ``scale_units``
     ("degwidth", "arcsecperpix" or "focalmm" with ``pixel_size_um``) instead of
     ``fov_deg``; ``downsample`` (centroids found on the image binned N x N);
@@ -198,7 +199,7 @@ class Solver:
                  radius=None, scale_low=None, scale_high=None, scale_units: str = "degwidth",
                  pixel_size_um: float | None = None, downsample: int = 1,
                  header_hints: bool = True, config: str | Path | None = None) -> None:
-        from startrack.hints import preset, user_hints
+        from startrack.solver._hints import preset, user_hints
         from startrack.units import degree_options, scale_value
 
         deg = degree_options(dict(fov_deg=fov_deg, prior=prior, ra=ra, dec=dec,
@@ -224,7 +225,7 @@ class Solver:
                                           downsample=downsample, sky_spec=sky_spec))
         self._sequence = None
         if track or prior is not None:
-            from startrack.sequence import SequenceSolver, prior_from_radec_roll
+            from startrack.tracking._sequence import SequenceSolver, prior_from_radec_roll
 
             seed = None if prior is None else prior_from_radec_roll(*prior, prior_sigma_deg)
             self._sequence = SequenceSolver(self._pipeline, track=track, prior=seed)

@@ -1,4 +1,4 @@
-"""Compiled iterations of the camera fit (:func:`startrack.fov_fit.fit_camera`): the pixels
+"""Compiled iterations of the camera fit (:func:`startrack.solver._fov_fit.fit_camera`): the pixels
 turned into directions through the current focal length and lens, Wahba's attitude, then
 the linear least squares of the focal length (and a fitted k1), until they settle.
 
@@ -21,7 +21,7 @@ from startrack.matching.wahba_kernels import wahba
 
 #: What :func:`fit_iterations` ended on (its first return value).
 SETTLED, BAD_FOCAL, FOLDS = 0, 1, 2
-#: Newton steps of the lens inversion at most (startrack.distortion.NEWTON_ITERATIONS)
+#: Newton steps of the lens inversion at most (startrack.camera._distortion.NEWTON_ITERATIONS)
 NEWTON_ITERATIONS = 12
 
 
@@ -32,7 +32,7 @@ def _factor(r2, k1, k2, k3):
 
 @njit(cache=True)
 def _undistort(u, v, k1, k2, k3, r_cap):
-    """:meth:`startrack.distortion.RadialDistortion.undistort` in place: Newton on the
+    """:meth:`startrack.camera._distortion.RadialDistortion.undistort` in place: Newton on the
     radius, every star stepped until no step exceeds 1e-15, clipped to [0, r_cap]."""
     n = u.shape[0]
     rd = np.empty(n)
@@ -58,14 +58,14 @@ def _undistort(u, v, k1, k2, k3, r_cap):
 
 @njit(cache=True)
 def k1_fold_r2(k1):
-    """:attr:`startrack.distortion.RadialDistortion.max_r2` of a k1-only lens."""
+    """:attr:`startrack.camera._distortion.RadialDistortion.max_r2` of a k1-only lens."""
     return -1.0 / (3.0 * k1) if k1 < 0.0 else np.inf
 
 
 @njit(cache=True)
 def _folds(width, height, cx, cy, f, k1):
     """Whether a k1-only lens folds back inside the image
-    (:meth:`startrack.camera.Camera.with_distortion`'s refusal)."""
+    (:meth:`startrack.camera._model.Camera.with_distortion`'s refusal)."""
     ex = max(abs(-0.5 - cx), abs(width - 0.5 - cx))
     ey = max(abs(-0.5 - cy), abs(height - 0.5 - cy))
     rd2 = (ex * ex + ey * ey) / (f * f)

@@ -20,7 +20,7 @@ from startrack.matching.nearest_kernels import pairs_within
 from startrack.matching.verify_kernels import project
 
 # The fields of the attempt kernel's ``scan`` array, in order (built by
-# :meth:`startrack.tracking.CatalogCone.setup`; see :func:`attempt`).
+# :meth:`startrack.tracking._track.CatalogCone.setup`; see :func:`attempt`).
 N_SCAN = 17
 (S_WINDOW, S_KEEP, S_VOTE_RADII, S_RADIUS, S_CAPTURE, S_COS_RADIUS, S_MAX_STARS, S_ROUNDS,
  S_MIN_CONFIRMED, S_MAX_HYPOTHESES, S_PAIRS, S_MAX_FALSE, S_AREA, S_HALF_SIDE,
@@ -191,16 +191,16 @@ def attempt(vectors, mags, rows, cone_matrix, cone_turn, obs_vectors, ox, oy, ge
     than the turn that moves a star at the image's edge across the window is not taken
     (a wider one would have left the pairs it came from outside the window): the catalog
     ``rows`` (vectors, magnitudes) hold every star that can reach the image within
-    ``cone_turn`` of ``cone_matrix`` (:class:`startrack.tracking.CatalogCone`).
+    ``cone_turn`` of ``cone_matrix`` (:class:`startrack.tracking._track.CatalogCone`).
 
-    ``scan`` (:meth:`startrack.tracking.CatalogCone.setup`): window px per sigma, keep
+    ``scan`` (:meth:`startrack.tracking._track.CatalogCone.setup`): window px per sigma, keep
     tolerance px per sigma, vote radii, match radius (px), capture (radii), cos of the
     match radius, brightest stars paired, refinement rounds, confirmed stars needed,
     hypotheses at most, pairs they are drawn from, bound on a false match, the area
     factor of its p (pi / (width height)), half the image's shorter side (px), consistent
     pairs unmatched and still settled in one pass (:func:`_settle`), vote centres, the
-    cone's spare turn. ``label``: :func:`startrack.labelling.kernel_params`'s floats (``radius2`` to
-    ``min_sigma_px``).
+    cone's spare turn. ``label``: :func:`startrack.verify._labelling.kernel_params`'s floats
+    (``radius2`` to ``min_sigma_px``).
 
     Returns (status: 0 none accepted, 1 accepted, 3 the refined attitude left the allowed
     turn, 4 the rows

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 
 
 @dataclass(frozen=True)
@@ -85,12 +85,13 @@ class Solution:
     false_probability: float = 1.0
     diagnostics: MatchDiagnostics = field(default_factory=MatchDiagnostics)
     identify_ms: float = 0.0
-    #: why an unsolved frame has no answer, in a word (interfaces.md): "too_few_stars",
+    #: why an unsolved frame has no answer, in a word (docs/conventions.md): "too_few_stars",
     #: "no_match", "timeout"; None when solved
     reason: str | None = None
-    #: how it was solved (interfaces.md): "lost_in_space" or "tracking"
+    #: how it was solved (docs/conventions.md): "lost_in_space" or "tracking"
     mode: str = "lost_in_space"
-    #: in a tracked sequence, the lock state after this frame (startrack.tracker.LOCK_STATES);
+    #: in a tracked sequence, the lock state after this frame
+    #: (startrack.tracking._tracker.LOCK_STATES);
     #: None outside a sequence
     lock: str | None = None
     #: solved lost-in-space after a prior or tracking attempt failed: that attempt's reason

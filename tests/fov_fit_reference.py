@@ -1,4 +1,4 @@
-"""The camera fit in numpy, as startrack.fov_fit computed it before its iterations were
+"""The camera fit in numpy, as startrack.solver._fov_fit computed it before its iterations were
 compiled (startrack.fov_fit_kernels): kept as the reference that tests/test_fov_fit.py
 holds the compiled fit to."""
 
@@ -10,9 +10,9 @@ import math
 import numpy as np
 
 from startrack.attitude import wahba_matrices
-from startrack.camera import Camera
-from startrack.distortion import RadialDistortion
-from startrack.fov_fit import LENS_MAX_K1, LENS_MIN_R2, LENS_MIN_STARS
+from startrack.camera._distortion import RadialDistortion
+from startrack.camera._model import Camera
+from startrack.solver._fov_fit import LENS_MAX_K1, LENS_MIN_R2, LENS_MIN_STARS
 
 
 def reference_fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,

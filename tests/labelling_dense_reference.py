@@ -195,7 +195,7 @@ def _coincidence_log(near, area):
 @njit(cache=True)
 def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area, gap,
                  log_false_odds, resolve2, mag_sigmas, min_mag_sigma, min_sigma_px, min_fit):
-    """The final labelling (:func:`startrack.labelling.label_stars`, whose parameters
+    """The final labelling (:func:`startrack.verify._labelling.label_stars`, whose parameters
     these are, the logs and squares taken).
 
     Returns

@@ -10,10 +10,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from startrack.attitude import random_attitudes
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.matchers import Matcher, MatcherConfig, get_matcher
-from startrack.scene import stars_in_view
+from startrack.simulate._scene import stars_in_view
 from startrack.sky import Catalog
 from startrack.types import Observation
 

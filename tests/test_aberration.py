@@ -7,15 +7,15 @@ import sys
 import numpy as np
 import pytest
 
-from startrack.aberration import aberrate, earth_velocity, parse_time
 from startrack.attitude import boresight_error_arcsec, from_radec_roll
-from startrack.camera import Camera
-from startrack.centroids import Centroids
+from startrack.camera._model import Camera
+from startrack.centroids._table import Centroids
 from startrack.errors import InputError
-from startrack.pipeline import FrameInput, Options, Pipeline
-from startrack.scene import observe
+from startrack.simulate._scene import observe
 from startrack.sky import SkySpec, load_sky, resolve_sky
 from startrack.sky.catalog import radec_to_vectors, vectors_to_radec
+from startrack.solver._aberration import aberrate, earth_velocity, parse_time
+from startrack.solver._pipeline import FrameInput, Options, Pipeline
 
 WHEN = "2019-07-29T20:47:26Z"
 
@@ -67,7 +67,7 @@ def test_identify_with_time_recovers_the_true_attitude():
     camera = Camera.from_fov(1024, 1024, 20.0)
     catalog = load_sky(resolve_sky(SkySpec(kind="hipparcos"), camera), camera)
     rotation = _apex_perpendicular_attitude(t)
-    from startrack.aberration import apparent_catalog
+    from startrack.solver._aberration import apparent_catalog
 
     scene = observe(apparent_catalog(catalog, t), camera, rotation, np.random.default_rng(0))
     order = np.argsort(scene.mag)

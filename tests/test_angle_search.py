@@ -1,4 +1,4 @@
-"""The compiled angle chain search (startrack.matching.angle_search) against the Python
+"""The compiled angle chain search (startrack._core.angle) against the Python
 chain search it replaced (tests/angle_chain_reference.py): the same hypotheses in the same
 order and the same diagnostics, on real-sky frames with false stars and on random
 centroids (no star pattern), for every closing rule; and its screen (verification's
@@ -11,9 +11,9 @@ import pytest
 from angle_chain_reference import reference_hypotheses
 from synth import frames, prepared_matcher
 
-from startrack.identify import identify
+from startrack.solver._lost_in_space import identify
 from startrack.types import MatchDiagnostics, Observation
-from startrack.verify import VerifyConfig, verify
+from startrack.verify._verification import VerifyConfig, verify
 
 
 def _junk(camera, n_sets: int, seed: int) -> list[Observation]:

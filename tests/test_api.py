@@ -23,7 +23,7 @@ def test_solve_a_path_gives_the_reference_pointing(solved):
     assert abs(solved.ra_deg - AZI45[0]) * np.cos(np.radians(AZI45[1])) < 30 / 3600
     assert abs(solved.dec_deg - AZI45[1]) < 30 / 3600
     assert np.isclose(np.linalg.norm(solved.quaternion), 1.0)
-    assert solved.fov_deg == pytest.approx(11.42, abs=0.02)  # fitted (startrack.fov)
+    assert solved.fov_deg == pytest.approx(11.42, abs=0.02)  # fitted (startrack.solver._fov_search)
 
 
 def test_stars_are_hip_numbers_in_a_frame(solved):
@@ -41,7 +41,7 @@ def test_solver_solves_centroid_arrays_and_image_arrays(solved):
     again = solver.solve(xy)
     assert again.solved
     assert set(again.stars["catalog_id"]) <= set(solved.stars["catalog_id"])
-    from startrack.imageio import read_image
+    from startrack.io._images import read_image
 
     assert solver.solve(read_image(FRAME)).solved
 

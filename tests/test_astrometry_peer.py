@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.errors import InputError
 from startrack.matchers import get_matcher
@@ -35,8 +35,8 @@ installed = pytest.mark.skipif(shutil.which("solve-field") is None or not index_
 def test_peer_names_the_true_stars_of_a_one_degree_frame():
     from startrack.bench.conditions import Condition
     from startrack.bench.frames import make_frame
-    from startrack.identifier import Identifier
     from startrack.sky import SkySpec, load_sky
+    from startrack.solver._identifier import Identifier
 
     camera = Camera.from_fov(640, 512, 1.0)
     catalog = load_sky(SkySpec(kind="tycho2", mag_limit=11.5), camera)
@@ -80,7 +80,7 @@ def test_wcs_attitude_recovers_the_rotation_of_a_written_header(tmp_path):
 
     from startrack.attitude import angle_between_deg, from_radec_roll
     from startrack.matchers.astrometry import wcs_attitude
-    from startrack.wcs import wcs_header
+    from startrack.outputs._wcs import wcs_header
 
     camera = Camera.from_fov(1280, 1024, 20.0)
     for ra, dec, roll in ((10.0, 20.0, 30.0), (250.0, -70.0, 300.0), (0.5, 89.0, 0.0)):

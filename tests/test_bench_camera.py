@@ -8,9 +8,9 @@ from click.testing import CliRunner
 
 from startrack.bench.conditions import Condition, build_conditions, sweep
 from startrack.bench.frames import make_frame, matcher_camera, true_camera
-from startrack.camera import Camera
+from startrack.camera._distortion import RadialDistortion
+from startrack.camera._model import Camera
 from startrack.cli import main
-from startrack.distortion import RadialDistortion
 from startrack.sky import random_sky
 
 CAMERA = Camera.from_fov(1024, 1024, 17.5)

@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 from startrack.bench.conditions import Condition, build_conditions, parse_values, sweep
 from startrack.bench.frames import make_frame
 from startrack.bench.metrics import score_frame, summarise
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.errors import InputError
 from startrack.sky import SkySpec, load_sky
 from startrack.types import MatchDiagnostics, Solution

@@ -7,7 +7,7 @@ import zipfile
 import numpy as np
 import pytest
 
-from startrack.cache import CHECKSUM_KEY, _read_npz, cache_dir, cache_key, cached_arrays
+from startrack.io._cache import CHECKSUM_KEY, _read_npz, cache_dir, cache_key, cached_arrays
 
 
 def _arrays() -> dict[str, np.ndarray]:
@@ -124,8 +124,8 @@ def test_cache_help_states_the_cap_the_code_applies():
     """`startrack cache --help` said 1024 MB while the cap was 2048 (found by QA)."""
     from click.testing import CliRunner
 
-    from startrack.cache import DEFAULT_CACHE_MAX_MB
     from startrack.cli import main
+    from startrack.io._cache import DEFAULT_CACHE_MAX_MB
 
     text = " ".join(CliRunner().invoke(main, ["cache", "--help"]).output.split())
     assert f"megabytes (default {DEFAULT_CACHE_MAX_MB})" in text

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from startrack.attitude import random_attitudes
-from startrack.camera import Camera
-from startrack.distortion import RadialDistortion
-from startrack.scene import observe, stars_in_view
+from startrack.camera._distortion import RadialDistortion
+from startrack.camera._model import Camera
+from startrack.simulate._scene import observe, stars_in_view
 from startrack.sky import SkySpec, load_sky, resolve_sky
 
 REAL_SKY = Path(__file__).resolve().parents[1].parent.parent / "shared" / "real-sky"
@@ -83,8 +83,8 @@ def test_calibrate_real_frames_recovers_their_fov(tmp_path):
 
 
 def test_the_fit_cuts_outliers_and_recovers_the_camera():
-    from startrack.calibrate import FrameStars, _fit
     from startrack.sky import random_sky
+    from startrack.solver._calibrate import FrameStars, _fit
 
     sky = random_sky(4000, seed=3)
     rng = np.random.default_rng(9)
@@ -110,8 +110,8 @@ def test_an_exact_pinhole_camera_is_reported_as_given_with_its_sigmas(tmp_path):
     """A pinhole frame set calibrated from the exact camera: the data do not reject it, so
     it is written unchanged (no 20.0011 deg or k1 0.002 as if measured), each fitted
     parameter with its 1-sigma; the file reads back as a camera."""
-    import startrack.calibrate as cal
-    from startrack.camera_file import load_camera
+    import startrack.solver._calibrate as cal
+    from startrack.camera._file import load_camera
 
     pinhole = Camera.from_fov(1024, 1024, 20.0)
     catalog = load_sky(resolve_sky(SkySpec(kind="hipparcos"), pinhole), pinhole)

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from startrack.attitude import from_radec_roll, to_radec_roll
-from startrack.camera import Camera
-from startrack.camera_file import camera_from_dict, load_camera
+from startrack.camera._file import camera_from_dict, load_camera
+from startrack.camera._model import Camera
 from startrack.errors import InputError
 from startrack.sky.catalog import radec_to_vectors
 
@@ -103,7 +103,7 @@ def test_roll_zero_puts_north_up_and_east_left():
 def test_wcs_header_agrees_with_the_camera(ra, dec, roll):
     from astropy.wcs import WCS
 
-    from startrack.wcs import wcs_header
+    from startrack.outputs._wcs import wcs_header
 
     cam = Camera.from_fov(1024, 768, 11.42, cx=500.3, cy=390.1)
     rot = from_radec_roll(ra, dec, roll)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.special import erf
 
-from startrack.extract import CentroidConfig, estimate_background, extract_centroids
-from startrack.imageio import read_image
+from startrack.centroids._extract import CentroidConfig, estimate_background, extract_centroids
+from startrack.io._images import read_image
 
 REAL_SKY = Path(__file__).parent / "data" / "realsky_azi45.png"
 

@@ -10,14 +10,14 @@ from scipy.special import bdtrc
 from synth import synthetic_frame
 
 from startrack.attitude import random_attitudes
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.matching import check_kernels
 from startrack.matching.projector import CatalogProjector
 from startrack.matching.wahba_kernels import matrix_to_quaternion
 from startrack.sky import random_sky
 from startrack.types import Hypothesis
-from startrack.verify import VerifyConfig, _verify_steps, rotation_of, verify
+from startrack.verify._verification import VerifyConfig, _verify_steps, rotation_of, verify
 
 CONFIG = VerifyConfig()
 

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from startrack.camera import Camera
-from startrack.camera_file import camera_from_dict, load_camera
-from startrack.distortion import RadialDistortion
+from startrack.camera._distortion import RadialDistortion
+from startrack.camera._file import camera_from_dict, load_camera
+from startrack.camera._model import Camera
 from startrack.errors import InputError
 
 

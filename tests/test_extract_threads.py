@@ -11,8 +11,8 @@ from waiting import CHILD_TIMEOUT_S
 
 from startrack import extract_parallel as par
 from startrack import extract_runs as runs
-from startrack.extract import CentroidConfig, _sky_model, extract_centroids
-from startrack.imageio import read_image
+from startrack.centroids._extract import CentroidConfig, _sky_model, extract_centroids
+from startrack.io._images import read_image
 
 REAL_SKY = Path(__file__).parent / "data" / "realsky_azi45.png"
 

@@ -1,4 +1,5 @@
-"""An approximate or unknown field of view (startrack.fov, the quad matcher and its tables)."""
+"""An approximate or unknown field of view (startrack.solver._fov_search, the quad matcher and its
+tables)."""
 
 from __future__ import annotations
 
@@ -11,13 +12,13 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from startrack.attitude import random_attitudes
-from startrack.camera import Camera
-from startrack.centroids import Centroids
+from startrack.camera._model import Camera
+from startrack.centroids._table import Centroids
 from startrack.database import quads as Q
-from startrack.fov import BlindSolver, fit_focal, focal_range, windows
-from startrack.pipeline import FrameInput, Options, Pipeline
-from startrack.scene import stars_in_view
+from startrack.simulate._scene import stars_in_view
 from startrack.sky import SkySpec, load_sky
+from startrack.solver._fov_search import BlindSolver, fit_focal, focal_range, windows
+from startrack.solver._pipeline import FrameInput, Options, Pipeline
 
 SKY = SkySpec(kind="random")  # what --sky random gives: 2000 stars, ~19 in a 20 deg frame
 # A right answer is within a pixel (70 arcsec at 20 deg over 1024 px); a wrong one is off by

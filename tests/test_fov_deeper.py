@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import quads as Q
-from startrack.fov import BlindSolver, focal_range
-from startrack.fov_fit import BRIGHTEST, verify_fitted
-from startrack.scene import stars_in_view
+from startrack.simulate._scene import stars_in_view
 from startrack.sky import Catalog, SkySpec, random_sky
+from startrack.solver._fov_fit import BRIGHTEST, verify_fitted
+from startrack.solver._fov_search import BlindSolver, focal_range
 from startrack.types import Hypothesis, Observation
-from startrack.verify import VerifyConfig, verify
+from startrack.verify._verification import VerifyConfig, verify
 
 CAMERA = Camera.from_fov(1024, 1024, 20.0)
 ROT = Rotation.from_euler("zyx", [30, -20, 10], degrees=True)

@@ -1,4 +1,4 @@
-"""The fitted camera (startrack.fov_fit): focal length, and k1 of an undescribed lens."""
+"""The fitted camera (startrack.solver._fov_fit): focal length, and k1 of an undescribed lens."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from startrack.camera import Camera
-from startrack.distortion import RadialDistortion
-from startrack.fov_fit import LENS_MIN_STARS, fit_camera, fit_focal
+from startrack.camera._distortion import RadialDistortion
+from startrack.camera._model import Camera
+from startrack.solver._fov_fit import LENS_MIN_STARS, fit_camera, fit_focal
 
 
 def _stars(camera: Camera, n: int, seed: int):

@@ -16,17 +16,17 @@ import pytest
 from waiting import CHILD_TIMEOUT_S
 
 import startrack
-import startrack.deadline as deadline_module
+import startrack.solver._deadline as deadline_module
 from startrack.attitude import random_attitudes
-from startrack.camera import Camera
-from startrack.centroids import Centroids
-from startrack.deadline import Deadline
+from startrack.camera._model import Camera
+from startrack.centroids._table import Centroids
 from startrack.errors import InputError
-from startrack.fov import BlindSolver, refit_fov, solve_approximate
-from startrack.identifier import Identifier
-from startrack.pipeline import FrameInput, Options, Pipeline
-from startrack.scene import stars_in_view
+from startrack.simulate._scene import stars_in_view
 from startrack.sky import SkySpec, load_sky
+from startrack.solver._deadline import Deadline
+from startrack.solver._fov_search import BlindSolver, refit_fov, solve_approximate
+from startrack.solver._identifier import Identifier
+from startrack.solver._pipeline import FrameInput, Options, Pipeline
 
 SKY = SkySpec(kind="random")
 CAMERA = Camera.from_fov(1024, 1024, 20.0)

@@ -11,7 +11,7 @@ from startrack.bench.frames_dir import export_frames
 from startrack.bench.runner import RunSpec, bench_frame
 from startrack.bench.session import run_comparison
 from startrack.cli import main
-from startrack.config import DEFAULT_CONFIG, config_from_dict
+from startrack.simulate._config import DEFAULT_CONFIG, config_from_dict
 from startrack.sky import resolve_sky
 
 FRAMES = 16

@@ -8,7 +8,7 @@ import struct
 import numpy as np
 import pytest
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.errors import InputError
 from startrack.sky import GAIA_BELOW_FOV_DEG, SkySpec, default_sky_kind, load_sky, resolve_sky
 from startrack.sky.gaia import read_gaia_bin

@@ -15,9 +15,12 @@ from astropy.wcs import WCS
 
 import startrack
 from startrack.attitude import from_radec_roll
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.errors import InputError
-from startrack.hints import (
+from startrack.io._images import read_image
+from startrack.simulate._scene import stars_in_view
+from startrack.sky import random_sky
+from startrack.solver._hints import (
     Hints,
     Pointing,
     Scale,
@@ -27,9 +30,6 @@ from startrack.hints import (
     header_hints,
     header_time,
 )
-from startrack.imageio import read_image
-from startrack.scene import stars_in_view
-from startrack.sky import random_sky
 
 FRAME = Path(__file__).parent / "data" / "realsky_azi45.png"
 AZI45 = (355.2046, 58.1518)  # tests/data/README.md
@@ -187,7 +187,7 @@ def test_calibrate_takes_its_nominal_fov_from_a_fits_header(tmp_path):
     """(calibrate itself is tested in test_calibrate.py; here: where its nominal comes
     from.)"""
     from startrack.cli.calibrate import hinted_fov
-    from startrack.frame_input import read_input
+    from startrack.solver._inputs import read_input
 
     path = _fits_with_wcs(tmp_path / "frame.fits", AZI45)
     frames = [read_input(path)]

@@ -10,7 +10,7 @@ import pytest
 from test_validation import one_line_error, run
 
 import startrack
-from startrack.outputs import OutputError, Writer
+from startrack.io._writer import OutputError, Writer
 
 
 def test_identify_output_dash_is_standard_output(tmp_path, monkeypatch):
@@ -52,7 +52,7 @@ def test_api_centroid_array_with_junk_is_a_value_error(bad):
 
 def test_cache_help_states_the_real_default():
     # The help said "default 1024" after the cap became 2048.
-    from startrack.cache import DEFAULT_CACHE_MAX_MB
+    from startrack.io._cache import DEFAULT_CACHE_MAX_MB
 
     code, out, _ = run("cache", "--help")
     assert code == 0 and f"(default {DEFAULT_CACHE_MAX_MB})" in " ".join(out.split())
@@ -125,8 +125,8 @@ def test_a_scale_range_outside_the_fov_range_is_refused(tmp_path, scale):
 
 def test_an_unwritable_cache_folder_is_said_once(tmp_path, monkeypatch):
     # STARTRACK_CACHE_DIR naming a file: every run rebuilt its databases (78 s) in silence.
-    from startrack import cache
     from startrack.errors import StartrackWarning
+    from startrack.io import _cache as cache
 
     not_a_folder = tmp_path / "file"
     not_a_folder.write_text("mine\n")
@@ -141,7 +141,7 @@ def test_an_unwritable_cache_folder_is_said_once(tmp_path, monkeypatch):
 
 def test_frames_dir_with_a_junk_truth_row_names_the_line(tmp_path):
     # "garbage,row" appended to truth.csv was taken for a frame: "row.json: cannot read".
-    from startrack.sidecar import STARS_COLUMNS, TRUTH_COLUMNS
+    from startrack.simulate._sidecar import STARS_COLUMNS, TRUTH_COLUMNS
 
     (tmp_path / "truth.csv").write_text(",".join(TRUTH_COLUMNS) + "\n"
                                         "0,frame_0000.png,1,0,0,0,0,0,0\ngarbage,row\n")

@@ -19,8 +19,8 @@ from startrack.attitude import (
     from_quaternion,
     random_attitudes,
 )
-from startrack.camera import Camera
-from startrack.centroids import Centroids, write_centroid_csv
+from startrack.camera._model import Camera
+from startrack.centroids._table import Centroids, write_centroid_csv
 from startrack.sky import random_sky
 
 CAMERA = {"width": 1024, "height": 1024, "fov_deg": 17.5}

@@ -8,7 +8,7 @@ import pytest
 import tifffile
 
 from startrack.errors import InputError
-from startrack.imageio import read_image, write_fits, write_png16
+from startrack.io._images import read_image, write_fits, write_png16
 
 
 @pytest.fixture()

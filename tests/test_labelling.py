@@ -5,11 +5,11 @@ import pytest
 
 from startrack.bench.conditions import Condition
 from startrack.bench.frames import make_frame
-from startrack.camera import Camera
-from startrack.identify import identify
-from startrack.labelling import LabelConfig, label_stars
+from startrack.camera._model import Camera
 from startrack.matchers import MatcherConfig, get_matcher
+from startrack.solver._lost_in_space import identify
 from startrack.types import Observation
+from startrack.verify._labelling import LabelConfig, label_stars
 
 CAMERA = Camera.from_fov(1024, 1024, 20.0)
 SIGMA = 1.0

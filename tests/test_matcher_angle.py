@@ -12,7 +12,7 @@ from synth import (
     prepared_matcher,
 )
 
-from startrack.identify import identify
+from startrack.solver._lost_in_space import identify
 from startrack.types import MatchDiagnostics
 
 METHOD = "angle"

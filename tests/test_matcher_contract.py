@@ -18,16 +18,17 @@ from synth import (
 )
 
 from startrack.attitude import angle_between_deg, random_attitudes
-from startrack.identify import identify
 from startrack.matchers import available_methods, get_matcher
 from startrack.matchers._peer import PeerMatcher
+from startrack.solver._lost_in_space import identify
 from startrack.types import MatchDiagnostics, Observation
 
 
 def _registered() -> list:
     """Every registered method; a peer only when its package is installed, and slow (its
     own database build takes seconds). Not "quad": it searches the focal length
-    (startrack.fov, tests/test_fov.py) and needs four stars, where this contract is for a
+    (startrack.solver._fov_search, tests/test_fov.py) and needs four stars, where this contract is
+    for a
     known camera and three. Not the paper-literal variants (``variant_of``): weaker by
     design, they are tested in tests/test_matcher_variants.py."""
     methods = []

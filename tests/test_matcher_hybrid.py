@@ -17,9 +17,9 @@ from synth import (
 )
 
 from startrack.attitude import angle_between_deg
-from startrack.identify import identify
 from startrack.matchers import get_matcher
 from startrack.matchers.hybrid import angle_votes
+from startrack.solver._lost_in_space import identify
 from startrack.types import MatchDiagnostics
 
 METHOD = "hybrid"

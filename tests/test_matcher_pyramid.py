@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from synth import assert_correct, false_star_first, frames, prepared_matcher, with_false_star
 
-from startrack.identify import identify
+from startrack.solver._lost_in_space import identify
 from startrack.types import MatchDiagnostics, Observation
 
 METHOD = "pyramid"
@@ -110,7 +110,7 @@ def test_verification_recovers_from_a_biased_hypothesis(hip_db):
     other star's identity."""
     from startrack.attitude import angle_between_deg
     from startrack.types import Hypothesis
-    from startrack.verify import VerifyConfig, verify
+    from startrack.verify._verification import VerifyConfig, verify
 
     frame = list(frames(hip_db.catalog, hip_db.camera, 10, seed=5))[8]
     obs, truth = frame.obs, frame.truth_rows

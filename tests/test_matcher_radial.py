@@ -9,11 +9,11 @@ import pytest
 from synth import frames, prepared_matcher, synthetic_frame
 
 from startrack.attitude import random_attitudes
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
-from startrack.identify import identify
 from startrack.matchers import get_matcher
 from startrack.sky import SkySpec, load_sky
+from startrack.solver._lost_in_space import identify
 from startrack.types import MatchDiagnostics, Observation
 
 METHOD = "radial"

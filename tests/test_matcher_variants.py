@@ -8,10 +8,10 @@ import pytest
 from synth import assert_correct, frames, prepared_matcher, with_false_star
 
 from startrack.bench.raw import pairs_off
-from startrack.identify import identify
 from startrack.matchers import available_methods
 from startrack.matchers.radial import field_rings, pair_triangles
 from startrack.matching.geometry import angle_table
+from startrack.solver._lost_in_space import identify
 from startrack.types import MatchDiagnostics
 
 VARIANTS = ["angle_closed", "angle_open", "triangle_nopivot", "hybrid_nofourth",

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from synth import assert_correct, frames, prepared_matcher
 
-from startrack.identify import identify
 from startrack.matchers import MatcherConfig, available_methods, get_matcher
 from startrack.matching import triangle_lookup as tl
 from startrack.matching.features import feature_sigma
 from startrack.matching.triangle_search import next_answer
 from startrack.matching.triples import brightness_triples
+from startrack.solver._lost_in_space import identify
 from startrack.types import MatchDiagnostics
 
 LITERAL = ["angle_open", "triangle_first", "hybrid_single"]

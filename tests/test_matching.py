@@ -139,7 +139,7 @@ def test_triple_product_sign_flips_in_a_mirror():
 def test_timeout_gives_a_not_solved_with_its_reason(random_db):
     from synth import frames, prepared_matcher
 
-    from startrack.identify import identify
+    from startrack.solver._lost_in_space import identify
 
     matcher = prepared_matcher("pyramid", random_db)
     frame = next(frames(random_db.catalog, random_db.camera, 5, seed=71, noise_px=0.3))
@@ -203,8 +203,8 @@ def test_pairs_within_is_the_brute_force_list(radius2):
 def test_compiled_projection_is_the_cameras(k1):
     """Verification projects through the compiled kernel; it must land every catalog
     vector where Camera.vector_to_pixel and in_image put it, lens included."""
-    from startrack.camera import Camera
-    from startrack.distortion import RadialDistortion
+    from startrack.camera._distortion import RadialDistortion
+    from startrack.camera._model import Camera
     from startrack.matching.verify_kernels import project
 
     camera = Camera.from_fov(1024, 768, 20.0, distortion=RadialDistortion(k1=k1))

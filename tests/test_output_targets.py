@@ -184,7 +184,7 @@ def test_tracking_onto_a_finished_lost_in_space_run_is_refused(tmp_path):
 
 @pytest.mark.parametrize("holder", ["compare", "simulate"])
 def test_a_second_run_of_any_mode_on_a_held_folder_is_refused(tmp_path, holder):
-    from startrack.run_folder import RunFolder
+    from startrack.io._run_folder import RunFolder
 
     out = tmp_path / "cmp"
     with RunFolder(out, holder):  # the first run, holding the lock

@@ -13,7 +13,10 @@ from astropy.io import fits
 from astropy.wcs import WCS
 from click.testing import CliRunner
 
-from startrack.annotate import (
+from startrack.attitude import from_radec_roll
+from startrack.camera._model import Camera
+from startrack.cli import main
+from startrack.outputs._annotate import (
     MARGIN_LEFT_PX,
     MARGIN_TOP_PX,
     _label_sides,
@@ -21,12 +24,9 @@ from startrack.annotate import (
     star_names,
     stretch,
 )
-from startrack.annotate_sky import compass
-from startrack.attitude import from_radec_roll
-from startrack.camera import Camera
-from startrack.cli import main
-from startrack.corr import CORR_COLUMNS
-from startrack.wcs import SipTerms, fit_sip, sip_order_for, wcs_header
+from startrack.outputs._annotate_sky import compass
+from startrack.outputs._corr import CORR_COLUMNS
+from startrack.outputs._wcs import SipTerms, fit_sip, sip_order_for, wcs_header
 
 FRAME = Path(__file__).parent / "data" / "realsky_azi45.png"
 REAL = ["--fov", "11.42", "--sky", "hipparcos", "--epoch", "2019.6"]

@@ -22,12 +22,12 @@ from startrack.attitude import (
     from_quaternion,
     random_attitudes,
 )
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.errors import InputError
-from startrack.identify import identify
 from startrack.matchers import available_methods, get_matcher
 from startrack.sky import SkySpec, load_sky
+from startrack.solver._lost_in_space import identify
 from startrack.types import Observation
 
 PEERS = ("tetra3", "tetra3rs")

@@ -12,8 +12,8 @@ from synth import assert_correct, frames
 
 import startrack.matchers as matchers
 from startrack.cli import main
-from startrack.identify import identify
 from startrack.matchers import base
+from startrack.solver._lost_in_space import identify
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "startrack-plugin-example"
 

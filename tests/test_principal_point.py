@@ -11,10 +11,10 @@ import pytest
 
 from startrack.api import Solver
 from startrack.attitude import boresight_error_arcsec, random_attitudes
-from startrack.camera import Camera
-from startrack.evidence import MIN_MATCHED, evidence_problem, require_evidence
-from startrack.scene import observe
+from startrack.camera._model import Camera
+from startrack.simulate._scene import observe
 from startrack.sky import SkySpec, load_sky
+from startrack.verify._evidence import MIN_MATCHED, evidence_problem, require_evidence
 
 SIZE, FOV = 1024, 20.0
 WRONG_ARCSEC = 60.0  # the bench's threshold for a correct attitude
@@ -40,8 +40,8 @@ def sweep(catalog, n: int, seed: int, rendered: bool = False) -> dict[str, int]:
     how many were solved, and how many of those had a wrong attitude or a wrong star.
     ``rendered``: the frames are rendered images (the stars then found by extraction, so
     only the attitude is scored), else centroid lists."""
-    from startrack.config import DEFAULT_CONFIG, config_from_dict
-    from startrack.render import render_frame
+    from startrack.simulate._config import DEFAULT_CONFIG, config_from_dict
+    from startrack.simulate._render import render_frame
 
     sensor = config_from_dict(DEFAULT_CONFIG, "default config").sensor
     rng = np.random.default_rng(seed)

@@ -6,7 +6,7 @@ import pytest
 from click.testing import CliRunner
 
 from startrack.cli import main
-from startrack.progress import LineProgress
+from startrack.outputs._progress import LineProgress
 
 
 class Clock:

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import quads as Q
-from startrack.fov import BlindSolver
 from startrack.matchers.quad import match_patterns
-from startrack.scene import stars_in_view
+from startrack.simulate._scene import stars_in_view
 from startrack.sky import SkySpec, load_sky
+from startrack.solver._fov_search import BlindSolver
 
 
 def _cluster(n: int, spread: float, seed: int) -> np.ndarray:

@@ -6,11 +6,11 @@ import pytest
 
 import startrack
 from startrack.attitude import random_attitudes
-from startrack.camera import Camera
-from startrack.output import format_table
-from startrack.quality import QUALITY_KEYS, attitude_sigma_rad
-from startrack.scene import stars_in_view
+from startrack.camera._model import Camera
+from startrack.outputs._records import format_table
+from startrack.simulate._scene import stars_in_view
 from startrack.sky import SkySpec, load_sky, resolve_sky
+from startrack.verify._quality import QUALITY_KEYS, attitude_sigma_rad
 
 CAMERA = Camera.from_fov(1024, 1024, 20.0)
 NOISE_PX = 0.4

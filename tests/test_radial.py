@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.database.radial import (
     n_rings,

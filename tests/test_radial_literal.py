@@ -13,9 +13,9 @@ from startrack.bench.star_labels import (
     score_labels,
     star_triangles,
 )
-from startrack.identify import identify
 from startrack.matchers._radial_rings import paper_rings, separation_range
 from startrack.matching.geometry import angle_table
+from startrack.solver._lost_in_space import identify
 
 
 def _frame(db, seed=6, **kw):

@@ -274,7 +274,7 @@ def read_only(tmp_path):
 def test_a_read_only_folder_is_one_line(sim, read_only):
     _, cam, png, _ = sim
     one_error(cli("identify", png, "--output", read_only / "o.json"), "Read-only")
-    from startrack.outputs import OutputError, Writer
+    from startrack.io._writer import OutputError, Writer
 
     with pytest.raises(OutputError) as err, Writer().text(read_only / "c.json", "--output"):
         pass  # calibrate --output's writer: its error names the user's path, not the temp's

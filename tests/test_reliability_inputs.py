@@ -72,7 +72,7 @@ def test_a_huge_image_is_refused_from_its_header(tmp_path):
 
 @pytest.mark.parametrize("suffix", [".png", ".tiff", ".fits"])
 def test_the_pixel_limit_holds_for_each_format(tmp_path, suffix):
-    from startrack.imageio import write_fits, write_png16
+    from startrack.io._images import write_fits, write_png16
 
     image = np.zeros((120, 100), np.uint16)
     path = tmp_path / f"big{suffix}"
@@ -110,7 +110,7 @@ def test_a_magnitude_limit_beyond_the_pair_budget_names_the_option(sim):
 
 def test_the_api_refuses_a_camera_and_a_fov_together():
     import startrack
-    from startrack.camera import Camera
+    from startrack.camera._model import Camera
     from startrack.errors import InputError
 
     with pytest.raises(InputError, match="not both"):

@@ -209,7 +209,7 @@ def _umask() -> int:
 
 
 def test_the_cache_is_capped_least_recently_used_first(tmp_path, monkeypatch):
-    from startrack.cache import cache_entries, cached_arrays
+    from startrack.io._cache import cache_entries, cached_arrays
 
     monkeypatch.setenv("STARTRACK_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("STARTRACK_CACHE_MAX_MB", "2.5")  # room for two 1 MB entries
@@ -226,7 +226,7 @@ def test_the_cache_is_capped_least_recently_used_first(tmp_path, monkeypatch):
     assert cached_arrays("t", {"k": 1}, build(-1))["a"][0] == 1  # from the cache
     cached_arrays("t", {"k": 3}, build(3))
     names = {p.name for p, _, _ in cache_entries()}
-    from startrack.cache import cache_key
+    from startrack.io._cache import cache_key
 
     assert names == {f"{cache_key('t', {'k': k})}.npz" for k in (1, 3)}
 

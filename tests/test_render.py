@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from startrack.attitude import from_radec_roll
-from startrack.camera import Camera
-from startrack.render import render_expected, render_frame, render_stars
-from startrack.scene import Scene, observe
-from startrack.sensor import SensorModel
+from startrack.camera._model import Camera
+from startrack.simulate._render import render_expected, render_frame, render_stars
+from startrack.simulate._scene import Scene, observe
+from startrack.simulate._sensor import SensorModel
 from startrack.sky import SkySpec, load_sky
 
 CAM = Camera.from_fov(256, 200, 5.0)
@@ -153,7 +153,7 @@ def test_motion_blur_elongates_along_the_expected_axis(axis):
 @pytest.mark.parametrize("lam", [0.0, 0.3, 3.0, 25.0, 200.0, 2500.0])
 def test_shot_noise_has_poisson_mean_and_variance(lam):
     # gain 1, no read noise: counts - bias are the electrons; 2^18 pixels, seeded
-    from startrack.render import digitise
+    from startrack.simulate._render import digitise
 
     sensor = SensorModel(gain=1.0, read_noise=0.0, bias_adu=100.0, full_well=1e6)
     counts = digitise(np.full((512, 512), lam), sensor, np.random.default_rng(5))
@@ -167,7 +167,7 @@ def test_shot_noise_has_poisson_mean_and_variance(lam):
 
 
 def test_read_noise_and_gain_add_up():
-    from startrack.render import digitise
+    from startrack.simulate._render import digitise
 
     sensor = SensorModel(gain=0.5, read_noise=10.0, bias_adu=300.0)
     lam = np.where(np.arange(512)[:, None] % 2 == 0, 4.0, 1500.0) * np.ones((512, 512))
@@ -181,7 +181,7 @@ def test_read_noise_and_gain_add_up():
 
 
 def test_digitise_is_reproducible_with_a_seed():
-    from startrack.render import digitise
+    from startrack.simulate._render import digitise
 
     lam = np.linspace(0, 5000, 64 * 64).reshape(64, 64)
     a = digitise(lam, SensorModel(), np.random.default_rng(9))

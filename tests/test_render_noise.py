@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from startrack import render, render_noise
-from startrack.sensor import SensorModel
+from startrack.simulate import _noise as render_noise
+from startrack.simulate import _render as render
+from startrack.simulate._sensor import SensorModel
 
 _CASES = [  # (electrons, sensor): read noise on and off, a low gain, the ADC floor
     (3.0, SensorModel()),

@@ -126,8 +126,8 @@ def test_simulate_fits_keywords_and_hipparcos_sidecar(tmp_path):
 
 
 def test_shipped_files_are_found_and_match_the_checkout():
-    from startrack.config import load_config
-    from startrack.resources import preset_names, resource_path
+    from startrack.io._resources import preset_names, resource_path
+    from startrack.simulate._config import load_config
 
     assert resource_path("data", "iau_star_names.csv").read_bytes() == (
         ROOT / "data" / "iau_star_names.csv").read_bytes()
@@ -151,7 +151,7 @@ def test_a_non_editable_install_finds_data_and_configs(tmp_path):
     py = venv / "bin" / "python"
     subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", str(ROOT)],
                    check=True, cwd=tmp_path)
-    code = ("import startrack, startrack.annotate as a, startrack.config as c;"
+    code = ("import startrack, startrack.outputs._annotate as a, startrack.simulate._config as c;"
             "assert 'site-packages' in startrack.__file__;"
             "print(len(a.star_names()), c.load_config('realsky').camera.width)")
     out = subprocess.run([str(py), "-c", code], check=True, cwd=tmp_path,

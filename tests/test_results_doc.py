@@ -51,3 +51,12 @@ def test_render_keeps_a_section_whose_tables_are_missing(tmp_path, monkeypatch):
     text = doc.read_text()
     assert "## A paper never run\n" in text and "not run yet" in text
     assert _results_doc.main(["--check"]) == 1
+
+
+def test_readme_says_what_the_page_shows():
+    """The README's lines on the papers are the ones scripts/readme_results.py writes
+    from the saved tables now (re-run it after a paper's script)."""
+    import readme_results
+
+    text = (ROOT / "README.md").read_text()
+    assert readme_results.papers_section() in text

@@ -12,10 +12,10 @@ from waiting import CHILD_TIMEOUT_S
 
 from startrack.attitude import from_radec_roll, to_radec_roll
 from startrack.cli import main
-from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
 from startrack.errors import InputError
-from startrack.imageio import read_image
-from startrack.sidecar import read_sidecar, sidecar_path_for
+from startrack.io._images import read_image
+from startrack.simulate._config import DEFAULT_CONFIG, config_from_dict, load_config
+from startrack.simulate._sidecar import read_sidecar, sidecar_path_for
 from startrack.sky import load_sky
 
 CONFIGS = Path(__file__).resolve().parent.parent / "configs"

@@ -12,14 +12,14 @@ from scipy.spatial.transform import Rotation
 from startrack.attitude import boresight_error_arcsec, random_attitudes
 from startrack.bench.tracking import TrackCondition, make_sequence
 from startrack.errors import InputError
-from startrack.identify import identify
 from startrack.matchers import get_matcher
 from startrack.prediction_kernels import rotation_exp as _exp
 from startrack.prediction_kernels import rotation_log as _log
-from startrack.tracker import Tracker
-from startrack.tracking import Prior, track
-from startrack.trajectory import constant_rate, profile_trajectory, read_profile
-from startrack.verify import VerifyConfig
+from startrack.simulate._trajectory import constant_rate, profile_trajectory, read_profile
+from startrack.solver._lost_in_space import identify
+from startrack.tracking._track import Prior, track
+from startrack.tracking._tracker import Tracker
+from startrack.verify._verification import VerifyConfig
 
 
 def test_constant_rate_is_r0_times_exp_of_body_rate():
@@ -47,7 +47,7 @@ def test_exp_log_match_scipy():
 def test_prediction_carries_the_rate_forward_with_a_growing_sigma():
     """From two attitudes ``gap`` frames apart the next is predicted by their per-frame
     rotation (scipy's composition), its sigma growing per frame by the rate's error."""
-    from startrack.tracking import TrackConfig
+    from startrack.tracking._track import TrackConfig
 
     cfg = TrackConfig()
     r_a = Rotation.from_euler("zyx", [10, 20, 30], degrees=True)
@@ -200,14 +200,14 @@ def test_time_ratios_pair_each_tracking_mode_with_its_own_lost_in_space():
 _NO_LOAD_SCRIPT = """
 import numba.core.dispatcher as dispatcher
 from startrack.bench.tracking import TrackCondition, make_sequence
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
-from startrack.identify import identify
+from startrack.solver._lost_in_space import identify
 from startrack.matchers import get_matcher
 from startrack.sky import random_sky
-from startrack.tracker import Tracker
-from startrack import tracking
-from startrack.verify import VerifyConfig
+from startrack.tracking._tracker import Tracker
+from startrack.tracking import _track as tracking
+from startrack.verify._verification import VerifyConfig
 
 camera = Camera.from_fov(1024, 1024, 17.5)
 db = StarDatabase(random_sky(2000, seed=11), camera)
@@ -230,8 +230,8 @@ def tracked(*args, **kws):
         return track(*args, **kws)
     finally:
         inside[0] = False
-import startrack.tracker
-startrack.tracker.track = tracked
+import startrack.tracking._tracker
+startrack.tracking._tracker.track = tracked
 modes = [tracker.step(f.obs, db, config, lambda o: identify(o, matcher, config),
                       "pyramid").mode for f in seq]
 print(modes.count("tracking"), sorted(set(loaded)))

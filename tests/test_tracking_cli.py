@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 import startrack
 from startrack.attitude import boresight_error_arcsec, from_quaternion, to_radec_roll
 from startrack.bench.tracking import TrackCondition, make_sequence
-from startrack.centroids import Centroids, write_centroid_csv
+from startrack.centroids._table import Centroids, write_centroid_csv
 from startrack.cli import main
 
 HIP = ["--sky", "hipparcos", "--fov", "20", "--size", "1024x1024"]

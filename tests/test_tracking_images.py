@@ -13,7 +13,7 @@ from startrack.bench.tracking_images import (
     run_images,
     summarise_images,
 )
-from startrack.sensor import SensorModel
+from startrack.simulate._sensor import SensorModel
 from startrack.sky import SkySpec
 
 

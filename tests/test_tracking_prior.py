@@ -14,12 +14,12 @@ from scipy.stats import binom
 
 from startrack.attitude import boresight_error_arcsec
 from startrack.bench.tracking import TrackCondition, make_sequence
-from startrack.identify import residuals_arcsec
 from startrack.prior_kernels import attempt_at_prior, prior_bound
-from startrack.tracking import CatalogCone, Prior, TrackConfig, frame_args, track
+from startrack.solver._lost_in_space import residuals_arcsec
+from startrack.tracking._track import CatalogCone, Prior, TrackConfig, frame_args, track
 from startrack.tracking_kernels import S_HALF_SIDE, S_WINDOW
 from startrack.types import Observation
-from startrack.verify import VerifyConfig
+from startrack.verify._verification import VerifyConfig
 
 
 def _prior_attempt(obs, db, prior):

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.database.triangles import (
     auto_max_per_region,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.errors import InputError
 from startrack.sky import SkySpec, deeper_sky_note, default_sky_kind, load_sky
 from startrack.sky.catalog import radec_to_vectors

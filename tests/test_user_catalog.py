@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from waiting import CHILD_TIMEOUT_S
 
-from startrack.cache import cache_entries
 from startrack.errors import InputError
+from startrack.io._cache import cache_entries
 from startrack.sky import SkySpec, load_sky, sky_spec
 from startrack.sky.user_catalog import catalog_arrays, load_user_catalog, parse_catalog
 

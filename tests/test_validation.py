@@ -92,7 +92,7 @@ def test_cache_cap_environment_is_one_line(value):
 
 
 def test_max_image_pixels_environment_honoured(monkeypatch, tmp_path):
-    from startrack.image_header import max_image_pixels
+    from startrack.io._headers import max_image_pixels
 
     monkeypatch.setenv("STARTRACK_MAX_IMAGE_PIXELS", "1e9")
     assert max_image_pixels() == 10**9
@@ -109,7 +109,7 @@ def test_max_image_pixels_environment_honoured(monkeypatch, tmp_path):
 
 
 def test_api_time_as_a_julian_year():
-    from startrack.api_checks import api_time
+    from startrack._api_checks import api_time
 
     assert abs(api_time(2019).jyear - 2019.0) < 1e-9
     assert abs(api_time(2019.5).jyear - 2019.5) < 1e-9
@@ -120,7 +120,7 @@ def test_api_time_as_a_julian_year():
 
 
 def test_api_camera_as_a_mapping():
-    from startrack.api_checks import api_camera
+    from startrack._api_checks import api_camera
 
     camera = api_camera({"width": 1024, "height": 768, "fov_deg": 10.0})
     assert (camera.width, camera.height) == (1024, 768)
@@ -173,14 +173,14 @@ def test_api_numbers_out_of_range(keyword, value):
     ("29/07/19", "1919-07-29T00:00:00.000"),
 ])
 def test_legal_dates_are_read(text, isot):
-    from startrack.aberration import parse_time
+    from startrack.solver._aberration import parse_time
 
     assert parse_time(text).utc.isot == isot
 
 
 @pytest.mark.parametrize("text", ["2015-12-31T23:59:60.5", "0999-01-01", "31/02/19", "soon"])
 def test_bad_dates_are_refused(text):
-    from startrack.aberration import parse_time
+    from startrack.solver._aberration import parse_time
 
     with pytest.raises(ValueError, match="--time"):
         parse_time(text)
@@ -258,7 +258,7 @@ def test_wrong_prior_falls_back_and_says_so():
 
     import startrack
     from startrack.attitude import from_radec_roll
-    from startrack.camera import Camera
+    from startrack.camera._model import Camera
     from startrack.sky import random_sky
 
     camera = Camera.from_fov(1024, 1024, 17.5)
@@ -275,7 +275,7 @@ def test_wrong_prior_falls_back_and_says_so():
 
 
 def test_simulate_stopped_keeps_complete_frames_listed(tmp_path, monkeypatch):
-    import startrack.render as render
+    import startrack.simulate._render as render
 
     real, calls = render.render_frame, []
 
@@ -298,8 +298,8 @@ def test_simulate_stopped_keeps_complete_frames_listed(tmp_path, monkeypatch):
 
 
 def _written(out) -> list[str]:
-    """The files in a run folder, less its lock and manifest (startrack.run_folder)."""
-    from startrack.run_folder import LOCK_FILE, MANIFEST_FILE
+    """The files in a run folder, less its lock and manifest (startrack.io._run_folder)."""
+    from startrack.io._run_folder import LOCK_FILE, MANIFEST_FILE
 
     return sorted(p.name for p in out.iterdir() if p.name not in (LOCK_FILE, MANIFEST_FILE))
 
@@ -322,7 +322,7 @@ def test_simulate_refuses_a_run_that_cannot_fit_the_disk(tmp_path, monkeypatch):
 
 def test_sequence_plan_blocks_match_the_whole():
     from startrack.attitude import from_radec_roll
-    from startrack.trajectory import constant_rate, simulation_trajectory
+    from startrack.simulate._trajectory import constant_rate, simulation_trajectory
 
     r0 = from_radec_roll(10, 20, 30)
     plan = simulation_trajectory(r0, (0.5, -0.2, 1.0), 10.0, None, 1000)

@@ -13,14 +13,14 @@ from startrack.attitude import (
     random_attitudes,
     solve_wahba,
 )
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.defaults import DEFAULT_METHOD
-from startrack.identify import identify
 from startrack.matchers import available_methods, get_matcher
 from startrack.sky import SkySpec, load_sky, random_sky
+from startrack.solver._lost_in_space import identify
 from startrack.types import Hypothesis, Observation
-from startrack.verify import VerifyConfig, false_match_probability, verify
+from startrack.verify._verification import VerifyConfig, false_match_probability, verify
 
 CONFIG = VerifyConfig()
 

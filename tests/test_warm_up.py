@@ -14,16 +14,16 @@ import numpy as np
 import pytest
 from synth import synthetic_frame
 
-from startrack import frame_input
-from startrack import identifier as identifier_module
 from startrack.attitude import random_attitudes
 from startrack.bench import runner
 from startrack.bench.conditions import Condition
 from startrack.bench.runner import RunSpec, execute
-from startrack.camera import Camera
-from startrack.identifier import Identifier
-from startrack.pipeline import Options, Pipeline
+from startrack.camera._model import Camera
 from startrack.sky import SkySpec, random_sky, resolve_sky
+from startrack.solver import _identifier as identifier_module
+from startrack.solver import _inputs as frame_input
+from startrack.solver._identifier import Identifier
+from startrack.solver._pipeline import Options, Pipeline
 
 CAMERA = Camera.from_fov(1024, 1024, 17.5)
 METHODS = ("angle", "pyramid")

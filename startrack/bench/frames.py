@@ -25,11 +25,11 @@ from scipy.spatial.transform import Rotation
 
 from startrack.attitude import random_attitudes
 from startrack.bench.conditions import SOURCES, Condition
-from startrack.camera import Camera
-from startrack.centroids import DEFAULT_SIGMA_PX
-from startrack.distortion import RadialDistortion
-from startrack.scene import Scene, add_false_stars, observe, stars_in_view
-from startrack.sensor import SensorModel
+from startrack.camera._distortion import RadialDistortion
+from startrack.camera._model import Camera
+from startrack.centroids._table import DEFAULT_SIGMA_PX
+from startrack.simulate._scene import Scene, add_false_stars, observe, stars_in_view
+from startrack.simulate._sensor import SensorModel
 from startrack.sky import Catalog
 from startrack.types import Observation
 
@@ -144,8 +144,8 @@ def _from_centroids(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
 
 def _from_image(scene: Scene, rows_in_view: np.ndarray, camera: Camera, told: Camera,
                 sensor: SensorModel, seed: int, index: int) -> BenchFrame:
-    from startrack.extract import extract_centroids
-    from startrack.render import render_frame
+    from startrack.centroids._extract import extract_centroids
+    from startrack.simulate._render import render_frame
 
     image = render_frame(scene, camera, sensor, _rng(seed, index, _PIXELS))
     t0 = time.perf_counter()

@@ -22,9 +22,9 @@ import pandas as pd
 
 from startrack.bench.conditions import Condition
 from startrack.bench.frames import BenchFrame, label_spots
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.errors import InputError
-from startrack.sidecar import STARS_COLUMNS, TRUTH_COLUMNS, read_sidecar, sidecar_path_for
+from startrack.simulate._sidecar import STARS_COLUMNS, TRUTH_COLUMNS, read_sidecar, sidecar_path_for
 from startrack.sky import SkySpec
 
 
@@ -90,7 +90,7 @@ def _bench_frame(data: FramesFolder, row, catalog, identifier) -> tuple[int, Ben
     """Frame ``row`` of truth.csv read (centroids extracted from an image) and labelled
     with the catalog rows of the stars drawn in it."""
     from startrack.attitude import from_quaternion
-    from startrack.pipeline import read_input
+    from startrack.solver._pipeline import read_input
 
     index = int(row.frame)
     frame = read_input(data.folder / str(row.file))
@@ -109,9 +109,9 @@ def run_frames_folder(data: FramesFolder, methods: tuple[str, ...], *, max_stars
                       threshold_arcsec: float, quiet: bool = False):
     """Every method on every frame of the folder: (frames.csv rows, load seconds)."""
     from startrack.bench.runner import frame_row
-    from startrack.identifier import Identifier
-    from startrack.progress import progress
+    from startrack.outputs._progress import progress
     from startrack.sky import load_sky
+    from startrack.solver._identifier import Identifier
 
     t0 = time.perf_counter()
     catalog = load_sky(data.sky, data.camera)
@@ -140,7 +140,7 @@ def export_frames(bench_frames: list[tuple[int, BenchFrame]], catalog, sky: SkyS
     """Write bench frames as a folder ``--frames-dir`` reads: a centroid CSV and a sidecar
     per frame, truth.csv and stars.csv (the observed stars, false ones with id -1)."""
     from startrack.attitude import to_quaternion, to_radec_roll
-    from startrack.centroids import Centroids, write_centroid_csv
+    from startrack.centroids._table import Centroids, write_centroid_csv
 
     folder.mkdir(parents=True, exist_ok=True)
     truth_rows, star_rows = [], []
@@ -176,7 +176,7 @@ def compare_frames_folder(folder: str | Path, methods: tuple[str, ...], out: str
                           announce=None, overwrite: bool = False, finish=None):
     """Run every method on the folder's frames into ``out`` (frames.csv, summary.csv,
     db.csv): a :class:`~startrack.bench.session.RunOutputs`. ``out`` is held as every
-    compare holds its folder (startrack.run_folder); ``finish(result)`` writes report.md
+    compare holds its folder (startrack.io._run_folder); ``finish(result)`` writes report.md
     while it is held. ``out`` must not hold another run; the run is redone whole."""
     from startrack.bench.metrics import summarise
     from startrack.bench.runner import COLUMNS
@@ -188,7 +188,7 @@ def compare_frames_folder(folder: str | Path, methods: tuple[str, ...], out: str
         run_in_folder,
     )
     from startrack.bench.store import FRAMES_FILE, format_rows, run_identity
-    from startrack.outputs import atomic_text
+    from startrack.io._writer import atomic_text
 
     t0 = time.perf_counter()
     source = Path(folder)

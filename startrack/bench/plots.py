@@ -16,7 +16,7 @@ import pandas as pd
 
 from startrack.bench.conditions import VARIABLES, Condition, sweep
 from startrack.bench.stats import wilson
-from startrack.outputs import atomic_path
+from startrack.io._writer import atomic_path
 
 LABELS = {
     "noise_px": "centroid noise (px, 1 sigma)",

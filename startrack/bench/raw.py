@@ -29,7 +29,7 @@ class RawScore:
     ``first_*`` describe the first hypothesis (all zero / False when there is none);
     ``first_wrong_ids`` counts its observed stars given the wrong catalog star, false
     stars included; ``first_false_used`` those that are false stars; ``first_duplicate``:
-    two observed stars given the same catalog star (the triangle error the improved
+    two observed stars given the same catalog star (the triangle error the radial-feature
     triangle paper reports).
     ``rank_right``: 1-based position of the first all-right hypothesis among the first
     ``limit`` distinct ones (0: none); ``wrong_before``: wrong hypotheses ahead of it (all
@@ -153,7 +153,7 @@ def _top_ids_right(sol, truth_rows: np.ndarray, n: int = 5) -> bool:
 def timed_runs(ident, obs: Observation, repeats: int, truth_rows: np.ndarray) -> dict:
     """The fastest of ``repeats`` verified identify() runs, split into matcher time and the
     rest (verification, attitude), with the first run's diagnostics."""
-    from startrack.identify import identify
+    from startrack.solver._lost_in_space import identify
 
     best = None
     for _ in range(repeats):

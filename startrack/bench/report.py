@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 
 from startrack.bench.plots import wilson
-from startrack.outputs import atomic_text
+from startrack.io._writer import atomic_text
 
 REPORT_FILE = "report.md"
 LIBRARIES = ("numpy", "scipy", "pandas", "numba", "astropy", "opencv-python-headless",

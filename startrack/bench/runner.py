@@ -21,9 +21,9 @@ import numpy as np
 from startrack.bench.conditions import VARIABLES, Condition
 from startrack.bench.frames import make_frame
 from startrack.bench.metrics import FrameScore, score_frame
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.errors import InputError
-from startrack.sensor import SensorModel
+from startrack.simulate._sensor import SensorModel
 from startrack.sky import SkySpec
 
 KEY_COLUMNS = ["condition", *VARIABLES, "frame", "method"]
@@ -90,7 +90,7 @@ class LoadedBench:
         key = (method, camera)
         with _LOCK:
             if key not in self.identifiers:
-                from startrack.identifier import Identifier
+                from startrack.solver._identifier import Identifier
 
                 self.identifiers[key] = Identifier(camera, base.catalog, method,
                                                    max_stars=self.spec.max_stars,
@@ -104,12 +104,12 @@ _LOCK = threading.Lock()
 
 def load_bench(spec: RunSpec) -> LoadedBench:
     """Load (once per process) the catalog and every method's database and matcher, each
-    warmed by a throwaway frame (:meth:`~startrack.identifier.Identifier.warm_up`), and
+    warmed by a throwaway frame (:meth:`~startrack.solver._identifier.Identifier.warm_up`), and
     for images the extraction too: no timed frame pays a one-time cost."""
     import json
 
-    from startrack.identifier import Identifier
     from startrack.sky import load_sky
+    from startrack.solver._identifier import Identifier
 
     key = json.dumps(spec.to_json(), sort_keys=True)
     with _LOCK:  # Dask workers run tasks in threads: load once per process
@@ -281,8 +281,8 @@ def _execute_dask(spec: RunSpec, units: list, client) -> Iterator:
 
 
 def progress_bar(total: int, initial: int, enabled: bool):
-    """The run's progress on stderr (:func:`startrack.progress.progress`: a bar on a
+    """The run's progress on stderr (:func:`startrack.outputs._progress.progress`: a bar on a
     terminal, a line every few seconds otherwise); silent unless ``enabled``."""
-    from startrack.progress import progress
+    from startrack.outputs._progress import progress
 
     return progress(total, initial=initial, desc="compare", unit="frame", quiet=not enabled)

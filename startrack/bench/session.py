@@ -27,8 +27,8 @@ from startrack.bench.store import (
     write_run,
 )
 from startrack.errors import InputError
-from startrack.outputs import atomic_text
-from startrack.run_folder import RunFolder
+from startrack.io._run_folder import RunFolder
+from startrack.io._writer import atomic_text
 
 SUMMARY_FILE = "summary.csv"
 DB_FILE = "db.csv"
@@ -123,7 +123,7 @@ def run_comparison(spec: RunSpec, out: str | Path, *, jobs: int = 1,
     True the same; False starts over. ``announce()`` is called once the run holds the
     folder's lock (a second run on one folder fails before it says anything).
     ``overwrite``: use ``out`` although it holds files startrack did not write;
-    ``inputs``: files the run reads, never written (startrack.run_folder);
+    ``inputs``: files the run reads, never written (startrack.io._run_folder);
     ``finish(result)`` writes more files (report.md) while the run still holds the folder.
     """
     t0 = time.perf_counter()

@@ -15,7 +15,7 @@ import math
 from pathlib import Path
 
 from startrack.errors import InputError
-from startrack.outputs import atomic_text
+from startrack.io._writer import atomic_text
 
 RUN_FILE = "run.json"
 FRAMES_FILE = "frames.csv"

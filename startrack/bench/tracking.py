@@ -7,7 +7,7 @@ attitude by ``jump_deg`` from a frame on. Each frame's centroids are the true po
 plus noise, with dropouts and false stars, as the Monte Carlo bench makes them.
 
 Methods, run on the same frames one after the other within each frame (so a load on the
-machine hits all alike): ``<m>+track`` (our :class:`~startrack.tracking.Tracker` falling
+machine hits all alike): ``<m>+track`` (our :class:`~startrack.tracking._track.Tracker` falling
 back to matcher ``<m>``), ``<m>`` (lost-in-space alone, the reference for the time ratio),
 and ``tetra3rs+hint`` (tetra3rs's own tracking: its last solution as ``attitude_hint``
 with ``strict_hint=True``, then its lost-in-space when that fails), when installed.
@@ -30,12 +30,12 @@ from scipy.spatial.transform import Rotation
 
 from startrack.attitude import random_attitudes
 from startrack.bench.metrics import score_frame, summarise
-from startrack.camera import Camera
-from startrack.identifier import Identifier
-from startrack.scene import observe
+from startrack.camera._model import Camera
+from startrack.simulate._scene import observe
+from startrack.simulate._trajectory import constant_rate
 from startrack.sky import Catalog
-from startrack.tracker import Tracker
-from startrack.trajectory import constant_rate
+from startrack.solver._identifier import Identifier
+from startrack.tracking._tracker import Tracker
 from startrack.types import MatchDiagnostics, Observation, Solution
 
 RATE_AXIS = np.array([1.0, 0.5, 2.0]) / np.linalg.norm([1.0, 0.5, 2.0])

@@ -18,11 +18,11 @@ import pandas as pd
 from startrack.api import Solver
 from startrack.attitude import boresight_error_arcsec
 from startrack.bench.tracking import RATE_AXIS, TrackCondition, seeded_rotations
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.defaults import DEFAULT_FOV_TOLERANCE
-from startrack.render import render_frame
-from startrack.scene import observe
-from startrack.sensor import SensorModel
+from startrack.simulate._render import render_frame
+from startrack.simulate._scene import observe
+from startrack.simulate._sensor import SensorModel
 from startrack.sky import Catalog, SkySpec
 
 #: (field of view as given, fov_tolerance): the two ways a user can give the camera

@@ -22,9 +22,9 @@ from startrack.bench.tracking import (
     peer_available,
     run_tracking_bench,
 )
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.errors import InputError
-from startrack.outputs import atomic_path, atomic_text
+from startrack.io._writer import atomic_path, atomic_text
 from startrack.sky import SkySpec, load_sky
 
 BASE_RATE = f"{float(np.linalg.norm([1.0, 0.5, 2.0])):.4f}"
@@ -234,7 +234,8 @@ def plot_timeline(per_frame: pd.DataFrame, path: Path, title: str) -> Path:
 
 
 def lock_states(solved: np.ndarray, tracked: np.ndarray) -> list[str]:
-    """Per frame the lock state (startrack.tracker.LOCK_STATES) of a solved/tracked run."""
+    """Per frame the lock state (startrack.tracking._tracker.LOCK_STATES) of a solved/tracked
+    run."""
     states, locked, ever = [], False, False
     for ok, trk in zip(solved, tracked, strict=True):
         if ok:

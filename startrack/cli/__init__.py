@@ -9,12 +9,12 @@ import sys
 import click
 
 from startrack import __version__
-from startrack.cache import cache_max_bytes
 from startrack.cli.quiet import library_noise_captured
 from startrack.defaults import max_pairs
 from startrack.errors import InputError
-from startrack.image_header import max_image_pixels
-from startrack.outputs import OutputClosed
+from startrack.io._cache import cache_max_bytes
+from startrack.io._headers import max_image_pixels
+from startrack.io._writer import OutputClosed
 
 
 class Terminated(Exception):

@@ -41,11 +41,11 @@ def summary_line(record: dict) -> str:
 
 def inputs_with_progress(inputs, quiet: bool, stack: contextlib.ExitStack):
     """The inputs, with a progress bar on stderr for a batch when stderr is a terminal, a
-    line every few seconds when it is not (startrack.progress)."""
+    line every few seconds when it is not (startrack.outputs._progress)."""
     if quiet or len(inputs) < PROGRESS_MIN_INPUTS:
         return inputs
     if not sys.stderr.isatty():
-        from startrack.progress import iterate
+        from startrack.outputs._progress import iterate
 
         return iterate(inputs, desc="identify", unit="input")
     from tqdm import tqdm
@@ -60,7 +60,7 @@ class NothingAnswered(Exception):
 
 def record_writer(fh, fmt: str, several: bool):
     """A function writing one record to ``fh`` in ``fmt`` (the CSV header first)."""
-    from startrack.output import CSV_HEADER, csv_rows, format_table  # as in identify()
+    from startrack.outputs._records import CSV_HEADER, csv_rows, format_table  # as in identify()
 
     writer = csv.writer(fh, lineterminator="\n") if fmt == "csv" else None
     if writer is not None:

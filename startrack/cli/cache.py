@@ -26,7 +26,7 @@ def cache() -> None:
 def info(quiet, verbose) -> None:
     """Print the cache folder, its entries, total size and cap (-v: every entry on
     stderr)."""
-    from startrack.cache import cache_dir, cache_entries, cache_max_bytes
+    from startrack.io._cache import cache_dir, cache_entries, cache_max_bytes
 
     entries = cache_entries()
     total = sum(size for _, size, _ in entries)
@@ -49,7 +49,7 @@ def info(quiet, verbose) -> None:
 def clear(quiet, verbose) -> None:
     """Remove every cache entry (they are rebuilt when next needed). -q and -v are
     accepted as on every command; clear prints only its result, on stdout."""
-    from startrack.cache import cache_dir, clear_cache
+    from startrack.io._cache import cache_dir, clear_cache
 
     count, freed = clear_cache()
     click.echo(f"removed {count} entr{'y' if count == 1 else 'ies'} ({_mb(freed)}) "

@@ -10,15 +10,15 @@ from pathlib import Path
 
 import click
 
-from startrack.camera_file import load_camera
+from startrack.camera._file import load_camera
 from startrack.cli import main
 from startrack.cli.hint_options import hint_options, hints_from
 from startrack.cli.identify import _size
 from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, notes, verbosity
 from startrack.defaults import DEFAULT_METHOD
 from startrack.errors import InputError
-from startrack.frame_input import read_input
-from startrack.outputs import Writer
+from startrack.io._writer import Writer
+from startrack.solver._inputs import read_input
 from startrack.validate import DOWNSAMPLE, EPOCH_YEAR, FOV_DEG, MAG_LIMIT
 
 
@@ -60,11 +60,11 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     principal point and radial distortion by least squares over all matched stars (with
     outlier rejection), write the camera file and print the residual RMS before and after.
     Exit 1 when no input solves (nothing is written)."""
-    from startrack.calibrate import calibrate as run  # the compiled core: only when run
-    from startrack.hints import preset
     from startrack.matchers import get_matcher
-    from startrack.sidecar import with_sidecars
+    from startrack.simulate._sidecar import with_sidecars
     from startrack.sky import sky_spec
+    from startrack.solver._calibrate import calibrate as run  # the compiled core: only when run
+    from startrack.solver._hints import preset
 
     hints = hints_from(hint_values, fov_given=fov_deg is not None or camera_path is not None)
     if fov_deg is not None and camera_path is not None:
@@ -112,7 +112,7 @@ def _catalog(spec, mag_limit, epoch, nominal, hints):
     spec = dataclasses.replace(spec, **{k: v for k, v in given.items() if v is not None})
     catalog = load_sky(resolve_sky(spec, nominal), nominal)
     if hints is not None and hints.pointing is not None:
-        from startrack.hints import cone_radius_deg, cut_to_cone
+        from startrack.solver._hints import cone_radius_deg, cut_to_cone
 
         catalog = cut_to_cone(catalog, hints.pointing,
                               cone_radius_deg(hints.pointing, nominal, 0.1, 0.0))
@@ -121,7 +121,7 @@ def _catalog(spec, mag_limit, epoch, nominal, hints):
 
 def _print_result(result, nominal, n_frames: int) -> None:
     """The fit's summary: inputs solved, residuals before and after, every parameter."""
-    from startrack.calibrate_sigma import format_parameters
+    from startrack.solver._calibrate_sigma import format_parameters
 
     cam = result.camera
     d = cam.distortion.to_dict() if cam.distortion else {"k1": 0.0, "k2": 0.0, "k3": 0.0}
@@ -140,7 +140,7 @@ def _print_result(result, nominal, n_frames: int) -> None:
 def hinted_fov(frames, hints, size, header: bool) -> float:
     """The nominal FOV from a scale range (its middle), else the first FITS input's
     header; an error naming the options when there is neither."""
-    from startrack.hints import fov_range_deg, header_hints
+    from startrack.solver._hints import fov_range_deg, header_hints
 
     dims = size or next((f.size for f in frames if f.size is not None), None)
     if hints is not None and hints.scale is not None:
@@ -158,7 +158,7 @@ def hinted_fov(frames, hints, size, header: bool) -> float:
 def _nominal(frames, fov_deg, camera_path, size, preset_camera=None):
     """The nominal camera: the file, the --config preset's, or --fov with the image (or
     --size) dimensions."""
-    from startrack.camera import Camera
+    from startrack.camera._model import Camera
 
     sizes = {f.size for f in frames if f.size is not None}
     if len(sizes) > 1:

@@ -99,7 +99,7 @@ def _sky(cfg, sky: str | None, mag_limit: float | None):
 
 
 def _check_image_size(cfg, config_path) -> None:
-    from startrack.image_header import check_pixels
+    from startrack.io._headers import check_pixels
 
     check_pixels(cfg.camera.width, cfg.camera.height, f"{config_path or 'config'} [camera]")
 
@@ -190,7 +190,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     and the other conventions are in docs/conventions.md. Progress goes to stderr: a bar
     on a terminal, a line every few seconds otherwise (-q: none)."""
     from startrack.bench.session import run_comparison
-    from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
+    from startrack.simulate._config import DEFAULT_CONFIG, config_from_dict, load_config
 
     names = parse_methods(methods)
     note, detail = notes(quiet, verbose)

@@ -1,4 +1,4 @@
-"""The hint options that ``identify`` and ``calibrate`` share (startrack.hints)."""
+"""The hint options that ``identify`` and ``calibrate`` share (startrack.solver._hints)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from startrack.defaults import SCALE_UNITS
 from startrack.validate import DEC_DEG, PIXEL_SIZE_UM, RA_DEG, RADIUS_DEG, SCALE
 
 if TYPE_CHECKING:
-    from startrack.hints import Hints
+    from startrack.solver._hints import Hints
 
 HINT_KEYS = ("ra", "dec", "radius", "scale_low", "scale_high", "scale_units", "pixel_size",
              "no_header_hints")
@@ -19,7 +19,7 @@ HINT_KEYS = ("ra", "dec", "radius", "scale_low", "scale_high", "scale_units", "p
 
 def hint_options(command):
     """Add the hint options to a click command (they arrive as the :data:`HINT_KEYS`
-    keywords; :func:`hints_from` turns them into :class:`~startrack.hints.Hints`)."""
+    keywords; :func:`hints_from` turns them into :class:`~startrack.solver._hints.Hints`)."""
     options = [
         click.option("--ra", type=Number(RA_DEG), help="The boresight lies within --radius of RA "
                      "(deg) and --dec: only catalog stars around it are searched (no roll "
@@ -49,7 +49,7 @@ def hint_options(command):
 
 def hints_from(values: dict, fov_given: bool) -> Hints | None:
     """The user's :class:`Hints` from the options' values; None when none was given."""
-    from startrack.hints import user_hints  # scipy.spatial (startrack.sky): when run only
+    from startrack.solver._hints import user_hints  # scipy.spatial (startrack.sky): when run only
 
     return user_hints(values["ra"], values["dec"], values["radius"], values["scale_low"],
                       values["scale_high"], values["scale_units"], values["pixel_size"],

@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 
 import click
 
-from startrack.camera_file import load_camera
-from startrack.centroids import DEFAULT_SIGMA_PX
+from startrack.camera._file import load_camera
+from startrack.centroids._table import DEFAULT_SIGMA_PX
 from startrack.cli import main
 from startrack.cli._identify_output import (
     NothingAnswered,
@@ -31,11 +31,11 @@ from startrack.defaults import (
     GAIA_BELOW_FOV_DEG,
 )
 from startrack.errors import InputError
-from startrack.outputs import Writer, guarded_stdout
-from startrack.side_outputs import SideOutputs
+from startrack.io._writer import Writer, guarded_stdout
+from startrack.outputs._side_files import SideOutputs
 
 if TYPE_CHECKING:
-    from startrack.pipeline import Options
+    from startrack.solver._pipeline import Options
 
 from startrack.validate import (
     DOWNSAMPLE,
@@ -67,7 +67,7 @@ def _size(ctx, param, value):
 def _time(ctx, param, value):
     if value is None:
         return None
-    from startrack.aberration import parse_time
+    from startrack.solver._aberration import parse_time
 
     return parse_time(value)
 
@@ -159,7 +159,7 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
     usage or an unreadable input (the other inputs are still answered).
     Conventions (pixels, attitude, JSON record, exit codes): docs/conventions.md."""
-    from startrack.output import EXIT_CODES, error_record  # the compiled core: when run
+    from startrack.outputs._records import EXIT_CODES, error_record  # the compiled core: when run
 
     writer, output = _output_writer(inputs, camera_path, overwrite, output)
     side = SideOutputs(writer, list(inputs), annotate_path, wcs_path, corr_path)
@@ -212,7 +212,7 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
 def _output_writer(inputs, camera_path, overwrite: bool, output):
     """The writer of every output (never an input or its sidecar) and ``--output``, checked
     before any work; ``-`` is standard output (None), as in every Unix tool."""
-    from startrack.sidecar import with_sidecars
+    from startrack.simulate._sidecar import with_sidecars
 
     writer = Writer([*with_sidecars(inputs), *([camera_path] if camera_path else [])],
                     overwrite)
@@ -225,8 +225,8 @@ def _output_writer(inputs, camera_path, overwrite: bool, output):
 def _options(camera_path, fov_deg, config_path, hint_values: dict, **given) -> Options:
     """The pipeline's options: the camera file, the hints and a ``--config`` preset
     decided, the other values as given."""
-    from startrack.hints import preset  # scipy.spatial and the compiled core: only when run
-    from startrack.pipeline import Options
+    from startrack.solver._hints import preset  # scipy.spatial and the compiled core: only when run
+    from startrack.solver._pipeline import Options
 
     if camera_path and fov_deg is not None:
         raise click.UsageError("give --camera FILE or --fov DEG, not both (the camera file "
@@ -249,8 +249,8 @@ def _report(note, name: str, record: dict, prior_alone: bool) -> None:
 
 def _solver(options, track: bool, prior, prior_sigma_deg: float):
     """The pipeline that solves each input; with --track or --prior, a sequence's."""
-    from startrack.pipeline import Pipeline  # the compiled core: as in identify()
-    from startrack.sequence import SequenceSolver, prior_from_radec_roll
+    from startrack.solver._pipeline import Pipeline  # the compiled core: as in identify()
+    from startrack.tracking._sequence import SequenceSolver, prior_from_radec_roll
 
     pipeline = Pipeline(options)
     if not track and prior is None:

@@ -34,7 +34,7 @@ def _note_for(message, category) -> str | None:
         if cls.__name__ in NOTES:
             return NOTES[cls.__name__]
     # numpy RuntimeWarnings, FITSFixedWarning, astropy's "File may have been truncated"
-    # (startrack.imageio refuses such a file itself), ...: our own checks say what matters
+    # (startrack.io._images refuses such a file itself), ...: our own checks say what matters
     return None
 
 

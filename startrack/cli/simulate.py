@@ -10,8 +10,8 @@ from typing import TYPE_CHECKING
 import click
 import numpy as np
 
-from startrack.camera import Camera
-from startrack.camera_file import load_camera
+from startrack.camera._file import load_camera
+from startrack.camera._model import Camera
 from startrack.cli import Terminated, main
 from startrack.cli.options import (
     SKY_HELP,
@@ -23,10 +23,10 @@ from startrack.cli.options import (
     verbosity,
 )
 from startrack.errors import InputError
-from startrack.image_header import check_pixels
-from startrack.outputs import atomic_text
-from startrack.run_folder import RunFolder
-from startrack.sensor import SensorModel
+from startrack.io._headers import check_pixels
+from startrack.io._run_folder import RunFolder
+from startrack.io._writer import atomic_text
+from startrack.simulate._sensor import SensorModel
 from startrack.validate import (
     FALSE_STARS,
     FPS,
@@ -39,7 +39,7 @@ from startrack.validate import (
 )
 
 if TYPE_CHECKING:
-    from startrack.config import FrameOptions
+    from startrack.simulate._config import FrameOptions
     from startrack.sky import SkySpec
 
 DEFAULT_OUT = Path("out/simulate")
@@ -88,7 +88,7 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     STARTRACK_MAX_IMAGE_PIXELS (default 8192 x 8192).
     Conventions (pixels, attitude, sidecar units): docs/conventions.md."""
     # scipy.spatial (startrack.sky, its rotations) loads only when the command runs.
-    from startrack.config import DEFAULT_CONFIG, config_from_dict, load_config
+    from startrack.simulate._config import DEFAULT_CONFIG, config_from_dict, load_config
     from startrack.sky import load_sky, resolve_sky, with_sky
 
     cfg = load_config(config_path) if config_path else config_from_dict(DEFAULT_CONFIG,
@@ -109,7 +109,7 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     if trajectory is not None:
         opts = dataclasses.replace(opts, count=len(trajectory))
     if obs_time is not None:
-        from startrack.aberration import parse_time
+        from startrack.solver._aberration import parse_time
 
         obs_time = parse_time(obs_time)
     out = Path(out_dir)
@@ -137,8 +137,8 @@ def _run(camera: Camera, catalog, spec: SkySpec, sensor: SensorModel, opts: Fram
     SIGINT or SIGTERM, the frames written so far are kept and listed; the frame in the
     making is removed. Returns the number of frames written."""
     from startrack.cli.simulate_frames import FrameWriter, check_disk  # the compiled core
-    from startrack.progress import iterate
-    from startrack.sidecar import STARS_COLUMNS, TRUTH_COLUMNS
+    from startrack.outputs._progress import iterate
+    from startrack.simulate._sidecar import STARS_COLUMNS, TRUTH_COLUMNS
 
     folder.remove_earlier()  # an earlier run's frames must not outlive it (--overwrite)
     out = folder.out
@@ -178,10 +178,10 @@ def _run(camera: Camera, catalog, spec: SkySpec, sensor: SensorModel, opts: Fram
 
 
 def _trajectory(attitude, opts: FrameOptions, fps, profile_path, count):
-    """The sequence's attitudes (startrack.trajectory), None for independent frames."""
+    """The sequence's attitudes (startrack.simulate._trajectory), None for independent frames."""
     from startrack.attitude import from_radec_roll
     from startrack.cli.simulate_frames import random_rotation
-    from startrack.trajectory import simulation_trajectory
+    from startrack.simulate._trajectory import simulation_trajectory
 
     start = (from_radec_roll(*attitude) if attitude is not None
              else random_rotation(np.random.default_rng([opts.seed, 1 << 20])))
@@ -192,6 +192,6 @@ def _apparent(catalog, obs_time):
     """The catalog as seen from the Earth at ``obs_time`` (unchanged without a time)."""
     if obs_time is None:
         return catalog
-    from startrack.aberration import apparent_catalog
+    from startrack.solver._aberration import apparent_catalog
 
     return apparent_catalog(catalog, obs_time)

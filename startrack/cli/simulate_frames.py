@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 
 from startrack.errors import InputError
-from startrack.outputs import atomic_text
-from startrack.sensor import SensorModel
-from startrack.sidecar import sidecar_path_for
+from startrack.io._writer import atomic_text
+from startrack.simulate._sensor import SensorModel
+from startrack.simulate._sidecar import sidecar_path_for
 from startrack.sky import SkySpec
 
 BLOCK = 256  # sequence attitudes computed this many frames at a time (bounded memory)
@@ -59,10 +59,10 @@ class FrameWriter:
 
     def write(self, i: int) -> tuple[list, list[list]]:
         from startrack.attitude import to_quaternion, to_radec_roll
-        from startrack.imageio import write_fits, write_png16
-        from startrack.render import render_frame
-        from startrack.scene import observe
-        from startrack.wcs import wcs_header
+        from startrack.io._images import write_fits, write_png16
+        from startrack.outputs._wcs import wcs_header
+        from startrack.simulate._render import render_frame
+        from startrack.simulate._scene import observe
 
         opts, camera, sensor = self.opts, self.camera, self.sensor
         rng = np.random.default_rng([opts.seed, i])  # each frame reproducible on its own

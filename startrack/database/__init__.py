@@ -13,11 +13,11 @@ from functools import cached_property
 import numpy as np
 from scipy.spatial import cKDTree
 
-from startrack.cache import cached_arrays
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database.cone import ConeIndex
 from startrack.database.kvector import KVector
 from startrack.database.pairs import PairTable, build_pair_arrays, pair_table_from_arrays
+from startrack.io._cache import cached_arrays
 from startrack.sky import Catalog
 
 

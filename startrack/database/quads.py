@@ -12,7 +12,7 @@ star's patterns reach out to its ``K_NEAREST`` nearest pattern stars, up to the 
 diagonal (``MAX_PATTERN_SIZE * F``): a sparse frame's few stars still make patterns that
 the table holds. The brightest stars of an image are then mostly pattern stars, wherever
 it points. A frame of field of view F is searched in the level nearest F.
-Each level is built once and cached (:func:`startrack.cache.cached_arrays`).
+Each level is built once and cached (:func:`startrack.io._cache.cached_arrays`).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
-from startrack.cache import cached_arrays
+from startrack.io._cache import cached_arrays
 
 STARS_PER_FRAME = 25  # pattern stars in an average frame of a level's FOV
 PATTERN_SIZE = 0.4  # largest pattern edge, in level FOVs

@@ -1,7 +1,7 @@
 """The matcher interface: observed stars in, correspondence hypotheses out.
 
 A matcher proposes hypotheses (which observed star is which catalog star), best first;
-it does not decide. The shared verification in :mod:`startrack.verify` accepts or
+it does not decide. The shared verification in :mod:`startrack.verify._verification` accepts or
 refuses each one, so every method is held to the same standard of proof.
 """
 
@@ -63,7 +63,8 @@ class Matcher(ABC):
         """Yield hypotheses, most promising first; yield nothing when there is no match.
 
         ``screen_rad``: the match radius (radians) of verification's first test, when the
-        caller verifies with it (:func:`startrack.identify.identify` does). A matcher may
+        caller verifies with it (:func:`startrack.solver._lost_in_space.identify` does). A matcher
+        may
         then drop the hypotheses that test would refuse
         (:func:`startrack.matching.verify_kernels.fits_hypothesis`) instead of handing
         them over one by one: the angle matcher does, inside its compiled search. None:

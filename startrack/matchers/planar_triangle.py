@@ -112,7 +112,8 @@ class PlanarTriangleMatcher(Matcher):
         """The compiled search's answers; ``memo[0]`` is its memo, as grown."""
         table = self._table()
         state = np.zeros(6, np.int64)
-        base = (diag.candidates, diag.pivots, diag.extra.get("polar_kept", 0))
+        base = (diag.candidates, diag.pivots, diag.extra.get("polar_kept", 0),
+                diag.extra.get("lookups", 0))
         t = 0
         while t < len(triples):
             t, stars, rows, memo[0] = next_answer(t, triples, frame, table, memo[0], state,
@@ -121,7 +122,9 @@ class PlanarTriangleMatcher(Matcher):
             diag.candidates = base[0] + int(state[tl.CANDIDATES])
             diag.pivots = base[1] + int(state[tl.PIVOTS])
             if state[tl.LOOKUPS]:
+                # per lookup: area-window candidates (``candidates``), the polar filter's
                 diag.extra["polar_kept"] = base[2] + int(state[tl.POLAR_KEPT])
+                diag.extra["lookups"] = base[3] + int(state[tl.LOOKUPS])
             for row in rows if t < len(triples) else ():
                 yield Hypothesis(stars.copy(), row)
             t += 1

@@ -6,7 +6,8 @@ ratios) is looked up with a tolerance in the level nearest the assumed field of 
 and every catalog pattern whose six edges agree (in the best of the 24 star orders)
 becomes a hypothesis with the focal length that its size implies. The focal length is
 only assumed to within a window, so :meth:`QuadMatcher.scaled` serves an approximate
-FOV (a window about the nominal value) and a blind search (:mod:`startrack.fov` sweeps
+FOV (a window about the nominal value) and a blind search (:mod:`startrack.solver._fov_search`
+sweeps
 the window over the whole range). Work is bounded: at most ``IMAGE_STARS`` stars and
 ``MAX_CANDIDATES`` candidates per window.
 """
@@ -22,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from startrack.attitude import wahba_matrices
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.database import quads as Q
 from startrack.matchers.base import Matcher, register

@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from startrack.attitude import from_radec_roll, to_quaternion
-from startrack.cache import cached_file
 from startrack.database import StarDatabase
+from startrack.io._cache import cached_file
 from startrack.matchers._peer import (
     PeerMatcher,
     import_peer,

@@ -19,8 +19,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from startrack.attitude import to_quaternion
-from startrack.cache import cached_file
 from startrack.database import StarDatabase
+from startrack.io._cache import cached_file
 from startrack.matchers._peer import (
     PeerMatcher,
     import_peer,

@@ -1,6 +1,6 @@
 """Compiled verification of one hypothesis in one call: the first test, the binomial bound
 on a coincidence, the acceptance, the refinement, the final labelling, the residuals and
-the attitude's quaternion (:func:`startrack.verify.verify`, step for step).
+the attitude's quaternion (:func:`startrack.verify._verification.verify`, step for step).
 
 A solved frame used to cross from Python into compiled code and back at every step, with
 the arrays rebuilt in between; here the frame's constants come packed once per frame
@@ -36,7 +36,7 @@ def pack_params(radius_px: float, cos_radius: float, cone_radius: float, margin_
     """The frame's constants as the check kernels take them: the projector's match radius
     (px), the hypothesis's fit cosine, the cone radius, the cone reuse cosine (-2: rows
     fixed), the refinement's capture and rounds, the acceptance thresholds, then
-    :func:`startrack.labelling.kernel_params` without its flux (``radius2`` ...)."""
+    :func:`startrack.verify._labelling.kernel_params` without its flux (``radius2`` ...)."""
     _, has_flux, radius2, sigma0, area, *rest = label_params
     return np.array([radius_px, cos_radius, cone_radius, margin_cos, capture, max_rounds,
                      min_confirmed, max_probability, radius2, area, float(has_flux), sigma0,

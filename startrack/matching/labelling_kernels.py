@@ -1,7 +1,7 @@
-"""Compiled kernel of the final labelling (startrack.labelling): one call per accepted
+"""Compiled kernel of the final labelling (startrack.verify._labelling): one call per accepted
 attitude, over the observed-catalog pairs within the match radius only.
 
-:func:`label_kernel` is the implementation of :func:`startrack.labelling.label_stars`; the
+:func:`label_kernel` is the implementation of :func:`startrack.verify._labelling.label_stars`; the
 rules are described there. A frame pairs each observed star with about one catalog star,
 so the kernel finds those pairs once
 (:func:`startrack.matching.nearest_kernels.pairs_within`) and works on that list instead
@@ -223,7 +223,7 @@ def _coincidence_log(start, per_cat, area):
 @njit(cache=True)
 def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area, gap,
                  log_false_odds, resolve2, mag_sigmas, min_mag_sigma, min_sigma_px, min_fit):
-    """The final labelling (:func:`startrack.labelling.label_stars`, whose parameters
+    """The final labelling (:func:`startrack.verify._labelling.label_stars`, whose parameters
     these are, the logs and squares taken).
 
     Returns
@@ -289,7 +289,7 @@ def _log_b_at(e_cat, log_b, lo, hi, j):
 
 def warm_up() -> None:
     """Compile (or load from numba's cache) :func:`label_kernel` with the argument types
-    :func:`startrack.labelling.label_stars` passes, so that no timed frame compiles it."""
+    :func:`startrack.verify._labelling.label_stars` passes, so that no timed frame compiles it."""
     v = np.array([10.0, 40.0, 70.0, 100.0, 130.0, 160.0])
     label_kernel(v, v, v, v, v / 30.0, np.arange(len(v), dtype=np.int64), v, True, 16.0, 1.0,
                  1e4, math.log(1e-3), math.log(1e-3), 4.0, 5.0, 0.03, 0.02, 5)

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.matching import check_kernels
 from startrack.matching import verify_kernels as kern
 from startrack.types import Observation
@@ -76,7 +76,7 @@ class CatalogProjector:
         self.margin_cos = math.cos(CONE_REUSE_FRACTION * self.cone_rad)
         self.fixed = rows is not None
         self.boresight = np.zeros(3)
-        self._config = None  # the startrack.verify.VerifyConfig of _packed
+        self._config = None  # the startrack.verify._verification.VerifyConfig of _packed
         if self.fixed:
             self._use(np.asarray(rows, np.int64))
         else:  # the first hypothesis looks its cone up
@@ -115,9 +115,9 @@ class CatalogProjector:
 
     def check(self, obs_h: np.ndarray, cat_h: np.ndarray, config,
               kernel_params: Callable) -> tuple:
-        """:func:`startrack.verify.verify`'s steps in one compiled call
+        """:func:`startrack.verify._verification.verify`'s steps in one compiled call
         (:mod:`startrack.matching.check_kernels`) on int64 arrays, the labelling's
-        parameters from ``kernel_params`` (:func:`startrack.labelling.kernel_params`,
+        parameters from ``kernel_params`` (:func:`startrack.verify._labelling.kernel_params`,
         passed in: labelling sits above this package): (status, first matrix,
         observed index, catalog rows, false probability, confirmed, final matrix,
         residuals in arcseconds, quaternion). Unless the status is ACCEPTED the pairs are
@@ -220,7 +220,7 @@ class CatalogProjector:
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """:meth:`refine`, the final labelling at the refined attitude and the attitude
         refitted to the labels, in one compiled call (``label_params``:
-        :func:`startrack.labelling.kernel_params`). Returns (obs_index, cat_index, matrix),
+        :func:`startrack.verify._labelling.kernel_params`). Returns (obs_index, cat_index, matrix),
         or None when the refinement moved the boresight beyond the cone's margin (never by
         arcseconds): the caller then takes the steps one by one on a fresh cone."""
         pos = np.searchsorted(self.rows, cat_m)

@@ -3,9 +3,9 @@ lens, observed stars paired with it, a hypothesis's first test and the refinemen
 
 A frame has tens of stars, so numpy or scipy on them is dominated by per-call overhead;
 these kernels do a whole step per call. The camera comes in as ``geometry``:
-``[f_px, cx, cy, width, height, k1, k2, k3, max_r2]`` (:func:`startrack.camera.geometry`),
-and the projection is :meth:`startrack.camera.Camera.vector_to_pixel` followed by
-:meth:`~startrack.camera.Camera.in_image`, operation for operation.
+``[f_px, cx, cy, width, height, k1, k2, k3, max_r2]`` (:func:`startrack.camera._model.geometry`),
+and the projection is :meth:`startrack.camera._model.Camera.vector_to_pixel` followed by
+:meth:`~startrack.camera._model.Camera.in_image`, operation for operation.
 """
 
 from __future__ import annotations
@@ -189,7 +189,8 @@ def refine(obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m
     """Refit on every matched star and match again until the matched set stops changing;
     when a plain refit changes nothing, refit once on the matches within ``capture``
     match radii and keep that only if it then matches more stars (see
-    :func:`startrack.verify.refine`). Returns (observed index, vector position, matrix)."""
+    :func:`startrack.verify._verification.refine`). Returns (observed index, vector position,
+    matrix)."""
     obs_m, pos_m, matrix, _, _, _, _ = refine_projected(
         obs_vectors, ox, oy, vectors, geometry, radius, capture, obs_m, pos_m, max_rounds)
     return obs_m, pos_m, matrix

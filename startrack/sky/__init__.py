@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.defaults import max_pairs
 from startrack.errors import InputError
 from startrack.sky.catalog import (
@@ -130,25 +131,43 @@ def resolve_sky(spec: SkySpec, camera: Camera | None) -> SkySpec:
     """``spec`` with its defaults made explicit for ``camera``: the one home of the
     default magnitude rule (simulate, identify and compare all apply it). With no camera
     (an unknown field of view) a Gaia sky keeps every star; the blind search cuts it per
-    field of view (:mod:`startrack.fov`)."""
-    if spec.mag_limit is not None or camera is None:
+    field of view (:mod:`startrack.solver._fov_search`)."""
+    if spec.mag_limit is not None or camera is None or spec.kind not in _MAG_SOURCES:
         return spec
-    if spec.kind == "hipparcos":
-        from startrack.sky.hipparcos import hipparcos_arrays
+    return dataclasses.replace(spec, mag_limit=_default_limit(spec.kind, camera))
 
-        return dataclasses.replace(spec, mag_limit=default_mag_limit(
-            camera, hipparcos_arrays()["mag"]))
-    if spec.kind == "gaia":
-        from startrack.sky.gaia import gaia_arrays
 
-        return dataclasses.replace(spec, mag_limit=default_mag_limit(
-            camera, gaia_arrays()["mag"], hi=GAIA_MAG_MAX))
-    if spec.kind == "tycho2":
-        from startrack.sky.tycho2 import tycho2_arrays
+# The catalog modules import this package: their imports wait until a catalog is needed.
+def _hipparcos_mags() -> np.ndarray:
+    from startrack.sky.hipparcos import hipparcos_arrays
 
-        return dataclasses.replace(spec, mag_limit=default_mag_limit(
-            camera, tycho2_arrays()["mag"], hi=TYCHO2_MAG_MAX))
-    return spec
+    return hipparcos_arrays()["mag"]
+
+
+def _gaia_mags() -> np.ndarray:
+    from startrack.sky.gaia import gaia_arrays
+
+    return gaia_arrays()["mag"]
+
+
+def _tycho2_mags() -> np.ndarray:
+    from startrack.sky.tycho2 import tycho2_arrays
+
+    return tycho2_arrays()["mag"]
+
+
+#: the catalogs whose default magnitude limit depends on the camera: their magnitudes and
+#: the faintest limit the rule may choose
+_MAG_SOURCES = {"hipparcos": (_hipparcos_mags, 8.0), "gaia": (_gaia_mags, GAIA_MAG_MAX),
+                "tycho2": (_tycho2_mags, TYCHO2_MAG_MAX)}
+
+
+@functools.lru_cache(maxsize=64)
+def _default_limit(kind: str, camera: Camera) -> float:
+    """The default magnitude limit of ``kind`` for ``camera``, computed once per process:
+    it reads the whole catalog's magnitudes, which costs more than solving a frame."""
+    mags, hi = _MAG_SOURCES[kind]
+    return default_mag_limit(camera, mags(), hi=hi)
 
 
 MAX_RANDOM_STARS = 5_000_000

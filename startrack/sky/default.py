@@ -5,7 +5,7 @@ from __future__ import annotations
 import functools
 import math
 
-from startrack.camera import Camera
+from startrack.camera._model import Camera
 from startrack.defaults import GAIA_BELOW_FOV_DEG
 from startrack.errors import InputError
 

@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from startrack.cache import cached_parse
 from startrack.errors import InputError
+from startrack.io._cache import cached_parse
 from startrack.sky.catalog import Catalog, radec_to_vectors
 
 FORMAT_VERSION = 1

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.cache import cache_dir, cached_parse
 from startrack.errors import InputError
+from startrack.io._cache import cache_dir, cached_parse
 from startrack.sky import parse_kernels
 from startrack.sky.catalog import Catalog, vectors_to_radec
 

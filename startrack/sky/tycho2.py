@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from startrack.cache import cached_arrays
 from startrack.errors import InputError
+from startrack.io._cache import cached_arrays
 from startrack.sky.catalog import Catalog, radec_to_vectors, vectors_to_radec
 
 FORMAT_VERSION = 1

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import xxhash
 
-from startrack.cache import cached_arrays
 from startrack.errors import InputError
+from startrack.io._cache import cached_arrays
 from startrack.sky.catalog import Catalog
 
 FORMAT_VERSION = 1

@@ -1,0 +1,93 @@
+"""The Python API's keywords checked and converted as the command line's options are.
+
+Numbers go through startrack.validate (the same bounds as the options); ``camera`` may be a
+:class:`Camera`, a camera file path or a mapping of camera-file keys (checked like a file);
+``time`` ISO 8601 text, an astropy ``Time`` or a number (a Julian year, e.g. 2019.57);
+``prior`` exactly (ra, dec, roll) in degrees. A bad value raises a ``ValueError`` or
+``TypeError`` subclass whose one-line message names the keyword.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+from startrack.camera._model import Camera
+from startrack.errors import InputError, as_builtin
+from startrack.validate import (
+    EPOCH_YEAR,
+    FOV_DEG,
+    FOV_TOLERANCE,
+    IMAGE_SIDE_PX,
+    MAG_LIMIT,
+    MAX_STARS,
+    PRIOR_SIGMA_DEG,
+    SIGMA_PX,
+    TIMEOUT_MS,
+    NumberTypeError,
+    check_attitude,
+    check_keywords,
+    check_number,
+)
+
+SOLVER_BOUNDS = {"fov_deg": FOV_DEG, "fov_tolerance": FOV_TOLERANCE, "sigma_px": SIGMA_PX,
+                 "mag_limit": MAG_LIMIT, "epoch": EPOCH_YEAR, "max_stars": MAX_STARS,
+                 "timeout_ms": TIMEOUT_MS, "prior_sigma_deg": PRIOR_SIGMA_DEG}
+
+
+def check_solver_numbers(**values) -> None:
+    """Each numeric keyword of :class:`startrack.Solver` within its documented range."""
+    check_keywords(values, SOLVER_BOUNDS)
+
+
+def api_camera(camera) -> Camera | None:
+    """A Camera from a Camera, a camera file path or a mapping of camera-file keys."""
+    if camera is None or isinstance(camera, Camera):
+        return camera
+    from startrack.camera._file import camera_from_dict, load_camera
+
+    try:
+        if isinstance(camera, Mapping):
+            return camera_from_dict(dict(camera), where="camera")
+        if isinstance(camera, str | Path):
+            if not Path(camera).is_file():
+                raise FileNotFoundError(f"camera: no camera file {str(camera)!r}")
+            return load_camera(camera)
+    except InputError as exc:  # the API's errors are built-in subclasses (conventions)
+        raise as_builtin(exc) from None
+    raise NumberTypeError(f"camera: expected a Camera, a camera file path or a mapping of "
+                          f"camera keys, got {type(camera).__name__}")
+
+
+def api_time(time):
+    """An astropy Time from ISO 8601 text, a Time, or a number taken as a Julian year."""
+    if time is None:
+        return None
+    from astropy.time import Time
+
+    if isinstance(time, Time):
+        return time
+    if isinstance(time, str):
+        from startrack.solver._aberration import parse_time
+
+        return parse_time(time, where="time")
+    year = check_number(time, "time (a Julian year)", EPOCH_YEAR)
+    return Time(float(year), format="jyear", scale="utc")
+
+
+def api_prior(prior) -> tuple[float, float, float] | None:
+    """``prior`` as (ra, dec, roll) degrees; (1, 2) or a bare number is an error."""
+    return None if prior is None else check_attitude(prior, "prior")
+
+
+def api_size(size) -> tuple[int, int] | None:
+    """``size`` as (width, height) pixels."""
+    if size is None:
+        return None
+    try:
+        width, height = size
+    except (TypeError, ValueError):
+        raise NumberTypeError(f"size: expected (width, height) in pixels, got {size!r}") \
+            from None
+    return (int(check_number(width, "size: width", IMAGE_SIDE_PX)),
+            int(check_number(height, "size: height", IMAGE_SIDE_PX)))

@@ -1,0 +1,105 @@
+"""Lens distortion of docs/conventions.md: Brown-Conrady radial, ideal pinhole <-> observed.
+
+Coordinates here are normalised: ``u = (x - cx) / f``, ``v = (y - cy) / f``. The model maps
+the ideal pinhole point to the observed one, ``u_obs = u * (1 + k1 r2 + k2 r2^2 + k3 r2^3)``
+with ``r2 = u^2 + v^2``; the inverse is found by Newton's method on the radius, vectorised.
+(FITS TAN-SIP terms of this model: :func:`startrack.outputs._wcs.sip_from_camera`.)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from startrack.errors import InputError
+
+MODELS = ("radial",)
+_KEYS = {"model", "k1", "k2", "k3"}
+NEWTON_ITERATIONS = 12
+
+
+@dataclass(frozen=True)
+class RadialDistortion:
+    """Brown-Conrady radial distortion with coefficients k1, k2, k3 (dimensionless)."""
+
+    k1: float = 0.0
+    k2: float = 0.0
+    k3: float = 0.0
+
+    @property
+    def is_identity(self) -> bool:
+        return self.k1 == 0.0 and self.k2 == 0.0 and self.k3 == 0.0
+
+    def factor(self, r2: np.ndarray) -> np.ndarray:
+        """The radial scale ``1 + k1 r2 + k2 r2^2 + k3 r2^3``."""
+        return 1.0 + r2 * (self.k1 + r2 * (self.k2 + r2 * self.k3))
+
+    def _slope(self, r2: np.ndarray) -> np.ndarray:
+        # d/dr of r * factor(r^2)
+        return 1.0 + r2 * (3.0 * self.k1 + r2 * (5.0 * self.k2 + r2 * 7.0 * self.k3))
+
+    @cached_property
+    def max_r2(self) -> float:
+        """Ideal r^2 up to which the observed radius still grows with the ideal one (the
+        model is invertible there); ``inf`` when it never folds back. Computed once per
+        model: every projection and inversion through it asks."""
+        # Roots in r2 of 1 + 3 k1 s + 5 k2 s^2 + 7 k3 s^3 = 0; the smallest positive one.
+        if self.k2 == 0.0 and self.k3 == 0.0:  # k1 alone (a fitted lens): no polynomial
+            return -1.0 / (3.0 * self.k1) if self.k1 < 0.0 else math.inf
+        roots = np.roots([7.0 * self.k3, 5.0 * self.k2, 3.0 * self.k1, 1.0])
+        real = roots[np.abs(roots.imag) < 1e-12].real
+        positive = real[real > 0]
+        return float(positive.min()) if len(positive) else math.inf
+
+    def distort(self, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Observed normalised coordinates of ideal ones."""
+        s = self.factor(u * u + v * v)
+        return u * s, v * s
+
+    def undistort(self, ud: np.ndarray, vd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ideal normalised coordinates of observed ones (Newton on the radius)."""
+        ud = np.asarray(ud, dtype=np.float64)
+        vd = np.asarray(vd, dtype=np.float64)
+        if self.is_identity:
+            return ud, vd
+        rd = np.hypot(ud, vd)
+        r_cap = math.sqrt(self.max_r2) if math.isfinite(self.max_r2) else math.inf
+        r = np.minimum(rd, r_cap)
+        for _ in range(NEWTON_ITERATIONS):  # quadratic convergence: 12 is ample
+            r2 = r * r
+            step = (r * self.factor(r2) - rd) / self._slope(r2)
+            r = np.clip(r - step, 0.0, r_cap)
+            if not np.any(np.abs(step) > 1e-15):
+                break
+        scale = np.divide(r, rd, out=np.ones_like(rd), where=rd > 0)
+        return ud * scale, vd * scale
+
+    def to_dict(self) -> dict:
+        return {"model": "radial", "k1": self.k1, "k2": self.k2, "k3": self.k3}
+
+
+def _number(value, key: str, where: str) -> float:
+    from startrack.validate import check_number
+
+    return float(check_number(value, f"{where}: distortion '{key}'"))
+
+
+def distortion_from_dict(data, where: str = "camera") -> RadialDistortion | None:
+    """The ``distortion`` entry of a camera file (docs/conventions.md); None for no distortion."""
+    if data is None:
+        return None
+    if not isinstance(data, dict):
+        raise InputError(f"{where}: 'distortion' must be a table such as "
+                         '{"model": "radial", "k1": -0.1}')
+    unknown = set(data) - _KEYS
+    if unknown:
+        raise InputError(f"{where}: unknown distortion key(s) {', '.join(sorted(unknown))}")
+    model = data.get("model")
+    if model not in MODELS:
+        raise InputError(f"{where}: distortion 'model' must be one of {', '.join(MODELS)}, "
+                         f"got {model!r}")
+    k = {key: _number(data.get(key, 0.0), key, where) for key in ("k1", "k2", "k3")}
+    return RadialDistortion(**k)

@@ -1,0 +1,166 @@
+"""The camera of docs/conventions.md: pixels <-> camera-frame unit vectors.
+
+A pinhole with optional Brown-Conrady radial distortion (:mod:`startrack.camera._distortion`);
+every pixel -> direction and direction -> pixel in startrack goes through this class.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from startrack.camera._distortion import RadialDistortion
+from startrack.errors import InputError
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Image size in pixels, focal length in pixels, principal point (cx, cy).
+
+    Pixel (x, y) = (column, row), (0, 0) the centre of the top-left pixel. Camera +z is
+    the boresight, +x towards increasing columns, +y towards increasing rows.
+    ``distortion`` maps the ideal pinhole point to the observed pixel (None: a pinhole).
+    """
+
+    width: int
+    height: int
+    f_px: float
+    cx: float
+    cy: float
+    distortion: RadialDistortion | None = None
+
+    @classmethod
+    def from_fov(cls, width: int, height: int, fov_deg: float,
+                 cx: float | None = None, cy: float | None = None,
+                 distortion: RadialDistortion | None = None) -> Camera:
+        """``fov_deg`` is the full horizontal angle across the image width."""
+        if not 0 < fov_deg < 180:
+            raise InputError(f"camera: fov_deg must be in (0, 180), got {fov_deg}")
+        f = (width / 2.0) / math.tan(math.radians(fov_deg) / 2.0)
+        return cls._checked(width, height, f, cx, cy, distortion)
+
+    @classmethod
+    def from_optics(cls, width: int, height: int, focal_length_mm: float, pixel_size_um: float,
+                    cx: float | None = None, cy: float | None = None,
+                    distortion: RadialDistortion | None = None) -> Camera:
+        if focal_length_mm <= 0 or pixel_size_um <= 0:
+            raise InputError("camera: focal_length_mm and pixel_size_um must be positive")
+        return cls._checked(width, height, focal_length_mm * 1000.0 / pixel_size_um, cx, cy,
+                            distortion)
+
+    @classmethod
+    def _checked(cls, width, height, f, cx, cy, distortion=None) -> Camera:
+        if int(width) != width or int(height) != height or width < 1 or height < 1:
+            raise InputError(f"camera: width and height must be positive integers, "
+                             f"got {width} x {height}")
+        cx = (width - 1) / 2.0 if cx is None else float(cx)
+        cy = (height - 1) / 2.0 if cy is None else float(cy)
+        camera = cls(int(width), int(height), float(f), cx, cy)
+        return camera.with_distortion(distortion)
+
+    def with_distortion(self, distortion: RadialDistortion | None) -> Camera:
+        """This camera with another distortion (None or all-zero: a pinhole). The model
+        must stay invertible over the whole image: a lens whose image folds back on
+        itself inside the frame is an error."""
+        if distortion is None or distortion.is_identity:
+            return dataclasses.replace(self, distortion=None)
+        corners_x = np.array([-0.5, self.width - 0.5]) - self.cx
+        corners_y = np.array([-0.5, self.height - 0.5]) - self.cy
+        rd2 = float((np.abs(corners_x).max() ** 2 + np.abs(corners_y).max() ** 2)
+                    / self.f_px**2)
+        r2 = distortion.max_r2
+        if math.isfinite(r2) and rd2 >= r2 * distortion.factor(np.array(r2)) ** 2:
+            raise InputError(f"camera: distortion {distortion.to_dict()} folds back inside "
+                             "the image (not invertible at the corners)")
+        return dataclasses.replace(self, distortion=distortion)
+
+    @property
+    def pinhole(self) -> Camera:
+        """The same camera without distortion."""
+        return dataclasses.replace(self, distortion=None)
+
+    @property
+    def fov_deg(self) -> float:
+        return math.degrees(2.0 * math.atan((self.width / 2.0) / self.f_px))
+
+    @property
+    def diagonal_fov_deg(self) -> float:
+        """Largest angle between two pixels of the image (corner to corner)."""
+        a = self.pixel_to_vector(np.array([0.0]), np.array([0.0]))[0]
+        b = self.pixel_to_vector(np.array([self.width - 1.0]), np.array([self.height - 1.0]))[0]
+        return math.degrees(math.acos(float(np.clip(a @ b, -1.0, 1.0))))
+
+    @property
+    def half_diagonal_deg(self) -> float:
+        """Angle from the boresight to the farthest image corner."""
+        corners_x = np.array([0.0, self.width - 1.0, 0.0, self.width - 1.0])
+        corners_y = np.array([0.0, 0.0, self.height - 1.0, self.height - 1.0])
+        v = self.pixel_to_vector(corners_x, corners_y)
+        return float(np.degrees(np.arccos(np.clip(v[:, 2], -1, 1))).max())
+
+    def ideal_pixels(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Where observed pixels would be without distortion (the pinhole image)."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        if self.distortion is None:
+            return x, y
+        u, v = self.distortion.undistort((x - self.cx) / self.f_px, (y - self.cy) / self.f_px)
+        return self.cx + self.f_px * u, self.cy + self.f_px * v
+
+    def pixel_to_vector(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Camera-frame unit vectors (N x 3) for pixel coordinates."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        u, v = (x - self.cx) / self.f_px, (y - self.cy) / self.f_px
+        if self.distortion is not None:
+            u, v = self.distortion.undistort(u, v)
+        vec = np.stack([u, v, np.ones_like(u)], axis=-1)
+        return vec / np.linalg.norm(vec, axis=-1, keepdims=True)
+
+    def vector_to_pixel(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pixel (x, y) of camera-frame vectors, and a mask of those in front (z > 0) and,
+        with distortion, inside the radius where the lens model is invertible."""
+        v = np.asarray(v, dtype=np.float64)
+        z = v[..., 2]
+        front = z > 1e-12
+        zs = np.where(front, z, 1.0)
+        u, w = v[..., 0] / zs, v[..., 1] / zs
+        if self.distortion is not None:
+            # Beyond the fold a far-off star would land back inside the image.
+            front = front & (u * u + w * w < self.distortion.max_r2)
+            u, w = self.distortion.distort(u, w)
+        return self.cx + self.f_px * u, self.cy + self.f_px * w, front
+
+    @property
+    def geometry(self) -> np.ndarray:
+        """The camera as the compiled kernels take it (startrack.matching.verify_kernels):
+        ``[f_px, cx, cy, width, height, k1, k2, k3, max_r2]``; shared, not to be written
+        (a read-only array would be a second type to the kernels, compiled twice)."""
+        return _geometry(self)
+
+    def in_image(self, x: np.ndarray, y: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        """Mask of pixel positions inside the image, ``margin`` pixels from every edge."""
+        return ((x >= -0.5 + margin) & (x <= self.width - 0.5 - margin)
+                & (y >= -0.5 + margin) & (y <= self.height - 0.5 - margin))
+
+    def to_dict(self) -> dict:
+        """The camera-file keys of docs/conventions.md (``distortion`` only when there is one)."""
+        out = {"width": self.width, "height": self.height, "fov_deg": self.fov_deg,
+               "cx": self.cx, "cy": self.cy}
+        if self.distortion is not None:
+            out["distortion"] = self.distortion.to_dict()
+        return out
+
+
+@lru_cache(maxsize=64)
+def _geometry(camera: Camera) -> np.ndarray:
+    d = camera.distortion
+    k1, k2, k3, max_r2 = (0.0, 0.0, 0.0, math.inf) if d is None else (d.k1, d.k2, d.k3,
+                                                                        d.max_r2)
+    out = np.array([camera.f_px, camera.cx, camera.cy, camera.width, camera.height,
+                    k1, k2, k3, max_r2], dtype=np.float64)
+    return out

@@ -1,0 +1,17 @@
+"""Centroids: the observed stars of a frame found in its pixels, and the centroid CSV.
+"""
+
+from startrack._lazy import lazy_exports
+
+__all__ = [
+    "CentroidConfig", "Centroids", "extract_centroids", "read_centroid_csv",
+    "write_centroid_csv",
+]
+
+__getattr__, __dir__ = lazy_exports(__name__, {
+    "CentroidConfig": "_extract",
+    "Centroids": "_table",
+    "extract_centroids": "_extract",
+    "read_centroid_csv": "_table",
+    "write_centroid_csv": "_table",
+})

@@ -1,0 +1,289 @@
+"""Files that appear only when complete: atomic output writes and the on-disk cache.
+
+Cache entries (:func:`cached_arrays` for arrays, :func:`cached_file` for a peer's own
+file format) are written as every output is (:func:`startrack.io._writer.atomic_path`), so an
+interrupted run never leaves one half-written.
+
+Cache entries carry an XXH3-128 hash of their arrays (xxhash), checked on every load, so an
+entry whose contents were damaged (not just torn) is rebuilt rather than trusted. Each entry
+also stores its key (kind, cache version, parameters: for a parsed catalog its source file's
+path, size and modification time and the parser's version), covered by the hash and compared
+on load, so a valid entry of another catalog copied over this one is rebuilt, not trusted. XXH3 is
+not a cryptographic hash: it detects damage, not deliberate tampering; it reads ~10x
+faster than SHA-256, which had become the largest part of a warm start. The cache is
+bounded: after each write the least recently used entries are evicted until the total is
+at most ``$STARTRACK_CACHE_MAX_MB`` (default :data:`DEFAULT_CACHE_MAX_MB`).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import contextlib
+import hashlib
+import json
+import math
+import os
+import re
+import struct
+import time
+import zipfile
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import xxhash
+
+from startrack.io._writer import atomic_path
+
+CACHE_VERSION = 4  # 2: a checksum; 3: XXH3-128 instead of SHA-256; 4: the key inside
+DEFAULT_CACHE_MAX_MB = 2048  # room for a blind search's Gaia pattern tables beside the rest
+CHECKSUM_KEY = "__xxh3_128__"
+ENTRY_KEY = "__key__"  # the member holding the entry's own key (what the entry is)
+# What the cache writes: kind-<20 hex>.suffix; anything else in the folder is left alone.
+ENTRY_NAME = re.compile(r"^[a-z0-9_]+-[0-9a-f]{20}(\.[A-Za-z0-9]+)+$")
+TEMP_NAME = re.compile(r"^\.[a-z0-9_]+-[0-9a-f]{20}\.")
+
+
+def cache_dir() -> Path:
+    """``$STARTRACK_CACHE_DIR``, else the user's cache directory."""
+    env = os.environ.get("STARTRACK_CACHE_DIR")
+    if env:
+        return Path(env)
+    from platformdirs import user_cache_dir
+
+    return Path(user_cache_dir("startrack"))
+
+
+def cache_max_bytes() -> int:
+    """The cache size cap: ``$STARTRACK_CACHE_MAX_MB`` megabytes (default 2048)."""
+    from startrack.validate import CACHE_MAX_MB, env_number
+
+    mb = env_number("STARTRACK_CACHE_MAX_MB", DEFAULT_CACHE_MAX_MB, CACHE_MAX_MB)
+    return int(mb * 1024 * 1024)
+
+
+def key_text(kind: str, params: dict) -> str:
+    """The canonical text of an entry's key: (kind, cache format version, params)."""
+    return json.dumps({"kind": kind, "v": CACHE_VERSION, **params}, sort_keys=True, default=str)
+
+
+def cache_key(kind: str, params: dict) -> str:
+    """A file stem unique to (kind, params) and the cache format version."""
+    return f"{kind}-{hashlib.sha256(key_text(kind, params).encode()).hexdigest()[:20]}"
+
+
+def arrays_checksum(arrays: dict[str, np.ndarray]) -> str:
+    """XXH3-128 over each array's name, dtype, shape and bytes, in name order."""
+    digest = xxhash.xxh3_128()
+    for name in sorted(arrays):
+        arr = np.ascontiguousarray(arrays[name])
+        digest.update(f"{name}\0{arr.dtype.str}\0{arr.shape}\0".encode())
+        digest.update(arr.reshape(-1).view(np.uint8))  # the bytes, without a copy
+    return digest.hexdigest()
+
+
+def _read_member(fh, info: zipfile.ZipInfo) -> np.ndarray | None:
+    """One stored .npy member, read straight into an array of its own (aligned and
+    writable, one copy from the page cache); None when it is not a plain .npy."""
+    fh.seek(info.header_offset)
+    local = fh.read(30)
+    if local[:4] != b"PK\x03\x04":
+        raise ValueError("bad local header")
+    name_len, extra_len = struct.unpack("<HH", local[26:30])
+    start = info.header_offset + 30 + name_len + extra_len
+    fh.seek(start)
+    version = np.lib.format.read_magic(fh)
+    if version not in ((1, 0), (2, 0)):
+        return None
+    read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                   else np.lib.format.read_array_header_2_0)
+    shape, fortran, dtype = read_header(fh)
+    if dtype.hasobject:
+        raise ValueError("object arrays are never cached")
+    nbytes = math.prod(shape) * dtype.itemsize
+    if fh.tell() - start + nbytes != info.file_size:
+        raise ValueError("member size does not match its header")
+    raw = np.empty(nbytes, np.uint8)
+    if fh.readinto(raw) != nbytes:
+        raise ValueError("truncated member")
+    return raw.view(dtype).reshape(shape, order="F" if fortran else "C")
+
+
+def _read_npz(path: Path) -> dict[str, np.ndarray]:
+    """The arrays of a .npz: its stored members read directly (np.load decompresses and
+    CRCs through a stream, several times slower; the caller checks the hash anyway),
+    anything else by np.load."""
+    with zipfile.ZipFile(path) as zf, open(path, "rb") as fh:
+        arrays: dict[str, np.ndarray] = {}
+        for info in zf.infolist():
+            arr = None
+            if info.compress_type == zipfile.ZIP_STORED and info.filename.endswith(".npy"):
+                arr = _read_member(fh, info)
+            if arr is None:
+                with np.load(path, allow_pickle=False) as data:
+                    return {name: data[name] for name in data.files}
+            arrays[info.filename[:-4]] = arr
+    return arrays
+
+
+def _load_checked(path: Path, key: str) -> dict[str, np.ndarray] | None:
+    """The arrays of a cache entry, or None when it is damaged, altered or another entry
+    (its stored ``key`` differs: what the file name says is not what the entry holds)."""
+    try:
+        arrays = _read_npz(path)
+    except Exception:  # any damage (truncation, bad zip, bad header) means a rebuild
+        return None
+    stored = arrays.pop(CHECKSUM_KEY, None)
+    if not arrays or stored is None or str(stored) != arrays_checksum(arrays):
+        return None
+    stored_key = arrays.pop(ENTRY_KEY, None)
+    if stored_key is None or stored_key.shape != () or str(stored_key) != key or not arrays:
+        return None
+    return arrays
+
+
+def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """What ``np.savez(path, **arrays, __xxh3_128__=checksum)`` writes, without its chunked
+    copies, and with the checksum hashed in a thread while the arrays are written (both
+    xxhash and the zip's CRC release the GIL on large buffers)."""
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        checksum = pool.submit(arrays_checksum, arrays)
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+            for name, arr in arrays.items():
+                with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
+                    _write_member(fh, np.asanyarray(arr))
+            with zf.open(f"{CHECKSUM_KEY}.npy", "w", force_zip64=True) as fh:
+                _write_member(fh, np.array(checksum.result()))
+
+
+def _write_member(fh, arr: np.ndarray) -> None:
+    if not arr.flags.c_contiguous or arr.dtype.hasobject:
+        np.lib.format.write_array(fh, arr, allow_pickle=False)
+        return
+    header = np.lib.format.header_data_from_array_1_0(arr)
+    try:
+        np.lib.format.write_array_header_1_0(fh, header)
+    except ValueError:  # too long a header for format 1.0, as np.save would find
+        np.lib.format.write_array_header_2_0(fh, header)
+    fh.write(arr.reshape(-1).view(np.uint8))
+
+
+def _touch(path: Path) -> None:
+    """Mark an entry as just used (the eviction order); atime is unreliable on most mounts."""
+    with contextlib.suppress(OSError):
+        os.utime(path)
+
+
+def cached_arrays(kind: str, params: dict,
+                  build: Callable[[], dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """Load the arrays for (kind, params) from the cache, or build and store them.
+
+    A damaged or altered entry (checksum mismatch), or one whose stored key is not
+    (kind, params), is rebuilt; a read-only cache only costs the rebuild next time.
+    """
+    path = cache_dir() / f"{cache_key(kind, params)}.npz"
+    key = key_text(kind, params)
+    if path.exists():
+        arrays = _load_checked(path, key)
+        if arrays is not None:
+            _touch(path)
+            return arrays
+    arrays = build()
+    try:
+        with atomic_path(path, "cache entry") as tmp:
+            _write_npz(tmp, {**arrays, ENTRY_KEY: np.array(key)})
+    except OSError as exc:
+        _warn_unwritable(exc)
+    evict(keep=path)
+    return arrays
+
+
+_warned_unwritable: list[str] = []  # the cache folders already warned about, this process
+
+
+def _warn_unwritable(exc: OSError) -> None:
+    """Say once that the cache cannot be written: every run then rebuilds its databases
+    (a minute and more), which the user would otherwise see only as slowness."""
+    import warnings
+
+    from startrack.errors import StartrackWarning
+
+    folder = str(cache_dir())
+    if folder in _warned_unwritable:
+        return
+    _warned_unwritable.append(folder)
+    reason = exc.strerror or str(exc)
+    warnings.warn(f"cache folder {folder} cannot be written ({reason}): databases are "
+                  "rebuilt on every run (set STARTRACK_CACHE_DIR)", StartrackWarning,
+                  stacklevel=2)
+
+
+def cached_file(kind: str, params: dict, suffix: str, build: Callable[[Path], None]) -> Path:
+    """The cache path for (kind, params); ``build(tmp_path)`` writes it when missing."""
+    path = cache_dir() / f"{cache_key(kind, params)}{suffix}"
+    if path.exists():
+        _touch(path)
+        return path
+    with atomic_path(path) as tmp:
+        build(tmp)
+    evict(keep=path)
+    return path
+
+
+def cache_entries(folder: Path | None = None) -> list[tuple[Path, int, float]]:
+    """(path, bytes, last use) of every cache entry, least recently used first."""
+    folder = cache_dir() if folder is None else folder
+    found = []
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(folder):
+            if entry.is_file(follow_symlinks=False) and ENTRY_NAME.match(entry.name):
+                with contextlib.suppress(OSError):
+                    st = entry.stat(follow_symlinks=False)
+                    found.append((Path(entry.path), st.st_size, st.st_mtime))
+    return sorted(found, key=lambda e: e[2])
+
+
+def evict(keep: Path | None = None, max_bytes: int | None = None) -> list[Path]:
+    """Remove least recently used entries until the cache fits its cap; ``keep`` stays."""
+    cap = cache_max_bytes() if max_bytes is None else max_bytes
+    entries = cache_entries(None if keep is None else keep.parent)
+    total = sum(size for _, size, _ in entries)
+    removed = []
+    for path, size, _ in entries:
+        if total <= cap:
+            break
+        if keep is not None and path == keep:
+            continue
+        with contextlib.suppress(OSError):
+            path.unlink()
+            removed.append(path)
+            total -= size
+    return removed
+
+
+def clear_cache() -> tuple[int, int]:
+    """Remove every cache entry (and leftover temporary files); (entries, bytes) freed."""
+    entries = cache_entries()
+    freed = 0
+    for path, size, _ in entries:
+        with contextlib.suppress(OSError):
+            path.unlink()
+            freed += size
+    # Temporary files of writes that were killed; an hour old, so no write in progress.
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(cache_dir()):
+            if TEMP_NAME.match(entry.name):
+                with contextlib.suppress(OSError):
+                    if time.time() - entry.stat(follow_symlinks=False).st_mtime > 3600:
+                        os.unlink(entry.path)
+    return len(entries), freed
+
+
+def cached_parse(kind: str, source: Path, version: int,
+                 parse: Callable[[Path], dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """``parse(source)`` cached under the file's path, size and modification time (and the
+    parser's ``version``), so an updated catalog file is parsed again."""
+    stat = source.stat()
+    key = {"path": str(source.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns,
+           "format": version}
+    return cached_arrays(kind, key, lambda: parse(source))

@@ -1,0 +1,239 @@
+"""An annotated PNG of a solved frame for a person to check by eye: the frame stretched so
+stars show, identified stars circled and labelled, other spots marked apart, residuals
+drawn to scale and a caption with the attitude and field of view."""
+
+from __future__ import annotations
+
+import csv
+import functools
+import math
+from pathlib import Path
+
+import numpy as np
+
+from startrack.io._writer import atomic_path
+
+#: catalog stars at least this bright get their IAU name beside the HIP number
+NAME_MAG_LIMIT = 5.5
+_CAPTION_PX = 110  # the caption, the legend and the RA labels under the frame
+#: margins around the frame (pixels of the PNG) for the Dec labels and the last label
+MARGIN_LEFT_PX = 70
+MARGIN_RIGHT_PX = 100  # also holds the compass
+MARGIN_TOP_PX = 10
+#: a star this close to the right edge is labelled on its left
+LABEL_ROOM_PX = 110
+_ARCSEC_PER_RAD = math.degrees(1.0) * 3600.0
+
+
+def stretch(image: np.ndarray) -> np.ndarray:
+    """The frame as 0..1 floats a person can see: background removed, asinh-stretched.
+
+    The background is the median and the noise the median absolute deviation, so the
+    sky is dark grey, faint stars show a few noise levels above it and bright stars
+    saturate softly instead of everything but them looking black (a 16-bit frame shown
+    linearly). Non-finite pixels show as the background.
+    """
+    img = np.nan_to_num(np.asarray(image, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+    img = img - _background(img)  # vignetting and sky glow vary across a real frame
+    background = float(np.median(img))
+    noise = 1.4826 * float(np.median(np.abs(img - background)))
+    if noise <= 0:  # a flat or synthetic background: scale by the signal instead
+        spread = float(np.percentile(img, 99.9) - background)
+        noise = spread / 100.0 if spread > 0 else 1.0
+    # Half a noise level above the background is black: the sky is dark with its noise
+    # faintly visible, and a star a few noise levels up already shows.
+    z = np.clip((img - background) / noise - 0.5, 0.0, None)
+    top = max(float(np.percentile(z, 99.95)), 20.0)
+    soft = 4.0  # noise levels over which the stretch turns from linear to logarithmic
+    return np.clip(np.arcsinh(z / soft) / np.arcsinh(top / soft), 0.0, 1.0)
+
+
+def _background(img: np.ndarray, block: int = 32) -> np.ndarray:
+    """The slowly varying background: medians of block x block tiles, interpolated."""
+    import cv2
+
+    h, w = img.shape
+    ny, nx = max(1, h // block), max(1, w // block)
+    tiles = img[: ny * block, : nx * block].reshape(ny, block, nx, block)
+    medians = np.median(tiles.transpose(0, 2, 1, 3).reshape(ny, nx, -1), axis=2)
+    return cv2.resize(medians.astype(np.float32), (w, h), interpolation=cv2.INTER_LINEAR)
+
+
+@functools.lru_cache(maxsize=1)
+def star_names() -> dict[int, str]:
+    """IAU (WGSN) star names by HIP number, from data/iau_star_names.csv."""
+    from startrack.io._resources import resource_path
+
+    path = resource_path("data", "iau_star_names.csv")
+    with open(path, newline="", encoding="utf-8") as fh:
+        return {int(row["hip"]): row["name"] for row in csv.DictReader(fh)}
+
+
+def residual_pixels(frame) -> tuple[np.ndarray, np.ndarray]:
+    """(dx, dy) in pixels of each identified star: observed minus where the solved
+    attitude puts its catalog position (in ``solution.obs_index`` order)."""
+    sol = frame.solution
+    cam_vectors = sol.rotation.inv().apply(frame.catalog.vectors[sol.cat_index])
+    px, py, _ = frame.camera.vector_to_pixel(cam_vectors)
+    return frame.obs.x[sol.obs_index] - px, frame.obs.y[sol.obs_index] - py
+
+
+def _nice_magnification(max_px: float, target_px: float) -> int:
+    """A round factor (1, 2, 5, 10, 20, ...) that draws the largest residual near
+    ``target_px`` pixels long."""
+    if not max_px > 0:
+        return 1
+    raw = target_px / max_px
+    best = 1
+    for decade in range(0, 6):
+        for step in (1, 2, 5):
+            value = step * 10 ** decade
+            if value <= raw:
+                best = value
+    return best
+
+
+def _labels(frame) -> list[str]:
+    cat = frame.catalog
+    rows = frame.solution.cat_index
+    is_hip = cat.source.get("kind") == "hipparcos"
+    names = star_names() if is_hip else {}
+    out = []
+    for cid, mag in zip(cat.ids[rows], cat.mag[rows], strict=True):
+        text = f"HIP {int(cid)}" if is_hip else f"#{int(cid)}"
+        name = names.get(int(cid))
+        if name and mag <= NAME_MAG_LIMIT:
+            text += f" {name}"
+        out.append(text)
+    return out
+
+
+def caption(frame) -> str:
+    """The caption: input, attitude (RA, Dec, roll), FOV, stars identified, rms residual."""
+    record = frame.record()
+    fov = record.get("fov_deg", frame.camera.fov_deg)
+    head = f"{Path(frame.input).name}   method {frame.solution.method}   FOV {fov:.3f} deg"
+    if not frame.solution.solved:
+        reason = record.get("reason", "no_match")
+        return f"{head}\nnot solved ({reason}): {len(frame.obs)} spots marked"
+    att = record["attitude"]
+    res = np.asarray(frame.solution.residual_arcsec, dtype=float)
+    rms = math.sqrt(float(np.mean(res ** 2))) if len(res) else float("nan")
+    return (f"{head}\nRA {att['ra_deg']:.4f} deg   Dec {att['dec_deg']:+.4f} deg   "
+            f"roll {att['roll_deg']:.3f} deg   {len(res)} of {len(frame.obs)} spots "
+            f"identified   rms residual {rms:.2f} arcsec")
+
+
+def _label_sides(x: np.ndarray, width: int) -> list[tuple[tuple[int, int], str]]:
+    """Offset and alignment of each star's label: to the right, or to the left near the
+    right edge, so no label runs off the frame."""
+    return [((-8, -8), "right") if xi > width - LABEL_ROOM_PX else ((8, -8), "left")
+            for xi in x]
+
+
+def _draw_stars(ax, frame, width: int) -> tuple | None:
+    """Mark the spots; returns the residual scale (factor, bar length drawn in px, what
+    it stands for in px and arcsec), None when nothing is identified.
+
+    The other spots are small and faint underneath; the identified stars are drawn on
+    top, so a frame of several hundred spots still shows which ones were identified.
+    """
+    sol = frame.solution
+    obs = frame.obs
+    ident = np.zeros(len(obs), dtype=bool)
+    if sol.solved:
+        ident[sol.obs_index] = True
+    ax.scatter(obs.x[~ident], obs.y[~ident], s=22, marker="s", facecolors="none",
+               edgecolors="#ff9f1c", linewidths=0.6, alpha=0.45, zorder=2,
+               label="not identified")
+    if not sol.solved:
+        return None
+    x, y = obs.x[sol.obs_index], obs.y[sol.obs_index]
+    ax.scatter(x, y, s=170, marker="o", facecolors="none", edgecolors="#39ff14",
+               linewidths=1.2, zorder=4, label="identified")
+    for xi, yi, text, (offset, align) in zip(x, y, _labels(frame), _label_sides(x, width),
+                                             strict=True):
+        ax.annotate(text, (xi, yi), xytext=offset, textcoords="offset points", ha=align,
+                    color="#b8ffb0", fontsize=7, zorder=5)
+    dx, dy = residual_pixels(frame)
+    mag = _nice_magnification(float(np.hypot(dx, dy).max(initial=0.0)), 0.04 * width)
+    ax.quiver(x, y, dx * mag, dy * mag, angles="xy", scale_units="xy", scale=1.0,
+              color="#ff3864", width=0.0025, zorder=5, label="residual")
+    arcsec_per_px = _ARCSEC_PER_RAD / frame.camera.f_px
+    bar_px = 0.04 * width
+    bar_as = bar_px / mag * arcsec_per_px
+    return mag, bar_px, bar_px / mag, bar_as
+
+
+def _draw_caption(fig, frame, scale: tuple | None, width: int) -> None:
+    """The caption band under the frame: the text, the residual scale bar, the legend."""
+    import matplotlib.lines
+
+    fig_w, fig_h = fig.bbox.width, fig.bbox.height
+    band = _CAPTION_PX / fig_h
+    right = (MARGIN_LEFT_PX + width) / fig_w
+    text = caption(frame)
+    if scale is not None:
+        mag, bar_px, stands_px, stands_as = scale
+        text += (f"\nresiduals (observed - catalog) drawn x{mag}: the bar = {stands_px:.2g} "
+                 f"px = {stands_as:.2g} arcsec")
+        y_bar = 0.12 * band
+        fig.add_artist(matplotlib.lines.Line2D(
+            [right - bar_px / fig_w, right], [y_bar, y_bar], color="#ff3864", linewidth=2))
+    fig.legend(loc="upper right", bbox_to_anchor=(right, 0.62 * band), fontsize=7, ncol=3,
+               facecolor="black", edgecolor="grey", labelcolor="white", framealpha=0.6)
+    fig.text(MARGIN_LEFT_PX / fig_w, 0.3 * band, text, color="white", fontsize=8,
+             va="center", family="monospace")
+
+
+def write_annotated(frame, path: str | Path) -> None:
+    """Write the annotated PNG of one :class:`~startrack.solver._identifier.FrameResult`.
+
+    The frame is drawn pixel for pixel inside margins that hold the RA/Dec labels; a
+    solved frame gets an RA/Dec grid and a north/east compass from its solved WCS
+    (:func:`startrack.outputs._wcs.solved_wcs_header`). A centroid-list input (no image) is drawn
+    on a black frame of the camera's size.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    w, h = frame.camera.width, frame.camera.height
+    shown = stretch(frame.image) if frame.image is not None else np.zeros((h, w))
+    dpi = 100
+    fig_w, fig_h = w + MARGIN_LEFT_PX + MARGIN_RIGHT_PX, h + MARGIN_TOP_PX + _CAPTION_PX
+    fig = plt.figure(figsize=(fig_w / dpi, fig_h / dpi), dpi=dpi, facecolor="black")
+    rect = (MARGIN_LEFT_PX / fig_w, _CAPTION_PX / fig_h, w / fig_w, h / fig_h)
+    wcs = None
+    if frame.solution.solved:
+        from astropy.wcs import WCS
+
+        from startrack.outputs._wcs import solved_wcs_header
+
+        wcs = WCS(solved_wcs_header(frame))
+        ax = fig.add_axes(rect, projection=wcs)
+    else:
+        ax = fig.add_axes(rect)
+        ax.set_axis_off()
+    ax.set_facecolor("black")
+    ax.imshow(shown, cmap="gray", vmin=0.0, vmax=1.0, interpolation="nearest",
+              extent=(-0.5, w - 0.5, -0.5, h - 0.5), origin="lower")  # row i at y = i
+    scale = _draw_stars(ax, frame, w)
+    ax.set_xlim(-0.5, w - 0.5)
+    ax.set_ylim(h - 0.5, -0.5)  # row 0 at the top, as in the PNG
+    if wcs is not None:
+        from startrack.outputs._annotate_sky import draw_compass, draw_grid
+
+        draw_grid(ax)
+        # in the right margin, beside the frame, so it hides no star
+        draw_compass(fig, wcs, w, h, centre=(MARGIN_LEFT_PX + w + 0.5 * MARGIN_RIGHT_PX,
+                                             _CAPTION_PX + h - 0.5 * MARGIN_RIGHT_PX),
+                     length_px=0.35 * MARGIN_RIGHT_PX)
+    _draw_caption(fig, frame, scale, w)
+    path = Path(path)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=dpi, format="png", facecolor="black")
+    finally:
+        plt.close(fig)

@@ -1,0 +1,162 @@
+"""The camera fitted to identified stars: the focal length and, for a lens nobody described,
+its radial k1; and a hypothesis verified through the fitted camera (the fit and the check
+behind every answer of :mod:`startrack.solver._fov_search`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from scipy.stats import chi2, norm
+
+from startrack.attitude import solve_wahba
+from startrack.camera._distortion import RadialDistortion
+from startrack.camera._model import Camera
+from startrack.database import StarDatabase
+from startrack.errors import InputError
+from startrack.fov_fit_kernels import BAD_FOCAL, fit_iterations
+from startrack.solver._calibrate_sigma import SIGNIFICANCE
+from startrack.solver._lost_in_space import residuals_arcsec
+from startrack.types import Hypothesis, Observation
+from startrack.verify._verification import Verification, VerifyConfig, verify
+
+#: an undescribed lens's k1 is fitted to this many stars reaching this far (r^2 of the
+#: normalised plane: 11 deg off axis), within +-LENS_MAX_K1
+LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1 = 6, 0.04, 0.3
+#: a hypothesis the whole frame does not confirm is checked again on this many of the
+#: brightest stars alone (see :func:`verify_fitted`)
+BRIGHTEST = 16
+#: ... only when the whole frame confirmed at least this many stars (fewer cannot pass)
+BRIGHTEST_MIN_CONFIRMED = 3
+
+
+def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
+              iterations: int = 12) -> float:
+    """The focal length (px) of :func:`fit_camera` with the lens left as it is."""
+    return fit_camera(camera, x, y, cat_vectors, iterations, lens=False).f_px
+
+
+def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
+               iterations: int = 12, lens: bool = True) -> Camera:
+    """``camera`` with the focal length that, with its best attitude, fits the pixels
+    ``x``, ``y`` to the catalog directions: alternate Wahba's problem and the linear least
+    squares of ``pixel - centre = f * D(tangent-plane position)`` (D the lens model), at
+    most ``iterations`` times (compiled: :func:`startrack.fov_fit_kernels.fit_iterations`).
+    With ``lens``, a pinhole ``camera`` and at least ``LENS_MIN_STARS`` stars reaching
+    ``LENS_MIN_R2``, the radial ``k1`` too (``f k1`` is linear as well): a lens nobody
+    described still has its wide-field stars fitted. A focal length that is not positive
+    and finite comes back as it is; a fitted lens that folds back inside the image is an
+    :class:`InputError`, as :meth:`Camera.with_distortion` makes it."""
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    described = camera.distortion
+    k = (np.zeros(3) if described is None
+         else np.array([described.k1, described.k2, described.k3], dtype=np.float64))
+    cap = math.inf if described is None else math.sqrt(described.max_r2)
+    with_k1 = lens and described is None and len(x) >= LENS_MIN_STARS
+    status, f, k1 = fit_iterations(x, y, np.ascontiguousarray(cat_vectors, dtype=np.float64),
+                                   camera.cx, camera.cy, camera.width, camera.height,
+                                   camera.f_px, k, cap, with_k1, iterations, LENS_MIN_R2,
+                                   LENS_MAX_K1)
+    cam = dataclasses.replace(camera, f_px=f)
+    if status == BAD_FOCAL or not k1:
+        return cam
+    return cam.with_distortion(RadialDistortion(k1=k1))  # FOLDS: its InputError
+
+
+def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
+                  sigma_px: float, database: StarDatabase, config: VerifyConfig,
+                  ) -> tuple[Verification, Camera, Observation] | None:
+    """Verify ``hyp`` with ``camera``, fit the camera to every matched star and verify
+    again with the fitted camera: (verification, camera, observation of every star), None
+    unless both pass. When the whole frame fails but confirms a few stars, the same test
+    runs on the ``BRIGHTEST`` stars alone (a prefix: the rows stay the same): a deep
+    camera's faint detections, mostly stars the catalog lacks, each add a chance of a
+    coincidence, and the bound over the bright stars alone holds just as well. Trying
+    that second set of stars is one more test per hypothesis, as one more hypothesis
+    would be; the bound of each test is unchanged."""
+    found = _verify_fitted(hyp, x, y, camera, sigma_px, database, config)
+    if isinstance(found, tuple) or found < BRIGHTEST_MIN_CONFIRMED \
+            or len(x) <= BRIGHTEST or np.max(hyp.obs_index) >= BRIGHTEST:
+        return found if isinstance(found, tuple) else None
+    bright = _verify_fitted(hyp, x[:BRIGHTEST], y[:BRIGHTEST], camera, sigma_px, database,
+                            config)
+    if not isinstance(bright, tuple):
+        return None
+    check, fitted, _ = bright
+    obs = Observation.from_pixels(x, y, fitted, sigma_px)
+    whole = verify(hyp, obs, database, config)  # every star labelled where it passes
+    return (whole if whole.accepted else check), fitted, obs
+
+
+def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
+                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
+                   ) -> tuple[Verification, Camera, Observation] | int:
+    """:func:`verify_fitted` on the stars ``x``, ``y``; when it fails, how many stars the
+    first verification confirmed."""
+    cat = database.vectors
+    obs = Observation.from_pixels(x, y, camera, sigma_px)
+    check = verify(hyp, obs, database, config)
+    confirmed = check.confirmed
+    for _ in range(3):
+        if not check.accepted:
+            return confirmed
+        try:
+            camera = fit_camera(camera, x[check.obs_index], y[check.obs_index],
+                                cat[check.cat_index])
+        except InputError:  # a fitted lens that folds back inside the image
+            return 0
+        if not (camera.f_px > 0 and math.isfinite(camera.f_px)):
+            return 0
+        obs = Observation.from_pixels(x, y, camera, sigma_px)
+        check = verify(hyp, obs, database, config)
+    return (check, camera, obs) if check.accepted else 0
+
+
+#: the given camera stands unless the fitted one lowers the matched stars' chi-square
+#: by more than a 3-sigma chance would (the calibrate rule, startrack.solver._calibrate_sigma)
+GIVEN_REJECT_P = 2.0 * float(norm.sf(SIGNIFICANCE))
+#: stars of an accepted answer used as the hypothesis when its FOV is refitted or its
+#: given camera verified again: the rest of the frame is the independent evidence
+#: verification counts
+REFIT_HYPOTHESIS_STARS = 4
+
+
+def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
+               sigma_px: float, database: StarDatabase,
+               config: VerifyConfig) -> tuple[Verification, Camera, Observation]:
+    """``found`` (from :func:`verify_fitted`) with the ``given`` camera put back when the
+    data do not reject it: a camera given exactly (a simulated frame's sidecar) is reported
+    as given, not as a fitted focal length and k1 a few parts in 1e4 off. Rejected means
+    the fit's drop in the squared residuals of the matched stars, over the noise the
+    fitted residuals show, exceeds the chi-square quantile of :data:`GIVEN_REJECT_P` for
+    the parameters fitted; the given camera must also pass verification again, with the
+    :data:`REFIT_HYPOTHESIS_STARS` brightest matched stars as the hypothesis (the rest of
+    the frame is the independent evidence, as when a FOV is refitted)."""
+    check, fitted, obs = found
+    if fitted == given:
+        return found
+    cat = database.vectors[check.cat_index]
+    given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
+
+    def squared(o: Observation) -> float:
+        rotation = solve_wahba(o.vectors[check.obs_index], cat)
+        return float(np.sum(residuals_arcsec(rotation, o, check.obs_index, cat) ** 2))
+
+    n_params = 1 + int(fitted.distortion != given.distortion)
+    dof = len(check.obs_index) * 2 - 3 - n_params
+    if dof <= 0:  # too few matched stars to tell the cameras apart (or to solve Wahba)
+        return found
+    fit_sq = squared(obs)
+    if fit_sq <= 0.0:
+        return found
+    drop = (squared(given_obs) - fit_sq) / (fit_sq / dof)
+    if drop > chi2.isf(GIVEN_REJECT_P, n_params):
+        return found
+    first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]
+    hyp = Hypothesis(check.obs_index[first], check.cat_index[first])
+    again = verify(hyp, given_obs, database, config)
+    # as refit_fov: an answer labelling fewer than 3 stars has no attitude to stand on
+    return (again, given, given_obs) if again.accepted and len(again.obs_index) >= 3 \
+        else found

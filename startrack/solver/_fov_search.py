@@ -1,0 +1,272 @@
+"""An approximate or unknown field of view: search the focal length, fit it, verify again.
+
+``--fov`` (or a camera file) is a nominal value: :func:`solve_approximate` searches the
+focal lengths within ``--fov-tolerance`` of it with the scale-free ``quad`` matcher (the
+configured ``--method`` runs as before with ``--fov-tolerance 0``, an exact FOV). With
+no field of view at all, :class:`BlindSolver` sweeps the quad matcher over
+:data:`BLIND_FOV_RANGE` in windows a factor :data:`WINDOW_STEP` wide, each verified
+against the catalog cut for that field (the magnitude rule of
+:func:`startrack.sky.resolve_sky`). A solution is kept only if the camera fitted to its
+matched stars (least squares on the focal length with the attitude) passes the same
+verification (:func:`startrack.verify._verification.verify`, its binomial bound) again; the record
+reports that camera's ``fov_deg``, or the given camera's when the data do not reject it
+(:func:`startrack.solver._fov_fit.keep_given`). Every search takes the input's one
+:class:`~startrack.solver._deadline.Deadline` (``--timeout-ms``), checked before each window and
+each verification: past it the input is not solved, with reason ``"timeout"``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from startrack.camera._model import Camera
+from startrack.database import StarDatabase
+from startrack.defaults import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
+from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
+from startrack.sky import Catalog, resolve_sky
+from startrack.solver._deadline import NO_DEADLINE, Deadline
+from startrack.solver._fov_fit import REFIT_HYPOTHESIS_STARS, fit_focal, keep_given, verify_fitted
+from startrack.solver._lost_in_space import residuals_arcsec
+from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
+from startrack.verify._verification import Verification, VerifyConfig
+
+#: a blind search keeps the databases of this many magnitude cuts in memory
+KEEP_DATABASES = 2
+WINDOW_STEP = 2.0 ** 0.25  # ratio of the focal lengths at a search window's two ends
+MARGIN = 0.02  # searched beyond the tolerance, as a fraction
+#: a candidate is verified only when this many other bright stars already fall near
+#: catalog stars at its attitude (verification needs two, at a tighter radius)
+MIN_CONFIRMED = 2
+MAX_VERIFY = 25  # hypotheses verified per window: bounded work on a junk frame
+
+
+class SearchTimeout(Exception):
+    """The input's deadline passed before a search was complete."""
+
+
+def _check(deadline: Deadline) -> None:
+    if deadline.passed():
+        raise SearchTimeout
+
+
+def _solution(check: Verification, obs: Observation, database: StarDatabase, method: str,
+              diag: MatchDiagnostics, t0: float) -> Solution:
+    order = np.argsort(check.obs_index)
+    obs_index, cat_index = check.obs_index[order], check.cat_index[order]
+    return Solution(True, method, check.rotation, obs_index, cat_index,
+                    residuals_arcsec(check.rotation, obs, obs_index,
+                                     database.vectors[cat_index]),
+                    check.false_probability, diag, (time.perf_counter() - t0) * 1000.0)
+
+
+def search_window(matcher: QuadMatcher, x, y, camera: Camera, f_lo: float, f_hi: float,
+                  sigma_px: float, database: StarDatabase, config: VerifyConfig,
+                  diag: MatchDiagnostics, seen: set, deadline: Deadline = NO_DEADLINE,
+                  deeper: int = 0):
+    """The first quad hypothesis with a focal length in [f_lo, f_hi] that passes
+    :func:`verify_fitted` against ``database``: (verification, camera, obs) or None.
+    ``deeper``: the patterns of the level that many steps below the nearest. Raises
+    :class:`SearchTimeout` when ``deadline`` passes first."""
+    n_cat = len(database.vectors)
+    _check(deadline)
+    tried = 0
+    for sh in matcher.scaled(x, y, camera, f_lo, f_hi, diag, database, deeper):
+        hyp = sh.hypothesis
+        key = tuple(sorted(zip(hyp.obs_index.tolist(), hyp.cat_index.tolist(), strict=True)))
+        if sh.confirmed < MIN_CONFIRMED:
+            break  # best first: no later candidate has more support
+        if key in seen or hyp.cat_index.max() >= n_cat:
+            continue
+        _check(deadline)
+        seen.add(key)
+        diag.hypotheses += 1
+        tried += 1
+        guess = _fitted_guess(sh, x, y, camera, database)
+        found = verify_fitted(hyp, x, y, guess, sigma_px, database, config)
+        if found is not None:
+            return found
+        if tried >= MAX_VERIFY:
+            break
+    return None
+
+
+def _fitted_guess(sh: ScaledHypothesis, x, y, camera: Camera,
+                  database: StarDatabase) -> Camera:
+    """The camera with the focal length fitted to the hypothesis' own four stars."""
+    cam = dataclasses.replace(camera, f_px=sh.f_px)
+    h = sh.hypothesis
+    f = fit_focal(cam, x[h.obs_index], y[h.obs_index], database.vectors[h.cat_index])
+    return dataclasses.replace(camera, f_px=f) if f > 0 and math.isfinite(f) else cam
+
+
+def windows(f_lo: float, f_hi: float, step: float = WINDOW_STEP) -> list[tuple[float, float]]:
+    """[f_lo, f_hi] cut into geometric windows at most ``step`` wide (ratio)."""
+    n = max(1, math.ceil(math.log(f_hi / f_lo) / math.log(step) - 1e-9))
+    edges = f_lo * (f_hi / f_lo) ** (np.arange(n + 1) / n)
+    return [(float(a), float(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+
+
+def focal_range(camera: Camera, tolerance: float) -> tuple[float, float]:
+    """The focal lengths of the FOVs within ``tolerance`` (a fraction) of ``camera``'s,
+    widened by ``MARGIN``: a true FOV at the very edge must still be found."""
+    fov = camera.fov_deg
+    hi_fov = min(fov * (1.0 + tolerance) * (1.0 + MARGIN), 179.0)
+    return (f_of_fov(camera.width, hi_fov),
+            f_of_fov(camera.width, fov * (1.0 - tolerance) / (1.0 + MARGIN)))
+
+
+def f_of_fov(width: int, fov_deg: float) -> float:
+    return (width / 2.0) / math.tan(math.radians(fov_deg) / 2.0)
+
+
+def passes(spans: list[tuple[float, float]]) -> list[tuple[int, float, float]]:
+    """(deeper, f_lo, f_hi) in search order: every window at its nearest pattern level,
+    then every window one level deeper (fainter pattern stars: a sparse patch of sky holds
+    too few of the nearest level's), so a frame the first pass solves costs no more."""
+    return [(deeper, lo, hi) for deeper in (0, 1) for lo, hi in spans]
+
+
+@dataclass(frozen=True)
+class FovResult:
+    """What a search found (or not): the solution, the fitted camera it holds for, the
+    observation through that camera, and the catalog its rows index."""
+
+    solution: Solution
+    camera: Camera
+    obs: Observation
+    catalog: Catalog
+    match_radius_px: float
+
+
+def _result(found, catalog: Catalog, method: str, diag: MatchDiagnostics, t0: float,
+            config: VerifyConfig, database: StarDatabase, reason: str = "no_match"):
+    """The :class:`FovResult` of a verified find (or of nothing: ``found[0]`` None)."""
+    check, camera, obs = found
+    if check is None:
+        sol = Solution(False, method, diagnostics=diag, reason=reason,
+                       identify_ms=(time.perf_counter() - t0) * 1000.0)
+    else:
+        sol = _solution(check, obs, database, method, diag, t0)
+    return FovResult(sol, camera, obs, catalog, config.radius_px(obs))
+
+
+def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
+                      deadline: Deadline = NO_DEADLINE) -> FovResult:
+    """Solve the stars at pixels ``x``, ``y`` with ``ident`` (an
+    :class:`startrack.solver._identifier.Identifier` of the quad matcher) whose camera's focal
+    length is nominal: the true FOV may be ``tolerance`` off either way; not solved with
+    reason "timeout" if ``deadline`` passes first."""
+    t0 = time.perf_counter()
+    cam, db, config, quad = ident.camera, ident.database, ident.verify_config, ident.matcher
+    obs = Observation.from_pixels(x, y, cam, ident.sigma_px)
+    diag, seen = MatchDiagnostics(), set()
+    if len(x) < 3:
+        return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db,
+                       reason="too_few_stars")
+    try:
+        for deeper, lo, hi in passes(windows(*focal_range(cam, tolerance))):
+            found = search_window(quad, x, y, cam, lo, hi, ident.sigma_px, db, config, diag,
+                                  seen, deadline, deeper)
+            if found is not None:
+                found = keep_given(found, cam, ident.sigma_px, db, config)
+                return _result(found, ident.catalog, quad.name, diag, t0, config, db)
+    except SearchTimeout:
+        return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db,
+                       reason="timeout")
+    return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db)
+
+
+class BlindSolver:
+    """The blind search over :data:`BLIND_FOV_RANGE` for one (uncut) catalog."""
+
+    def __init__(self, catalog: Catalog, sky, sigma_px: float,
+                 verify_config: VerifyConfig | None = None,
+                 fov_range: tuple[float, float] = BLIND_FOV_RANGE) -> None:
+        self.catalog, self.sky, self.sigma_px = catalog, sky, float(sigma_px)
+        self.config = verify_config or VerifyConfig()
+        self.fov_range = fov_range
+        self.matcher = QuadMatcher(StarDatabase(catalog, Camera.from_fov(1024, 1024, 10.0)))
+        self._databases: dict[int, StarDatabase] = {}
+        self._limits: dict[float, float | None] = {}
+
+    def database_for(self, camera: Camera) -> StarDatabase:
+        """The catalog cut by the default magnitude rule for ``camera``; rows are a prefix
+        of the whole catalog (brightest first), so row numbers agree."""
+        if camera.f_px not in self._limits:
+            spec = resolve_sky(dataclasses.replace(self.sky, mag_limit=None), camera)
+            self._limits[camera.f_px] = spec.mag_limit
+        limit = self._limits[camera.f_px]
+        n = len(self.catalog) if limit is None else int(
+            np.searchsorted(self.catalog.mag, limit, side="right"))
+        if n not in self._databases:
+            # Memory stays bounded: a deep catalog's cut for a narrow window holds GBs of
+            # tables, and every window has its own cut. Their tables are in the disk cache,
+            # so a cut evicted here is reloaded, not rebuilt.
+            while len(self._databases) >= KEEP_DATABASES:
+                self._databases.pop(next(iter(self._databases)))
+            self._databases[n] = StarDatabase(self.catalog.subset(np.arange(n)), camera)
+        return self._databases[n]
+
+    def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int],
+              deadline: Deadline = NO_DEADLINE, camera: Camera | None = None,
+              tolerance: float = DEFAULT_FOV_TOLERANCE) -> FovResult:
+        """Search every window, widest field first; the first verified find wins. Not
+        solved, with reason "timeout", if ``deadline`` passes first. With ``camera`` (a
+        nominal focal length) only the focal lengths within ``tolerance`` of it are
+        searched, through that camera (its centre and lens model)."""
+        t0 = time.perf_counter()
+        base = camera or Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
+        # widened by MARGIN, as a nominal range is: a camera at the very end of the range
+        # (a 1 deg field) has its patterns' focal lengths on both sides of that end
+        f_lo, f_hi = focal_range(camera, tolerance) if camera else (
+            f_of_fov(size[0], max(self.fov_range) * (1.0 + MARGIN)),
+            f_of_fov(size[0], min(self.fov_range) / (1.0 + MARGIN)))
+        diag, seen = MatchDiagnostics(), set()
+        db = self.database_for(base)
+        reason = "no_match" if len(x) >= 3 else "too_few_stars"
+        try:
+            for deeper, lo, hi in passes(windows(f_lo, f_hi)) if len(x) >= 3 else []:
+                _check(deadline)  # before the window's tables are built
+                db = self.database_for(dataclasses.replace(base, f_px=math.sqrt(lo * hi)))
+                found = search_window(self.matcher, x, y, base, lo, hi, self.sigma_px, db,
+                                      self.config, diag, seen, deadline, deeper)
+                if found is not None:
+                    if camera is not None:
+                        found = keep_given(found, camera, self.sigma_px, db, self.config)
+                    return _result(found, self.catalog, self.matcher.name, diag, t0,
+                                   self.config, db)
+        except SearchTimeout:
+            reason = "timeout"
+        obs = Observation.from_pixels(x, y, base, self.sigma_px)
+        return _result((None, base, obs), self.catalog, self.matcher.name, diag, t0,
+                       self.config, db, reason=reason)
+
+
+def refit_fov(result, database: StarDatabase, config: VerifyConfig,
+              deadline: Deadline = NO_DEADLINE) -> FovResult | None:
+    """A solved :class:`startrack.solver._identifier.FrameResult` made at a nominal FOV, with the
+    focal length fitted to its identified stars and the pointing verified again through
+    the fitted camera (:func:`verify_fitted`); None when that verification fails or
+    ``deadline`` has already passed (the search after it then says "timeout")."""
+    t0 = time.perf_counter()
+    if deadline.passed():
+        return None
+    sol = result.solution
+    k = min(REFIT_HYPOTHESIS_STARS, len(sol.obs_index))
+    brightest = np.argsort(sol.obs_index)[:k]
+    hyp = Hypothesis(sol.obs_index[brightest], sol.cat_index[brightest])
+    found = verify_fitted(hyp, result.obs.x, result.obs.y, result.camera, result.sigma_px,
+                          database, config)
+    # An answer whose final labelling keeps fewer than 3 stars has no fitted attitude
+    # to stand on (seen at a nominal FOV 0.7% off): the search decides instead.
+    if found is None or len(found[0].obs_index) < 3:
+        return None
+    found = keep_given(found, result.camera, result.sigma_px, database, config)
+    fitted = _result(found, result.catalog, sol.method, sol.diagnostics, t0, config, database)
+    return dataclasses.replace(fitted, solution=dataclasses.replace(
+        fitted.solution, identify_ms=sol.identify_ms + fitted.solution.identify_ms))

@@ -1,0 +1,215 @@
+"""One camera and sky loaded for identification, and the complete record of an input.
+
+:class:`Identifier` holds a catalog, its database and a matcher for one camera and turns
+an input's centroids into a :class:`FrameResult`; :class:`startrack.solver._pipeline.Pipeline`
+keeps one per (camera, sky, method).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import math
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from startrack.attitude import from_radec_roll
+from startrack.camera._model import Camera
+from startrack.centroids._table import DEFAULT_SIGMA_PX, Centroids
+from startrack.database import StarDatabase
+from startrack.errors import InputError
+from startrack.matchers import MatcherConfig, get_matcher
+from startrack.outputs._records import solution_record
+from startrack.simulate._scene import stars_in_view
+from startrack.sky import Catalog, check_pair_budget
+from startrack.solver._deadline import Deadline
+from startrack.solver._inputs import FrameInput
+from startrack.solver._lost_in_space import identify
+from startrack.types import Observation, Solution, Timing
+from startrack.verify._evidence import refuse_without_evidence
+from startrack.verify._quality import Quality, solution_quality
+from startrack.verify._verification import VerifyConfig
+
+
+@dataclass(frozen=True)
+class FrameResult:
+    """One input's answer with everything that produced it."""
+
+    input: str
+    solution: Solution
+    obs: Observation
+    centroids: Centroids
+    timing: Timing
+    camera: Camera
+    catalog: Catalog
+    sigma_px: float
+    match_radius_px: float
+    image: np.ndarray | None = None
+    time_utc: str | None = None  # observation time the attitude is corrected for (ISO)
+
+    def record(self, with_input: bool = True) -> dict:
+        """The docs/conventions.md solution record of this input."""
+        extra = {"sigma_px": self.sigma_px, "match_radius_px": self.match_radius_px,
+                 "sky": sky_record(self.catalog.source), "camera": self.camera.to_dict()}
+        if self.time_utc is not None:
+            extra["time_utc"] = self.time_utc
+        record = solution_record(self.solution, self.obs, self.catalog, self.timing,
+                                 input_name=self.input if with_input else None, extra=extra,
+                                 fov_deg=self.camera.fov_deg)
+        quality = self.quality
+        if quality is not None:
+            record["quality"] = quality.to_dict()
+        return record
+
+    @property
+    def quality(self) -> Quality | None:
+        """Residuals, the attitude's 1-sigma and the catalog used (None: not solved)."""
+        return solution_quality(self.solution, self.obs, self.catalog)
+
+
+#: the sky keys that describe only a random sky (its size and seed)
+RANDOM_SKY_KEYS = ("n_stars", "seed")
+
+
+def sky_record(source: dict) -> dict:
+    """``diagnostics.sky``: the sky's specification, without a random sky's size and seed
+    for a real catalog."""
+    if source.get("kind", "random") == "random":
+        return source
+    return {k: v for k, v in source.items() if k not in RANDOM_SKY_KEYS}
+
+
+def frame_timing(frame: FrameInput, identify_ms: float) -> Timing:
+    """An input's stage times: its centroiding, ``identify_ms``, and the total with its
+    reading."""
+    return Timing(frame.centroid_ms, identify_ms,
+                  frame.read_ms + frame.centroid_ms + identify_ms)
+
+
+def observation(centroids: Centroids, camera: Camera, sigma_px: float) -> Observation:
+    """The centroids seen through ``camera`` (their flux with them when it is measured)."""
+    flux = centroids.flux if centroids.photometric else None
+    return Observation.from_pixels(centroids.x, centroids.y, camera, sigma_px, flux=flux)
+
+
+class SetupClock:
+    """The one-time costs paid so far (a catalog, database or warmed matcher loaded) and
+    not yet reported: the next answer's ``timing_ms.setup``."""
+
+    def __init__(self) -> None:
+        self.pending_ms = 0.0
+        self._running = False
+
+    @contextlib.contextmanager
+    def counting(self) -> Iterator[None]:
+        """Add the block's time to :attr:`pending_ms` (once when such blocks nest)."""
+        if self._running:
+            yield
+            return
+        self._running, t0 = True, time.perf_counter()
+        try:
+            yield
+        finally:
+            self._running = False
+            self.pending_ms += (time.perf_counter() - t0) * 1000.0
+
+    def take(self) -> float:
+        """The pending milliseconds, now reported (the clock starts again at zero)."""
+        ms, self.pending_ms = self.pending_ms, 0.0
+        return ms
+
+
+class Identifier:
+    """A loaded catalog, database and matcher for one camera and sky."""
+
+    def __init__(self, camera: Camera, catalog: Catalog, method: str, *,
+                 max_stars: int | None = None, extra_stars: int | None = None,
+                 sigma_px: float = DEFAULT_SIGMA_PX,
+                 verify_config: VerifyConfig | None = None,
+                 timeout_ms: float | None = None) -> None:
+        if not (sigma_px > 0 and math.isfinite(sigma_px)):
+            raise InputError(f"--sigma-px must be a positive number, got {sigma_px}")
+        self.camera = camera
+        self.catalog = catalog
+        self.sigma_px = float(sigma_px)
+        self.timeout_ms = timeout_ms
+        self.verify_config = verify_config or VerifyConfig()
+        config = MatcherConfig()
+        if max_stars is not None:
+            config = dataclasses.replace(config, max_stars=int(max_stars))
+        if extra_stars is not None:
+            config = dataclasses.replace(config, extra_stars=int(extra_stars))
+        if get_matcher(method).tables:  # the quad matcher and the peers build no pairs
+            check_pair_budget(catalog, camera)  # before a database that would not fit memory
+        self.database = StarDatabase(catalog, camera)
+        self.matcher = get_matcher(method)(self.database, config)
+        #: True once :meth:`warm_up` has solved its throwaway frame (the bench checks it)
+        self.warmed_up = False
+        self._warm_centroids: Centroids | None = None
+        t0 = time.perf_counter()
+        self.matcher.prepare()
+        self.warm_up()
+        self.load_seconds = time.perf_counter() - t0
+
+    def warm_up(self) -> None:
+        """Solve one throwaway frame, the stars around the catalog's brightest one, so the
+        first real frame pays no one-time cost (kernels compiled or loaded from numba's
+        cache, lazy tables filled): that cost lands in :attr:`load_seconds`, which
+        ``timing_ms.setup`` reports, and never in an input's identify time."""
+        if len(self.catalog):
+            pointing = from_radec_roll(float(self.catalog.ra_deg[0]),
+                                       float(self.catalog.dec_deg[0]), 0.0)
+            _, x, y = stars_in_view(self.catalog, self.camera, pointing)
+            self._warm_centroids = Centroids(x, y, np.ones(len(x)), photometric=False)
+            # A matcher searching a known sky patch is told this frame's, then given back
+            # the caller's (startrack.bench.runner.point_patch sets it per frame).
+            patch = getattr(self.matcher, "patch_center", None)
+            if getattr(self.matcher, "patch_rad", None) is not None:
+                self.matcher.patch_center = pointing.apply([0.0, 0.0, 1.0])
+            try:
+                identify(self.observation(self._warm_centroids), self.matcher,
+                         self.verify_config)
+            finally:
+                if hasattr(self.matcher, "patch_center"):
+                    self.matcher.patch_center = patch
+        self.warmed_up = True
+
+    def warm_refit(self, refit: Callable) -> None:
+        """The first use of ``refit`` (:func:`startrack.solver._fov_search.refit_fov`, a nominal
+        FOV's
+        refit: its kernels) on the throwaway frame of :meth:`warm_up`."""
+        if self._warm_centroids is not None:
+            first = self.solve(FrameInput("warm-up", self._warm_centroids))
+            if first.solution.solved:
+                refit(first, self.database, self.verify_config)
+
+    def observation(self, centroids: Centroids) -> Observation:
+        return observation(centroids, self.camera, self.sigma_px)
+
+    def identify(self, obs: Observation, deadline: Deadline | None = None) -> Solution:
+        """Identify the stars of an observation made elsewhere (the bench's frames), by
+        ``deadline`` (the input's, shared with other stages) if given, else within this
+        identifier's ``timeout_ms``."""
+        if deadline is not None:
+            sol = identify(obs, self.matcher, self.verify_config, deadline=deadline)
+        else:
+            sol = identify(obs, self.matcher, self.verify_config, timeout_ms=self.timeout_ms)
+        # the bench and the command line count "solved" alike (startrack.verify._evidence)
+        return refuse_without_evidence(sol, self.camera.f_px, self.verify_config.radius_px(obs))
+
+    def solve(self, frame: FrameInput,
+              identify: Callable[[Observation], Solution] | None = None) -> FrameResult:
+        """Identify the stars of one input read by :func:`read_input` (by ``identify``
+        when given: a tracking step of :mod:`startrack.tracking._sequence`)."""
+        if frame.size is not None and frame.size != (self.camera.width, self.camera.height):
+            raise InputError(f"{frame.name}: image is {frame.size[0]} x {frame.size[1]} px "
+                             f"but the camera is {self.camera.width} x {self.camera.height}")
+        obs = self.observation(frame.centroids)
+        solution = (identify or self.identify)(obs)
+        timing = frame_timing(frame, solution.identify_ms)
+        return FrameResult(frame.name, solution, obs, frame.centroids, timing, self.camera,
+                           self.catalog, self.sigma_px, self.verify_config.radius_px(obs),
+                           frame.image)

@@ -1,0 +1,286 @@
+"""Input to solution: each input read once, its camera and sky decided, its stars identified.
+
+:func:`read_input` (:mod:`startrack.solver._inputs`) turns a path (image or centroid CSV)
+into a :class:`FrameInput`; :class:`~startrack.solver._identifier.Identifier` holds one loaded
+catalog, database and matcher and turns centroids into a
+:class:`~startrack.solver._identifier.FrameResult`, the one complete record of an input.
+:class:`Pipeline`
+decides each input's camera and sky (options, else the JSON sidecar beside the input,
+else defaults) and keeps one ``Identifier`` per (camera, sky), so a batch from one camera
+loads everything once; ``startrack identify``, the Python API and compare build on this.
+``Options.timeout_ms`` is one :class:`~startrack.solver._deadline.Deadline` per input, shared by
+every stage of its identification (the configured method, the FOV refit, the FOV search).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from pathlib import Path
+
+from startrack.camera._model import Camera
+from startrack.database import StarDatabase
+from startrack.defaults import BLIND_FOV_RANGE
+from startrack.errors import InputError
+from startrack.matchers import get_matcher
+from startrack.simulate._sidecar import find_sidecar, read_sidecar
+from startrack.sky import (
+    Catalog,
+    SkySpec,
+    check_pair_budget,
+    deeper_sky_note,
+    default_sky_kind,
+    load_sky,
+    resolve_sky,
+    sky_spec,
+)
+from startrack.sky.default import gaia_min_fov, search_sky_kind
+from startrack.solver._deadline import Deadline
+from startrack.solver._fov_search import BlindSolver, refit_fov, solve_approximate
+from startrack.solver._identifier import FrameResult, Identifier, SetupClock, frame_timing
+from startrack.solver._inputs import FrameInput, read_input
+from startrack.solver._options import Options, with_fov
+
+
+class Pipeline:
+    """Solve many inputs, each with its own camera and sky, sharing loaded databases."""
+
+    def __init__(self, options: Options, catalogs: dict | None = None,
+                 setup: SetupClock | None = None) -> None:
+        if options.camera is not None and options.fov_deg is not None:
+            raise InputError("give a camera or a field of view, not both (the camera sets "
+                             "the field of view)")
+        if options.timeout_ms is not None and not options.timeout_ms >= 0:
+            raise InputError(f"timeout_ms must be a number >= 0, got {options.timeout_ms}")
+        self.options = options
+        get_matcher(options.method)  # an unknown method fails before any work
+        self._identifiers: dict[tuple[Camera, SkySpec, str], Identifier] = {}
+        self.catalogs: dict[SkySpec, Catalog] = {} if catalogs is None else catalogs
+        #: (Pointing, radius_deg): the catalogs are cut to this cone (startrack.solver._hinted)
+        self.cone = None
+        self._cut: dict[SkySpec, Catalog] = {}
+        self._blind: dict[tuple[SkySpec, tuple[float, float]], BlindSolver] = {}
+        self._notes: set[str] = set()
+        #: one-time loads not yet reported (shared with the hinted child pipelines)
+        self.setup = setup or SetupClock()
+
+    def setup_for(self, frame: FrameInput) -> tuple[Camera | None, SkySpec]:
+        """The camera and sky for one input: options, else sidecar, else defaults. No
+        camera at all (None) means an unknown field of view: a blind search."""
+        opt = self.options
+        side_camera, side_sky = None, None
+        sidecar = find_sidecar(frame.path) if frame.path is not None else None
+        if sidecar is not None:
+            side_camera, side_sky, _ = read_sidecar(sidecar)
+        side_sky = opt.sky_spec or side_sky
+        camera = opt.camera or (side_camera if opt.fov_deg is None else None)
+        if camera is None and opt.fov_deg is not None:  # --fov overrides the sidecar's
+            side_size = (side_camera.width, side_camera.height) if side_camera else None
+            size = opt.size or frame.size or side_size
+            if size is None:
+                raise InputError(f"{frame.name}: a centroid list with --fov needs the image "
+                                 "size (--size WxH) or use --camera FILE")
+            camera = with_fov(size, opt.fov_deg, side_camera)
+        given = sky_spec(opt.sky) if opt.sky else None
+        if given is None and side_sky is None:
+            given = SkySpec(kind=default_sky_kind(camera))
+            self._note_once(deeper_sky_note(camera, given.kind))
+        sky = side_sky if side_sky is not None and (
+            given is None or (side_sky.kind, side_sky.path) == (given.kind, given.path)) \
+            else given
+        if opt.epoch is not None:
+            sky = dataclasses.replace(sky, epoch=opt.epoch)
+        if opt.mag_limit is not None:
+            sky = dataclasses.replace(sky, mag_limit=opt.mag_limit)
+        return camera, resolve_sky(sky, camera)
+
+    def identifier(self, camera: Camera, sky: SkySpec, method: str | None = None) -> Identifier:
+        opt = self.options
+        method = method or opt.method
+        key = (camera, sky, method)
+        if key not in self._identifiers:
+            with self.setup.counting():
+                self._identifiers[key] = Identifier(
+                    camera, self.catalog(sky, camera), method, max_stars=opt.max_stars,
+                    sigma_px=opt.sigma_px, timeout_ms=opt.timeout_ms)
+        return self._identifiers[key]
+
+    def solve(self, frame: FrameInput) -> FrameResult:
+        """Identify one input that is already read (startrack.solver._fov_search: a nominal or
+        unknown
+        field of view), its attitude corrected for aberration when the time is known."""
+        return self.correct_aberration(frame, self.identify_frame(frame))
+
+    def identify_frame(self, frame: FrameInput) -> FrameResult:
+        """:meth:`solve` without the aberration correction: the attitude in the catalog's
+        frame (what a tracker predicts from), through the fitted camera when the field
+        of view was nominal or unknown; with hints, through :mod:`startrack.solver._hinted`."""
+        from startrack.solver._hinted import frame_hints, solve_hinted
+
+        hints = frame_hints(self, frame)
+        if hints is not None:
+            return solve_hinted(self, frame, hints)
+        return self.identify_unhinted(frame)
+
+    def identify_unhinted(self, frame: FrameInput) -> FrameResult:
+        """:meth:`identify_frame` with no hint (a hinted child pipeline's own solve)."""
+        camera, sky = self.setup_for(frame)
+        x, y = frame.centroids.x, frame.centroids.y
+        # One deadline for every stage below; it starts with the configured stage loaded
+        # (tables loaded later, for the FOV search, count against it).
+        if camera is None:
+            found = self._blind_search(x, y, self._blind_size(frame), sky,
+                                       Deadline.after_ms(self.options.timeout_ms))
+        elif self.options.fov_tolerance > 0:
+            found = self._approximate(frame, camera, sky)
+            if isinstance(found, FrameResult):
+                return found
+        else:
+            return self.identifier(camera, sky).solve(frame)
+        sol = found.solution
+        return FrameResult(frame.name, sol, found.obs, frame.centroids,
+                           frame_timing(frame, sol.identify_ms), found.camera,
+                           found.catalog, self.options.sigma_px, found.match_radius_px,
+                           frame.image)
+
+    def _approximate(self, frame: FrameInput, camera: Camera, sky: SkySpec):
+        """A nominal FOV: the configured method first (milliseconds when the FOV is right),
+        its FOV refitted and the pointing verified through the fitted camera; else the quad
+        search within the tolerance. A :class:`FrameResult` when the configured method's
+        answer stands (too few stars, a timeout), else the search's ``FovResult``."""
+        x, y = frame.centroids.x, frame.centroids.y
+        deadline, spent, found = Deadline.after_ms(self.options.timeout_ms), 0.0, None
+        if self._tables_fit(camera, sky):  # else (a deep narrow-field sky) the search alone
+            fresh = (camera, sky, self.options.method) not in self._identifiers
+            nominal = self.identifier(camera, sky)
+            if fresh:  # the refit's first use too, before this input's deadline starts
+                with self.setup.counting():
+                    nominal.warm_refit(refit_fov)
+            deadline = Deadline.after_ms(self.options.timeout_ms)
+            first = nominal.solve(frame, identify=lambda obs: nominal.identify(obs, deadline))
+            if first.solution.reason in ("too_few_stars", "timeout"):
+                return first
+            found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
+                     if first.solution.solved else None)
+            spent = first.solution.identify_ms  # the first try is part of the answer
+        if found is None:
+            found = self._search(x, y, camera, sky, deadline)
+            found = dataclasses.replace(found, solution=dataclasses.replace(
+                found.solution, identify_ms=found.solution.identify_ms + spent))
+        return found
+
+    def _search(self, x, y, camera: Camera, sky: SkySpec, deadline: Deadline):
+        """The quad search within the tolerance: on the chosen sky; with the default sky,
+        also (or, when that is the same, only) over the whole of the search sky
+        (:func:`startrack.sky.default.search_sky_kind`: Tycho-2 where the field needs it,
+        else Gaia) cut per window, its brightest stars ordered by its own magnitudes."""
+        tol, opt = self.options.fov_tolerance, self.options
+        default = opt.sky is None and opt.mag_limit is None
+        found = None
+        deep = search_sky_kind(camera)
+        if not default or sky.kind != deep:
+            found = solve_approximate(self.identifier(camera, sky, "quad"), x, y, tol, deadline)
+            if not default or found.solution.solved or found.solution.reason == "timeout":
+                return found
+        again = self.blind_solver(SkySpec(kind=deep, epoch=opt.epoch)).solve(
+            x, y, (camera.width, camera.height), deadline, camera, tol)
+        if found is None:
+            return again
+        return dataclasses.replace(again, solution=dataclasses.replace(
+            again.solution, identify_ms=again.solution.identify_ms + found.solution.identify_ms))
+
+    def _tables_fit(self, camera: Camera, sky: SkySpec) -> bool:
+        """Whether the configured method's pair table for ``camera`` fits the pair budget
+        (:func:`startrack.sky.check_pair_budget`); a Gaia sky for a 1.5 to 4 deg field
+        does not, and the quad search, which tables no pairs, then answers alone."""
+        if not get_matcher(self.options.method).tables or (camera, sky, self.options.method) \
+                in self._identifiers:
+            return True
+        try:
+            check_pair_budget(self.catalog(sky, camera), camera)
+        except InputError:
+            return False
+        return True
+
+    def database_of(self, catalog: Catalog) -> StarDatabase | None:
+        """The database an identifier already holds for ``catalog``, if any."""
+        for ident in self._identifiers.values():
+            if ident.catalog is catalog:
+                return ident.database
+        return None
+
+    def catalog(self, sky: SkySpec, camera: Camera | None) -> Catalog:
+        """The catalog of ``sky`` (for ``camera``: its close stars merged), loaded once;
+        cut to :attr:`cone` when there is one."""
+        if sky not in self.catalogs:
+            with self.setup.counting():
+                self.catalogs[sky] = load_sky(sky, camera)
+        if self.cone is None:
+            return self.catalogs[sky]
+        if sky not in self._cut:
+            from startrack.solver._hints import cut_to_cone
+
+            self._cut[sky] = cut_to_cone(self.catalogs[sky], *self.cone)
+        return self._cut[sky]
+
+    def correct_aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
+        """``result`` corrected for annual aberration when the time of observation is known
+        (``Options.time``, else a FITS input's DATE-OBS): startrack.solver._aberration. Every
+        answer passes here, so here an answer without its evidence is refused
+        (:func:`startrack.verify._evidence.require_evidence`), and given the one-time cost it
+        waited for (``timing_ms.setup``)."""
+        from startrack.solver._aberration import correct_result
+        from startrack.solver._hints import header_time
+        from startrack.verify._evidence import require_evidence
+
+        result = require_evidence(result)
+        when = self.options.time
+        if when is None and frame.path is not None and self.options.header_hints:
+            when = header_time(frame.path)
+        if when is not None:
+            result = correct_result(result, when)
+        return dataclasses.replace(result, timing=dataclasses.replace(
+            result.timing, setup=self.setup.take() + frame.setup_ms))  # what it waited for
+
+    def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
+        size = self.options.size or frame.size
+        if size is None:
+            raise InputError(f"{frame.name}: a centroid list with no camera needs the image "
+                             "size (--size WxH), or give --camera FILE or --fov DEG")
+        return size
+
+    def _note_once(self, note: str | None) -> None:
+        """Print ``note`` on stderr the first time this pipeline meets it."""
+        if note and note not in self._notes:
+            self._notes.add(note)
+            print(note, file=sys.stderr)
+
+    def blind_solver(self, sky: SkySpec,
+                     fov_range: tuple[float, float] = BLIND_FOV_RANGE) -> BlindSolver:
+        if (sky, fov_range) not in self._blind:
+            with self.setup.counting():
+                self._blind[sky, fov_range] = BlindSolver(
+                    self.catalog(sky, None), sky, self.options.sigma_px, fov_range=fov_range)
+        return self._blind[sky, fov_range]
+
+    def _blind_search(self, x, y, size: tuple[int, int], sky: SkySpec, deadline: Deadline):
+        """No FOV: the blind search on ``sky``; on the default Tycho-2 sky, Gaia's for the
+        fields it fills (:func:`startrack.sky.default.gaia_min_fov` and wider: its G band
+        orders stars as a camera does) and then Tycho-2's for the narrower ones."""
+        lo, hi = BLIND_FOV_RANGE
+        split = gaia_min_fov(size)
+        if self.options.sky is not None or self.options.mag_limit is not None \
+                or sky.kind != "tycho2" or not lo < split < hi:
+            return self.blind_solver(sky).solve(x, y, size, deadline)
+        wide = self.blind_solver(dataclasses.replace(sky, kind="gaia"), (split, hi)).solve(
+            x, y, size, deadline)
+        if wide.solution.solved or wide.solution.reason != "no_match":
+            return wide
+        narrow = self.blind_solver(sky, (lo, split)).solve(x, y, size, deadline)
+        return dataclasses.replace(narrow, solution=dataclasses.replace(
+            narrow.solution, identify_ms=narrow.solution.identify_ms
+            + wide.solution.identify_ms))
+
+    def run(self, path: str | Path) -> FrameResult:
+        """Read ``path`` (image or centroid CSV) once and identify its stars."""
+        return self.solve(read_input(path, downsample=self.options.downsample))
