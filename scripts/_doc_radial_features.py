@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pandas as pd
@@ -72,7 +73,7 @@ def _identified(labels: pd.DataFrame, method: str) -> str:
             f"({int(r['false_labelled'].sum())} of them false stars)")
 
 
-SETTINGS = {"radial": "lost in space", "radial_patch": "in the paper's setting (a known patch)"}
+SETTINGS = {"radial": "lost in space", "radial_patch": "in the paper's setting, a known patch"}
 
 
 def _misid(pairs, labels, paired) -> list[str]:
@@ -125,7 +126,8 @@ def _evidence(claim, t, labels, paired, ours) -> str:
     if claim.kind == "misid":
         lines = _misid(claim.pairs, labels, paired)
     elif claim.kind == "duplicates":
-        lines = [paired_verdict(paired, "no star given twice", a, b) + "; duplicates "
+        lines = [f"{SETTINGS.get(a, a)}: "
+                 + paired_verdict(paired, "no star given twice", a, b) + "; duplicates "
                  + ", ".join(f"`{m}` {int(labels.loc[labels['method'] == m, 'duplicates'].sum())}"
                              for m in (a, b)) for a, b in claim.pairs]
     elif claim.kind == "time":
@@ -147,7 +149,7 @@ def claims_text(t, labels, paired, ours) -> str:
            "test uses only those); \"matcher faster\" is a sign test of the matcher's time "
            "frame by frame.\n\n"]
     for k, c in enumerate(CLAIMS, 1):
-        out.append(f"{k}. **{c.where}.** 「{c.original}」\n   \"{c.english}\"\n"
+        out.append(f"{k}. **C{k}, {c.where}.** 「{c.original}」\n   \"{c.english}\"\n"
                    + _evidence(c, t, labels, paired, ours) + "\n")
     return "".join(out)
 
@@ -187,3 +189,22 @@ def section(folder: Path, run: dict) -> str:
             + "### Verified and raw, every condition\n\n"
             + f"```\n{fmt_table(t, BENCH_COLUMNS)}\n```\n\n{LEGEND}\n"
             + paper_tables_text(read["paper_tables"]) + our_tables_text(read["our_tables"]))
+
+
+def summary(folder: Path, run: dict) -> str:
+    """One sentence for the README: each claim's verdicts (per setting), as the section
+    gives them."""
+    read = {n: pd.read_csv(folder / f"{n}.csv") for n in run["tables"]}
+    said = []
+    for k, c in enumerate(CLAIMS, 1):
+        text = _evidence(c, read["table"], read["labels"], read["paired"], read["our_tables"])
+        parts = []
+        for line in text.splitlines():
+            found = re.match(r"\s*\* (.*?)\*\*(.+?)\*\*", line)
+            if found:
+                where = found.group(1).rstrip(": ").lower()
+                parts.append(found.group(2) + (f" ({where})" if where else ""))
+        said.append(f"C{k} {c.short}: " + "; ".join(parts))
+    return (f"{len(CLAIMS)} claims quoted in full, judged on {run['frames']} verified, "
+            f"{run['raw_frames']} raw and {run['label_frames']} every-star frames per "
+            f"condition ({'. '.join(said)})")
