@@ -22,6 +22,7 @@ docs/figures/radial_features_misid.png, and re-renders docs/results.md.
 from __future__ import annotations
 
 import argparse
+import resource
 import sys
 import time
 from dataclasses import replace
@@ -79,11 +80,22 @@ def parse_args(argv):
     return ap.parse_args(argv)
 
 
+def cpu_seconds() -> float:
+    """CPU time of this process and of its finished worker processes (user + system)."""
+    own, kids = (resource.getrusage(who) for who in (resource.RUSAGE_SELF,
+                                                     resource.RUSAGE_CHILDREN))
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def timed(label: str, seconds: dict, fn, *args, **kwargs):
-    t0 = time.perf_counter()
+    """Run one stage; ``seconds[label]`` gets its wall time and ``seconds[label + " cpu"]``
+    its CPU time (workers included), to size a full run on another machine."""
+    t0, c0 = time.perf_counter(), cpu_seconds()
     out = fn(*args, **kwargs)
     seconds[label] = round(time.perf_counter() - t0, 1)
-    print(f"{label}: {seconds[label]:.0f} s", flush=True)
+    seconds[f"{label} cpu"] = round(cpu_seconds() - c0, 1)
+    print(f"{label}: {seconds[label]:.0f} s wall, {seconds[label + ' cpu']:.0f} s CPU",
+          flush=True)
     return out
 
 
