@@ -124,3 +124,20 @@ def test_a_patch_shortlist_is_the_full_one_filtered(random_db):
         full, _ = table.shortlist(single[k], double[k], int(need[k]), cap=len(random_db.vectors))
         part, _ = table.shortlist(single[k], double[k], int(need[k]), cap=10, among=patch)
         np.testing.assert_array_equal(part, full[np.isin(full, patch)][:10])
+
+
+def _unit(spec, condition, frame, *, scale):
+    return [{"condition": condition, "frame": frame, "value": scale * (condition + frame)}]
+
+
+def test_map_units_runs_every_condition_and_frame_in_canonical_order():
+    from types import SimpleNamespace
+
+    from startrack.bench.raw import map_units
+
+    spec = SimpleNamespace(conditions=("a", "b"), frames=5)
+    table = map_units(_unit, spec, 3, scale=10)
+    assert list(zip(table["condition"], table["frame"], strict=True)) == [
+        (0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (1, 2)]
+    assert table["value"].tolist() == [0, 10, 20, 10, 20, 30]
+    assert len(map_units(_unit, spec, 9, scale=1)) == 10  # capped at the run's frames
