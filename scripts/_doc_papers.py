@@ -12,7 +12,7 @@ leaves the other's section as it was. To regenerate it:
 
 ```
 .venv/bin/python scripts/paper2011.py --jobs 2      # --frames ...: run size
-.venv/bin/python scripts/seed002_radial.py --jobs 2 # --frames, --raw-frames: run size
+.venv/bin/python scripts/radial_features.py --jobs 2 # --frames, --raw-frames, --label-frames
 .venv/bin/python scripts/_results_doc.py            # re-render from the saved tables alone
 .venv/bin/python scripts/_results_doc.py --check    # exit 1: a section unsaved or stale
 ```
@@ -102,6 +102,9 @@ LIMITS = """\
   text; we test its stated claims only, at field widths of our choosing.
 * The radial-features paper worked on real ground images of one sky patch with the
   navigation stars of that patch; we use simulated centroids (Gaussian noise, uniform
-  false stars) over the whole sky, which makes the search harder than the paper's for every method.
+  false stars), lost in space over the whole sky (harder than the paper's search for
+  every method) and within a known patch around the true boresight (the `_patch`
+  methods, the paper's setting). Its printed star positions are not Hipparcos
+  positions in any frame we tried, so its own images cannot be re-identified here.
 * Timings come from a shared machine; read them as ratios within one pass.
 """

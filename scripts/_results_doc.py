@@ -55,7 +55,7 @@ SECTIONS = (
     Section("triangle-base-2011", "Automatic star identification using triangle base and "
             "increase search speed (2011)", "scripts/paper2011.py", "_doc_triangle_base"),
     Section("radial-features", "An improved triangle star identification algorithm with "
-            "radial features", "scripts/seed002_radial.py", "_doc_seed002"),
+            "radial features", "scripts/radial_features.py", "_doc_radial_features"),
 )
 
 

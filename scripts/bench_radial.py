@@ -1,7 +1,8 @@
 """Print solved rate, wrong count and identify time of the ``radial`` matcher.
 
 Settings: ``hip20`` (Hipparcos Hp <= 6.5, 20 deg FOV, 1024 x 1024: the issue's benchmark)
-and ``paper`` (seed 002: 4 x 4 deg, 4096 x 4096, 9 um pixels, Hipparcos at ``--mag``).
+and ``paper`` (the radial-features paper's camera: 4 x 4 deg, 4096 x 4096, 9 um pixels,
+Hipparcos at ``--mag``).
 Frames: random attitudes, 0.3 px noise on the true centroids, 3 false stars, 10% missing.
 
     .venv/bin/python scripts/bench_radial.py --frames 200 --setting hip20

@@ -14,8 +14,9 @@ DEFAULT_METHOD = "pyramid"
 #: equal); plugins add theirs
 BUILTIN_METHODS = ("angle", "angle_closed", "angle_open", "astrometry", "hybrid",
                    "hybrid_nofourth", "hybrid_single", "pyramid", "quad", "radial",
-                   "radial_noise", "radial_paper", "radial_patch", "sss", "tetra3",
-                   "tetra3rs", "triangle", "triangle_first", "triangle_nopivot")
+                   "radial_noise", "radial_paper", "radial_paper_patch", "radial_patch",
+                   "sss", "sss_patch", "tetra3", "tetra3rs", "triangle", "triangle_first",
+                   "triangle_nopivot")
 #: default ``--fov-tolerance``: the true FOV may be this fraction above or below nominal
 DEFAULT_FOV_TOLERANCE = 0.10
 #: the horizontal FOVs (degrees) searched when none is given: down to 0.8 deg, where the

@@ -1,5 +1,5 @@
 """The radial matcher: shortlist diagnostics, too few neighbours for a feature, the
-parameters, and the seed-002 paper camera (the contract every matcher meets is in
+parameters, and the radial-features paper's camera (the contract every matcher meets is in
 tests/test_matcher_contract.py)."""
 
 import math
@@ -54,7 +54,7 @@ def test_parameters(random_db):
 
 
 def paper_camera() -> Camera:
-    """Seed 002: 4096 x 4096 pixels of 9 um, 4 x 4 deg."""
+    """The radial-features paper's camera: 4096 x 4096 pixels of 9 um, 4 x 4 deg."""
     f_mm = (4096 * 9e-3 / 2.0) / math.tan(math.radians(2.0))
     return Camera.from_optics(4096, 4096, f_mm, 9.0)
 

@@ -212,29 +212,35 @@ def raw_unit(spec: RunSpec, condition_index: int, frame: int, *, limit: int = DE
     return rows
 
 
-def _raw_chunk(spec: RunSpec, units: list[tuple[int, int]], limit: int,
-               repeats: int) -> list[dict]:
-    return [row for c, f in units for row in raw_unit(spec, c, f, limit=limit,
-                                                      repeats=repeats)]
+def _chunk(unit_fn, spec: RunSpec, units: list[tuple[int, int]], kwargs: dict) -> list[dict]:
+    return [row for c, f in units for row in unit_fn(spec, c, f, **kwargs)]
 
 
-def raw_pass(spec: RunSpec, frames: int, *, limit: int = DEFAULT_LIMIT, repeats: int = 0,
-             jobs: int = 1) -> pd.DataFrame:
-    """:func:`raw_unit` over the first ``frames`` frames of every condition, in canonical
-    order, on ``jobs`` local processes (keep 1 when ``seq_ms`` timings matter)."""
+def map_units(unit_fn, spec: RunSpec, frames: int, *, jobs: int = 1,
+              **kwargs) -> pd.DataFrame:
+    """``unit_fn(spec, condition, frame, **kwargs)`` (a module-level function returning row
+    dicts) over the first ``frames`` frames of every condition, in canonical order, on
+    ``jobs`` local processes; the rows as one table."""
     units = [(c, f) for c in range(len(spec.conditions))
              for f in range(min(frames, spec.frames))]
     if jobs <= 1:
-        return pd.DataFrame(_raw_chunk(spec, units, limit, repeats))
+        return pd.DataFrame(_chunk(unit_fn, spec, units, kwargs))
     from concurrent.futures import ProcessPoolExecutor
 
     size = max(1, len(units) // (8 * jobs))
     chunks = [units[i:i + size] for i in range(0, len(units), size)]
     with ProcessPoolExecutor(max_workers=jobs, initializer=load_bench,
                              initargs=(spec,)) as pool:
-        parts = pool.map(_raw_chunk, [spec] * len(chunks), chunks, [limit] * len(chunks),
-                         [repeats] * len(chunks))
+        parts = pool.map(_chunk, [unit_fn] * len(chunks), [spec] * len(chunks), chunks,
+                         [kwargs] * len(chunks))
         return pd.DataFrame([row for part in parts for row in part])
+
+
+def raw_pass(spec: RunSpec, frames: int, *, limit: int = DEFAULT_LIMIT, repeats: int = 0,
+             jobs: int = 1) -> pd.DataFrame:
+    """:func:`raw_unit` over the first ``frames`` frames of every condition, in canonical
+    order, on ``jobs`` local processes (keep 1 when ``seq_ms`` timings matter)."""
+    return map_units(raw_unit, spec, frames, jobs=jobs, limit=limit, repeats=repeats)
 
 
 def summarise_raw(rows: pd.DataFrame, keys: list[str]) -> pd.DataFrame:

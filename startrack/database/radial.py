@@ -1,5 +1,5 @@
-"""Radial features (the radial-feature triangle paper): which rings around a star hold a
-neighbour, as packed bits.
+"""Radial features (Zhang, Wei and Jiang 2008; the improved triangle paper): which rings
+around a star hold a neighbour, as packed bits.
 
 Around a star, the disc of angular radius R is cut into ``n_rings = ceil(R / dr)`` rings
 of width dr; ring h covers angles [h dr, (h + 1) dr). Bit h of the feature is set when
@@ -138,10 +138,11 @@ class RadialTable:
         l1, l2 = self._split_scores(single, double)
         return l1 + l2
 
-    def _split_scores(self, single: np.ndarray,
-                      double: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _split_scores(self, single: np.ndarray, double: np.ndarray,
+                      among: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         out = []
         for table, mask in ((self.bits, single), (self.spread, double)):
+            table = table if among is None else table[among]
             cols = np.flatnonzero(mask)  # only bytes the observed star uses
             l = np.zeros(len(table), dtype=np.int64)
             if len(cols):
@@ -150,14 +151,15 @@ class RadialTable:
         return out[0], out[1]
 
     def shortlist(self, single: np.ndarray, double: np.ndarray, need: int,
-                  frac: float = 0.75, cap: int = 10,
-                  hit_rate: float = 0.9) -> tuple[np.ndarray, np.ndarray]:
+                  frac: float = 0.75, cap: int = 10, hit_rate: float = 0.9,
+                  among: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Catalog rows with l >= frac * need (the paper's rule), the ``cap`` most likely
         first. A crowded catalog star meets requirements by chance, so rows are ranked by
         the log-likelihood ratio of "same star" (each requirement met with probability
         ``hit_rate``) against "unrelated" (met with the row's share of set bits).
+        ``among``: only these catalog rows are candidates (a known sky patch).
         Returns (rows, l)."""
-        l1, l2 = self._split_scores(single, double)
+        l1, l2 = self._split_scores(single, double, among)
         l = l1 + l2
         rows = np.flatnonzero(l >= max(1, math.ceil(frac * need - 1e-9)))
         if len(rows) == 0:
@@ -165,6 +167,7 @@ class RadialTable:
         n1, n2 = int(popcount_rows(single)), int(popcount_rows(double))
         key = np.zeros(len(rows))
         for n_req, hits, fill in ((n1, l1, self.fill), (n2, l2, self.spread_fill)):
+            fill = fill if among is None else fill[among]
             p = np.clip(fill[rows], 0.01, 0.99)
             key += (hits[rows] * np.log(hit_rate / p)
                     + (n_req - hits[rows]) * np.log((1.0 - hit_rate) / (1.0 - p)))
@@ -172,7 +175,8 @@ class RadialTable:
             top = np.argpartition(-key, cap - 1)[:cap]
             rows, key = rows[top], key[top]
         order = np.argsort(-key, kind="stable")
-        return rows[order], l[rows[order]]
+        found = rows[order] if among is None else np.asarray(among)[rows[order]]
+        return found, l[rows[order]]
 
 def radial_table_from_arrays(arrays: dict[str, np.ndarray], radius_rad: float,
                              ring_width_rad: float) -> RadialTable:

@@ -1,4 +1,6 @@
-"""Radial features, then triangles (seed 002): a shortlist per star, then side-side-side.
+"""Radial features, then triangles (the improved triangle star identification with radial
+features, Rocket Force University of Engineering): a shortlist per star, then
+side-side-side.
 
 Each of the brightest observed stars gets a radial feature from all the other observed
 stars; the catalog stars whose features share at least ``frac`` of its rings form its
@@ -10,12 +12,14 @@ star occupies, so extra catalog rings cost nothing.
 
 Variants (constructor keywords; registered names in brackets): ``rings="noise"`` sets the
 ring width from each frame's stated noise instead of ``noise_px`` [radial_noise];
-``rings="paper"`` takes R and dr per frame as the paper does, the largest and smallest
-separation among the field's stars [radial_paper]; ``patch_deg`` restricts the catalog to
-a known sky patch around ``patch_center`` (set per frame by the caller) [radial_patch,
-with the paper's rings]; ``prefilter=False`` drops the radial shortlist, so the
-side-side-side test runs over every catalog star through the pair table: the paper's
-baseline [sss].
+``rings="paper"``, ``threshold="all"``, ``edge_tolerance=False`` are the paper's text: R
+and dr from the observed and the navigation stars (equation 3), l >= 3/4 Nq counting every
+ring (equation 4), a neighbour's ring taken as measured [radial_paper];
+``rings="observed"`` takes R and dr from the observed stars alone; ``patch_deg`` restricts
+the catalog to a known sky patch around ``patch_center`` (set per frame by the caller), as
+the paper's experiment did [radial_patch, radial_paper_patch]; ``prefilter=False`` drops
+the radial shortlist, so the side-side-side test runs over every catalog star (through the
+pair table) or every star of the patch: the paper's baseline [sss, sss_patch].
 """
 
 from __future__ import annotations
@@ -33,41 +37,25 @@ from startrack.database.radial import (
     observed_masks,
     radial_table_from_arrays,
 )
+from startrack.matchers._radial_rings import (
+    catalog_range,
+    dense_triangles,
+    field_rings,
+    pair_triangles,
+    paper_rings,
+    separation_range,
+)
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
 from startrack.matching.geometry import angle_table, handedness, triple_products
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
-RINGS = ("fixed", "noise", "paper")
-
-
-def field_rings(vectors: np.ndarray) -> tuple[float, float]:
-    """The paper's rings for one frame: R the largest, dr the smallest separation among
-    the field's stars (radians)."""
-    d = angle_table(vectors, vectors)[np.triu_indices(len(vectors), 1)]
-    return float(d.max()), float(max(d.min(), 1e-9))
-
-
-def pair_triangles(pairs, obs_d: np.ndarray, a: int, b: int, c: int,
-                   eps: float) -> np.ndarray:
-    """Catalog triangles (K x 3 rows, in a, b, c order) whose three sides match the
-    observed ones within ``eps``: side-side-side over every catalog star (pair table)."""
-    def both(p: int, q: int) -> tuple[np.ndarray, np.ndarray]:
-        i, j, _ = pairs.query(obs_d[p, q] - eps, obs_d[p, q] + eps)
-        i, j = i.astype(np.int64), j.astype(np.int64)
-        return np.concatenate([i, j]), np.concatenate([j, i])
-
-    ab_i, ab_j = both(a, b)
-    bc_i, bc_j = both(b, c)
-    order = np.argsort(bc_i, kind="stable")
-    lo = np.searchsorted(bc_i[order], ab_j, side="left")
-    count = np.searchsorted(bc_i[order], ab_j, side="right") - lo
-    rows = np.repeat(np.arange(len(ab_i)), count)
-    pos = np.repeat(lo - np.cumsum(count) + count, count) + np.arange(int(count.sum()))
-    tri = np.column_stack([ab_i[rows], ab_j[rows], bc_j[order[pos]]])
-    tri = tri[tri[:, 0] != tri[:, 2]]
-    ac_i, ac_j = both(a, c)
-    base = int(max(tri.max(initial=0), ac_j.max(initial=0))) + 1
-    return tri[np.isin(tri[:, 0] * base + tri[:, 2], ac_i * base + ac_j)]
+RINGS = ("fixed", "noise", "observed", "paper")
+THRESHOLDS = ("occupied", "all")
+#: radius (deg) of the known sky patch of the patch variants: the 4 x 4 deg field's
+#: half-diagonal (2.83 deg) and a margin for a pointing known to about a degree
+PATCH_DEG = 4.0
+#: the __all__ of the ring helpers this module re-exports for its callers
+__all__ = ["RadialMatcher", "field_rings", "pair_triangles"]
 
 
 @register
@@ -78,21 +66,31 @@ class RadialMatcher(Matcher):
     noise window spans at most two rings), ``frac`` (share of the observed rings a catalog
     star must have), ``cap`` (longest shortlist), ``min_rings`` (an observed star with
     fewer rings is not distinctive enough for a shortlist), ``max_matches`` (catalog
-    triangles tried per observed triangle)."""
+    triangles tried per observed triangle), ``rings`` (:data:`RINGS`: how R and dr are
+    chosen), ``threshold`` ("occupied": l >= frac of the rings the observed star occupies;
+    "all": l >= frac of every ring, the paper's 3/4 Nq), ``edge_tolerance`` (a neighbour
+    within the angle tolerance of a ring edge may fall in either ring; False: the paper's
+    bits as measured), ``prefilter`` and ``patch_deg`` (see the module)."""
 
     name = "radial"
-    description = "radial-feature shortlists, then side-side-side triangles (seed 002)"
+    description = ("radial-feature shortlists, then side-side-side triangles (the "
+                   "improved triangle paper)")
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  radius_deg: float | None = None, ring_width_deg: float | None = None,
                  target_neighbours: float = 20.0, noise_px: float = 0.3,
                  ring_sigma: float | None = None, frac: float = 0.75, cap: int = 10,
                  min_rings: int = 4, max_matches: int = 8, rings: str = "fixed",
-                 prefilter: bool = True, patch_deg: float | None = None) -> None:
+                 prefilter: bool = True, patch_deg: float | None = None,
+                 threshold: str = "occupied", edge_tolerance: bool = True) -> None:
         super().__init__(database, config)
         if rings not in RINGS:
             raise ValueError(f"rings must be one of {', '.join(RINGS)}, got {rings!r}")
+        if threshold not in THRESHOLDS:
+            raise ValueError(f"threshold must be one of {', '.join(THRESHOLDS)}, "
+                             f"got {threshold!r}")
         self.rings, self.prefilter = rings, bool(prefilter)
+        self.threshold, self.edge_tolerance = threshold, bool(edge_tolerance)
         self.patch_rad = None if patch_deg is None else math.radians(patch_deg)
         self.patch_center: np.ndarray | None = None  # ICRS unit vector, set per frame
         if not 0.0 < frac <= 1.0:
@@ -136,13 +134,26 @@ class RadialMatcher(Matcher):
             width = max(self._ring_sigmas * math.sqrt(2.0) * obs.sigma_rad,
                         2.0 * self.config.min_tolerance_rad)
             return self.database.radial(self.radius_rad, width)
-        radius, width = field_rings(obs.vectors)
+        radius, width = self.frame_rings(obs)
         key = (min(radius, self.database.max_angle_rad), width)
         if self._last[0] != key:  # the bench asks again for the same frame: keep one
             arrays = build_radial_arrays(self.database.pairs, len(self.database.vectors),
                                          *key)
             self._last = (key, radial_table_from_arrays(arrays, *key))
         return self._last[1]
+
+    def frame_rings(self, obs: Observation) -> tuple[float, float]:
+        """R and dr (radians) of a per-frame ring rule: "observed" from the observed stars
+        alone, "paper" from them and the navigation stars (the patch's catalog stars when
+        the patch is known, else every catalog star's tabled pairs)."""
+        if self.rings == "observed":
+            return field_rings(obs.vectors)
+        patch = self.in_patch()
+        if patch is None:
+            navigation = catalog_range(self.database.pairs)
+        else:
+            navigation = separation_range(self.database.vectors[patch])
+        return paper_rings(obs.vectors, navigation)
 
     def in_patch(self) -> np.ndarray | None:
         """Catalog rows inside the known sky patch (None: lost in space)."""
@@ -153,22 +164,23 @@ class RadialMatcher(Matcher):
 
     def shortlists(self, obs: Observation, n: int) -> list[np.ndarray]:
         """Catalog candidates of each of the first ``n`` observed stars, best first."""
+        patch = self.in_patch()
         if not self.prefilter:
-            rows = self.in_patch()
-            every = np.arange(len(self.database.vectors)) if rows is None else rows
+            every = np.arange(len(self.database.vectors)) if patch is None else patch
             return [every] * n
-        table, patch = self.frame_table(obs), self.in_patch()
+        table = self.frame_table(obs)
+        tol = self.angle_tolerance(obs) if self.edge_tolerance else 0.0
         single, double, need = observed_masks(obs.vectors, np.arange(n), table.radius_rad,
-                                              table.ring_width_rad, self.angle_tolerance(obs))
-        cap = self.cap if patch is None else len(self.database.vectors)
+                                              table.ring_width_rad, tol)
         lists = []
         for k in range(n):
             if need[k] < self.min_rings:
                 lists.append(np.zeros(0, np.int64))
                 continue
-            rows, _ = table.shortlist(single[k], double[k], int(need[k]), self.frac, cap)
-            if patch is not None:
-                rows = rows[np.isin(rows, patch)][: self.cap]
+            # The paper's l >= 3/4 Nq counts every ring; ours the rings star k occupies.
+            base = table.n_rings if self.threshold == "all" else int(need[k])
+            rows, _ = table.shortlist(single[k], double[k], base, self.frac, self.cap,
+                                      among=patch)
             lists.append(rows.astype(np.int64))
         return lists
 
@@ -188,7 +200,7 @@ class RadialMatcher(Matcher):
         cat = [self.database.vectors[s] for s in lists]
         for a, b, c in combinations(usable, 3):
             diag.pivots += 1
-            found = self._sss(lists, cat, obs_d, (a, b, c), eps)
+            found = self.triangle_matches(lists, cat, obs_d, (a, b, c), eps)
             if found is None:
                 continue
             (ia, ib, ic), (ra, rb, rc) = found
@@ -210,28 +222,21 @@ class RadialMatcher(Matcher):
             yield from with_fourth
             yield from plain
 
-    def _sss(self, lists, cat, obs_d, stars, eps):
+    def triangle_matches(self, lists, cat, obs_d, stars, eps):
         """Side-side-side over the shortlists (or every catalog star): positions in the
         lists and catalog rows of the matching triangles, None when there is none."""
         a, b, c = stars
-        if not self.prefilter:
+        if not self.prefilter and self.in_patch() is None:
             tri = pair_triangles(self.database.pairs, obs_d, a, b, c, eps)
-            patch = self.in_patch()
-            if patch is not None:
-                tri = tri[np.isin(tri, patch).all(axis=1)]
             if len(tri) == 0:
                 return None
             pos = (np.searchsorted(lists[a], tri[:, 0]), np.searchsorted(lists[b], tri[:, 1]),
                    np.searchsorted(lists[c], tri[:, 2]))
             return pos, (tri[:, 0], tri[:, 1], tri[:, 2])
-        ab = np.abs(angle_table(cat[a], cat[b]) - obs_d[a, b]) <= eps
-        if not ab.any():
+        found = dense_triangles(cat[a], cat[b], cat[c], obs_d, stars, eps)
+        if found is None:
             return None
-        bc = np.abs(angle_table(cat[b], cat[c]) - obs_d[b, c]) <= eps
-        ac = np.abs(angle_table(cat[a], cat[c]) - obs_d[a, c]) <= eps
-        ia, ib, ic = np.nonzero(ab[:, :, None] & bc[None, :, :] & ac[:, None, :])
-        if len(ia) == 0:
-            return None
+        ia, ib, ic = found
         return (ia, ib, ic), (lists[a][ia], lists[b][ib], lists[c][ic])
 
     def _fourth(self, tri, stars, others, lists, cat, obs_d, eps) -> tuple[int, int] | None:
@@ -247,12 +252,21 @@ class RadialMatcher(Matcher):
         return None
 
 
+LITERAL = {"rings": "paper", "threshold": "all", "edge_tolerance": False, "min_rings": 1,
+           "cap": 50}
 register_variant(RadialMatcher, "radial_noise",
                  "radial, ring width from the frame's stated noise (variant)", rings="noise")
 register_variant(RadialMatcher, "radial_paper",
-                 "radial, the paper's R and dr per frame (variant)", rings="paper")
+                 "radial as the paper writes it: R and dr from the observed and the "
+                 "navigation stars, l >= 3/4 Nq (variant)", **LITERAL)
+register_variant(RadialMatcher, "radial_paper_patch",
+                 "radial_paper within a known sky patch, as the paper ran it (variant)",
+                 **LITERAL, patch_deg=PATCH_DEG)
 register_variant(RadialMatcher, "radial_patch",
-                 "radial, paper rings within a known sky patch (variant)", rings="paper",
-                 patch_deg=4.0)
+                 "radial within a known sky patch (variant)", patch_deg=PATCH_DEG)
 register_variant(RadialMatcher, "sss", "side-side-side over every catalog star, no radial "
-                 "prefilter (seed 002's baseline, variant)", prefilter=False)
+                 "prefilter (the improved triangle paper's baseline, variant)",
+                 prefilter=False)
+register_variant(RadialMatcher, "sss_patch", "side-side-side over a known sky patch's "
+                 "catalog stars (the improved triangle paper's baseline, variant)",
+                 prefilter=False, patch_deg=PATCH_DEG)

@@ -1,0 +1,148 @@
+"""The radial-features paper's Tables 2 to 4: its own rows checked for consistency, and
+the same three tables made on one of our frames (its camera, a known sky patch).
+
+The paper's rows below are its printed numbers (pixel x, y; "longitude, latitude" in
+degrees), typed from the paper, not measured here.
+"""
+
+from __future__ import annotations
+
+import astropy.units as u
+import numpy as np
+import pandas as pd
+from astropy.coordinates import SkyCoord
+
+from startrack.bench.runner import bench_frame, load_bench, point_patch
+from startrack.bench.star_labels import label_every_star
+
+# (table, row, x, y, longitude, latitude); Table 2 lists a star once per candidate.
+PAPER_ROWS = [
+    (2, 1, 3122.60, 2055.53, 108.4041, 34.9760), (2, 2, 4008.00, 1900.00, 108.0671, 35.7619),
+    (2, 3, 983.55, 1646.07, 109.7039, 34.8039), (2, 3, 983.55, 1646.07, 110.1570, 35.1245),
+    (2, 4, 1575.91, 1644.83, 109.7102, 34.1462), (2, 5, 1653.10, 1488.10, 109.7102, 34.1462),
+    (2, 5, 1653.10, 1488.10, 109.8025, 34.2758), (2, 6, 3130.05, 931.81, 108.4258, 33.2400),
+    (2, 7, 623.06, 930.80, 110.8699, 33.7943), (2, 8, 2292.79, 664.37, 110.1570, 35.1245),
+    (2, 9, 1012.41, 609.07, 110.7208, 33.1666), (2, 9, 1012.41, 609.07, 110.9324, 34.2254),
+    (2, 10, 2784.52, 604.04, 109.9016, 35.5301),
+    (3, 1, 2615.43, 3576.52, 107.4443, 33.9581), (3, 2, 1389.63, 3262.98, 108.4258, 33.2400),
+    (3, 3, 2284.39, 2201.92, 108.8191, 34.3884), (3, 4, 4008.00, 1900.00, 108.0670, 35.7619),
+    (3, 5, 1575.91, 1644.82, 109.7102, 34.1462), (3, 6, 1653.10, 1488.10, 109.8025, 34.2758),
+    (3, 7, 623.06, 930.80, 110.8699, 33.7943), (3, 8, 2292.79, 664.37, 110.1570, 35.1245),
+    (3, 9, 1012.41, 609.07, 110.9323, 34.2254), (3, 10, 1465.18, 423.47, 110.8402, 34.6396),
+    (3, 11, 1500.28, 66.71, 111.1346, 34.8303), (3, 12, 2784.52, 604.04, 109.9015, 35.5301),
+    (3, 13, 3122.60, 2055.53, 108.4040, 34.9760),
+    (4, 1, 1389.63, 3262.98, 108.4258, 33.2400), (4, 2, 2178.05, 3464.10, 108.4258, 33.2400),
+    (4, 3, 1575.91, 1644.82, 109.7102, 34.1462), (4, 4, 3284.58, 2239.62, 109.7102, 34.1462),
+]
+COLUMNS = ["table", "row", "x", "y", "lon", "lat"]
+#: the sky frames the printed "longitude, latitude" are tried in (astropy names)
+FRAMES = ("icrs", "fk4", "galactic", "geocentrictrueecliptic", "supergalactic")
+
+
+def sky_vectors(lon_deg, lat_deg) -> np.ndarray:
+    lon, lat = np.radians(lon_deg), np.radians(lat_deg)
+    return np.column_stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)])
+
+
+def similarity_fit(rows: pd.DataFrame) -> tuple[float, np.ndarray]:
+    """Fit pixels to the tangent plane of the rows' sky positions by scale, rotation (or
+    reflection) and shift; the fitted scale (deg per pixel) and each row's residual
+    (arcsec), the better of the two handednesses."""
+    v = sky_vectors(rows["lon"], rows["lat"])
+    c = v.mean(axis=0) / np.linalg.norm(v.mean(axis=0))
+    e1 = np.cross([0.0, 0.0, 1.0], c)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(c, e1)
+    plane = np.degrees(np.column_stack([v @ e1, v @ e2]) / (v @ c)[:, None])
+    best = None
+    for flip in (1.0, -1.0):
+        z = rows["x"].to_numpy() + 1j * flip * rows["y"].to_numpy()
+        w = plane[:, 0] + 1j * plane[:, 1]
+        a = np.column_stack([z, np.ones_like(z)])
+        coef = np.linalg.lstsq(a, w, rcond=None)[0]
+        resid = np.abs(a @ coef - w) * 3600.0
+        if best is None or resid.sum() < best[1].sum():
+            best = (float(abs(coef[0])), resid)
+    return best
+
+
+def paper_checks(catalog, f_px: float) -> pd.DataFrame:
+    """The paper's rows with, per row, the residual of Table 3's similarity fit (Table 3
+    only), the distance to the nearest catalog star reading the positions in each of
+    :data:`FRAMES` (arcsec) and whether the same
+    navigation star is another observed star's identity elsewhere in Tables 2 and 3."""
+    rows = pd.DataFrame(PAPER_ROWS, columns=COLUMNS)
+    t3 = rows["table"] == 3
+    scale, resid = similarity_fit(rows[t3])
+    rows["fit_resid_arcsec"] = np.nan
+    rows.loc[t3, "fit_resid_arcsec"] = resid
+    rows["fit_scale_deg_px"] = np.where(t3, scale, np.nan)
+    rows["stated_scale_deg_px"] = np.degrees(1.0 / f_px)
+    for frame in FRAMES:
+        icrs = SkyCoord(rows["lon"].to_numpy() * u.deg, rows["lat"].to_numpy() * u.deg,
+                        frame=frame).icrs
+        near = np.degrees(np.arccos(np.clip(sky_vectors(icrs.ra.deg, icrs.dec.deg)
+                                            @ catalog.vectors.T, -1.0, 1.0))).min(axis=1)
+        rows[f"nearest_{frame}_arcsec"] = near * 3600.0
+    star = rows["lon"].round(3).astype(str) + "," + rows["lat"].round(3).astype(str)
+    pixel = rows["x"].round(0).astype(str) + "," + rows["y"].round(0).astype(str)
+    two = rows["table"].isin((2, 3))
+    owners = pd.Series(pixel[two].values, index=star[two].values).groupby(level=0).nunique()
+    rows["star_owners_t2_t3"] = star.map(owners).where(two)
+    return rows
+
+
+def _example_frame(spec, tries: int = 40):
+    """The first frame of the 1 px, 2 false-star condition (else the last condition)
+    where sss_patch misidentifies a star: the frame our Tables 2 to 4 are made on."""
+    cond = next((k for k, c in enumerate(spec.conditions)
+                 if c.noise_px == 1.0 and c.false_stars == 2), len(spec.conditions) - 1)
+    bench = load_bench(spec)
+    for frame in range(min(tries, spec.frames)):
+        _, _, bf = bench_frame(spec, cond, frame)
+        sss = bench.identifier("sss_patch", bf.obs.camera).matcher
+        point_patch(sss, bf)
+        labels = label_every_star(sss, bf.obs)
+        given = labels.cat_row >= 0
+        if np.any(given & (labels.cat_row != bf.truth_rows)):
+            return cond, frame, bf, labels
+    return cond, frame, bf, labels
+
+
+def our_tables(spec) -> pd.DataFrame:
+    """Tables 2 (radial_patch's shortlists of the ten brightest stars), 3 (its labels)
+    and 4 (sss_patch's wrong labels) on :func:`_example_frame`'s frame."""
+    cond, frame, bf, sss_labels = _example_frame(spec)
+    bench = load_bench(spec)
+    radial = bench.identifier("radial_patch", bf.obs.camera).matcher
+    point_patch(radial, bf)
+    cat = bench.identifiers["radial_patch"].catalog
+    rows = []
+
+    def add(table, k, c):
+        level = spec.conditions[cond]
+        rows.append({"table": table, "condition": cond, "noise_px": level.noise_px,
+                     "false_stars": level.false_stars, "frame": frame, "star": k,
+                     "x": bf.obs.x[k], "y": bf.obs.y[k], "ra": cat.ra_deg[c] if c >= 0
+                     else np.nan, "dec": cat.dec_deg[c] if c >= 0 else np.nan,
+                     "true": bool(c >= 0 and c == bf.truth_rows[k]),
+                     "false_star": bool(bf.truth_rows[k] < 0)})
+
+    for k, short in enumerate(radial.shortlists(bf.obs, min(10, len(bf.obs)))):
+        for c in short:
+            add(2, k, int(c))
+    for k, c in enumerate(label_every_star(radial, bf.obs).cat_row):
+        add(3, k, int(c))
+    for k, c in enumerate(sss_labels.cat_row):
+        if c >= 0 and c != bf.truth_rows[k]:
+            add(4, k, int(c))
+    return pd.DataFrame(rows)
+
+
+def tables(spec) -> dict[str, pd.DataFrame]:
+    """The two saved tables: ``paper_tables`` (the paper's rows, checked) and
+    ``our_tables`` (the same tables on our frame)."""
+    bench = load_bench(spec)
+    some = next(iter(bench.identifiers.values()))
+    return {"paper_tables": paper_checks(some.catalog, spec.camera.f_px),
+            "our_tables": our_tables(spec)}
