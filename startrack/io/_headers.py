@@ -8,6 +8,7 @@ applies the same limit to the camera it renders.
 
 from __future__ import annotations
 
+import datetime as dt
 import os
 import struct
 from pathlib import Path
@@ -106,3 +107,29 @@ def check_image_size(path: Path) -> None:
     size = header_size(path)
     if size is not None:
         check_pixels(size[0], size[1], str(path))
+
+
+def date_obs_of(path: str | Path | None) -> str | None:
+    """The exposure time recorded in an image file, ISO 8601, or None when not known:
+    DATE-OBS of a FITS file, the DateTime tag of a TIFF."""
+    if path is None:
+        return None
+    path = Path(path)
+    suffix = path.suffix.lower()
+    try:
+        if suffix in (".fits", ".fit", ".fts"):
+            from astropy.io import fits  # astropy: the header reader loads it only here
+
+            value = fits.getheader(path).get("DATE-OBS")
+            return str(value) if value else None
+        if suffix in (".tif", ".tiff"):
+            import tifffile  # tifffile: only a TIFF's header needs it
+
+            with tifffile.TiffFile(path) as tif:
+                tag = tif.pages[0].tags.get("DateTime")
+            if tag is None:
+                return None
+            return dt.datetime.strptime(str(tag.value), "%Y:%m:%d %H:%M:%S").isoformat()
+    except (OSError, ValueError, KeyError):
+        return None
+    return None

