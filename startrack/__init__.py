@@ -16,7 +16,7 @@ __all__ = ["Solver", "SolveResult", "solve", "__version__"]
 
 def __getattr__(name: str):
     if name in ("Solver", "SolveResult", "solve"):
-        from startrack import api
+        from startrack import api  # numpy, scipy, pandas: `import startrack` and --help stay light
 
         return getattr(api, name)
     raise AttributeError(f"module 'startrack' has no attribute {name!r}")

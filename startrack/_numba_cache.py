@@ -21,6 +21,8 @@ import sys
 import time
 from pathlib import Path
 
+from platformdirs import user_cache_dir
+
 PREFIX = "kernels-"
 KEEP = 4  # source versions kept (checkouts side by side each have their own)
 # A folder used more recently than this is never pruned: a process started before may still
@@ -33,8 +35,6 @@ def configure() -> None:
     if "NUMBA_CACHE_DIR" in os.environ:
         return
     try:
-        from platformdirs import user_cache_dir
-
         root = Path(user_cache_dir("startrack")) / "numba"
         folder = root / (PREFIX + _source_stamp())
         if folder.is_dir():

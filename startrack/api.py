@@ -1,3 +1,4 @@
+
 """The Python API of docs/conventions.md: ``startrack.solve(...)`` and ``startrack.Solver``.
 
 A :class:`Solver` loads the catalog and database once and solves frame after frame; each
@@ -8,6 +9,7 @@ answer is a :class:`SolveResult` whose ``to_dict()`` is the JSON record that
 from __future__ import annotations
 
 import functools
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,9 +28,12 @@ from startrack.centroids._table import (
 from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD
 from startrack.errors import InputError, as_builtin
 from startrack.outputs._records import frame_record
+from startrack.solver._hints import preset, user_hints
 from startrack.solver._identifier import FrameResult
 from startrack.solver._inputs import FrameInput, image_input, read_input
 from startrack.solver._pipeline import Options, Pipeline
+from startrack.tracking._sequence import SequenceSolver, prior_from_radec_roll
+from startrack.units import degree_options, scale_value
 from startrack.validate import NumberTypeError
 
 STAR_COLUMNS = ["x", "y", "catalog_id", "ra_deg", "dec_deg", "residual_arcsec"]
@@ -98,7 +103,7 @@ class SolveResult:
         """The boresight as an astropy ``SkyCoord`` (ICRS); None if not solved."""
         if not self.solved:
             return None
-        from astropy.coordinates import SkyCoord
+        from astropy.coordinates import SkyCoord  # astropy: only for the astropy views
 
         return SkyCoord(self.ra_deg, self.dec_deg, unit="deg", frame="icrs")
 
@@ -109,11 +114,9 @@ class SolveResult:
         header); None if not solved. Pixels are ours: ``all_pix2world(x, y, 0)``."""
         if not self.solved:
             return None
-        import warnings
+        from astropy.wcs import WCS, FITSFixedWarning  # astropy: only for the astropy views
 
-        from astropy.wcs import WCS, FITSFixedWarning
-
-        from startrack.outputs._wcs import solved_wcs_header
+        from startrack.outputs._wcs import solved_wcs_header  # astropy: as above
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FITSFixedWarning)
@@ -200,9 +203,6 @@ class Solver:
                  radius=None, scale_low=None, scale_high=None, scale_units: str = "degwidth",
                  pixel_size_um: float | None = None, downsample: int = 1,
                  header_hints: bool = True, config: str | Path | None = None) -> None:
-        from startrack.solver._hints import preset, user_hints
-        from startrack.units import degree_options, scale_value
-
         deg = degree_options(dict(fov_deg=fov_deg, prior=prior, ra=ra, dec=dec,
                                   radius=radius, prior_sigma_deg=prior_sigma_deg))
         fov_deg, prior, prior_sigma_deg = deg["fov_deg"], deg["prior"], deg["prior_sigma_deg"]
@@ -226,8 +226,6 @@ class Solver:
                                           downsample=downsample, sky_spec=sky_spec))
         self._sequence = None
         if track or prior is not None:
-            from startrack.tracking._sequence import SequenceSolver, prior_from_radec_roll
-
             seed = None if prior is None else prior_from_radec_roll(*prior, prior_sigma_deg)
             self._sequence = SequenceSolver(self._pipeline, track=track, prior=seed)
 

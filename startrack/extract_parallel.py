@@ -33,7 +33,7 @@ def thread_count(threads: int | None) -> int:
     (``idle_cores``); at least 1."""
     if threads is not None:
         return max(1, int(threads))
-    from numba import config
+    from numba import config  # numba: its thread limit, read only when none is given
 
     return max(1, min(int(config.NUMBA_NUM_THREADS), idle_cores()))
 

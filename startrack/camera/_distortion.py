@@ -15,6 +15,7 @@ from functools import cached_property
 import numpy as np
 
 from startrack.errors import InputError
+from startrack.validate import check_number
 
 MODELS = ("radial",)
 _KEYS = {"model", "k1", "k2", "k3"}
@@ -82,8 +83,6 @@ class RadialDistortion:
 
 
 def _number(value, key: str, where: str) -> float:
-    from startrack.validate import check_number
-
     return float(check_number(value, f"{where}: distortion '{key}'"))
 
 

@@ -159,11 +159,8 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
     usage or an unreadable input (the other inputs are still answered).
     Conventions (pixels, attitude, JSON record, exit codes): docs/conventions.md."""
-    from startrack.outputs._records import (  # the compiled core: when run
-        EXIT_CODES,
-        error_record,
-        frame_record,
-    )
+    # the compiled core: when run
+    from startrack.outputs._records import EXIT_CODES, error_record, frame_record
 
     writer, output = _output_writer(inputs, camera_path, overwrite, output)
     side = SideOutputs(writer, list(inputs), annotate_path, wcs_path, corr_path)

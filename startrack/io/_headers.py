@@ -14,6 +14,7 @@ import struct
 from pathlib import Path
 
 from startrack.errors import InputError
+from startrack.validate import IMAGE_PIXELS, env_number
 
 DEFAULT_MAX_IMAGE_PIXELS = 8192 * 8192
 _JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
@@ -21,8 +22,6 @@ _JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0
 
 def max_image_pixels() -> int:
     """The largest image (width x height) startrack reads or renders."""
-    from startrack.validate import IMAGE_PIXELS, env_number
-
     return int(env_number("STARTRACK_MAX_IMAGE_PIXELS", DEFAULT_MAX_IMAGE_PIXELS, IMAGE_PIXELS))
 
 
@@ -79,7 +78,7 @@ def _jpeg(path: Path) -> tuple[int, int] | None:
 
 
 def _tiff(path: Path) -> tuple[int, int] | None:
-    import tifffile
+    import tifffile  # tifffile: only a TIFF's header needs it
 
     try:
         with tifffile.TiffFile(path) as tif:

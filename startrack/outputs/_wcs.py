@@ -15,8 +15,10 @@ from astropy.io import fits
 from astropy.wcs import WCS
 from scipy.spatial.transform import Rotation
 
+from startrack import __version__
 from startrack.camera._model import Camera
 from startrack.io._headers import date_obs_of
+from startrack.io._writer import atomic_path
 from startrack.sky.catalog import vectors_to_radec
 
 
@@ -208,8 +210,6 @@ def wcs_header(camera: Camera, rotation: Rotation, *, cd: np.ndarray | None = No
     extra : dict, optional
         More keywords (value or (value, comment)), e.g. EXPTIME.
     """
-    from startrack import __version__
-
     ra, dec, cd_pinhole = _cd_matrix(camera, rotation)
     cd = cd_pinhole if cd is None else np.asarray(cd, dtype=np.float64)
     w = WCS(naxis=2)
@@ -243,8 +243,6 @@ def wcs_header(camera: Camera, rotation: Rotation, *, cd: np.ndarray | None = No
 
 def write_wcs(path: str | Path, header: fits.Header) -> None:
     """Write ``header`` as a data-less FITS file (like solve-field's .wcs), atomically."""
-    from startrack.io._writer import atomic_path
-
     path = Path(path)
     with atomic_path(path) as tmp:
         fits.PrimaryHDU(header=header).writeto(tmp, overwrite=True)

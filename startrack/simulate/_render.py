@@ -9,6 +9,7 @@ from scipy.spatial.transform import Rotation
 from scipy.special import erf
 
 from startrack.camera._model import Camera
+from startrack.simulate import _noise as render_noise
 from startrack.simulate._scene import Scene
 from startrack.simulate._sensor import SensorModel
 
@@ -118,8 +119,6 @@ def digitise(expected: np.ndarray, sensor: SensorModel, rng: np.random.Generator
     Poisson up to ``render_kernels.GAUSS_ABOVE`` expected electrons and Gaussian (same
     mean and variance) above, plus Gaussian read noise. Every draw comes from ``rng``.
     """
-    from startrack.simulate import _noise as render_noise
-
     expected = np.asarray(expected)
     if expected.dtype not in (np.float32, np.float64):
         expected = expected.astype(np.float64)
@@ -139,7 +138,7 @@ _CHUNK = 1 << 18  # pixels per call: the index scratch stays small whatever the 
 
 def _sky_pixels(flat, lam, table, rng, out) -> np.ndarray:
     """Counts of the pixels that expect ``lam``; returns the indices of the others."""
-    from startrack import render_kernels as rk
+    from startrack import render_kernels as rk  # numba: its kernels load on first use
 
     cdf, guide, a0 = table
     lam = flat.dtype.type(lam)
@@ -155,7 +154,7 @@ def _sky_pixels(flat, lam, table, rng, out) -> np.ndarray:
 
 def _pixel_chain(lam, where, chain, rng, out) -> None:
     """Counts of the pixels ``where`` (expecting ``lam``) into ``out``, pixel by pixel."""
-    from startrack import render_kernels as rk
+    from startrack import render_kernels as rk  # numba: as above
 
     electrons = np.empty(lam.shape, np.float32)
     rk.shot_noise(lam, rng.random(lam.shape), electrons)
