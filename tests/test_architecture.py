@@ -104,7 +104,7 @@ LAYERS = [
     {"startrack.solver"},
     {"startrack.tracking"},
     {"startrack.outputs"},
-    {"startrack._api_checks"},
+    {"startrack._api_checks", "startrack._result"},
     {"startrack.api"},
     {"startrack.bench"},
     {"startrack.cli"},

@@ -1,29 +1,20 @@
 """Centroid extraction: a grey frame in, the stars' sub-pixel positions out (numba kernels).
 
-Pipeline: local sky background removed (tile medians of 4 x 4 block means, interpolated;
-estimated twice, the second time without the blocks the first one showed to hold
-sources); noise from the median absolute deviation; detection on a lightly smoothed copy
-at ``k_sigma`` noise sigmas; 8-connected components; intensity-weighted centroids of the
-unsmoothed background-removed pixels; hot pixels and oversized blobs rejected; saturated
-spots flagged. Pixel convention (docs/conventions.md): (0, 0) is the centre of the top-left
-pixel, x = column, y = row.
+Pipeline: sky background removed (tile medians of 4 x 4 block means, interpolated; estimated
+twice, the second time without the blocks that held sources); noise from the median absolute
+deviation; detection at ``k_sigma`` sigmas on a lightly smoothed copy; 8-connected components;
+intensity-weighted centroids of the unsmoothed pixels, background removed; hot pixels and
+oversized blobs rejected; saturated spots flagged. Pixels as docs/conventions.md says.
 
-The frame is read twice in full: once for the block means (``startrack.extract_blocks``,
-from which the whole sky model is made) and once, row by row, for detection and
-moments (``startrack.extract_kernels``, which evaluates the sky model on the fly). Both
-read the frame in its own dtype: besides the frame, an extraction holds the block means
-(1/16 of the pixels) and a few rows.
+The frame is read twice, in its own dtype: for the block means the sky model is made of
+(``startrack.extract_blocks``), then row by row for detection and moments
+(``startrack.extract_kernels``); besides it, an extraction holds 1/16 of it and a few rows.
 
-Threads: the passes over the pixels (block means and tile medians, the tile medians of
-the later passes, the noise samples and their MADs, the blob finder of
-``startrack.extract_runs``) run on bands of rows at once, on ``CentroidConfig.threads``
-threads (default: numba's limit ``NUMBA_NUM_THREADS``, the cores this process may use,
-or one when the load average says the cores are taken); a frame under ~2 x 65536 px
-stays on one. The kernels release the GIL and a few Python helper threads run them
-(``startrack.extract_parallel``; no numba threading layer); the caller and the helpers
-take the next band until none is left, so a helper that wakes late costs nothing. Each
-band writes its own part of a result, and the blobs' runs are joined in raster order, so
-the centroids are the same, bit for bit and in the same order, whatever the thread count.
+Threads: the passes over the pixels run on bands of rows, on ``CentroidConfig.threads``
+threads (default: numba's ``NUMBA_NUM_THREADS``, fewer when the load average says the cores
+are taken, one under ~2 x 65536 px): helper threads (``startrack.extract_parallel``) run the
+kernels, which release the GIL. Each band writes its own part of a result, the blobs' runs are
+joined in raster order: the same centroids, bit for bit and in order, whatever the threads.
 """
 
 from __future__ import annotations
@@ -119,18 +110,36 @@ FAST = CentroidConfig(fast=True)
 
 
 def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -> Centroids:
-    """Find the stars in a 2-D grey frame.
+    """Find the stars in a 2-D grey frame (how: the module docstring).
 
     Parameters
     ----------
-    image : 2-D array of any real dtype (uint8, uint16 and float frames are read as they
-        are; other dtypes are converted to float64). NaN and infinite pixels are dead:
-        neutral for the sky model and never detected.
+    image : numpy.ndarray
+        2-D, of any real dtype (uint8, uint16 and float as they are, others as float64);
+        NaN and infinite pixels are dead: neutral for the sky model, never detected.
     config : CentroidConfig, optional
+        Thresholds, sizes and threads (default ``CentroidConfig()``).
 
     Returns
     -------
-    Centroids sorted brightest first.
+    Centroids
+        Pixel x, y (docs/conventions.md), flux, area and saturation, brightest first.
+
+    Raises
+    ------
+    ValueError
+        ``image`` is not a non-empty 2-D array.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from startrack.centroids import extract_centroids
+    >>> yy, xx = np.mgrid[:96, :96]
+    >>> image = np.random.default_rng(0).normal(100.0, 2.0, (96, 96))
+    >>> image += 900.0 * np.exp(-((xx - 30.2) ** 2 + (yy - 40.7) ** 2) / 4.5)
+    >>> stars = extract_centroids(image)
+    >>> len(stars), round(float(stars.x[0]), 1), round(float(stars.y[0]), 1)
+    (1, 30.2, 40.7)
     """
     config = config or CentroidConfig()
     image = np.asarray(image)

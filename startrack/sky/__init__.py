@@ -197,12 +197,40 @@ def _check_spec(spec: SkySpec) -> None:
 
 
 def load_sky(spec: SkySpec | str | os.PathLike, camera: Camera | None = None) -> Catalog:
-    """The catalog that ``spec`` describes (or ``--sky``'s name: a kind or a catalog
-    file), magnitude-cut and with close stars merged.
+    """The catalog that ``spec`` describes, magnitude-cut and with close stars merged.
 
     Pass the camera the sky is seen through so that stars it cannot split are merged
-    (see :func:`merge_separation_deg`); simulate, identify and compare all do, so the
-    same spec and camera always give the same catalog rows.
+    (:func:`merge_separation_deg`); simulate, identify and compare all do, so the same
+    spec and camera always give the same catalog rows.
+
+    Parameters
+    ----------
+    spec : SkySpec, str or os.PathLike
+        A :class:`SkySpec`, or ``--sky``'s name: ``"random"``, ``"hipparcos"``,
+        ``"gaia"``, ``"tycho2"`` or a catalog file (.csv, .fits, .parquet).
+    camera : Camera, optional
+        The camera the sky is seen through (its pixel sets the merge separation).
+
+    Returns
+    -------
+    Catalog
+        ids, ra_deg, dec_deg, mag and unit vectors, brightest first.
+
+    Raises
+    ------
+    startrack.errors.InputError
+        An unknown kind, a missing catalog package or file, a bad value in the spec, or a
+        magnitude limit that leaves no star.
+
+    Examples
+    --------
+    >>> from startrack.camera import Camera
+    >>> from startrack.sky import SkySpec, load_sky
+    >>> sky = load_sky(SkySpec(kind="random", n_stars=500, seed=3))
+    >>> len(sky), sky.vectors.shape, bool((sky.mag[:-1] <= sky.mag[1:]).all())
+    (500, (500, 3), True)
+    >>> len(load_sky("random", Camera.from_fov(1024, 1024, 20.0)))  # two stars merged
+    1999
     """
     if not isinstance(spec, SkySpec):
         spec = sky_spec(spec)
