@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from startrack._api_checks import api_camera, api_prior, api_size, api_time, check_solver_numbers
-from startrack._result import STAR_COLUMNS, SolveResult  # noqa: F401 (re-exported)
+from startrack._result import STAR_COLUMNS, SolveResult
 from startrack.camera._model import Camera
 from startrack.centroids._table import (
     DEFAULT_SIGMA_PX,
@@ -266,3 +266,5 @@ def _as_input(source: str | Path | np.ndarray, downsample: int = 1) -> FrameInpu
         return image_input(array, "<array>", downsample=downsample)
     raise InputError(f"cannot solve an array of shape {array.shape}: give a 2-D image or "
                      "an N x 2 / N x 3 array of centroids")
+
+__all__ = ["STAR_COLUMNS", "SolveResult", "Solver", "solve"]

@@ -50,3 +50,5 @@ def degree_options(options: dict) -> dict:
             raise InputValueError(f"prior: expected (ra, dec, roll), got "
                                   f"{out['prior']!r}") from None
     return out
+
+__all__ = ["DEGREE_KEYWORDS", "degree_options", "scale_value", "to_degrees"]

@@ -275,3 +275,8 @@ def plot_heatmap(summary: pd.DataFrame, conditions: list[Condition], methods: li
     fig.suptitle(f"correct rate over {SHORT[vx]} x {SHORT[vy]}: {frames} frames per cell; "
                  f"{held_text(conditions, (vx, vy))}", fontsize=10)
     return _save(fig, out / "heatmap_correct.png")
+
+__all__ = [
+    "ALWAYS_SHOWN", "ERROR_RESOLUTION_ARCSEC", "LABELS", "MARKERS", "SHORT", "Z95",
+    "floor_errors", "held_text", "plot_heatmap", "plot_sweeps", "rate_limits", "wilson",
+]

@@ -54,3 +54,5 @@ def clear(quiet, verbose) -> None:
     count, freed = clear_cache()
     click.echo(f"removed {count} entr{'y' if count == 1 else 'ies'} ({_mb(freed)}) "
                f"from {cache_dir()}")
+
+__all__ = ["cache", "clear", "info"]

@@ -180,3 +180,5 @@ def _nominal(frames, fov_deg, camera_path, size, preset_camera=None):
     if not math.isfinite(camera.f_px):
         raise InputError("calibrate: the nominal camera has no finite focal length")
     return camera
+
+__all__ = ["calibrate", "hinted_fov"]

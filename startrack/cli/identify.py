@@ -258,3 +258,5 @@ def _solver(options, track: bool, prior, prior_sigma_deg: float):
         return pipeline
     return SequenceSolver(pipeline, track=track, prior=None if prior is None
                           else prior_from_radec_roll(*prior, prior_sigma_deg))
+
+__all__ = ["identify"]

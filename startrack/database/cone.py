@@ -114,3 +114,5 @@ def warm_up() -> None:
     v = np.array([[0.0, 0.0, 1.0], [0.01, 0.0, 1.0], [0.0, 0.01, 1.0]])
     ConeIndex.build(v / np.sqrt((v * v).sum(axis=1))[:, None]).rows(np.array([0.0, 0.0, 1.0]),
                                                                      0.1)
+
+__all__ = ["BAND_RAD", "ConeIndex", "EDGE", "cone_rows", "warm_up"]

@@ -211,3 +211,8 @@ class AstrometryMatcher(PeerMatcher):
         for obs_h, cat_h in peer_hypothesis_groups(obs_index, cat_index,
                                                     self.hypothesis_stars, self.max_hypotheses):
             yield Hypothesis(obs_h, cat_h)
+
+__all__ = [
+    "AstrometryMatcher", "FieldSolution", "IDENTITY_ARCSEC", "INSTALL", "read_corr",
+    "solve_field", "solve_field_available", "wcs_attitude", "write_xylist",
+]

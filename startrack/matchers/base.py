@@ -186,3 +186,5 @@ def register_variant(base: type[Matcher], name: str, description: str,
         "name": name, "description": description, "__init__": __init__,
         "variant_of": base.name, "__doc__": f"{description}: {base.__name__} with {preset}."})
     return register(cls)
+
+__all__ = ["Matcher", "MatcherConfig", "register", "register_variant", "registry"]

@@ -76,3 +76,8 @@ def search_sky_kind(camera: Camera) -> str:
     Tycho-2 where the field needs it (:func:`default_sky_kind`), else Gaia, whose G
     band orders stars as a camera's silicon does better than Tycho's VT."""
     return "tycho2" if default_sky_kind(camera) == "tycho2" else "gaia"
+
+__all__ = [
+    "GAIA_MAG_MAX", "STARS_NEEDED", "TYCHO2_MAG_MAX", "deeper_sky_note", "default_sky_kind",
+    "frame_stars", "gaia_min_fov", "gaia_star_count", "search_sky_kind",
+]

@@ -102,3 +102,7 @@ def load_gaia(epoch: float | None = None) -> Catalog:
     Hipparcos entries). Positions are ICRS at J2016.0, or at ``epoch`` (Julian year) when
     given, moved by the proper motions described in the module docstring."""
     return catalog_at_epoch(gaia_arrays(), GAIA_EPOCH, epoch, "gaia")
+
+__all__ = [
+    "FORMAT_VERSION", "GAIA_EPOCH", "catalog_file", "gaia_arrays", "load_gaia", "read_gaia_bin",
+]

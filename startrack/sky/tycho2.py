@@ -180,3 +180,10 @@ def load_tycho2() -> Catalog:
     arrays = tycho2_arrays()
     return Catalog(ids=arrays["ids"], ra_deg=arrays["ra_deg"], dec_deg=arrays["dec_deg"],
                    mag=arrays["mag"], source={"sky": "tycho2", "epoch": TYCHO2_EPOCH})
+
+__all__ = [
+    "DEBIAN_PACKAGES", "DEDUP_ARCSEC", "DEFAULT_INDEX_DIRS", "FORMAT_VERSION",
+    "HIP_MATCH_ARCSEC", "INDEX_DIR_ENV", "INDEX_NAME", "INSTALL_HINT", "TYCHO2_EPOCH",
+    "TYCHO_ID_BASE", "index_dirs", "index_files", "load_tycho2", "parse_index_files",
+    "position_ids", "read_index_stars", "set_index_dir", "tycho2_arrays", "tycho2_installed",
+]

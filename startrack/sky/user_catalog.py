@@ -166,3 +166,8 @@ def load_user_catalog(path: str | Path, epoch: float | None = None) -> Catalog:
         ra, dec = propagate(ra, dec, arrays["pm_ra"], arrays["pm_dec"], years)
     return Catalog(ids=arrays["ids"], ra_deg=ra, dec_deg=dec, mag=arrays["mag"],
                    source={"sky": "file", "path": str(path), "epoch": epoch})
+
+__all__ = [
+    "FORMAT_VERSION", "OPTIONAL", "RANGES", "REQUIRED", "SUFFIXES", "catalog_arrays",
+    "content_hash", "is_catalog_path", "load_user_catalog", "parse_catalog",
+]
