@@ -7,7 +7,11 @@ import json
 import subprocess
 import sys
 
+from click.testing import CliRunner
+
+from startrack.cli import main
 from startrack.defaults import BUILTIN_METHODS
+from startrack.io import _cache
 from startrack.matchers import available_methods
 from startrack.matchers.base import registry
 
@@ -48,3 +52,12 @@ def test_builtin_methods_are_the_registered_ones():
             if (cls.__mro__[1] if getattr(cls, "variant_of", None) else cls)
             .__module__.startswith("startrack.matchers.")}
     assert set(BUILTIN_METHODS) == ours
+
+
+def test_help_cites_what_users_have():
+    """cache --help gives the cap the code uses; calibrate --help cites the shipped docs."""
+    text = " ".join(CliRunner().invoke(main, ["cache", "--help"]).output.split())
+    assert f"(default {_cache.DEFAULT_CACHE_MAX_MB})" in text
+    assert "interfaces.md" not in text
+    calibrate = " ".join(CliRunner().invoke(main, ["calibrate", "--help"]).output.split())
+    assert "docs/conventions.md" in calibrate and "interfaces.md" not in calibrate

@@ -57,7 +57,8 @@ def cache_dir() -> Path:
 
 
 def cache_max_bytes() -> int:
-    """The cache size cap: ``$STARTRACK_CACHE_MAX_MB`` megabytes (default 2048)."""
+    """The cache size cap: ``$STARTRACK_CACHE_MAX_MB`` megabytes (default
+    :data:`DEFAULT_CACHE_MAX_MB`)."""
     mb = env_number("STARTRACK_CACHE_MAX_MB", DEFAULT_CACHE_MAX_MB, CACHE_MAX_MB)
     return int(mb * 1024 * 1024)
 
