@@ -4,12 +4,16 @@ as written (docs/api.md lists them)."""
 
 from __future__ import annotations
 
+import importlib
 import json
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
+
+API_DOC = Path(__file__).resolve().parents[1] / "docs" / "api.md"
 
 # (module, name) of each documented object; the sections its docstring must hold
 PUBLIC = {
@@ -90,3 +94,15 @@ def test_a_wrong_example_fails():
     for test in doctest.DocTestFinder().find(wrong, "wrong", globs={}):
         runner.run(test, out=lambda _: None)
     assert runner.summarize(verbose=False).failed == 1
+
+
+STAGES = ["startrack", "startrack.camera", "startrack.sky", "startrack.simulate", "startrack.io",
+          "startrack.centroids", "startrack.database", "startrack.matchers", "startrack.verify",
+          "startrack.solver", "startrack.tracking", "startrack.outputs"]
+
+
+@pytest.mark.parametrize("package", STAGES)
+def test_docs_api_lists_every_public_name(package):
+    listed = set(re.findall(r"^\| `(\w+)` \|", API_DOC.read_text(), flags=re.MULTILINE))
+    exported = set(importlib.import_module(package).__all__) - {"__version__"}
+    assert sorted(exported - listed) == []
