@@ -2,7 +2,7 @@
 
 End to end (the issue's benchmark: Hipparcos, default magnitude limit, 20 deg FOV,
 1024 x 1024): everything ``startrack identify`` does before its first match, each run
-in a new process: imports, numba's start (its first compiled call), the catalog
+in a new process: imports, the compiled core's start (its first call), the catalog
 (resolve_sky + load_sky), the pair and triangle tables and the default method's
 ``prepare``. Three cases, with empty temporary caches made for this run:
 
@@ -33,7 +33,7 @@ from pathlib import Path
 
 T0 = time.perf_counter()
 
-STAGES = ("imports", "numba start", "catalog", "pairs", "triangles", "prepare")
+STAGES = ("imports", "core start", "catalog", "pairs", "triangles", "prepare")
 FOV_DEG, SIZE = 20.0, 1024
 
 
@@ -41,8 +41,9 @@ def child() -> None:
     """One identify start-up in this process; prints its stage times as JSON."""
     import numpy as np
 
+    from startrack._core import database as kernels
     from startrack.camera._model import Camera
-    from startrack.database import StarDatabase, build_kernels
+    from startrack.database import StarDatabase
     from startrack.defaults import DEFAULT_METHOD
     from startrack.matchers import get_matcher
     from startrack.sky import SkySpec, load_sky, resolve_sky
@@ -55,7 +56,7 @@ def child() -> None:
         times[name] = time.perf_counter() - t0
         return out
 
-    stage("numba start", lambda: build_kernels.stable_argsort(np.zeros(1), 0.0, 1.0))
+    stage("core start", lambda: kernels.stable_argsort(np.zeros(1), 0.0, 1.0))
     camera = Camera.from_fov(SIZE, SIZE, FOV_DEG)
     spec = SkySpec(kind="hipparcos")
     catalog = stage("catalog", lambda: load_sky(resolve_sky(spec, camera), camera))

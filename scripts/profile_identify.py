@@ -7,7 +7,12 @@ count and condition). Prints the solved/wrong count and median time, then the pr
         --false-stars 5 --missing 0.2 --frames 50 --sort tottime
     .venv/bin/python scripts/profile_identify.py --method pyramid --param pattern_per_region=10
     .venv/bin/python scripts/profile_identify.py --method pyramid --junk 100   # the "no" path
+    .venv/bin/python scripts/profile_identify.py --method pyramid --noise-px 0.3 \
+        --false-stars 3 --missing 0.1 --fov-tolerance 0.025 --fov-error 0.025  # nominal FOV
 
+With ``--fov-tolerance`` the frames are solved as ``startrack identify`` solves them,
+told the FOV ``--fov-error`` off (scripts/bench_identify.py's pipeline): the refit of a
+nominal FOV, or its search, is profiled too.
 With ``--junk N`` the frames are N random centroid sets instead (4-60 points, no star
 pattern: scripts/false_positives.py's), where every hypothesis must be refused.
 """
@@ -25,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_identify import Frame, make_frames  # noqa: E402
+from bench_identify import Frame, make_frames, pipeline_solver  # noqa: E402
 from bench_peers import misidentified  # noqa: E402
 from false_positives import random_sets  # noqa: E402
 
@@ -60,6 +65,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sort", default="tottime", help="pstats sort key (tottime, cumulative)")
     ap.add_argument("--top", type=int, default=25)
     ap.add_argument("--no-profile", action="store_true", help="time only")
+    ap.add_argument("--fov-tolerance", type=float, default=None,
+                    help="solve as `startrack identify --fov-tolerance` does (the pipeline)")
+    ap.add_argument("--fov-error", type=float, default=0.0,
+                    help="with --fov-tolerance: the told FOV is this fraction off")
     ap.add_argument("--junk", type=int, default=0,
                     help="profile the 'no' on this many random centroid sets instead")
     args = ap.parse_args(argv)
@@ -77,13 +86,24 @@ def main(argv: list[str] | None = None) -> int:
                                        **dict(args.param))
     matcher.prepare()
     verify = VerifyConfig()
-    identify(frames[0].obs, matcher, verify)  # compiled kernels loaded before timing
+    def solve(frame: Frame):
+        return identify(frame.obs, matcher, verify)
+
+    if args.fov_tolerance is not None:
+        spec = SkySpec(kind="hipparcos", mag_limit=6.5)
+        through = pipeline_solver(args.method, camera, spec, args.fov_error,
+                                  args.fov_tolerance, args.max_stars, args.noise_px)
+
+        def solve(frame: Frame):
+            return through(frame).solution
+
+    solve(frames[0])  # compiled kernels loaded before timing
     prof = cProfile.Profile()
     times, solved, wrong, hyps = [], 0, 0, []
     for frame in frames:
         if not args.no_profile:
             prof.enable()
-        sol = identify(frame.obs, matcher, verify)
+        sol = solve(frame)
         prof.disable()
         times.append(sol.identify_ms)
         hyps.append(sol.diagnostics.hypotheses)

@@ -1,5 +1,5 @@
 """The angle matcher's chain search as it ran in Python before it was compiled
-(startrack.matching.angle_search): pair lookups and joins through
+(startrack._core.angle): pair lookups and joins through
 startrack.matching.pairs, the chains orchestrated here. Kept as the reference that
 tests/test_angle_search.py holds the compiled search to: the same hypotheses in the same
 order, the same diagnostics."""

@@ -1,4 +1,4 @@
-"""The compiled angle chain search (startrack.matching.angle_search) against the Python
+"""The compiled angle chain search (startrack._core.angle) against the Python
 chain search it replaced (tests/angle_chain_reference.py): the same hypotheses in the same
 order and the same diagnostics, on real-sky frames with false stars and on random
 centroids (no star pattern), for every closing rule; and its screen (verification's

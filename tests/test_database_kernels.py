@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from startrack.database import build_kernels, sort_kernels
+from startrack._core import database as kernels
 from startrack.database.kvector import KVector
 from startrack.database.pairs import build_pair_arrays
 from startrack.sky import parse_kernels, random_sky
@@ -20,8 +20,8 @@ def test_merge_counts_are_searchsorted():
         table = KVector.build(s)
         z = table.m * np.arange(len(s), dtype=np.float64) + table.q
         np.testing.assert_array_equal(table.k, np.searchsorted(s, z, side="right"))
-    assert sort_kernels.is_sorted(np.array([0.0, 0.0, 1.0]))
-    assert not sort_kernels.is_sorted(np.array([0.0, 1.0, 0.5]))
+    assert kernels.is_sorted(np.array([0.0, 0.0, 1.0]))
+    assert not kernels.is_sorted(np.array([0.0, 1.0, 0.5]))
     with pytest.raises(ValueError):
         KVector.build(np.array([0.2, 0.1]))
 
@@ -31,7 +31,7 @@ def test_keyed_bucket_sort_on_ties_and_clusters():
     values = np.concatenate([rng.normal(0.2, 1e-7, 2000), np.full(300, 0.7),
                              rng.uniform(0, 1, 3000)]).clip(0, 1)
     rng.shuffle(values)
-    np.testing.assert_array_equal(sort_kernels.stable_argsort(values, 0.0, 1.0),
+    np.testing.assert_array_equal(kernels.stable_argsort(values, 0.0, 1.0),
                                   np.argsort(values, kind="stable"))
 
 
@@ -54,12 +54,11 @@ def test_take_applies_the_order():
     rng = np.random.default_rng(2)
     order = rng.permutation(500)
     rows, area, polar = rng.integers(0, 99, (500, 3)), rng.random(500), rng.random(500)
-    tr, ta, tp = sort_kernels.take_triangles(order, rows, area, polar)
+    tr, ta, tp = kernels.take_triangles(order, rows, area, polar)
     np.testing.assert_array_equal(tr, rows[order].astype(np.int32))
     assert tr.dtype == np.int32
     np.testing.assert_array_equal(ta, area[order])
     np.testing.assert_array_equal(tp, polar[order])
-    assert build_kernels.stable_argsort is sort_kernels.stable_argsort
 
 
 def _field_bytes(texts: list[str], width: int) -> np.ndarray:

@@ -1,6 +1,6 @@
-"""The hybrid matcher's compiled steps against brute force: votes, shortlisted pairs,
-triangles among them (rows and their order), the observed features, the best-so-far list
-and the confirmed search."""
+"""The hybrid matcher's compiled steps (startrack._core.hybrid) against brute force:
+votes, shortlisted pairs, triangles among them (rows and their order), the observed
+features, the best-so-far list and the confirmed search."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import itertools
 import numpy as np
 from synth import frames
 
+from startrack._core import hybrid as kernels
 from startrack.database.pairs import build_pair_arrays, pair_table_from_arrays
 from startrack.database.triangles import triangle_features
-from startrack.matching import hybrid_kernels, hybrid_search
 from startrack.matching.features import observed_features
 from startrack.matching.geometry import handedness
 from startrack.matching.pairs import pair_index
@@ -47,7 +47,7 @@ def _pairs_reference(index, windows, short, a, b):
 
 def test_angle_votes_count_each_window_once():
     sky, index, windows, _ = _setup()
-    votes = hybrid_kernels.angle_votes(index.pi, index.pj, windows, len(sky))
+    votes = kernels.angle_votes(index.pi, index.pj, windows, len(sky))
     want = np.zeros_like(votes)
     for a, b in itertools.combinations(range(len(windows)), 2):
         e0, e1 = windows[a, b]
@@ -59,8 +59,8 @@ def test_angle_votes_count_each_window_once():
 
 def test_shortlisted_pairs_are_the_window_both_ways_round_in_order():
     _, index, windows, short = _setup()
-    start, xs, ys = hybrid_kernels.shortlisted_pairs(index.pi, index.pj, windows, short)
-    n = len(short)
+    lists = kernels.ShortPairs(index.pi, index.pj, windows, short)
+    start, xs, ys, n = lists.start, lists.xs, lists.ys, len(short)
     for a, b in itertools.combinations(range(n), 2):
         got = list(zip(xs[start[a * n + b]:start[a * n + b + 1]].tolist(),
                        ys[start[a * n + b]:start[a * n + b + 1]].tolist(), strict=True))
@@ -70,8 +70,8 @@ def test_shortlisted_pairs_are_the_window_both_ways_round_in_order():
 
 def test_shortlisted_triangles_match_brute_force():
     sky, index, windows, short = _setup()
-    lists = hybrid_kernels.shortlisted_pairs(index.pi, index.pj, windows, short)
-    n, heads = len(short), np.full(len(sky), -1, np.int64)
+    pairs = kernels.ShortPairs(index.pi, index.pj, windows, short)
+    heads = np.full(len(sky), -1, np.int64)
     a, b, c = 0, 2, 3
     ab, bc = _pairs_reference(index, windows, short, a, b), _pairs_reference(
         index, windows, short, b, c)
@@ -83,8 +83,12 @@ def test_shortlisted_triangles_match_brute_force():
     # An observed triangle that some of the candidates match, within loose sigmas.
     feats = np.array([area[0], polar[0], 0.5 * area[0], 0.5 * polar[0]])
     for want_hand in (0, int(hand[0])):
-        rows, err, tested = hybrid_kernels.shortlisted_triangles(
-            lists, a * n + b, b * n + c, sky, feats, 2.0, want_hand, heads)
+        frame = kernels.HybridFrame([[a, b, c]], [feats], [want_hand],
+                                    np.zeros((len(short), len(short))), 0.0, 2.0)
+        search = kernels.HybridSearch(frame, pairs, short, sky,
+                                      kernels.PairNeighbours(*index.lists), heads, 5, 0)
+        rows, err = search.triangles(0)
+        tested = search.tested
         ok = (np.abs(area - feats[0]) <= 2 * feats[2]) & (np.abs(polar - feats[1])
                                                           <= 2 * feats[3])
         if want_hand:
@@ -100,8 +104,8 @@ def test_triple_features_match_observed_features():
     v = _sky(9, seed=8)
     triples = brightness_triples(9)
     want = np.array(list(observed_features(v, triples, 3e-4).values()))
-    got = hybrid_kernels.triple_features(v, np.array(triples), 3e-4)
-    assert np.allclose(got, want, rtol=1e-9, atol=0)
+    got = kernels.triple_features(v, np.array(triples), 3e-4)
+    assert got.tobytes() == want.tobytes()  # the batch's numbers, to the bit
 
 
 def test_keep_best_is_a_bounded_stable_sort():
@@ -111,8 +115,8 @@ def test_keep_best_is_a_bounded_stable_sort():
         rows, best = np.empty((cap, 6), np.int64), np.empty(cap)
         count = 0
         for k, e in enumerate(errs):
-            count = hybrid_search._keep_best(rows, best, count, np.array([k, k, k]),
-                                             np.array([k, k, k]), e)
+            count = kernels.keep_best(rows, best, count, np.array([k, k, k]),
+                                      np.array([k, k, k]), e)
         order = np.argsort(errs, kind="stable")[:cap]
         assert count == len(order)
         assert np.array_equal(rows[:count, 0], order) and np.array_equal(best[:count], errs[order])
@@ -127,19 +131,20 @@ def test_next_confirmed_finds_the_true_triangle(random_db):
     ang = np.arccos(np.clip(vec @ vec.T, -1, 1))
     windows = np.stack([np.searchsorted(index.angle, ang - tol, "left"),
                         np.searchsorted(index.angle, ang + tol, "right")], axis=-1)
-    votes = hybrid_kernels.angle_votes(index.pi, index.pj, windows, len(random_db.vectors))
+    votes = kernels.angle_votes(index.pi, index.pj, windows, len(random_db.vectors))
     short = votes >= n - 1
-    lists = hybrid_kernels.shortlisted_pairs(index.pi, index.pj, windows, short)
     tri = np.array(brightness_triples(n))
-    feats = hybrid_kernels.triple_features(vec, tri, sigma)
+    feats = kernels.triple_features(vec, tri, sigma)
     hands = handedness(vec[tri[:, 0]], vec[tri[:, 1]], vec[tri[:, 2]]).astype(np.int64)
     heads = np.full(len(random_db.vectors), -1, np.int64)
-    stats = np.zeros(3, np.int64)
-    best_rows, best_err = np.empty((4, 6), np.int64), np.empty(4)
-    t, d, rows = hybrid_search.next_confirmed(0, tri, feats, hands, lists, random_db.vectors,
-                                              4.0, heads, ang, tol, short, index.lists, 5,
-                                              best_rows, best_err, stats)
+    constants = kernels.HybridFrame(tri, feats, hands, ang, tol, 4.0)
+    search = kernels.HybridSearch(constants, kernels.ShortPairs(index.pi, index.pj, windows,
+                                                                short),
+                                  short, random_db.vectors, kernels.PairNeighbours(*index.lists),
+                                  heads, 5, 4)
+    t, d, rows = search.next_confirmed(0)
     assert t == 0 and d == 3  # the brightest triple, the next star confirms it
     truth = frame.truth_rows[np.append(tri[0], d)]
     assert any(np.array_equal(row, truth) for row in rows)
-    assert stats[0] >= 1 and stats[1] == 1 and stats[2] == 0
+    assert search.tested >= 1 and search.fourth_tried == 1 and search.best_kept == 0
+    assert np.all(heads == -1)

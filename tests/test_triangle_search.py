@@ -1,4 +1,4 @@
-"""The compiled triangle search (startrack.matching.triangle_lookup, triangle_search)
+"""The compiled triangle search (startrack._core.triangles)
 against the numpy and Python search it replaced (tests/triangle_reference.py): the same
 hypotheses in the same order and the same diagnostics at every step, on frames with false
 and missing stars and on random centroids (no star pattern); and its parts (features,
@@ -14,14 +14,12 @@ from synth import frames, prepared_matcher
 from triangle_reference import map_vertices as reference_map_vertices
 from triangle_reference import reference_hypotheses
 
+from startrack._core import shared
+from startrack._core import triangles as tl
 from startrack.database.kvector import KVector, binary_search_range
-from startrack.database.sort_kernels import kvector_range
 from startrack.matchers import MatcherConfig
-from startrack.matching import triangle_lookup as tl
-from startrack.matching.feature_kernels import features
 from startrack.matching.features import observed_features
 from startrack.matching.pairs import join_sorted
-from startrack.matching.triangle_search import join_pivot
 from startrack.types import MatchDiagnostics, Observation
 
 
@@ -97,8 +95,8 @@ def test_kvector_range_is_the_binary_search():
     for lo, hi in [(0.1, 0.2), (-1.0, 0.0), (3.0, 2.0), (0.5, 0.5), (10.0, 99.0),
                    (values[7], values[7]), *rng.uniform(0, 3, (40, 2)).tolist()]:
         want = binary_search_range(values, lo, hi) if lo <= hi else (0, 0)
-        assert kvector_range(kv.values, kv.k, kv.m, kv.q, lo, hi) == want
-    assert kvector_range(kv.values, kv.k, kv.m, kv.q, np.nan, 1.0) == (0, 0)
+        assert shared.kvector_range(kv.values, kv.k, kv.m, kv.q, lo, hi) == want
+    assert shared.kvector_range(kv.values, kv.k, kv.m, kv.q, np.nan, 1.0) == (0, 0)
 
 
 def test_triple_features_are_the_batch_features_to_the_bit():
@@ -112,7 +110,7 @@ def test_triple_features_are_the_batch_features_to_the_bit():
         sigma = float(rng.uniform(1e-6, 1e-4))
         want = observed_features(v, triples, sigma)
         for a, b, c in triples:
-            assert features(v[a], v[b], v[c], sigma) == want[a, b, c]
+            assert tl.features(v[a], v[b], v[c], sigma) == want[a, b, c]
 
 
 def _sky_triangles(rng, m: int) -> tuple[np.ndarray, np.ndarray]:
@@ -157,9 +155,9 @@ def test_join_pivot_is_join_sorted():
         left = rng.integers(0, 9, size=(60, width))
         right = rng.integers(0, 9, size=(80, 3))
         for cols in [(1, 2), (width - 2, width - 1), (2, 0)]:
-            np.testing.assert_array_equal(join_pivot(left, *cols, right),
+            np.testing.assert_array_equal(tl.join_pivot(left, *cols, right),
                                           join_sorted(left, cols, right))
-    assert join_pivot(left, 0, 1, right[:0]).shape == (0, width + 1)
+    assert tl.join_pivot(left, 0, 1, right[:0]).shape == (0, width + 1)
 
 
 @pytest.mark.slow

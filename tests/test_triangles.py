@@ -161,7 +161,7 @@ def test_queries_match_a_brute_force_filter(small_db):
 
 
 def test_compiled_enumeration_equals_brute_force():
-    from startrack.database.build_kernels import triangles_of_pairs
+    from startrack._core.database import triangles_of_pairs
 
     rng = np.random.default_rng(3)
     n = 25
@@ -182,7 +182,7 @@ def test_compiled_enumeration_equals_brute_force():
 
 
 def test_bucket_argsort_is_the_stable_argsort():
-    from startrack.database.build_kernels import stable_argsort
+    from startrack._core.database import stable_argsort
 
     rng = np.random.default_rng(12)
     values = np.concatenate([rng.uniform(0, 1, 3000), rng.uniform(0, 1, 20).repeat(5),

@@ -1,5 +1,5 @@
 """The triangle matcher's search as it ran in numpy and Python before it was compiled
-(startrack.matching.triangle_search): the lookups and vertex mapping in numpy, the pivots
+(startrack._core.triangles): the lookups and vertex mapping in numpy, the pivots
 through startrack.matching.pairs.join_sorted. Kept as the reference that
 tests/test_triangle_search.py holds the compiled search to: the same hypotheses in the
 same order, the same diagnostics."""
@@ -25,7 +25,7 @@ _ODD = np.array([False, True, True, False, False, True])
 
 def map_vertices(obs_tri: np.ndarray, cat_vectors: np.ndarray, side_tol: float,
                  check_mirror: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The numpy vertex mapping (see triangle_search.map_vertices)."""
+    """The numpy vertex mapping (see startrack._core.triangles.map_vertices)."""
     o = obs_tri
     obs_sides = np.array([np.linalg.norm(o[0] - o[1]), np.linalg.norm(o[1] - o[2]),
                           np.linalg.norm(o[0] - o[2])])

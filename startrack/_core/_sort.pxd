@@ -3,8 +3,13 @@
 from libc.math cimport ceil, floor
 
 
-cdef inline Py_ssize_t first_at_least(const double[::1] values, Py_ssize_t lo, Py_ssize_t hi,
-                                      double x) noexcept nogil:
+ctypedef fused sorted_value:
+    double
+    long long
+
+
+cdef inline Py_ssize_t first_at_least(const sorted_value[::1] values, Py_ssize_t lo,
+                                      Py_ssize_t hi, sorted_value x) noexcept nogil:
     """The first position in ascending ``values[lo:hi]`` whose value is >= ``x`` (``hi``
     if none)."""
     cdef Py_ssize_t mid
@@ -50,3 +55,17 @@ cdef inline Span kvector_range(const double[::1] values, const long long[::1] kk
     span.start = start
     span.stop = stop
     return span
+
+
+cdef inline Py_ssize_t first_above(const double[::1] values, Py_ssize_t lo, Py_ssize_t hi,
+                                   double x) noexcept nogil:
+    """The first position in ascending ``values[lo:hi]`` whose value is > ``x`` (``hi`` if
+    none): numpy's ``searchsorted(side="right")``, where first_at_least is "left"."""
+    cdef Py_ssize_t mid
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if values[mid] <= x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo

@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from startrack.database import sort_kernels
+from startrack._core import database as kernels
+from startrack._core.shared import kvector_range
 
 
 @dataclass(frozen=True)
@@ -26,20 +27,20 @@ class KVector:
 
     @classmethod
     def build(cls, sorted_values: np.ndarray) -> KVector:
-        s = np.asarray(sorted_values, dtype=np.float64)
+        s = np.ascontiguousarray(sorted_values, dtype=np.float64)
         if s.ndim != 1:
             raise ValueError("k-vector needs a 1-D array")
         n = len(s)
         if n == 0:
             return cls(s, np.zeros(1, np.int64), 1.0, 0.0)
-        if not sort_kernels.is_sorted(s):
+        if not kernels.is_sorted(s):
             raise ValueError("k-vector needs sorted values")
         eps = max(np.finfo(np.float64).eps * max(abs(s[0]), abs(s[-1]), 1.0) * 4, 1e-15)
         lo, hi = s[0] - eps, s[-1] + eps
         m = (hi - lo) / max(n - 1, 1)
         q = lo
         # np.searchsorted(s, m * np.arange(n) + q, side="right"), by one merge.
-        k = sort_kernels.count_at_most(s, float(m), float(q))
+        k = kernels.count_at_most(s, float(m), float(q))
         return cls(s, k, float(m), float(q))
 
     def __len__(self) -> int:
@@ -47,9 +48,8 @@ class KVector:
 
     def range(self, lo: float, hi: float) -> tuple[int, int]:
         """Positions [start, stop) of the sorted values within [lo, hi]
-        (:func:`startrack.database.sort_kernels.kvector_range`)."""
-        start, stop = sort_kernels.kvector_range(self.values, self.k, self.m, self.q,
-                                                 float(lo), float(hi))
+        (the compiled core's k-vector range)."""
+        start, stop = kvector_range(self.values, self.k, self.m, self.q, float(lo), float(hi))
         return int(start), int(stop)
 
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from startrack.database import build_kernels, sort_kernels
+from startrack._core import database as kernels
 from startrack.database.kvector import KVector
 
 # The default cap on the table: the random 2000-star sky at 17.5 deg needs no thinning
@@ -169,10 +169,11 @@ def build_triangle_arrays(vectors: np.ndarray, pair_i: np.ndarray, pair_j: np.nd
     sel = is_pattern[pair_i] & is_pattern[pair_j]
     lo = np.minimum(pair_i[sel], pair_j[sel])
     hi = np.maximum(pair_i[sel], pair_j[sel])
-    tri, area, polar = build_kernels.triangles_of_pairs(n, lo.astype(np.int64),
-                                                        hi.astype(np.int64), vectors)
-    order = sort_kernels.stable_argsort(area, 0.0, float(area.max()) if len(area) else 1.0)
-    tri, area, polar = sort_kernels.take_triangles(order, tri, area, polar)
+    tri, area, polar = kernels.triangles_of_pairs(
+        n, lo.astype(np.int64), hi.astype(np.int64),
+        np.ascontiguousarray(vectors, dtype=np.float64).reshape(-1, 3))
+    order = kernels.stable_argsort(area, 0.0, float(area.max()) if len(area) else 1.0)
+    tri, area, polar = kernels.take_triangles(order, tri, area, polar)
     return {"area": area, "polar": polar, "rows": tri,
             "pattern": pattern.astype(np.int32),
             "max_per_region": np.array(-1 if max_per_region is None else cap)}

@@ -23,8 +23,8 @@ looks pairs up among every catalog star. When the chains of the ``config.max_sta
 brightest stars leave no answer (false stars crowd them), those that start from triples
 with up to ``extra_stars`` fainter stars follow (Pyramid's order of triples).
 
-The chains run compiled (:mod:`startrack.matching.angle_search`, over the shared joins of
-:mod:`startrack.matching.kernels`), returning at each chain that leaves an answer so that
+The chains run compiled (:mod:`startrack._core.angle`, over the shared joins of
+:mod:`startrack._core.pairs`), returning at each chain that leaves an answer so that
 verification's first acceptance ends the search. Given verification's first-test radius
 (``screen_rad``), an answer is only the hypotheses that pass that test: on a frame of no
 stars nearly every chain leaves one that it refuses, and testing them in the search
@@ -39,10 +39,10 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from startrack._core import angle as core
 from startrack.database import StarDatabase
 from startrack.database.pairs import PairTable
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
-from startrack.matching import angle_search
 from startrack.matching.geometry import angle_table
 from startrack.matching.pairs import PairIndex, compact_pairs, pair_index
 from startrack.matching.triples import triple_array
@@ -105,25 +105,24 @@ class AngleMatcher(Matcher):
         # star when it is one of the extra stars.
         triples = triple_array(first, n, self.max_chains)
         windows = self._windows(index, obs.vectors[:n], self.angle_tolerance(obs))
-        groups, memo = angle_search.frame_arrays(windows, len(slot_rows))
-        seen = np.zeros((n, n), np.bool_)
-        state = np.zeros(8, np.int64)
-        state[angle_search.BUDGET] = self.max_lookups
-        params = np.array([self.max_skips, self.max_ambiguous, self.max_rows,
-                           CLOSING.index(self.closing)], np.int64)
-        base = (diag.pivots, diag.candidates, dict(diag.extra))
         # Verification's first test inside the search: the answers it would refuse (nearly
         # all of a frame of no stars) never come back to Python one by one.
-        screen = (np.ascontiguousarray(obs.vectors[:n], dtype=np.float64), self._slot_vectors,
-                  -2.0 if screen_rad is None else math.cos(screen_rad))
+        frame = core.AngleFrame(self._limits, windows, pi, pj, obs.vectors[:n],
+                                self._slot_vectors,
+                                -2.0 if screen_rad is None else math.cos(screen_rad))
+        base = (diag.pivots, diag.candidates, dict(diag.extra))
         t = 0
         while t < len(triples):
-            t, cols, rows = angle_search.next_chain(t, triples, first, windows, seen, state,
-                                                    pi, pj, groups, memo, params, screen)
-            _count(state, base, diag)
+            t, cols, rows = core.next_chain(frame, triples, t, first)
+            _count(frame, base, diag)
             for row in slot_rows[rows] if t < len(triples) else ():
                 yield Hypothesis(cols.copy(), row)
             t += 1
+
+    @property
+    def _limits(self) -> core.AngleLimits:
+        return core.AngleLimits(self.max_skips, self.max_ambiguous, self.max_rows,
+                                CLOSING.index(self.closing), self.max_lookups)
 
     @staticmethod
     def _windows(index: PairIndex, vectors: np.ndarray, tol: float) -> np.ndarray:
@@ -146,25 +145,19 @@ class AngleMatcher(Matcher):
         return compact_pairs(index.pi, index.pj)
 
 
-def _count(state: np.ndarray, base: tuple, diag: MatchDiagnostics) -> None:
-    """The search's counters (:mod:`startrack.matching.angle_search`) into ``diag``, on
+def _count(frame: core.AngleFrame, base: tuple, diag: MatchDiagnostics) -> None:
+    """The search's counters (:class:`startrack._core.angle.AngleFrame`) into ``diag``, on
     top of what it held before the search (``base``), keys in the order they arose."""
     pivots, candidates, extra = base
-    counts = state.tolist()
-    diag.pivots = pivots + counts[angle_search.PIVOTS]
-    diag.candidates = candidates + counts[angle_search.CANDIDATES]
-    events = (_EVENTS_AMBIGUOUS_FIRST if counts[angle_search.FIRST_EVENT] == angle_search.AMBIGUOUS
-              else _EVENTS)
-    for key, at in events:
-        value = counts[at]
+    diag.pivots = pivots + frame.pivots
+    diag.candidates = candidates + frame.candidates
+    events = [("chains", frame.chains), ("lookups", frame.lookups),
+              ("skipped", frame.skipped), ("ambiguous", frame.ambiguous)]
+    if frame.ambiguous_first:  # ambiguous answers may come first
+        events[2], events[3] = events[3], events[2]
+    for key, value in events:
         if value:
             diag.extra[key] = extra.get(key, 0) + value if key != "chains" else value
-
-
-# The search's counters by key, in the order they arise (ambiguous answers may come first).
-_EVENTS = (("chains", angle_search.CHAINS), ("lookups", angle_search.LOOKUPS),
-           ("skipped", angle_search.SKIPPED), ("ambiguous", angle_search.AMBIGUOUS))
-_EVENTS_AMBIGUOUS_FIRST = (*_EVENTS[:2], _EVENTS[3], _EVENTS[2])
 
 
 register_variant(AngleMatcher, "angle_closed",

@@ -24,7 +24,7 @@ not thousands. When every pass
 over the ``config.max_stars`` brightest fails (false stars crowd them), a second round
 runs the same passes on up to ``extra_stars`` more stars, whose votes may miss that many
 more. The triangle search and the fourth-star check run compiled
-(:mod:`startrack.matching.hybrid_search`), returning at each confirmed triangle so that
+(:class:`startrack._core.hybrid.HybridSearch`), returning at each confirmed triangle so that
 verification's first acceptance ends the search.
 
 Unlike the triangle matcher it needs no triangle table (triangles are formed on the fly
@@ -38,13 +38,13 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from startrack._core import hybrid as kernels
 from startrack.database import StarDatabase
 from startrack.database.pairs import PairTable
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
-from startrack.matching import hybrid_kernels, hybrid_search
 from startrack.matching.features import feature_sigma
 from startrack.matching.geometry import angle_table, handedness
-from startrack.matching.pairs import pair_index
+from startrack.matching.pairs import PairIndex, pair_index
 from startrack.matching.triples import brightness_triples
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
@@ -65,7 +65,7 @@ def angle_votes(vectors: np.ndarray, database: StarDatabase, tolerance: float,
     windows[..., 0], windows[..., 1] = lo, np.maximum(hi, lo)
     upper = np.triu_indices(n, 1)
     diag.candidates += int((windows[..., 1] - windows[..., 0])[upper].sum())
-    votes = hybrid_kernels.angle_votes(index.pi, index.pj, windows, index.n_catalog)
+    votes = kernels.angle_votes(index.pi, index.pj, windows, index.n_catalog)
     return votes, windows
 
 
@@ -128,67 +128,67 @@ class HybridMatcher(Matcher):
         votes, windows = angle_votes(vec, self.database, tol, diag, self._table())
         tri = _triples(n)
         # observed_features' numbers, compiled for one frame's few triples
-        feats = hybrid_kernels.triple_features(
+        feats = kernels.triple_features(
             vec, tri, feature_sigma(obs, k, self.config.min_tolerance_rad))
         # The mirror image has the same area and moment: its handedness tells it apart,
         # unless the triangle is too flat for its sign to be sure.
         hands = np.where(feats[:, 0] > k * feats[:, 2],
                          handedness(vec[tri[:, 0]], vec[tri[:, 1]], vec[tri[:, 2]]),
                          0).astype(np.int64)
-        frame = (vec, tol, windows, tri, feats, hands)
+        frame = kernels.HybridFrame(tri, feats, hands, angle_table(vec), tol, k)
         for missed in range(min(max_false, n - 3) + 1):
             diag.extra["passes"] += 1
-            yield from self._triangles(frame, votes >= n - 1 - missed, diag)
+            yield from self._triangles(frame, tri, windows, votes >= n - 1 - missed, diag)
 
-    def _triangles(self, frame: tuple, shortlist: np.ndarray,
-                   diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+    def _triangles(self, frame: kernels.HybridFrame, tri: np.ndarray, windows: np.ndarray,
+                   shortlist: np.ndarray, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         """The triangle test over the shortlisted catalog stars of every observed triple."""
-        vec, tol, windows, tri, feats, hands = frame
         diag.extra["shortlist"] = shortlist.sum(axis=1).tolist()
         index = pair_index(self._table(), len(self.database.vectors))
-        lists = hybrid_kernels.shortlisted_pairs(index.pi, index.pj, windows, shortlist)
-        search = (vec, tol, tri, feats, hands, lists, shortlist, index)
+        search = kernels.HybridSearch(
+            frame, kernels.ShortPairs(index.pi, index.pj, windows, shortlist), shortlist,
+            self.database.vectors, self._neighbours(index), self._heads,
+            self.max_per_triangle, self.max_unconfirmed)
         if self.fourth_star:
-            yield from self._confirmed(search, diag)
+            yield from self._confirmed(search, tri, diag)
             return
-        stats, t = np.zeros(1, np.int64), 0
+        t = 0
         while t < len(tri):
             # The compiled search passes over the triples without a catalog triangle.
-            t, trip, err = hybrid_search.next_triangles(
-                t, tri, feats, hands, lists, self.database.vectors,
-                self.config.tolerance_sigma, self._heads, stats)
-            diag.extra["triangles_tested"] = int(stats[0])
+            t, trip, err = search.next_triangles(t)
+            diag.extra["triangles_tested"] = search.tested
             if t < len(tri):
                 for r in np.argsort(err, kind="stable")[: self.max_per_triangle]:
                     yield Hypothesis(tri[t].copy(), trip[r])
             t += 1
 
-    def _confirmed(self, search: tuple, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+    def _confirmed(self, search: kernels.HybridSearch, tri: np.ndarray,
+                   diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         """The triangles that a fourth star confirms, in triple order; then, best first, at
         most ``max_unconfirmed`` of those none confirms (every other star false?
         verification may still accept one)."""
-        vec, tol, tri, feats, hands, lists, shortlist, index = search
         # A chance triangle among hundreds of shortlisted stars is common on a dense sky;
         # one more star's three angles removes it before the costlier verification.
-        best_rows = np.empty((max(self.max_unconfirmed, 0), 6), np.int64)
-        best_err = np.empty(len(best_rows))
-        stats, counted, t = np.zeros(3, np.int64), np.zeros(2, np.int64), 0
-        ang = angle_table(vec)
+        counted, t = [0, 0], 0
         while t < len(tri):
-            t, d, rows = hybrid_search.next_confirmed(
-                t, tri, feats, hands, lists, self.database.vectors,
-                self.config.tolerance_sigma, self._heads, ang, tol, shortlist, index.lists,
-                self.max_per_triangle, best_rows, best_err, stats)
-            diag.extra["triangles_tested"] += int(stats[0] - counted[0])
-            diag.pivots += int(stats[1] - counted[1])
-            counted[:] = stats[:2]
+            t, d, rows = search.next_confirmed(t)
+            diag.extra["triangles_tested"] += search.tested - counted[0]
+            diag.pivots += search.fourth_tried - counted[1]
+            counted = [search.tested, search.fourth_tried]
             if t < len(tri):
                 cols = np.append(tri[t], d)
                 for row in rows:
                     yield Hypothesis(cols, row)
             t += 1
-        for r in range(int(stats[2])):
-            yield Hypothesis(best_rows[r, :3].copy(), best_rows[r, 3:].copy())
+        for r in range(search.best_kept):
+            yield Hypothesis(search.best_rows[r, :3].copy(), search.best_rows[r, 3:].copy())
+
+    @staticmethod
+    def _neighbours(index: PairIndex) -> kernels.PairNeighbours:
+        # Kept on the pair index, which lives and dies with its table.
+        if "_neighbours" not in index.__dict__:
+            index.__dict__["_neighbours"] = kernels.PairNeighbours(*index.lists)
+        return index.__dict__["_neighbours"]
 
     @functools.cached_property
     def _heads(self) -> np.ndarray:

@@ -8,8 +8,8 @@ While several catalog triangles remain, the matcher pivots on a triangle that sh
 stars with the last one and keeps the hypotheses in which the shared stars agree.
 
 The lookups, the vertex mapping and the pivot joins run compiled
-(:mod:`startrack.matching.triangle_search`), returning at each triple that leaves an
-answer so that verification's first acceptance ends the search.
+(:class:`startrack._core.triangles.TriangleSearch`), returning at each triple that leaves
+an answer so that verification's first acceptance ends the search.
 """
 
 from __future__ import annotations
@@ -19,11 +19,10 @@ from functools import cache
 
 import numpy as np
 
+from startrack._core.triangles import SearchBuffers, TriangleCatalog, TriangleSearch
 from startrack.database import StarDatabase
 from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
-from startrack.matching import triangle_lookup as tl
 from startrack.matching.features import feature_sigma
-from startrack.matching.triangle_search import next_answer
 from startrack.matching.triples import brightness_triples
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
@@ -52,24 +51,19 @@ class PlanarTriangleMatcher(Matcher):
         # one lookup, removes most chance matches, and a hypothesis spread over more of the
         # frame gives verification a better first attitude.
         self.min_stars = min_stars
-        self._buffers: list[tuple[np.ndarray, ...]] = []  # the searches' memo buffers
+        self._buffers: list[SearchBuffers] = []  # the searches' memo memory
 
-    def _table(self) -> tuple[np.ndarray, ...]:
+    def _catalog(self) -> TriangleCatalog:
         """The triangle table as the compiled search reads it."""
         table = self.database.triangles
         cache_ = table.__dict__.setdefault("_search_arrays", {})
         if "t" not in cache_:  # kept on the (frozen) table: lives and dies with it
-            kv = table.kvector
-            cache_["t"] = (np.ascontiguousarray(kv.values, dtype=np.float64),
-                           np.ascontiguousarray(kv.k, dtype=np.int64), float(kv.m),
-                           float(kv.q), np.ascontiguousarray(table.polar, dtype=np.float64),
-                           np.ascontiguousarray(table.rows),
-                           np.ascontiguousarray(self.database.vectors, dtype=np.float64))
+            cache_["t"] = TriangleCatalog(table, self.database.vectors)
         return cache_["t"]
 
     def prepare(self) -> None:
         super().prepare()
-        self._table()
+        self._catalog()
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
                    screen_rad: float | None = None) -> Iterator[Hypothesis]:
@@ -77,43 +71,37 @@ class PlanarTriangleMatcher(Matcher):
         if n < 3:
             return
         k = self.config.tolerance_sigma
-        vec = obs.vectors[:n]
         sigma = feature_sigma(obs, k, self.config.min_tolerance_rad)
         triples = _triples(n)
-        frame = tl.frame_tuple(vec, triples, k, k * np.sqrt(2.0) * sigma, sigma)
         # A generator still running elsewhere keeps its buffers: this one takes others.
-        memo = [tl.frame_memo(n, self._spare_buffers())]
+        search = TriangleSearch(self._catalog(), obs.vectors[:n], triples, k,
+                                k * np.sqrt(2.0) * sigma, sigma, self._spare_buffers())
         try:
-            yield from self._search(triples, frame, memo, diag)
+            yield from self._search(search, len(triples), diag)
         finally:
-            buffers = tl.memo_buffers(memo[0])
-            if sum(b.nbytes for b in buffers) <= _KEEP_BYTES:
-                self._buffers.append(buffers)
+            if search.buffers.nbytes <= _KEEP_BYTES:
+                self._buffers.append(search.buffers)
 
-    def _spare_buffers(self) -> tuple[np.ndarray, ...] | None:
+    def _spare_buffers(self) -> SearchBuffers | None:
         try:  # pop() alone: another thread may take the last one between a test and it
             return self._buffers.pop()
         except IndexError:
             return None
 
-    def _search(self, triples: np.ndarray, frame: tuple, memo: list[tuple],
+    def _search(self, search: TriangleSearch, n_triples: int,
                 diag: MatchDiagnostics) -> Iterator[Hypothesis]:
-        """The compiled search's answers; ``memo[0]`` is its memo, as grown."""
-        table = self._table()
-        state = np.zeros(6, np.int64)
+        """The compiled search's answers, with its counters in ``diag``."""
         base = (diag.candidates, diag.pivots, diag.extra.get("polar_kept", 0))
         t = 0
-        while t < len(triples):
-            t, stars, rows, memo[0] = next_answer(t, triples, frame, table, memo[0], state,
-                                                  self.min_stars, self.max_ambiguous)
-            diag.candidates = base[0] + int(state[tl.CANDIDATES])
-            diag.pivots = base[1] + int(state[tl.PIVOTS])
-            if state[tl.LOOKUPS]:
-                diag.extra["polar_kept"] = base[2] + int(state[tl.POLAR_KEPT])
-            for row in rows if t < len(triples) else ():
+        while t < n_triples:
+            t, stars, rows = search.next_answer(t, self.min_stars, self.max_ambiguous)
+            diag.candidates = base[0] + search.candidates
+            diag.pivots = base[1] + search.pivots
+            if search.lookups:
+                diag.extra["polar_kept"] = base[2] + search.polar_kept
+            for row in rows if t < n_triples else ():
                 yield Hypothesis(stars.copy(), row)
             t += 1
-
 
 register_variant(PlanarTriangleMatcher, "triangle_nopivot",
                  "planar triangles, no forced pivot on a unique triangle (variant)", min_stars=3)

@@ -20,9 +20,10 @@ of triples, when no pattern-star hypothesis passed.
 Because the triples are then cheap, up to ``extra_stars`` fainter stars join when bright
 false stars spoil the brightest ``config.max_stars``.
 
-The triple loop, the joins and the confirmation run compiled
-(:mod:`startrack.matching.pyramid_kernels`); the matcher hands over one triple's
-hypotheses at a time, so that verification's first acceptance ends the search.
+The triple loop, the joins and the confirmation run compiled, up to the first triple
+that gives hypotheses in one call (:mod:`startrack._core.pyramid`); the matcher hands
+over one triple's hypotheses at a time, so that verification's first acceptance ends the
+search.
 """
 
 from __future__ import annotations
@@ -30,11 +31,9 @@ from __future__ import annotations
 import functools
 from collections.abc import Iterator
 
-import numpy as np
-
+from startrack._core import pyramid as core
 from startrack.database import StarDatabase
 from startrack.matchers.base import Matcher, MatcherConfig, register
-from startrack.matching import pyramid_kernels
 from startrack.matching.pairs import pair_index
 from startrack.matching.triples import triple_array
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
@@ -83,12 +82,6 @@ class PyramidMatcher(Matcher):
         for table in self._tables():
             pair_index(table, len(self.database.vectors))
 
-    @functools.cached_property
-    def _scratch(self) -> np.ndarray:
-        # The search's grouping heads: all -1 between calls, so one per matcher serves
-        # every frame instead of a fresh fill over the catalog each time.
-        return np.full((2, len(self.database.vectors)), -1, np.int64)
-
     def _tables(self) -> list:
         tables = [self.database.pattern_pairs(self.pattern_per_region, self.region_radius_deg)]
         if self.pattern_per_region is not None and self.fallback:
@@ -96,39 +89,36 @@ class PyramidMatcher(Matcher):
         return tables
 
     @functools.cached_property
-    def _search_tables(self) -> tuple[tuple, list[tuple[bool, tuple, int]]]:
+    def _search_tables(self) -> tuple[core.PyramidSearch, list[tuple[bool, object, int]]]:
         # Looked up once: per frame the lookups cost as much as a search's first triples.
         n_cat = len(self.database.vectors)
-        full = pair_index(self.database.pairs, n_cat).lists
-        return full, [(bool(k), pair_index(table, n_cat).arrays,
-                       self.fallback_triples if k else self.max_triples)
-                      for k, table in enumerate(self._tables())]
+        search = core.PyramidSearch(self.database.vectors,
+                                    pair_index(self.database.pairs, n_cat).neighbours,
+                                    self.max_triangles, self.max_pyramids)
+        return search, [(bool(k), pair_index(table, n_cat).neighbours,
+                         self.fallback_triples if k else self.max_triples)
+                        for k, table in enumerate(self._tables())]
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
                    screen_rad: float | None = None) -> Iterator[Hypothesis]:
         n = min(self.config.max_stars + max(self.extra_stars, 0), len(obs))
         if n < 3:
             return
-        vec = np.ascontiguousarray(obs.vectors[:n])
         tol = self.angle_tolerance(obs)
         first = min(self.config.max_stars, n)
-        ang = np.full((n, n), np.nan)  # filled as the search needs it (pair_angle)
-        full, tables = self._search_tables
-        stats = np.zeros(4, np.int64)
+        search, tables = self._search_tables
+        frame = core.PyramidFrame(obs.vectors[:n], tol, CONFIRM_RADIUS * tol)
         for fallback, tab, limit in tables:
             diag.extra["fallback"] = fallback
             triples = triple_array(first, n, limit)
             start = 0
             while start < len(triples):
-                start, cols, rows = pyramid_kernels.search(
-                    triples, start, ang, vec, tol, CONFIRM_RADIUS * tol,
-                    self.database.vectors, self.max_triangles, self.max_pyramids, tab,
-                    full, stats, self._scratch)
-                self._count(stats, diag)
+                start, cols, rows = core.search(search, frame, tab, triples, start)
+                self._count(frame, diag)
                 for row in rows:
                     yield Hypothesis(cols, row)
 
     @staticmethod
-    def _count(stats: np.ndarray, diag: MatchDiagnostics) -> None:
-        diag.extra["triples"], diag.extra["triangles"] = int(stats[0]), int(stats[1])
-        diag.candidates, diag.pivots = int(stats[2]), int(stats[3])
+    def _count(frame: core.PyramidFrame, diag: MatchDiagnostics) -> None:
+        diag.extra["triples"], diag.extra["triangles"] = frame.triples, frame.triangles
+        diag.candidates, diag.pivots = frame.candidates, frame.pivots

@@ -3,15 +3,15 @@
 A hypothesis table holds rows of catalog stars, one column per observed star. Joins grow
 it by a pair lookup that shares a star with it (:func:`join_extend`) or narrow it by a
 pair between two of its stars (:func:`join_close`); both run compiled over the table's
-neighbour lists (:mod:`startrack.matching.kernels`), never materialising the lookup.
+neighbour lists (:mod:`startrack._core.pairs`), never materialising the lookup.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from startrack._core import pairs as core
 from startrack.database.pairs import PairTable
-from startrack.matching import kernels
 from startrack.matching.geometry import angle_table
 from startrack.types import MatchDiagnostics
 
@@ -25,8 +25,10 @@ class PairIndex:
         self.pi = np.ascontiguousarray(table.i, dtype=np.int32)
         self.pj = np.ascontiguousarray(table.j, dtype=np.int32)
         self.angle = np.ascontiguousarray(table.angle, dtype=np.float64)
-        #: (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi): the kernels' "lists"
-        self.lists = kernels.neighbour_lists(self.pi, self.pj, self.angle, self.n_catalog)
+        #: the table and its neighbour lists, as the compiled searches take them
+        self.neighbours = core.PairNeighbours(self.pi, self.pj, self.angle, self.n_catalog)
+        #: (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi): the lists as arrays
+        self.lists = self.neighbours.lists
 
     @property
     def arrays(self) -> tuple:
@@ -78,12 +80,12 @@ class PairLookup:
 
     def grouped(self, p: int, q: int) -> tuple[np.ndarray, ...] | None:
         """The pairs of (p, q) linked per catalog star of p (see
-        :func:`startrack.matching.kernels.group_window`), built once per frame; None when
-        there are none."""
+        :func:`startrack._core.pairs.group_pairs`), built once per frame; None when there
+        are none."""
         if (p, q) not in self._grouped:
             start, stop = self.index.window(*self.window(p, q))
-            self._grouped[p, q] = None if stop <= start else kernels.group_pairs(
-                self.index.pi, self.index.pj, start, stop, p > q, self.index.n_catalog)
+            self._grouped[p, q] = None if stop <= start else core.group_pairs(
+                self.index.neighbours, start, stop, p > q)
         return self._grouped[p, q]
 
     def grouped_either(self, p: int, q: int) -> tuple[np.ndarray, ...] | None:
@@ -113,7 +115,7 @@ def join_extend(hyps: np.ndarray, col: int, lookup: PairLookup, p: int, q: int,
     hyps = np.ascontiguousarray(hyps, dtype=np.int64)
     if len(hyps) == 0 or grouped is None:
         return np.zeros((0, hyps.shape[1] + 1), np.int64), 0
-    rows, total = kernels.join_extend(hyps, col, *grouped, max_rows)
+    rows, total = core.join_extend(hyps, col, *grouped, max_rows)
     return rows, int(total)
 
 
@@ -125,7 +127,7 @@ def join_close(hyps: np.ndarray, col_p: int, col_q: int, lookup: PairLookup, p: 
     hyps = np.ascontiguousarray(hyps, dtype=np.int64)
     if len(hyps) == 0 or grouped is None:
         return hyps[:0]
-    return kernels.join_close(hyps, col_p, col_q, *grouped)
+    return core.join_close(hyps, col_p, col_q, *grouped)
 
 
 def join_sorted(left: np.ndarray, left_cols: tuple[int, ...], right: np.ndarray,

@@ -1,35 +1,78 @@
-"""Compiled Pyramid steps: catalog triangles of an observed triple from three pair windows,
-and their confirmation by a fourth star (Mortari et al. 2004), one triple after another.
-
-``tab`` is a pair table with its neighbour lists (pi, pj, angle, start_lo, nbr_lo,
-ang_lo, start_hi, nbr_hi, ang_hi; see :mod:`startrack.matching.kernels`), ``full`` the
-full table's lists: the triangles come from the pattern-star table, the fourth star from
-the full one.
-"""
+"""Pyramid's search as the numba kernels ran it before the compiled core
+(startrack._core.pyramid): the same steps in plain Python, kept as the reference that
+tests/test_core_search.py holds the compiled search to (the same hypotheses, in the same
+order, and the same counters). Slow: for a few frames only."""
 
 from __future__ import annotations
 
 import math
 
 import numpy as np
-from numba import njit
-
-from startrack.matching.kernels import group_window, linked, partners, ungroup_window
+from startrack._core.shared import first_at_least
 
 
-@njit(cache=True)
+def partners(star, lo, hi, hi_first, start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi,
+             out):
+    """Write the partners of ``star`` whose pair angle lies in [lo, hi] into ``out``; return
+    how many. The ``lo`` run comes first unless ``hi_first``: the order of a stable sort
+    of the pairs seen one way round or the other. Writes at most len(out)."""
+    count = 0
+    for run in range(2):
+        if (run == 0) == hi_first:
+            nbr, ang, a, b = nbr_hi, ang_hi, start_hi[star], start_hi[star + 1]
+        else:
+            nbr, ang, a, b = nbr_lo, ang_lo, start_lo[star], start_lo[star + 1]
+        p = first_at_least(ang, a, b, lo)
+        while p < b and ang[p] <= hi:
+            if count < len(out):
+                out[count] = nbr[p]
+            count += 1
+            p += 1
+    return count
+
+
+def group_window(pi, pj, s0, s1, hi_first, head, nxt, val):
+    """Link the pairs of table entries [s0, s1), both ways round, into per-star lists:
+    star x's partners are val[p] for p = head[x], nxt[p], ... until -1, in the order of a
+    stable sort of the pairs by x (x as first star first, unless ``hi_first``). ``head``
+    must be all -1; the caller resets it with :func:`ungroup_window`. Reads the window in
+    sequence and writes only into the small per-frame arrays, which stay in cache."""
+    w = s1 - s0
+    for step in range(2):  # insert backwards: lists come out forwards
+        half = step if hi_first else 1 - step
+        for e in range(s1 - 1, s0 - 1, -1):
+            x, y = (pi[e], pj[e]) if half == 0 else (pj[e], pi[e])
+            p = (e - s0) + half * w
+            nxt[p] = head[x]
+            val[p] = y
+            head[x] = p
+
+
+def ungroup_window(pi, pj, s0, s1, head):
+    for e in range(s0, s1):
+        head[pi[e]] = -1
+        head[pj[e]] = -1
+
+
+def linked(head, nxt, val, x, y):
+    p = head[x]
+    while p >= 0:
+        if val[p] == y:
+            return True
+        p = nxt[p]
+    return False
+
+
 def _triple(a, b, c):
     return (a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2])
             + a[2] * (b[0] * c[1] - b[1] * c[0]))
 
 
-@njit(cache=True)
 def _angle(a, b):
     d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
     return math.acos(min(max(d, -1.0), 1.0))
 
 
-@njit(cache=True)
 def pair_angle(ang, vec, a, b):
     """``ang[a, b]``, the angle between observed stars a and b, computed on first use
     where the table holds NaN (as :func:`startrack.matching.geometry.angle_table`
@@ -43,7 +86,6 @@ def pair_angle(ang, vec, a, b):
     return value
 
 
-@njit(cache=True)
 def _frame(a, b):
     """An orthonormal frame (columns) from two directions: a, a x b, a x (a x b)."""
     out = np.empty((3, 3))
@@ -55,14 +97,12 @@ def _frame(a, b):
     return out
 
 
-@njit(cache=True)
 def triad(cam_a, cam_b, sky_a, sky_b):
     """The rotation (camera to sky) taking cam_a to sky_a exactly and cam_b's direction
     about it onto sky_b's (TRIAD): good to the noise, enough to say where a star falls."""
     return _frame(sky_a, sky_b) @ _frame(cam_a, cam_b).T
 
 
-@njit(cache=True)
 def triangles(i, j, k, ang, vec, tol, cat, max_triangles, pi, pj, angle, heads):
     """Catalog triangles (I, J, K) whose three sides match the observed triple i < j < k,
     mirror images removed, in the order of the joins (I, J) by table entry, then K.
@@ -107,7 +147,6 @@ def triangles(i, j, k, ang, vec, tol, cat, max_triangles, pi, pj, angle, heads):
     return out[:min(count, max_triangles + 1)], count
 
 
-@njit(cache=True)
 def confirm(tri, ijk, ang, vec, tol, radius, cat, max_pyramids, lists):
     """The brightest fourth star r confirming 1 to ``max_pyramids`` pyramids (I, J, K, R):
     catalog stars R whose angles to I, J, K all lie within ``tol`` of the observed angles
@@ -156,7 +195,6 @@ def confirm(tri, ijk, ang, vec, tol, radius, cat, max_pyramids, lists):
     return -1, rows[:0]
 
 
-@njit(cache=True)
 def search(triples, start, ang, vec, tol, radius, cat, max_triangles, max_pyramids, tab,
            full, stats, heads):
     """Try ``triples`` from ``start`` until one gives hypotheses. Returns (next triple,

@@ -1,0 +1,81 @@
+"""Catalog rows within a cone of the sky: declination bands of stars sorted by right
+ascension (:class:`startrack.database.cone.ConeIndex`), searched over the bands and the
+RA span the cone covers, then a dot-product test. Verification looks one cone up per
+hypothesis, so the lookup costs microseconds."""
+
+import numpy as np
+
+from libc.math cimport M_PI, asin, atan2, cos, fabs, fmax, fmin, sin
+
+from startrack._core._sort cimport first_at_least
+
+cdef double BAND_RAD = M_PI / 180.0  # declination band height (startrack.database.cone)
+# Windows are widened by this (radians) so that rounding never drops a star on an edge;
+# the dot test decides.
+cdef double EDGE = 1e-9
+
+
+cdef class ConeTable:
+    def __init__(self, const double[:, ::1] vectors, const long long[::1] order,
+                 const double[::1] ra_sorted, const long long[::1] band_start):
+        self.vectors, self.order = vectors, order
+        self.ra_sorted, self.band_start = ra_sorted, band_start
+
+
+cdef Py_ssize_t _windows(ConeTable t, double dec, double ra, double radius,
+                         long long[:, ::1] spans):
+    """The (start, stop) positions of ``order`` that can hold the cone's stars, written
+    into ``spans``: per band the RA window of the cone (two pieces where it wraps through
+    RA 0). Returns how many."""
+    cdef Py_ssize_t n_bands = t.band_start.shape[0] - 1, b, n = 0, lo, hi, s0
+    cdef Py_ssize_t b0 = max(<Py_ssize_t>((dec - radius + M_PI / 2.0) / BAND_RAD - EDGE), 0)
+    cdef Py_ssize_t b1 = min(<Py_ssize_t>((dec + radius + M_PI / 2.0) / BAND_RAD + EDGE),
+                             n_bands - 1)
+    # The widest RA offset of any point of the cone; all of it when a pole is inside.
+    cdef double half = M_PI, a, z
+    if fabs(dec) + radius < M_PI / 2.0 - EDGE and radius < M_PI / 2.0:
+        half = asin(fmin(1.0, sin(radius) / cos(dec))) + EDGE
+    for b in range(b0, b1 + 1):
+        lo, hi = t.band_start[b], t.band_start[b + 1]
+        a, z = ra - half, ra + half
+        if half >= M_PI:
+            a, z = 0.0, 2.0 * M_PI
+        elif a < 0.0:  # the window wraps through RA 0: two pieces
+            spans[n, 0] = first_at_least(t.ra_sorted, lo, hi, a + 2.0 * M_PI)
+            spans[n, 1] = hi
+            n += 1
+            a = 0.0
+        elif z >= 2.0 * M_PI:
+            spans[n, 0] = lo
+            spans[n, 1] = first_at_least(t.ra_sorted, lo, hi, z - 2.0 * M_PI + EDGE)
+            n += 1
+            z = 2.0 * M_PI
+        s0 = first_at_least(t.ra_sorted, lo, hi, a)
+        spans[n, 0], spans[n, 1] = s0, first_at_least(t.ra_sorted, s0, hi, z + EDGE)
+        n += 1
+    return n
+
+
+cdef long long[::1] cone_rows(ConeTable table, const double[:] direction, double radius):
+    """Rows of the table's vectors within ``radius`` of the unit vector ``direction``,
+    ascending."""
+    cdef double dx = direction[0], dy = direction[1], dz = direction[2]
+    cdef double dec = asin(fmax(-1.0, fmin(1.0, dz))), ra = atan2(dy, dx) % (2.0 * M_PI)
+    # At most two windows per band.
+    cdef long long[:, ::1] spans = np.empty((2 * table.band_start.shape[0], 2), np.int64)
+    cdef Py_ssize_t n = _windows(table, dec, ra, radius, spans), size = 0, w, s, row, k = 0
+    for w in range(n):
+        size += spans[w, 1] - spans[w, 0]
+    cdef double cos_radius = cos(radius)
+    out = np.empty(size, np.int64)
+    cdef long long[::1] view = out
+    cdef const double[:, ::1] v = table.vectors
+    for w in range(n):
+        for s in range(spans[w, 0], spans[w, 1]):
+            row = table.order[s]
+            if v[row, 0] * dx + v[row, 1] * dy + v[row, 2] * dz >= cos_radius:
+                view[k] = row
+                k += 1
+    out = out[:k]
+    out.sort()
+    return out

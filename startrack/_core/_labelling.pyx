@@ -1,0 +1,317 @@
+"""The final labelling (:func:`startrack.labelling.label_stars`, whose rules it
+implements): one call per accepted attitude, over the observed-catalog pairs within the
+match radius only (:func:`startrack._core._nearest.pairs_within`).
+
+Its results are those of the dense observed x catalog formulation, which the tests keep
+as the reference (``tests/labelling_dense_reference.py``): numpy's semantics decide where
+they matter (a median is NaN when any value is NaN, the best score is the first maximum
+with NaN counted as the maximum, a comparison with NaN is False), and the same
+``ValueError`` / ``ZeroDivisionError`` is raised where numpy's version raised.
+"""
+
+cimport cython
+import numpy as np
+
+from libc.math cimport INFINITY, M_PI, NAN, fabs, isfinite, isnan, log, log10, sqrt
+
+from startrack._core._nearest cimport Pairs, pairs_within
+from startrack._core._stats cimport median_inplace, ptp
+
+cdef double _MAD_TO_SIGMA = 1.4826
+cdef double _MEDIAN_R2_TO_SIGMA2 = 1.0 / (2.0 * log(2.0))  # Rayleigh: median d^2 = 2 ln2 s^2
+
+
+cdef class Labels:
+    def __iter__(self):
+        """(obs, cat, withheld, sigma_px, mag_sigma, used), as the Python callers take it."""
+        return iter((self.obs.base, self.cat.base, np.array(self.withheld, np.int64),
+                     self.sigma_px, self.mag_sigma, self.used))
+
+
+cdef double _log(double value) except? -1.0:  # log, raising where Python's math.log does
+    if value <= 0.0:
+        raise ValueError("math domain error")
+    return log(value)
+
+
+cdef struct Best:
+    Py_ssize_t index   # the entry of the best value (-1: none)
+    double top         # the best value
+    double runner_up   # the best of the rest
+
+
+cdef struct _Logs:
+    double false_star  # log density of a false star on an unobserved catalog star
+    double seen        # log probability that a catalog star is observed
+    double norm        # log normalisation of the residual density
+    double odds        # the log odds allowed
+    double sigma       # the fitted residual scatter
+
+
+cdef Best _best_two(const double[::1] values, Py_ssize_t lo, Py_ssize_t hi,
+                    const long long[::1] order) noexcept:
+    """Over the entries ``order[lo:hi]`` of a dense row whose others are -inf: numpy's
+    argmax (the first maximum, NaN counted as the maximum; -1 when all are -inf), the
+    best and numpy's max of the rest (NaN if any is NaN)."""
+    cdef Best out
+    cdef Py_ssize_t s
+    cdef double v
+    out.index, out.top, out.runner_up = -1, -INFINITY, -INFINITY
+    for s in range(lo, hi):
+        if isnan(out.top):
+            break
+        v = values[order[s]]
+        if isnan(v) or v > out.top:
+            out.index, out.top = order[s], v
+    for s in range(lo, hi):
+        v = values[order[s]]
+        if order[s] != out.index and (isnan(v) or v > out.runner_up):
+            out.runner_up = v
+    return out
+
+
+cdef class _Fit:
+    """The brightness fit: per pair whether it is consistent in brightness and its
+    log-likelihood ratio, the fitted scatter and whether brightness is used."""
+    cdef unsigned char[::1] ok
+    cdef double[::1] log_b
+    cdef double sigma
+    cdef bint used
+
+
+@cython.cdivision(True)  # x / 0 is inf or NaN, as numpy's
+cdef _Fit _brightness(Pairs pairs, const double[::1] flux, const double[::1] mag,
+                      const long long[::1] iso_pair, LabelParams p):
+    cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_obs = flux.shape[0], i, k, n_fit = 0
+    cdef _Fit fit = _Fit.__new__(_Fit)
+    fit.ok, fit.log_b = np.ones(n_pairs, np.uint8), np.zeros(n_pairs)
+    fit.sigma, fit.used = NAN, False
+    if not p.has_flux:
+        return fit
+    cdef double[::1] inst = np.full(n_obs, NAN)
+    for i in range(n_obs):
+        if isfinite(flux[i]) and flux[i] > 0.0:
+            inst[i] = -2.5 * log10(flux[i])
+    cdef double[::1] offset = np.empty(iso_pair.shape[0])
+    for k in range(iso_pair.shape[0]):
+        i = pairs.obs[iso_pair[k]]
+        if not isnan(inst[i]):
+            offset[n_fit] = inst[i] - mag[pairs.cat[iso_pair[k]]]
+            n_fit += 1
+    if n_fit < p.min_fit:
+        return fit
+    offset = offset[:n_fit]
+    cdef double zero = median_inplace(offset)
+    for k in range(n_fit):
+        offset[k] = fabs(offset[k] - zero)
+    cdef double sigma = _MAD_TO_SIGMA * median_inplace(offset)
+    if p.min_mag_sigma > sigma:
+        sigma = p.min_mag_sigma
+    if mag.shape[0] == 0:  # as numpy's ptp of nothing
+        raise ValueError("zero-size array to reduction operation maximum which has no identity")
+    cdef double span = ptp(mag)
+    if 2.0 * p.mag_sigmas * sigma > span:
+        span = 2.0 * p.mag_sigmas * sigma
+    if span == 0.0:  # as Python's float division
+        raise ZeroDivisionError("float division by zero")
+    cdef double norm = _log(sigma * sqrt(2.0 * M_PI) / span), limit = p.mag_sigmas * sigma
+    cdef double off, t
+    for k in range(n_pairs):
+        i = pairs.obs[k]
+        if not isnan(inst[i]):  # a usable flux
+            off = fabs(inst[i] - mag[pairs.cat[k]] - zero)
+            fit.ok[k] = off <= limit
+            t = off / sigma
+            fit.log_b[k] = -0.5 * (t * t) - norm
+    fit.sigma, fit.used = sigma, True
+    return fit
+
+
+cdef long long[::1] _isolated(Pairs pairs, const long long[::1] per_cat):
+    """The pairs that are each other's only candidate, by observed index."""
+    cdef Py_ssize_t n = pairs.start.shape[0] - 1, i, k = 0
+    out = np.empty(n, np.int64)
+    cdef long long[::1] view = out
+    for i in range(n):
+        if pairs.start[i + 1] - pairs.start[i] == 1 and per_cat[pairs.cat[pairs.start[i]]] == 1:
+            view[k] = pairs.start[i]
+            k += 1
+    return out[:k]
+
+
+cdef double _residual_sigma(Pairs pairs, const long long[::1] iso_pair, LabelParams p):
+    """The residual scatter per axis: fitted over the isolated pairs when there are enough
+    (the stated noise otherwise), floored at ``min_sigma_px``."""
+    cdef double sigma = p.sigma0
+    cdef Py_ssize_t k
+    cdef double[::1] d2
+    if iso_pair.shape[0] >= p.min_fit:
+        d2 = np.empty(iso_pair.shape[0])
+        for k in range(iso_pair.shape[0]):
+            d2[k] = pairs.d2[iso_pair[k]]
+        sigma = sqrt(median_inplace(d2) * _MEDIAN_R2_TO_SIGMA2)
+    if p.min_sigma_px > sigma:
+        sigma = p.min_sigma_px
+    return sigma
+
+
+cdef inline bint _clear(Best b, double gap) noexcept:
+    # -inf - -inf (no candidate at all) is NaN, and NaN > gap is False.
+    return isfinite(b.top) and not (b.runner_up - b.top > gap)
+
+
+cdef unsigned char[::1] _rivals(Pairs pairs, const unsigned char[::1] cand,
+                                const double[::1] log_g, double gap, Py_ssize_t n_cat,
+                                long long[::1] best_pair, double[::1] top):
+    """Each observed star's best candidate pair (-1: none) and its score, written into
+    ``best_pair`` and ``top``; returns whether that pair has no rival on either side
+    within the likelihood ``gap``."""
+    cdef Py_ssize_t n_obs = pairs.start.shape[0] - 1, n_pairs = pairs.obs.shape[0]
+    cdef Py_ssize_t i, j, k
+    cdef long long[::1] identity = np.arange(n_pairs, dtype=np.int64)
+    cdef unsigned char[::1] clear_o = np.zeros(n_obs, np.uint8)
+    cdef Best b
+    for i in range(n_obs):
+        b = _best_two(log_g, pairs.start[i], pairs.start[i + 1], identity)
+        best_pair[i], top[i], clear_o[i] = b.index, b.top, _clear(b, gap)
+    cdef double[::1] rival = np.full(n_pairs, -INFINITY)  # per catalog star: its rivals
+    for k in range(n_pairs):
+        i = pairs.obs[k]
+        # An observed star clearly matched to another catalog star is no rival here.
+        if cand[k] and not (clear_o[i] and best_pair[i] != k):
+            rival[k] = log_g[k]
+    # By catalog then observed index: a counting sort of the pairs, which come by
+    # observed index, is that order.
+    cdef long long[::1] cat_start = np.zeros(n_cat + 1, np.int64)
+    for k in range(n_pairs):
+        cat_start[pairs.cat[k] + 1] += 1
+    for j in range(n_cat):
+        cat_start[j + 1] += cat_start[j]
+    cdef long long[::1] by_cat = np.empty(n_pairs, np.int64)
+    cdef long long[::1] fill = np.array(cat_start[:n_cat], np.int64)
+    for k in range(n_pairs):
+        by_cat[fill[pairs.cat[k]]] = k
+        fill[pairs.cat[k]] += 1
+    cdef unsigned char[::1] clear = np.zeros(n_obs, np.uint8)
+    for i in range(n_obs):
+        k = best_pair[i]
+        if k >= 0 and clear_o[i]:
+            j = pairs.cat[k]
+            b = _best_two(rival, cat_start[j], cat_start[j + 1], by_cat)
+            clear[i] = _clear(b, gap) and b.index == k
+    return clear
+
+
+cdef unsigned char[::1] _crowded(const double[::1] x, const double[::1] y, double resolve2):
+    """Per catalog star, whether another lies closer than ``sqrt(resolve2)`` (NaN is no
+    neighbour): a sweep along x, in x order, that stops where the x gap alone reaches the
+    limit, so a frame costs O(m log m) and not O(n m)."""
+    cdef Py_ssize_t m = x.shape[0], a, b, i, j
+    cdef unsigned char[::1] crowded = np.zeros(m, np.uint8)
+    if not resolve2 > 0.0:
+        return crowded  # no squared distance is below it
+    cdef long long[::1] order = np.argsort(np.asarray(x))
+    cdef double gap, dx, dy
+    for a in range(m):
+        i = order[a]
+        for b in range(a + 1, m):
+            j = order[b]
+            gap = x[j] - x[i]
+            # Later stars are farther along x, and dy^2 only adds: none is closer.
+            if gap * gap >= resolve2:
+                break
+            dx, dy = x[i] - x[j], y[i] - y[j]
+            if dx * dx + dy * dy < resolve2:
+                crowded[i] = crowded[j] = True
+    return crowded
+
+
+cdef double _log_b_at(Pairs pairs, const double[::1] log_b, Py_ssize_t i, Py_ssize_t j):
+    """The brightness term of observed star i's pair with catalog star ``j``, 0 if there
+    is none (the dense table's value)."""
+    cdef Py_ssize_t k
+    for k in range(pairs.start[i], pairs.start[i + 1]):
+        if pairs.cat[k] == j:
+            return log_b[k]
+    return 0.0
+
+
+cdef Labels label(const double[::1] ox, const double[::1] oy, const double[::1] x,
+                  const double[::1] y, const double[::1] mag, const long long[::1] rows,
+                  const double[::1] flux, LabelParams p):
+    """The final labelling of the observed stars (ox, oy; fluxes ``flux``) against the
+    catalog stars projected at (x, y) with magnitudes ``mag`` and catalog ``rows``."""
+    cdef Py_ssize_t n_obs = ox.shape[0], n_cat = x.shape[0], i, k
+    cdef Pairs pairs = pairs_within(ox, oy, x, y, p.radius2)
+    cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_false = n_obs, n_unobserved = n_cat
+    cdef long long[::1] per_cat = np.zeros(n_cat, np.int64)
+    for k in range(n_pairs):
+        per_cat[pairs.cat[k]] += 1
+    cdef long long[::1] iso_pair = _isolated(pairs, per_cat)
+    cdef double sigma = _residual_sigma(pairs, iso_pair, p)
+    cdef _Fit fit = _brightness(pairs, flux, mag, iso_pair, p)
+    # Log density (per px^2) of a false star on an unobserved catalog star, and the log
+    # probability that a catalog star is observed, from this frame's own counts (plus
+    # one, so that a clean frame still allows for one).
+    for i in range(n_obs):
+        n_false -= pairs.start[i + 1] > pairs.start[i]
+    for k in range(n_cat):
+        n_unobserved -= per_cat[k] > 0
+    cdef double unobserved = (n_unobserved + 1.0) / (n_cat + 2.0)
+    cdef double log_false = _log((n_false + 1.0) / p.area * unobserved)
+    cdef double log_seen = _log(1.0 - unobserved)
+    cdef double log_norm = _log(2.0 * M_PI * (sigma * sigma))  # before dividing by it
+    cdef double[::1] log_g = np.full(n_pairs, -INFINITY)  # residual log-likelihoods
+    for k in range(n_pairs):
+        if fit.ok[k]:
+            log_g[k] = -pairs.d2[k] / (2.0 * (sigma * sigma))
+    cdef long long[::1] best = np.empty(n_obs, np.int64)
+    cdef double[::1] top = np.empty(n_obs)
+    cdef unsigned char[::1] clear = _rivals(pairs, fit.ok, log_g, p.log_gap, n_cat, best, top)
+    cdef unsigned char[::1] crowded = _crowded(x, y, p.resolve2)
+    cdef _Logs logs = _Logs(log_false, log_seen, log_norm, p.log_false_odds, sigma)
+    return _decide(pairs, fit, best, top, clear, crowded, rows, logs)
+
+
+
+cdef Labels _decide(Pairs pairs, _Fit fit, const long long[::1] best,
+                    const double[::1] top, const unsigned char[::1] clear,
+                    const unsigned char[::1] crowded, const long long[::1] rows, _Logs logs):
+    """Each observed star with a candidate reported or withheld (the first rule it
+    fails, in the order of startrack.labelling.REASONS)."""
+    cdef Py_ssize_t n_obs = best.shape[0], i, k, c, n_ok = 0
+    cdef Labels out = Labels.__new__(Labels)
+    out.withheld[:] = [0, 0, 0, 0]
+    obs, cat = np.empty(n_obs, np.int64), np.empty(n_obs, np.int64)
+    cdef long long[::1] obs_v = obs, cat_v = cat
+    cdef long long best_cat
+    cdef double log_true
+    cdef bint any_cand
+    for i in range(n_obs):
+        if pairs.start[i + 1] == pairs.start[i]:
+            continue
+        k = best[i]
+        best_cat = 0  # numpy's argmax of an all -inf row
+        log_true = logs.seen + top[i] - logs.norm
+        if k >= 0:
+            best_cat = pairs.cat[k]
+            log_true = log_true + fit.log_b[k]
+        else:
+            log_true = log_true + _log_b_at(pairs, fit.log_b, i, 0)
+        any_cand = False
+        for c in range(pairs.start[i], pairs.start[i + 1]):
+            any_cand = any_cand or fit.ok[c]
+        if not any_cand:
+            out.withheld[0] += 1
+        elif crowded.shape[0] and crowded[best_cat]:
+            out.withheld[1] += 1
+        elif not clear[i]:
+            out.withheld[2] += 1
+        elif not logs.false_star - log_true <= logs.odds:  # NaN: withheld
+            out.withheld[3] += 1
+        else:
+            obs_v[n_ok], cat_v[n_ok] = i, rows[best_cat]
+            n_ok += 1
+    out.obs, out.cat = obs[:n_ok], cat[:n_ok]
+    out.sigma_px, out.mag_sigma, out.used = logs.sigma, fit.sigma, fit.used
+    return out

@@ -1,0 +1,25 @@
+# Pairing of observed and projected catalog positions (implemented in _nearest.pyx): the
+# nearest catalog star of each observed star, and every pair within a radius, on a grid of
+# about one catalog star per cell, so that a frame costs O(n + m) and not O(n m).
+
+
+cdef class Pairs:
+    """Every (observed, catalog) pair within a radius, sorted by observed then catalog
+    index. ``start[i]:start[i + 1]`` are observed star i's pairs (n + 1 offsets)."""
+    cdef long long[::1] obs
+    cdef long long[::1] cat
+    cdef double[::1] d2
+    cdef long long[::1] start
+
+
+cdef class Nearest:
+    """One-to-one nearest pairs: observed ``obs[k]`` (ascending) with catalog ``cat[k]``."""
+    cdef long long[::1] obs
+    cdef long long[::1] cat
+
+
+cdef Pairs pairs_within(const double[::1] ox, const double[::1] oy, const double[::1] x,
+                        const double[::1] y, double radius2)
+
+cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
+                             const double[::1] cx, const double[::1] cy, double radius_px)

@@ -1,0 +1,269 @@
+"""Pairing of observed and projected catalog positions: the nearest catalog star of each
+observed star, and every pair within a radius, on a grid of about one catalog star per
+cell, cells no smaller than the radius, so that a frame costs O(n + m) and not O(n m).
+
+Inputs the grid cannot take (an infinite radius, infinite catalog positions) take the
+brute-force scan of every pair, which the tests hold the grid to.
+"""
+
+import numpy as np
+
+from libc.math cimport INFINITY, fabs, fmax, fmin, isfinite, isnan, sqrt
+
+
+cdef class Pairs:
+    def __iter__(self):
+        """(observed, catalog, squared distance, start offsets), as arrays."""
+        return iter((self.obs.base, self.cat.base, self.d2.base, self.start.base))
+
+
+cdef class Nearest:
+    def __iter__(self):
+        return iter((self.obs.base, self.cat.base))
+
+
+cdef struct Grid:
+    double x0, y0, size
+    Py_ssize_t nx, ny
+
+
+cdef class _Cells:
+    """Catalog positions bucketed in square cells: ``start`` offsets, positions by cell."""
+    cdef Grid grid
+    cdef long long[::1] start
+    cdef long long[::1] order
+
+
+cdef _Cells _bucket(const double[::1] x, const double[::1] y, Grid grid):
+    """A stable counting sort of the finite positions into ``grid``'s cells."""
+    cdef Py_ssize_t m = x.shape[0], j, c, gx, gy, n_cells = grid.nx * grid.ny
+    cdef _Cells cells = _Cells.__new__(_Cells)
+    cells.grid = grid
+    cells.start = np.zeros(n_cells + 1, np.int64)
+    cdef long long[::1] cell = np.full(m, -1, np.int64)
+    for j in range(m):
+        if isfinite(x[j]) and isfinite(y[j]):
+            gx = min(<Py_ssize_t>((x[j] - grid.x0) / grid.size), grid.nx - 1)
+            gy = min(<Py_ssize_t>((y[j] - grid.y0) / grid.size), grid.ny - 1)
+            cell[j] = gy * grid.nx + gx
+            cells.start[cell[j] + 1] += 1
+    for c in range(n_cells):
+        cells.start[c + 1] += cells.start[c]
+    cdef long long[::1] fill = np.array(cells.start[:n_cells], np.int64)
+    cells.order = np.empty(cells.start[n_cells], np.int64)
+    for j in range(m):
+        if cell[j] >= 0:
+            cells.order[fill[cell[j]]] = j
+            fill[cell[j]] += 1
+    return cells
+
+
+cdef _Cells _catalog_grid(const double[::1] x, const double[::1] y, double half):
+    """The finite catalog positions in a grid of about one per cell, cells no smaller
+    than ``half``; None with an infinite position, or extents that overflow or hold no
+    position."""
+    cdef Py_ssize_t m = x.shape[0], j
+    cdef double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY
+    for j in range(m):
+        if isfinite(x[j]) and isfinite(y[j]):
+            x0, x1 = fmin(x0, x[j]), fmax(x1, x[j])
+            y0, y1 = fmin(y0, y[j]), fmax(y1, y[j])
+        elif not (isnan(x[j]) or isnan(y[j])):
+            return None  # inf - inf would be NaN in the extents
+    if not (0.0 <= x1 - x0 < INFINITY and 0.0 <= y1 - y0 < INFINITY):
+        return None
+    cdef Py_ssize_t cells = max(1, <Py_ssize_t>sqrt(<double>m))
+    cdef Grid grid
+    grid.size = fmax(fmax(half, (x1 - x0) / cells), fmax((y1 - y0) / cells, 1e-9))
+    grid.x0, grid.y0 = x0, y0
+    grid.nx = <Py_ssize_t>fmin((x1 - x0) / grid.size, <double>cells) + 1
+    grid.ny = <Py_ssize_t>fmin((y1 - y0) / grid.size, <double>cells) + 1
+    return _bucket(x, y, grid)
+
+
+cdef inline void _cell_span(double v, double pad, double v0, double size, Py_ssize_t cells,
+                            Py_ssize_t* first, Py_ssize_t* last) noexcept nogil:
+    """The first and last cell along one axis that [v - pad, v + pad] reaches (clipped to
+    the grid; last < first when it misses it)."""
+    cdef double lo = (v - pad - v0) / size, hi = (v + pad - v0) / size
+    if not hi >= 0.0 or not lo < cells:
+        first[0], last[0] = 0, -1
+        return
+    first[0] = <Py_ssize_t>fmax(lo, 0.0)
+    last[0] = <Py_ssize_t>fmin(hi, cells - 1.0)
+
+
+cdef inline Py_ssize_t _best_in_cells(double x, double y, const double[::1] cx,
+                                      const double[::1] cy, _Cells cells, Py_ssize_t gx0,
+                                      Py_ssize_t gx1, Py_ssize_t gy0, Py_ssize_t gy1,
+                                      double* best_d):
+    """The catalog star nearest (x, y) among cells gx0..gx1 x gy0..gy1 (on a tie the lower
+    index; -1 if none), its squared distance in ``best_d``."""
+    cdef Py_ssize_t best = -1, xx, yy, c, q, j
+    cdef double d, dx, dy
+    best_d[0] = INFINITY
+    for yy in range(gy0, gy1 + 1):
+        for xx in range(gx0, gx1 + 1):
+            c = yy * cells.grid.nx + xx
+            for q in range(cells.start[c], cells.start[c + 1]):
+                j = cells.order[q]
+                dx, dy = x - cx[j], y - cy[j]
+                d = dx * dx + dy * dy
+                if d < best_d[0] or (d == best_d[0] and j < best):
+                    best, best_d[0] = j, d
+    return best
+
+
+cdef class _PairList:
+    """Pairs appended observed star by observed star, each star's kept sorted by catalog
+    index (insertion: a star has few pairs); the arrays grow by doubling."""
+    cdef long long[::1] obs
+    cdef long long[::1] cat
+    cdef double[::1] d2
+    cdef Py_ssize_t count
+
+    def __cinit__(self, Py_ssize_t cap):
+        self.obs = np.empty(cap, np.int64)
+        self.cat = np.empty(cap, np.int64)
+        self.d2 = np.empty(cap)
+        self.count = 0
+
+    cdef void add(self, Py_ssize_t first, Py_ssize_t i, Py_ssize_t j, double d2) except *:
+        cdef Py_ssize_t k = self.count, cap = self.obs.shape[0]
+        if k == cap:
+            self.obs = np.concatenate([self.obs.base[:k], np.empty(cap, np.int64)])
+            self.cat = np.concatenate([self.cat.base[:k], np.empty(cap, np.int64)])
+            self.d2 = np.concatenate([self.d2.base[:k], np.empty(cap)])
+        while k > first and self.cat[k - 1] > j:
+            self.obs[k], self.cat[k], self.d2[k] = self.obs[k - 1], self.cat[k - 1], self.d2[k - 1]
+            k -= 1
+        self.obs[k], self.cat[k], self.d2[k] = i, j, d2
+        self.count += 1
+
+    cdef Pairs done(self, long long[::1] start):
+        cdef Pairs out = Pairs.__new__(Pairs)
+        cdef Py_ssize_t n = self.count
+        out.obs, out.cat, out.d2 = self.obs.base[:n], self.cat.base[:n], self.d2.base[:n]
+        out.start = start
+        return out
+
+
+cdef Pairs pairs_within(const double[::1] ox, const double[::1] oy, const double[::1] x,
+                        const double[::1] y, double radius2):
+    """Every pair of an observed star (ox, oy) and a catalog star (x, y) whose squared
+    distance is <= ``radius2``, by observed then catalog index. A NaN position pairs with
+    nothing. Each observed star scans the cells its radius, a hair widened so that
+    rounding cannot drop a pair the exact test keeps, reaches."""
+    cdef Py_ssize_t n = ox.shape[0], m = x.shape[0], i, j, gx, gy, q, c
+    cdef Py_ssize_t gx0 = 0, gx1 = -1, gy0 = 0, gy1 = -1
+    cdef long long[::1] start = np.zeros(n + 1, np.int64)
+    cdef _PairList found = _PairList(n + 16)
+    cdef double half = sqrt(radius2) * (1.0 + 1e-9) + 1e-9 if radius2 >= 0.0 else -1.0
+    cdef double pad, dx, dy, d2
+    cdef _Cells cells = None
+    if radius2 < INFINITY and m > 0 and n > 0:
+        cells = _catalog_grid(x, y, fmax(half, 0.0))
+    for i in range(n):
+        start[i] = found.count
+        if half < 0.0 or isnan(ox[i]) or isnan(oy[i]):
+            continue
+        if cells is None:  # every catalog star, in order
+            for j in range(m):
+                dx, dy = ox[i] - x[j], oy[i] - y[j]
+                d2 = dx * dx + dy * dy
+                if d2 <= radius2:
+                    found.add(start[i], i, j, d2)
+            continue
+        pad = half + 1e-12 * fmax(fabs(ox[i]), fabs(oy[i]))
+        _cell_span(ox[i], pad, cells.grid.x0, cells.grid.size, cells.grid.nx, &gx0, &gx1)
+        _cell_span(oy[i], pad, cells.grid.y0, cells.grid.size, cells.grid.ny, &gy0, &gy1)
+        for gy in range(gy0, gy1 + 1):
+            for gx in range(gx0, gx1 + 1):
+                c = gy * cells.grid.nx + gx
+                for q in range(cells.start[c], cells.start[c + 1]):
+                    j = cells.order[q]
+                    dx, dy = ox[i] - x[j], oy[i] - y[j]
+                    d2 = dx * dx + dy * dy
+                    if d2 <= radius2:
+                        found.add(start[i], i, j, d2)
+    start[n] = found.count
+    return found.done(start)
+
+
+cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1] cx,
+                   const double[::1] cy, double radius_px, long long[::1] nearest,
+                   double[::1] dist2) except *:
+    """Per observed star, its nearest catalog star if within ``radius_px`` (else -1; on a
+    tie the lower index) and the squared distance, written into the two arrays. A
+    negative or NaN radius reaches nothing; an infinite one, or infinite catalog
+    positions, take a scan of every catalog star."""
+    cdef Py_ssize_t n = ox.shape[0], m = cx.shape[0], i, j
+    cdef Py_ssize_t gx0 = 0, gx1 = -1, gy0 = 0, gy1 = -1
+    cdef double r2 = radius_px * radius_px, half = radius_px * (1.0 + 1e-9) + 1e-9
+    cdef double pad, best_d, d, dx, dy
+    cdef Py_ssize_t best
+    cdef _Cells cells = None
+    if not radius_px >= 0.0 or n == 0:
+        return
+    if radius_px < INFINITY:
+        cells = _catalog_grid(cx, cy, half)
+    for i in range(n):
+        if isnan(ox[i]) or isnan(oy[i]):
+            continue
+        if cells is None:
+            best, best_d = -1, INFINITY
+            for j in range(m):
+                dx, dy = ox[i] - cx[j], oy[i] - cy[j]
+                d = dx * dx + dy * dy
+                if d < best_d:
+                    best, best_d = j, d
+        else:
+            pad = half + 1e-12 * fmax(fabs(ox[i]), fabs(oy[i]))
+            _cell_span(ox[i], pad, cells.grid.x0, cells.grid.size, cells.grid.nx, &gx0, &gx1)
+            _cell_span(oy[i], pad, cells.grid.y0, cells.grid.size, cells.grid.ny, &gy0, &gy1)
+            best = _best_in_cells(ox[i], oy[i], cx, cy, cells, gx0, gx1, gy0, gy1, &best_d)
+        if best >= 0 and best_d <= r2:
+            nearest[i], dist2[i] = best, best_d
+
+
+cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
+                             const double[::1] cx, const double[::1] cy, double radius_px):
+    """Pair each observed star with its nearest catalog star within ``radius_px``; a
+    catalog star claimed by several keeps the nearest (on a tie, the first)."""
+    cdef Py_ssize_t n = ox.shape[0], i, j, k = 0
+    cdef long long[::1] nearest = np.full(n, -1, np.int64)
+    cdef double[::1] dist2 = np.full(n, INFINITY)
+    _nearest(ox, oy, cx, cy, radius_px, nearest, dist2)
+    cdef long long[::1] owner = np.full(cx.shape[0], -1, np.int64)
+    for i in range(n):
+        j = nearest[i]
+        if j >= 0 and (owner[j] < 0 or dist2[i] < dist2[owner[j]]):
+            owner[j] = i
+    obs, cat = np.empty(n, np.int64), np.empty(n, np.int64)
+    cdef long long[::1] obs_v = obs, cat_v = cat
+    for i in range(n):
+        if nearest[i] >= 0 and owner[nearest[i]] == i:
+            obs_v[k], cat_v[k] = i, nearest[i]
+            k += 1
+    cdef Nearest out = Nearest.__new__(Nearest)
+    out.obs, out.cat = obs[:k], cat[:k]  # slices of the arrays: .base is then the slice
+    return out
+
+
+def pairs(ox, oy, x, y, double radius2):
+    """:func:`pairs_within` from Python: (observed, catalog, squared distance, start)."""
+    return tuple(pairs_within(ox, oy, x, y, radius2))
+
+
+def nearest(ox, oy, cx, cy, double radius_px):
+    """The nearest catalog star of each observed star within ``radius_px`` (-1: none) and
+    its squared distance (inf: none), before the one-to-one rule."""
+    n = len(ox)
+    found, dist2 = np.full(n, -1, np.int64), np.full(n, np.inf)
+    _nearest(ox, oy, cx, cy, radius_px, found, dist2)
+    return found, dist2
+
+
+def matches(ox, oy, cx, cy, double radius_px):
+    """:func:`nearest_matches` from Python: (observed rows ascending, catalog positions)."""
+    return tuple(nearest_matches(ox, oy, cx, cy, radius_px))

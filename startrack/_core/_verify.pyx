@@ -1,0 +1,28 @@
+"""The one verification of a hypothesis, compiled (see ``_verify.pxd`` for the interface
+and how tracking calls it): the catalog projected through an attitude and the lens, the
+observed stars paired with it, the first test, the binomial bound on a coincidence, the
+refinement, the final labelling, the Wahba refit, the residuals and the quaternion.
+
+A frame has tens of stars, so numpy or scipy on them is dominated by per-call overhead;
+one call here does a whole hypothesis. The projection is
+:meth:`startrack.camera.Camera.vector_to_pixel` then
+:meth:`~startrack.camera.Camera.in_image`, operation for operation.
+"""
+
+cimport cython
+import numpy as np
+
+from libc.math cimport M_PI, acos, exp, fmax, fmin, lgamma, log, log1p
+
+from startrack._core._cone cimport ConeTable, cone_rows
+from startrack._core._labelling cimport LabelParams, Labels, label
+from startrack._core._nearest cimport Nearest, nearest_matches
+from startrack._core._wahba cimport matrix_to_quaternion, wahba
+
+cdef double _ARCSEC = 180.0 / M_PI * 3600.0
+# cephes' MINLOG, log(2^-1022): below it scipy's bdtrc underflows to 0
+cdef double _MIN_LOG = -7.08396418532264106224e2
+
+include "_verify_steps.pxi"
+include "_verify_refine.pxi"
+include "_verify_check.pxi"

@@ -1,0 +1,171 @@
+# The steps of verification (included in _verify.pyx): the frame and catalog records, the
+# projection, the pairing, the first test, the refinement and the labelling.
+
+
+cdef class Frame:
+    def __init__(self, const double[:, ::1] vectors, const double[::1] x,
+                 const double[::1] y, const double[::1] flux, Geometry geometry):
+        if not (vectors.shape[0] == x.shape[0] == y.shape[0] == flux.shape[0]):
+            raise ValueError("Frame: observed arrays of unequal lengths")
+        self.vectors, self.x, self.y, self.flux = vectors, x, y, flux
+        self.geometry = geometry
+        self.n = x.shape[0]
+
+
+cdef class Stars:
+    def __init__(self, const double[:, ::1] vectors, const double[::1] mags,
+                 const long long[::1] rows):
+        if not (vectors.shape[0] == mags.shape[0] == rows.shape[0]):
+            raise ValueError("Stars: catalog arrays of unequal lengths")
+        self.vectors, self.mags, self.rows = vectors, mags, rows
+
+
+cdef Stars _gather(const double[:, ::1] catalog, const double[::1] mags, rows):
+    """The catalog stars of ``rows`` (an int64 array) as Stars."""
+    cdef const long long[::1] r = rows
+    cdef Py_ssize_t m = r.shape[0], i
+    cdef Stars out = Stars.__new__(Stars)
+    cdef double[:, ::1] vectors = np.empty((m, 3))
+    cdef double[::1] row_mags = np.empty(m)
+    for i in range(m):
+        vectors[i, 0], vectors[i, 1], vectors[i, 2] = (catalog[r[i], 0], catalog[r[i], 1],
+                                                       catalog[r[i], 2])
+        row_mags[i] = mags[r[i]]
+    out.vectors, out.mags, out.rows = vectors, row_mags, r
+    return out
+
+
+cdef class Matches:
+    def __iter__(self):
+        """(observed index, positions, catalog stars in the widened image)."""
+        return iter((np.asarray(self.obs), np.asarray(self.pos), self.n_in))
+
+
+cdef bint _same(Matches a, Matches b) noexcept:
+    """Whether two match lists are the same pairs in the same order."""
+    cdef Py_ssize_t k
+    if a.obs.shape[0] != b.obs.shape[0]:
+        return False
+    for k in range(a.obs.shape[0]):
+        if a.obs[k] != b.obs[k] or a.pos[k] != b.pos[k]:
+            return False
+    return True
+
+
+@cython.cdivision(True)  # vz > 1e-12 where it divides
+cdef Projection project(const double[:, ::1] vectors, const double[:, :] matrix,
+                        Geometry g):
+    """Pixel positions of catalog vectors (n, 3) at the attitude ``matrix`` (camera to
+    sky); a star behind the camera, or beyond the radius where the lens folds back, has
+    none."""
+    cdef Py_ssize_t n = vectors.shape[0], i
+    cdef Projection p = Projection.__new__(Projection)
+    p.x, p.y, p.valid = np.zeros(n), np.zeros(n), np.zeros(n, np.uint8)
+    cdef double a, b, c, vx, vy, vz, u, w, r2, s
+    for i in range(n):
+        a, b, c = vectors[i, 0], vectors[i, 1], vectors[i, 2]  # R^T v: in the camera frame
+        vx = a * matrix[0, 0] + b * matrix[1, 0] + c * matrix[2, 0]
+        vy = a * matrix[0, 1] + b * matrix[1, 1] + c * matrix[2, 1]
+        vz = a * matrix[0, 2] + b * matrix[1, 2] + c * matrix[2, 2]
+        if vz <= 1e-12:
+            continue
+        u, w = vx / vz, vy / vz
+        r2 = u * u + w * w
+        if not r2 < g.max_r2:
+            continue
+        s = 1.0 + r2 * (g.k1 + r2 * (g.k2 + r2 * g.k3))
+        p.x[i], p.y[i] = g.cx + g.f_px * (u * s), g.cy + g.f_px * (w * s)
+        p.valid[i] = True
+    return p
+
+
+cdef unsigned char[::1] within(Projection p, Geometry g, double margin):
+    """Which projected stars fall in the image widened by ``margin`` pixels."""
+    cdef double lo_x = -0.5 - margin, hi_x = g.width - 0.5 + margin
+    cdef double lo_y = -0.5 - margin, hi_y = g.height - 0.5 + margin
+    cdef Py_ssize_t i
+    cdef unsigned char[::1] inside = np.zeros(p.x.shape[0], np.uint8)
+    for i in range(p.x.shape[0]):
+        inside[i] = p.valid[i] and lo_x <= p.x[i] <= hi_x and lo_y <= p.y[i] <= hi_y
+    return inside
+
+
+cdef class _Selection:
+    """The projected stars inside a margin: their positions and pixel positions."""
+    cdef long long[::1] where
+    cdef double[::1] x
+    cdef double[::1] y
+
+
+cdef _Selection _select(Projection p, Geometry g, double margin):
+    cdef unsigned char[::1] inside = within(p, g, margin)
+    cdef Py_ssize_t i, k = 0, m = 0
+    for i in range(inside.shape[0]):
+        m += inside[i]
+    cdef _Selection s = _Selection.__new__(_Selection)
+    s.where, s.x, s.y = np.empty(m, np.int64), np.empty(m), np.empty(m)
+    for i in range(inside.shape[0]):
+        if inside[i]:
+            s.where[k], s.x[k], s.y[k] = i, p.x[i], p.y[i]
+            k += 1
+    return s
+
+
+cdef Matches match_projected(Frame frame, Projection projection, double radius):
+    """Observed stars paired with the projected stars that fall in the image widened by
+    ``radius`` (a star just beyond the edge can still be an observed star's)."""
+    cdef _Selection s = _select(projection, frame.geometry, radius)
+    cdef Nearest near = nearest_matches(frame.x, frame.y, s.x, s.y, radius)
+    cdef Matches m = Matches.__new__(Matches)
+    cdef Py_ssize_t k
+    m.obs, m.pos, m.n_in = near.obs, np.empty(near.cat.shape[0], np.int64), s.where.shape[0]
+    for k in range(near.cat.shape[0]):
+        m.pos[k] = s.where[near.cat[k]]
+    return m
+
+
+cdef Matches match(Frame frame, const double[:, ::1] vectors, const double[:, :] matrix,
+                   double radius):
+    return match_projected(frame, project(vectors, matrix, frame.geometry), radius)
+
+
+cdef Py_ssize_t _confirmed(Matches m, const long long[::1] hyp_obs, Py_ssize_t n_obs):
+    """How many of the matched observed stars are not among ``hyp_obs``."""
+    cdef unsigned char[::1] chosen = np.zeros(n_obs, np.uint8)
+    cdef Py_ssize_t k, count = 0
+    for k in range(hyp_obs.shape[0]):
+        chosen[hyp_obs[k]] = True
+    for k in range(m.obs.shape[0]):
+        count += not chosen[m.obs[k]]
+    return count
+
+
+cdef bint fits_within(const double[:, :] cam, const double[:, :] sky,
+                      const double[:, :] matrix, double cos_radius) noexcept nogil:
+    """Whether every pair lies within the match radius of the other at ``matrix``."""
+    cdef Py_ssize_t k
+    cdef int i
+    cdef double dot
+    for k in range(cam.shape[0]):
+        dot = 0.0
+        for i in range(3):
+            dot += (matrix[i, 0] * cam[k, 0] + matrix[i, 1] * cam[k, 1]
+                    + matrix[i, 2] * cam[k, 2]) * sky[k, i]
+        if dot < cos_radius:
+            return False
+    return True
+
+
+cdef double[:, ::1] _fit(const double[:, ::1] obs_vectors, const long long[::1] obs,
+                         const double[:, ::1] vectors, const long long[::1] pos):
+    """The Wahba attitude of observed ``obs[k]`` on catalog vector ``pos[k]``."""
+    cdef Py_ssize_t m = obs.shape[0], k
+    cdef double[:, ::1] cam = np.empty((m, 3)), sky = np.empty((m, 3))
+    cdef double[:, ::1] r = np.empty((3, 3))
+    for k in range(m):
+        cam[k, 0], cam[k, 1], cam[k, 2] = (obs_vectors[obs[k], 0], obs_vectors[obs[k], 1],
+                                           obs_vectors[obs[k], 2])
+        sky[k, 0], sky[k, 1], sky[k, 2] = (vectors[pos[k], 0], vectors[pos[k], 1],
+                                           vectors[pos[k], 2])
+    wahba(cam, sky, r)
+    return r

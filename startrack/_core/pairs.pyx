@@ -1,0 +1,133 @@
+"""Pair tables with their neighbour lists, and the joins on a grouped table window.
+
+A pair table lists catalog pairs (i < j) sorted by angle. Its neighbour lists give, for
+each catalog star s, its partners in the pairs where s is the first star (``lo`` run) and
+in those where it is the second (``hi`` run), each run in table order, so by angle: the
+partners of s within an angle window are two binary searches away. Entry order is kept
+throughout, so that the joins give the rows in the order a stable sort would. A
+hypothesis table holds rows of catalog stars, one column per observed star: a join grows
+it by a grouped pair window that shares a star with it (:func:`join_extend`) or narrows
+it by one between two of its stars (:func:`join_close`).
+"""
+
+import numpy as np
+
+cimport numpy as cnp
+
+cnp.import_array()
+
+
+cdef class PairNeighbours:
+    """A pair table (``pi`` < ``pj`` by catalog row, ``angle`` ascending) and its
+    neighbour lists over ``n_catalog`` stars: the partners of star s as first star of a
+    pair are ``nbr_lo[start_lo[s]:start_lo[s + 1]]`` with the pair angles in ``ang_lo``,
+    as second star in ``nbr_hi`` and ``ang_hi``. Partners and angles sit side by side per
+    star: a window search then reads a few cache lines, not the table. ``lists`` holds
+    the six arrays (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi)."""
+
+    def __init__(self, pi, pj, angle, Py_ssize_t n_catalog):
+        self.pi = np.ascontiguousarray(pi, dtype=np.int32)
+        self.pj = np.ascontiguousarray(pj, dtype=np.int32)
+        self.angle = np.ascontiguousarray(angle, dtype=np.float64)
+        self.n_catalog = n_catalog
+        cdef Py_ssize_t m = self.pi.shape[0], e, s
+        start_lo, start_hi = np.zeros(n_catalog + 1, np.int64), np.zeros(n_catalog + 1, np.int64)
+        nbr_lo, nbr_hi = np.empty(m, np.int32), np.empty(m, np.int32)
+        ang_lo, ang_hi = np.empty(m, np.float64), np.empty(m, np.float64)
+        cdef long long[::1] slo = start_lo, shi = start_hi
+        cdef int[::1] nlo = nbr_lo, nhi = nbr_hi
+        cdef double[::1] alo = ang_lo, ahi = ang_hi
+        for e in range(m):
+            slo[self.pi[e] + 1] += 1
+            shi[self.pj[e] + 1] += 1
+        for s in range(n_catalog):
+            slo[s + 1] += slo[s]
+            shi[s + 1] += shi[s]
+        cdef long long[::1] fill_lo = start_lo[:n_catalog].copy()
+        cdef long long[::1] fill_hi = start_hi[:n_catalog].copy()
+        cdef int a, b
+        for e in range(m):
+            a, b = self.pi[e], self.pj[e]
+            nlo[fill_lo[a]], alo[fill_lo[a]] = b, self.angle[e]
+            fill_lo[a] += 1
+            nhi[fill_hi[b]], ahi[fill_hi[b]] = a, self.angle[e]
+            fill_hi[b] += 1
+        self.start_lo, self.nbr_lo, self.ang_lo = slo, nlo, alo
+        self.start_hi, self.nbr_hi, self.ang_hi = shi, nhi, ahi
+        self.lists = (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi)
+
+
+cdef Py_ssize_t _join_fill(const long long[:, :] hyps, Py_ssize_t col, const int[::1] head,
+                           const int[::1] nxt, const int[::1] val,
+                           long long[:, ::1] out) noexcept nogil:
+    """:func:`join_extend`'s rows written into ``out`` while it has room; returns how
+    many there are in all."""
+    cdef Py_ssize_t m = hyps.shape[0], w = hyps.shape[1], cap = out.shape[0]
+    cdef Py_ssize_t count = 0, r, c, p
+    cdef long long new
+    cdef bint clash
+    for r in range(m):
+        p = head[hyps[r, col]]
+        while p >= 0:
+            new = val[p]
+            p = nxt[p]
+            clash = False
+            for c in range(w):
+                clash |= hyps[r, c] == new
+            if clash:
+                continue
+            if count < cap:
+                for c in range(w):
+                    out[count, c] = hyps[r, c]
+                out[count, w] = new
+            count += 1
+    return count
+
+
+cdef object join_extend_rows(const long long[:, :] hyps, Py_ssize_t col, const int[::1] head,
+                             const int[::1] nxt, const int[::1] val, Py_ssize_t max_rows):
+    """Each row of ``hyps`` once per partner of its column ``col`` in the grouped pairs
+    (head, nxt, val), the partner appended; partners already in the row are refused.
+    Returns (rows, total): total counts every joined row, rows holds at most
+    ``max_rows`` of them."""
+    cdef Py_ssize_t cap = min(max_rows, 1024), count
+    while True:  # a second pass only when the first guess of the row count was short
+        out = np.empty((cap, hyps.shape[1] + 1), np.int64)
+        count = _join_fill(hyps, col, head, nxt, val, out)
+        if count <= cap or cap == max_rows:
+            return out[:min(count, cap)], count
+        cap = min(count, max_rows)
+
+
+cdef object join_close_rows(object hyps, Py_ssize_t col_p, Py_ssize_t col_q,
+                            const int[::1] head, const int[::1] nxt, const int[::1] val):
+    """The rows of ``hyps`` whose catalog stars in columns (col_p, col_q) are one of the
+    grouped pairs."""
+    cdef const long long[:, :] rows = hyps
+    keep = np.zeros(rows.shape[0], np.bool_)
+    cdef unsigned char[::1] mark = keep.view(np.uint8)
+    cdef Py_ssize_t r
+    for r in range(rows.shape[0]):
+        mark[r] = linked(head, nxt, val, rows[r, col_p], rows[r, col_q])
+    return hyps[keep]
+
+
+def group_pairs(PairNeighbours tab, Py_ssize_t s0, Py_ssize_t s1, bint hi_first):
+    """Table entries [s0, s1) grouped per star (:func:`group_window`) into fresh arrays:
+    (head, nxt, val)."""
+    head = np.full(tab.n_catalog, -1, np.int32)
+    nxt, val = np.empty(2 * (s1 - s0), np.int32), np.empty(2 * (s1 - s0), np.int32)
+    group_window(tab.pi, tab.pj, s0, s1, hi_first, head, nxt, val)
+    return head, nxt, val
+
+
+def join_extend(const long long[:, :] hyps, Py_ssize_t col, const int[::1] head,
+                const int[::1] nxt, const int[::1] val, Py_ssize_t max_rows):
+    """:func:`join_extend_rows` on a grouping of :func:`group_pairs`: (rows, total)."""
+    return join_extend_rows(hyps, col, head, nxt, val, max_rows)
+
+
+def join_close(hyps, Py_ssize_t col_p, Py_ssize_t col_q, const int[::1] head,
+               const int[::1] nxt, const int[::1] val):
+    """:func:`join_close_rows` on a grouping of :func:`group_pairs`."""
+    return join_close_rows(hyps, col_p, col_q, head, nxt, val)
