@@ -5,6 +5,7 @@ importing a sibling, stage types outside the plugin package."""
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -24,8 +25,15 @@ def _modules() -> dict[str, Path]:
     return mods
 
 
+#: an import or cimport line of a Cython source (which ``ast`` cannot parse)
+CYTHON_IMPORT = re.compile(
+    r"^\s*(?:from\s+(startrack[\w.]*)\s+c?import|c?import\s+(startrack[\w.]*))", re.MULTILINE)
+
+
 def _imports(path: Path) -> set[str]:
     """Every startrack module ``path`` imports, at any depth (lazy imports count too)."""
+    if path.suffix != ".py":
+        return {a or b for a, b in CYTHON_IMPORT.findall(path.read_text())}
     found = set()
     for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
@@ -44,8 +52,10 @@ def _part(module: str) -> str:
 
 def _part_graph() -> dict[str, set[str]]:
     mods = _modules()
+    compiled = {".".join(p.relative_to(PACKAGE.parent).with_suffix("").parts): p
+                for suffix in ("pyx", "pxd", "pxi") for p in PACKAGE.rglob(f"*.{suffix}")}
     graph: dict[str, set[str]] = {}
-    for name, path in mods.items():
+    for name, path in [*mods.items(), *compiled.items()]:
         src = _part(name)
         for target in _imports(path):
             while target not in mods and "." in target:
@@ -131,6 +141,11 @@ def test_every_part_has_a_layer():
 
 def test_dependencies_point_down_the_layers():
     assert _upward_imports(_part_graph()) == []
+
+
+def test_cython_imports_are_read():
+    source = PACKAGE / "_core" / "angle.pyx"
+    assert "startrack._core._wahba" in _imports(source)
 
 
 def test_upward_import_is_found():
