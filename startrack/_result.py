@@ -49,8 +49,9 @@ class SolveResult:
 
     Raises
     ------
-    Nothing: reading a property never raises; a frame that cannot be read raises in
-    :meth:`Solver.solve` instead.
+    None
+        Its properties never raise: an unsolved frame gives None and an empty table (a
+        frame that cannot be read raises in :meth:`Solver.solve` instead).
 
     Examples
     --------
