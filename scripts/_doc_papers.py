@@ -1,17 +1,20 @@
-"""The fixed prose of docs/results.md: what the seed papers say (their numbers, not ours)."""
+"""The fixed prose of docs/results.md: what the two papers say (their numbers, not ours)."""
 
 HEADER = """\
-# Results: the two seed papers' comparisons, re-run on the startrack bench
+# Results: the two papers' comparisons, re-run on the startrack bench
 
-This page is written by `scripts/_results_doc.py` from the tables that
-`scripts/paper2011.py` and `scripts/seed002_radial.py` save under `out/`; each section
-says the commit, command, date and machine it was made with. Nothing here is typed by
-hand except prose that states no number. To regenerate it:
+This page is written by `scripts/_results_doc.py` from the small tables each paper's
+script saves in the repository under `docs/data/<section>/`, each with a `run.json` that
+records the command, commit, date and machine it was made with; every section below
+states them. Nothing here is typed by hand except prose that states no number. The page
+is always rebuilt from every section's saved tables, so re-running one paper's script
+leaves the other's section as it was. To regenerate it:
 
 ```
-.venv/bin/python scripts/paper2011.py         # --frames, --timing-frames, --fov-frames: run size
-.venv/bin/python scripts/seed002_radial.py    # --frames, --raw-frames: run size
-.venv/bin/python scripts/_results_doc.py      # re-render from the saved tables alone
+.venv/bin/python scripts/paper2011.py --jobs 2      # --frames ...: run size
+.venv/bin/python scripts/seed002_radial.py --jobs 2 # --frames, --raw-frames: run size
+.venv/bin/python scripts/_results_doc.py            # re-render from the saved tables alone
+.venv/bin/python scripts/_results_doc.py --check    # exit 1: a section unsaved or stale
 ```
 
 Each section below gives the exact command, and so the frame counts, of the run shown.
@@ -29,24 +32,27 @@ script makes these measurements on them:
   unverified, scored against the truth, and how many wrong hypotheses come before the
   first right one. The papers had no separate verification stage, so their "accuracy"
   is this one.
-* **time**: the bench's median `identify_ms` (worker processes on a shared machine),
-  and a pass in one process that keeps the fastest of a few runs per frame (`t_seq`),
-  split into the time inside the matcher's hypothesis generator (`t_match`) and the
-  rest (verification and attitude). Methods are compared by ratios within one pass.
+* **time**: a pass in one process that keeps the fastest of a few runs per frame,
+  split into the time inside the matcher's hypothesis generator and the rest
+  (verification and attitude); each section states its warm-up, repeats, median and
+  p95, and the machine and its load. Methods are compared within one pass.
+* **paired tests**: every method sees the same frames, so two methods are compared frame
+  by frame with the exact McNemar test (`startrack/bench/stats.py`); every rate carries
+  its 95% Wilson interval.
 """
 
 CLAIMS = """\
 ## What the papers claim
 
-### Seed 000: Sedaghat, Toloei, Ghanbarpoor (2011)
+### Sedaghat, Toloei, Ghanbarpoor (2011): triangle base and search speed
 
 "Automatic star identification using triangle base and increase search speed" (Persian,
 English abstract).
 
 
-The stored copy (`/work/shared/seeds/000_*.txt`) ends at Figure 9 (the flowchart of the
-triangle method). **It contains no results section: no table or figure of time,
-accuracy, noise levels or false-star results, and no number to quote.** What it does say:
+The copy we have ends at Figure 9 (the flowchart of the triangle method). **It contains
+no results section: no table or figure of time, accuracy, noise levels or false-star
+results, and no number to quote.** What it does say:
 
 * Setup (introduction, translated): "We take a sky with a random distribution of 2000
   stars, assume the camera's field of view (0.025 x 0.025), select the five larger
@@ -54,22 +60,13 @@ accuracy, noise levels or false-star results, and no number to quote.** What it 
   the triangle method and the new hybrid method, and compared with one another in time
   required, accuracy and the effect of noise." The unit of 0.025 is not given. If it is
   radians (1.43 deg) over the whole sky, a 2000-star random sky would put almost no star
-  in the field; section 1 reads it two ways (a wider field, and 0.025 rad over a
-  2000-star patch) and says what each implies.
-* Abstract (English, verbatim in substance): the planar triangle (area + polar moment)
-  "very quickly narrow[s]" the candidates, needs "fewer pivots" and "is more likely to
-  yield the correct solution than the angle method"; the new method "first, by angle
-  method candidate[s] some stars", then the triangle method completes the identification
-  "in fewer time"; "this new method is faster than triangle and more accurate than angle
-  method and we do not [need] pivoting"; "simulation results show ... its robustness
-  with respect to including false stars". The Persian abstract adds: "[the hybrid] is
-  more robust against false stars in the field of view than either of the methods".
-* Triangle section (translated): the triangle method "does not work with fewer than 3
-  stars in the field of view, while the angle method needs 2"; testing each candidate
-  without pivoting is slow because "there are hundreds of answers for every triangle in
-  the field of view".
+  in the field; its section below reads it two ways (a wider field, and 0.025 rad over
+  a 2000-star patch) and says what each implies.
+* Every claim the paper makes about the three methods is quoted in full (the English
+  abstract as printed, the Persian sentences with a translation) in its section below,
+  each with its verdict and paired tests.
 
-### Seed 002: radial features + triangles (2017 or after)
+### Radial features + triangles (2017 or after)
 
 "An improved triangle star identification algorithm with radial features" (Chinese, Rocket
 Force University of Engineering, Xi'an; it builds on the radial features of Zhang, Wei and
@@ -101,10 +98,10 @@ Jiang 2008).
 LIMITS = """\
 ## Limits of these comparisons
 
-* Seed 000's numbers could not be compared because its results are not in the stored
-  text; we test its stated claims only, at field widths of our choosing (section 1).
-* Seed 002 worked on real ground images of one sky patch with the navigation stars of
-  that patch; we use simulated centroids (Gaussian noise, uniform false stars) over the
-  whole sky, which makes the search harder than the paper's for every method.
+* The 2011 paper's numbers could not be compared because its results are not in the stored
+  text; we test its stated claims only, at field widths of our choosing.
+* The radial-features paper worked on real ground images of one sky patch with the
+  navigation stars of that patch; we use simulated centroids (Gaussian noise, uniform
+  false stars) over the whole sky, which makes the search harder than the paper's for every method.
 * Timings come from a shared machine; read them as ratios within one pass.
 """

@@ -1,4 +1,4 @@
-"""Section 2 of docs/results.md (seed 002 on the bench), from out/seed002_radial/'s tables."""
+"""The radial-features paper's section of docs/results.md, from docs/data/radial-features/."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ part of it inside the matcher; `cand`: median database candidates per frame; `hy
 hypotheses verified).
 """
 PARAMETERS = """\
-* **What is compared.** Seed 002's baseline is the classic side-side-side triangle test
+* **What is compared.** The paper's baseline is the classic side-side-side triangle test
   over all catalog stars: `sss` here (the radial matcher with no prefilter, through the
   pair table). `triangle` is our planar-triangle matcher (area and polar moment on a
   k-vector table), a different method, so a difference between `triangle` and `radial`
@@ -124,7 +124,7 @@ def _cost(t: pd.DataFrame) -> str:
 
 def section(out: Path, run: dict | None) -> str:
     """The markdown of section 2, or a note when the run has not been made."""
-    head = "## 2. Seed 002 on the bench: triangles with and without radial features\n\n"
+    head = ""  # the renderer writes the section's title
     saved = saved_run(out, run, "radial_triangles.toml")
     if saved is None:
         return head + run_block(None, "scripts/seed002_radial.py")
@@ -139,7 +139,7 @@ def section(out: Path, run: dict | None) -> str:
              f"first {run['limit']} hypotheses each.\n\n")
     return (head + run_block(run, "scripts/seed002_radial.py") + "\n" + intro
             + f"```\n{fmt_table(t, COLUMNS)}\n```\n\n{LEGEND}\n"
-            + "![seed 002 misidentifications](figures/seed002_radial_misid.png)\n\n"
+            + "![radial-features misidentifications](figures/seed002_radial_misid.png)\n\n"
             + "### Against the paper's claims\n\n" + PARAMETERS + _rings(run) + _claims(t)
             + _cost(t) + _variants(t))
 

@@ -1,17 +1,24 @@
-"""docs/results.md from the seed scripts' saved tables, and the helpers those scripts share.
+"""docs/results.md from the papers' saved tables, and the helpers their scripts share.
 
-scripts/paper2011.py and scripts/seed002_radial.py save their tables under out/ with a
-run record (commit, command, date, machine); :func:`render` turns whatever is saved into
-docs/results.md, every number taken from the tables. Each script calls it when it ends;
-``python scripts/_results_doc.py`` re-renders from the saved tables alone.
+Each paper's script saves its small tables (CSV) under ``docs/data/<section>/``, in the
+repository, with a run record ``run.json`` beside them (command, commit, date, machine,
+load). :func:`render` always builds the whole page from every section's saved tables, so
+re-running one paper's script can never drop another's section; a section whose tables
+are missing renders as "not run" and ``tests/test_results_doc.py`` fails on it.
+``python scripts/_results_doc.py`` re-renders from the saved tables alone, and
+``--check`` exits 1 naming any section that is missing, unstamped, made from uncommitted
+changes or older than the last commit that changed startrack/ (the final regeneration's
+test; the unit tests check only that each section is saved and stamped).
 """
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import shlex
 import sys
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -20,17 +27,53 @@ import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "out"
+DATA = ROOT / "docs" / "data"
 DOC = ROOT / "docs" / "results.md"
 RUN_FILE = "run.json"
+#: what a run record must name for its section to count as stamped
+STAMP_KEYS = ("command", "git commit", "date (UTC)", "finished", "CPU")
 
 
-def add_run_args(ap, name: str) -> None:
-    """The options both seed scripts share: processes, resuming, where outputs go."""
+@dataclass(frozen=True)
+class Section:
+    """One paper's section of docs/results.md: its saved tables live in
+    ``docs/data/<slug>/``, ``script`` makes them, ``module.section(folder, run)`` (a
+    module in scripts/) renders them."""
+
+    slug: str
+    title: str
+    script: str
+    module: str
+
+    @property
+    def folder(self) -> Path:
+        return DATA / self.slug
+
+
+#: every section of the page, in its order; named after the papers, never numbered
+SECTIONS = (
+    Section("triangle-base-2011", "Automatic star identification using triangle base and "
+            "increase search speed (2011)", "scripts/paper2011.py", "_doc_triangle_base"),
+    Section("radial-features", "An improved triangle star identification algorithm with "
+            "radial features", "scripts/seed002_radial.py", "_doc_seed002"),
+)
+
+
+def section_by_slug(slug: str) -> Section:
+    return next(s for s in SECTIONS if s.slug == slug)
+
+
+def add_run_args(ap, name: str, slug: str | None = None) -> None:
+    """The options the papers' scripts share: processes, resuming, where the scratch
+    outputs go (``--out``, ignored by git) and where the saved tables go (``--data``)."""
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--resume", action="store_true",
                     help="finish an interrupted bench run in --out instead of starting over")
     ap.add_argument("--out", type=Path, default=OUT / name)
     ap.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
+    if slug is not None:
+        ap.add_argument("--data", type=Path, default=DATA / slug,
+                        help="where the section's small tables and run.json are saved")
 
 
 def run_record(argv: list[str] | None, script: str) -> dict:
@@ -54,6 +97,31 @@ def save_run(out: Path, record: dict, **extra) -> None:
 def load_run(out: Path) -> dict | None:
     path = out / RUN_FILE
     return json.loads(path.read_text()) if path.exists() else None
+
+
+def save_tables(folder: Path, record: dict, tables: dict[str, pd.DataFrame],
+                **extra) -> None:
+    """Save a section's tables as ``<name>.csv`` and then its run record (listing them):
+    the record goes last, so a section is never stamped with tables it does not have."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, table in tables.items():
+        table.to_csv(folder / f"{name}.csv", index=False, float_format="%.6g")
+    save_run(folder, record, tables=sorted(tables), **extra)
+
+
+def unstamped(folder: Path) -> str | None:
+    """Why the section saved in ``folder`` does not count, None when it does: no run
+    record, a record without command/commit/date, or a listed table missing."""
+    run = load_run(folder)
+    if run is None:
+        return f"no {RUN_FILE} in {folder}"
+    missing = [k for k in STAMP_KEYS if not run.get(k)]
+    if missing:
+        return f"{folder / RUN_FILE} lacks {', '.join(missing)}"
+    absent = [t for t in run.get("tables", []) if not (folder / f"{t}.csv").exists()]
+    if absent:
+        return f"{folder} lacks the tables {', '.join(absent)} its {RUN_FILE} lists"
+    return None
 
 
 def saved_run(out: Path, run: dict | None, preset: str):
@@ -159,17 +227,40 @@ def run_block(run: dict | None, name: str) -> str:
             f"{', ' + run['libraries'] if 'libraries' in run else ''}.\n")
 
 
+def render_section(section: Section) -> str:
+    """The markdown of one section, from its saved tables (a note when not run)."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    module = importlib.import_module(section.module)
+    head = f"## {section.title}\n\n"
+    if unstamped(section.folder) is not None:
+        return head + run_block(None, section.script)
+    return head + module.section(section.folder, load_run(section.folder))
+
+
+def section_summary(section: Section) -> str:
+    """A section's one-line summary for the README: its module's ``summary(folder, run)``
+    when it has one, with the stamp; says so when the section is not saved."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    why = unstamped(section.folder)
+    if why is not None:
+        return f"*{section.title}*: not run ({why})."
+    run = load_run(section.folder)
+    module = importlib.import_module(section.module)
+    said = module.summary(section.folder, run) if hasattr(module, "summary") else (
+        "see docs/results.md")
+    commit = str(run["git commit"])
+    return (f"*{section.title}*: {said}; made by `{run['command']}` at commit "
+            f"`{commit[:12]}{'+dirty' if commit.endswith('+dirty') else ''}` on "
+            f"{run['date (UTC)']} UTC.")
+
+
 def render(doc: Path = DOC) -> Path:
-    """Write docs/results.md from the saved tables of both seed scripts."""
+    """Write docs/results.md from every section's saved tables."""
     sys.path.insert(0, str(Path(__file__).parent))
     import _doc_papers
-    import _doc_seed000
-    import _doc_seed002
 
     parts = [_doc_papers.HEADER, _doc_papers.CLAIMS,
-             _doc_seed000.section(OUT / "paper2011", load_run(OUT / "paper2011")),
-             _doc_seed002.section(OUT / "seed002_radial", load_run(OUT / "seed002_radial")),
-             _doc_papers.LIMITS]
+             *(render_section(s) for s in SECTIONS), _doc_papers.LIMITS]
     text = "\n".join(p.rstrip("\n") + "\n" for p in parts)
     tmp = doc.with_suffix(".md.tmp")
     tmp.write_text(text)
@@ -177,5 +268,34 @@ def render(doc: Path = DOC) -> Path:
     return doc
 
 
-if __name__ == "__main__":
+def stale(folder: Path) -> str | None:
+    """Why the saved section in ``folder`` is older than the code, None when it is not:
+    made from uncommitted changes, or startrack/ changed in a commit after its own."""
+    import subprocess
+
+    commit = str(load_run(folder)["git commit"])
+    if commit.endswith("+dirty"):
+        return f"made from uncommitted changes at {commit[:12]}"
+    log = subprocess.run(["git", "-C", str(ROOT), "log", "--oneline", f"{commit}..HEAD",
+                          "--", "startrack/"], capture_output=True, text=True)
+    if log.returncode != 0:
+        return f"its commit {commit[:12]} is not in this checkout"
+    changes = log.stdout.splitlines()
+    return f"{len(changes)} commit(s) changed startrack/ since {commit[:12]}" if changes \
+        else None
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    if "--check" in args:
+        problems = [f"{s.title}: {why}" for s in SECTIONS
+                    if (why := unstamped(s.folder) or stale(s.folder)) is not None]
+        for line in problems:
+            print(line, file=sys.stderr)
+        return 1 if problems else 0
     print(f"wrote {render()}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

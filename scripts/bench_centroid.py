@@ -8,10 +8,14 @@ SensorModel: PSF sigma 1 px, read noise 10 e-, 16-bit ADC), so the truth is exac
 2. Detection completeness against magnitude: random skies (magnitudes uniform in 4..10),
    20 deg field, random attitudes; detections within 1.5 px of a star count as found.
 3. Time per frame (ms) on a rendered 1024 x 1024 frame and on a real-sky frame.
+4. Time per frame as a user meets it: each real frame in a new process, whose first call
+   of ``extract_centroids`` comes right after the import (no warm-up), beside the median
+   of the calls after it (warm).
 
     .venv/bin/python scripts/bench_centroid.py
     .venv/bin/python scripts/bench_centroid.py --frames 20 --repeats 30
     .venv/bin/python scripts/bench_centroid.py --fast      # the same for CentroidConfig.fast
+    .venv/bin/python scripts/bench_centroid.py --only-first-call --images DIR  # 4. only
 
 Beside tetra3rs on the same pixels: scripts/bench_centroid_peers.py.
 """
@@ -19,6 +23,9 @@ Beside tetra3rs on the same pixels: scripts/bench_centroid_peers.py.
 from __future__ import annotations
 
 import argparse
+import json
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -135,21 +142,74 @@ def timing_table(sensor: SensorModel, repeats: int, rng: np.random.Generator) ->
               f"{1e3 * np.min(times):6.1f} ms  ({len(found)} centroids)")
 
 
+# Run in a new process: the import is timed apart, then the first call, then warm calls.
+_FIRST_CALL = """
+import json, sys, time
+import numpy as np
+from startrack.io._images import read_image
+image = read_image(sys.argv[1])
+t0 = time.perf_counter()
+from startrack.centroids._extract import FAST, CentroidConfig, extract_centroids
+t1 = time.perf_counter()
+config = FAST if sys.argv[3] == "fast" else CentroidConfig()
+c1 = time.process_time()
+found = extract_centroids(image, config)
+t2, c2 = time.perf_counter(), time.process_time()
+warm, warm_cpu = [], []
+for _ in range(int(sys.argv[2])):
+    t, c = time.perf_counter(), time.process_time()
+    extract_centroids(image, config)
+    warm.append(time.perf_counter() - t)
+    warm_cpu.append(time.process_time() - c)
+print(json.dumps({"import": t1 - t0, "first": t2 - t1, "warm": float(np.median(warm)),
+                  "first_cpu": c2 - c1, "warm_cpu": float(np.median(warm_cpu)),
+                  "n": len(found), "numba": "numba" in sys.modules}))
+"""
+
+
+def first_call_table(images: list[Path], repeats: int, fast: bool) -> None:
+    print(f"\n4. extract_centroids in a new process per frame: its import, its first call "
+          f"(no warm-up), and the median of {repeats} calls after it; wall-clock, and the "
+          "CPU time of the process (all its threads), which load on the machine does not "
+          "inflate")
+    print(f"{'frame':>44} {'import ms':>10} {'first ms':>9} {'warm ms':>8} {'first cpu':>10} "
+          f"{'warm cpu':>9} {'stars':>6}")
+    for path in images:
+        run = subprocess.run([sys.executable, "-c", _FIRST_CALL, str(path), str(repeats),
+                              "fast" if fast else "full"], capture_output=True, text=True,
+                             check=True)
+        r = json.loads(run.stdout)
+        print(f"{path.name:>44} {1e3 * r['import']:>10.1f} {1e3 * r['first']:>9.1f} "
+              f"{1e3 * r['warm']:>8.1f} {1e3 * r['first_cpu']:>10.1f} "
+              f"{1e3 * r['warm_cpu']:>9.1f} {r['n']:>6}"
+              + ("  (numba loaded)" if r["numba"] else ""))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=8, help="frames per table row")
     parser.add_argument("--repeats", type=int, default=15, help="timing repeats")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--fast", action="store_true", help="CentroidConfig(fast=True)")
+    parser.add_argument("--images", type=Path, default=None,
+                        help="folder of real frames (*.tif*, *.png) for table 4 (default: "
+                             "the test frame)")
+    parser.add_argument("--only-first-call", action="store_true", help="table 4 only")
     args = parser.parse_args()
+    images = [REAL_SKY] if args.images is None else sorted(
+        p for p in args.images.iterdir() if p.suffix.lower() in (".tif", ".tiff", ".png"))
     global CONFIG
     CONFIG = FAST if args.fast else CentroidConfig()
     print(f"extract_centroids with {CONFIG}")
+    if args.only_first_call:
+        first_call_table(images, args.repeats, args.fast)
+        return
     rng = np.random.default_rng(args.seed)
     sensor = SensorModel()
     accuracy_table(sensor, args.frames, rng)
     completeness_table(sensor, args.frames, rng)
     timing_table(sensor, args.repeats, rng)
+    first_call_table(images, args.repeats, args.fast)
 
 
 if __name__ == "__main__":

@@ -6,13 +6,13 @@ default SensorModel, a random sky to magnitude 8 seen at 20 deg, seeded). Each r
 times every extractor once on the same array, in turn, so that load on the machine hits
 all of them alike; the table gives medians and the ratio ours / tetra3rs.
 
-Both are timed with their defaults (startrack: NUMBA_NUM_THREADS threads, by default
-every core; tetra3rs: every core) and on one thread (CentroidConfig(threads=1),
-tetra3rs threads=1). Agreement: of the tetra3rs centroids, how many have one of ours
-within 1 px, and the other way round (tetra3rs's origin is the image centre, (W-1)/2).
-On rendered frames both are scored against the truth: stars found within 1.5 px and the
-RMS position error of those of signal above 3000 e- (where both should be near the
-photon limit).
+Both are timed with their defaults (startrack: a thread per core the process may use,
+fewer when the machine is busy; tetra3rs: every core) and on one thread
+(CentroidConfig(threads=1), tetra3rs threads=1). Agreement: of the tetra3rs centroids,
+how many have one of ours within 1 px, and the other way round (tetra3rs's origin is the
+image centre, (W-1)/2). On rendered frames both are scored against the truth: stars
+found within 1.5 px and the RMS position error of those of signal above 3000 e- (where
+both should be near the photon limit).
 
     PYTHONPATH=. /work/peers-venv/bin/python scripts/bench_centroid_peers.py [--repeats 15]
 """

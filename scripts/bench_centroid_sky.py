@@ -19,7 +19,6 @@ from pathlib import Path
 import numpy as np
 from scipy.ndimage import binary_dilation
 
-from startrack import extract_kernels
 from startrack.centroids import _extract as extract
 from startrack.io._images import read_image
 
@@ -40,7 +39,7 @@ def sky_model(image: np.ndarray, config=None) -> np.ndarray:
         extract.extract_centroids(image, config)
     finally:
         extract._components = components
-    return extract_kernels.background_image(caught["model"], *image.shape)
+    return caught["model"].image()
 
 
 def box_medians(resid: np.ndarray, keep: np.ndarray, box: int, offset: int) -> np.ndarray:

@@ -1,118 +1,163 @@
-"""Reproduce seed 000's experiment (Sedaghat, Toloei, Ghanbarpoor 2011): angle, planar
-triangle and hybrid on a random 2000-star sky, patterns from the five brightest stars,
-compared on time, accuracy and noise, and on false stars.
+"""Re-run the experiment of "Automatic star identification using triangle base and increase
+search speed" (Sedaghat, Toloei, Ghanbarpoor 2011): angle, planar triangle and hybrid on a
+random 2000-star sky, patterns from the five brightest stars, judged claim by claim.
 
-Four measurements on the same deterministic frames (startrack.bench.frames):
+Four measurements on the same deterministic frames (startrack.bench.frames), every method
+(ours and the paper's literal variants) on every frame:
 
-1. the bench (``run_comparison``, ``--jobs`` processes): verified solutions, scored;
-2. a sequential pass over the first ``--timing-frames`` frames of each condition: the
-   fastest of ``--repeats`` identify() runs in this one process (timings on a shared
-   machine are otherwise dominated by preemption), with each method's diagnostics;
-3. in the same pass, each matcher's *unverified* first hypothesis scored against the
-   truth (startrack.bench.raw): the accuracy a matcher has on its own, as in the paper;
-   the time spent inside the matcher; the verified answer on the five brightest spots;
-4. the same bench at other field widths (``--fov``), and the paper's "0.025 x 0.025" read
-   as 0.025 rad over a 2000-star patch (the patch size that reading implies).
+1. verified (the bench, ``--frames`` per condition, ``--jobs`` processes): the answer
+   ``identify()`` returns after the shared verification, over a noise x false-star grid;
+2. raw (``--raw-frames`` per condition, ``--jobs`` processes): each matcher's first
+   hypothesis, unverified, scored against the truth (the paper's accuracy), with its
+   pivots and catalog candidates;
+3. timing (``--timing-frames`` per condition of the two one-axis sweeps, in this one
+   process): after ``--warmup`` untimed frames per method, the fastest of ``--repeats``
+   identify() runs per frame, methods interleaved frame by frame; median and p95;
+4. the bench at other field widths (``--fov``, ``--fov-frames``).
 
-    .venv/bin/python scripts/paper2011.py                 # the full run
-    .venv/bin/python scripts/paper2011.py --frames 200 --timing-frames 60 --fov-frames 100
+Then every claim's paired tests (scripts/_paper2011_claims.py). Saves the small tables
+(table.csv, timing.csv, fov.csv, claims.csv) and run.json in docs/data/triangle-base-2011/,
+the plot in docs/figures/paper2011_rates.png, and re-renders docs/results.md.
 
-Writes out/paper2011/ (bench/ with frames.csv, summary.csv and plots; seq.csv; table.csv;
-fov.csv and fov_*/; run.json), docs/figures/paper2011_sweeps.png and docs/results.md
-(scripts/_results_doc.py), and prints the tables.
+    .venv/bin/python scripts/paper2011.py --jobs 2               # the full run
+    .venv/bin/python scripts/paper2011.py --frames 40 --raw-frames 20 --timing-frames 10 \\
+        --fov-frames 20 --jobs 2                                  # a quick look
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
+import os
 import sys
 import time
 from pathlib import Path
 
+import _paper2011_claims as claims
 import _results_doc as results_doc
 import numpy as np
 import pandas as pd
-from _doc_seed000 import COLUMNS, FOV_COLUMNS
 
 from startrack.bench.conditions import build_conditions
-from startrack.bench.raw import raw_unit, summarise_raw
-from startrack.bench.runner import RunSpec
-from startrack.bench.session import format_table, run_comparison
+from startrack.bench.rate_plots import RatePanel, plot_rate_grid
+from startrack.bench.raw import raw_pass, timed_runs
+from startrack.bench.runner import RunSpec, bench_frame, load_bench
+from startrack.bench.session import run_comparison
 from startrack.simulate._config import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "paper2011.toml"
+SLUG = "triangle-base-2011"
 METHODS = ("angle", "triangle", "hybrid")
 # The paper-literal variants run beside ours (startrack/matchers: registered names).
-VARIANTS = ("angle_closed", "angle_open", "triangle_nopivot", "hybrid_nofourth")
+VARIANTS = ("angle_closed", "angle_open", "triangle_nopivot", "triangle_first",
+            "hybrid_nofourth", "hybrid_single")
+PLOTTED = ("angle", "triangle", "hybrid", "angle_open", "triangle_first", "hybrid_single")
 NOISE_PX = (0.0, 0.5, 1.0, 2.0, 3.0)
 FALSE_STARS = (0, 1, 2, 3, 5)
-KEYS = ["condition", "noise_px", "false_stars", "method"]
+GROUP = ["condition", "noise_px", "false_stars", "method"]
 
 
-def make_spec(frames: int, methods=METHODS, noise=NOISE_PX, false=FALSE_STARS) -> RunSpec:
+def make_spec(frames: int, methods=METHODS, noise=NOISE_PX, false=FALSE_STARS,
+              grid: str = "full") -> RunSpec:
     cfg = load_config(CONFIG)
     levels = {"noise_px": tuple(noise), "false_stars": tuple(false), "missing": (0.0,),
               "mag_noise": (0.0,)}
-    return RunSpec(methods=tuple(methods), conditions=tuple(build_conditions(levels)),
+    return RunSpec(methods=tuple(methods), conditions=tuple(build_conditions(levels, grid)),
                    frames=frames, seed=cfg.frames.seed, camera=cfg.camera, sky=cfg.sky,
                    max_stars=5, extra_stars=0,  # the paper's five brightest, no more
-                   hot_pixel_fraction=cfg.frames.hot_pixel_fraction)
+                   hot_pixel_fraction=cfg.frames.hot_pixel_fraction, grid=grid)
 
 
-def sequential_pass(spec: RunSpec, frames: int, repeats: int) -> pd.DataFrame:
+def raw_frames(spec: RunSpec, frames: int, jobs: int) -> pd.DataFrame:
+    """The raw pass (first hypotheses unverified, diagnostics of one verified run) with
+    each frame's catalog candidates per lookup (``kept_per_lookup``, ``area_per_lookup``)."""
+    raw = raw_pass(spec, frames, repeats=1, jobs=jobs)
+    raw["kept_per_lookup"] = claims.per_lookup(raw)
+    lookups = raw["x_lookups"].where(raw["x_lookups"] > 0) if "x_lookups" in raw else np.nan
+    raw["area_per_lookup"] = raw["candidates"] / lookups
+    return raw
+
+
+def timing_frames(spec: RunSpec, frames: int, repeats: int, warmup: int) -> pd.DataFrame:
+    """The timing pass in this process: ``warmup`` untimed frames per method first, then
+    per frame every method in turn, the fastest of ``repeats`` runs each."""
+    bench = load_bench(spec)
+    for f in range(warmup):
+        _, _, bf = bench_frame(spec, 0, spec.frames + f)  # frames the timing never uses
+        for name in spec.methods:
+            bench.identifier(name, bf.obs.camera).identify(bf.obs)
     rows = []
-    for c in range(len(spec.conditions)):
+    for c, cond in enumerate(spec.conditions):
         for f in range(min(frames, spec.frames)):
-            rows += raw_unit(spec, c, f, repeats=repeats)
+            _, _, bf = bench_frame(spec, c, f)
+            for name in spec.methods:
+                ident = bench.identifier(name, bf.obs.camera)
+                timed = timed_runs(ident, bf.obs, repeats, bf.truth_rows)
+                rows.append({"condition": c, **cond.to_dict(), "frame": f, "method": name,
+                             "seq_ms": timed["seq_ms"], "matcher_ms": timed["matcher_ms"]})
     return pd.DataFrame(rows)
 
 
-def combine(summary: pd.DataFrame, seq: pd.DataFrame) -> pd.DataFrame:
-    """One row per (condition, method): bench rates, sequential timing and diagnostics,
-    raw first-hypothesis accuracy; time ratios against the triangle method."""
-    raw = summarise_raw(seq, KEYS).rename(columns={"frames": "raw_frames"})
-    agg = seq.groupby(KEYS, sort=False).agg(
-        seq_ms_median=("seq_ms", "median"), seq_ms_mean=("seq_ms", "mean"),
-        matcher_ms_median=("matcher_ms", "median"), verify_ms_median=("verify_ms", "median"),
-        top5_rate=("top5_correct", "mean"), top5_ids_rate=("top5_ids_right", "mean"),
-        cand_median=("candidates", "median"), pivots_mean=("pivots", "mean"),
-        hyps_mean=("hypotheses", "mean"),
-        top3_rate=("real_in_top", lambda s: float((s >= 3).mean())),
-    ).reset_index()
-    if "x_shortlist_mean" in seq:
-        short = seq[seq["method"] == "hybrid"].groupby(KEYS, sort=False)[
-            "x_shortlist_mean"].median().rename("shortlist_median").reset_index()
-        agg = agg.merge(short, on=KEYS, how="left")
-    bench = summary[["condition", "method", "frames", "solved_rate", "correct_rate", "wrong",
-                     "star_precision", "boresight_median_arcsec", "time_median_ms"]]
-    table = bench.merge(agg, on=["condition", "method"]).merge(
-        raw[KEYS + ["raw_frames", "first_right_rate", "first_wrong_rate", "none_rate",
-                    "wrong_ids", "wrong_before_mean", "first_wrong_frames",
-                    "pairs_off_frames"]], on=KEYS)
-    tri = table[table["method"] == "triangle"].set_index("condition")["seq_ms_median"]
-    table["seq_vs_triangle"] = table["seq_ms_median"] / table["condition"].map(tri)
-    return table
+def _q95(s: pd.Series) -> float:
+    return float(np.percentile(s, 95))
 
 
+def timing_table(timing: pd.DataFrame) -> pd.DataFrame:
+    """Median and p95 per (condition, method), and the median over triangle's."""
+    t = timing.groupby(GROUP, sort=False).agg(
+        frames=("seq_ms", "size"), seq_ms_median=("seq_ms", "median"),
+        seq_ms_p95=("seq_ms", _q95), matcher_ms_median=("matcher_ms", "median"),
+        matcher_ms_p95=("matcher_ms", _q95)).reset_index()
+    tri = t[t["method"] == "triangle"].set_index("condition")["seq_ms_median"]
+    t["vs_triangle"] = t["seq_ms_median"] / t["condition"].map(tri)
+    return t
 
-def fov_sensitivity(fovs, frames: int, jobs: int, out: Path) -> pd.DataFrame:
-    """The bench at other field widths (same sky, same 1024 px, five brightest stars):
-    exact centroids, 1 px noise and 3 false stars, with the stars in view per frame."""
+
+def summary_table(verified: pd.DataFrame, raw: pd.DataFrame) -> pd.DataFrame:
+    """Counts per (condition, method): verified right and wrong over ``frames``; raw first
+    hypothesis right, wrong and absent over ``raw_frames``; diagnostics."""
+    v = verified.groupby(GROUP, sort=False).agg(
+        frames=("correct", "size"), correct=("correct", "sum"), wrong=("wrong", "sum"),
+        boresight_median_arcsec=("boresight_error_arcsec", "median")).reset_index()
+    yielded, right = raw["yielded"].astype(bool), raw["first_right"].astype(bool)
+    raw = raw.assign(first_wrong=yielded & ~right, none=~yielded, right=right,
+                     real3=raw["real_in_top"] >= 3)
+    r = raw.groupby(GROUP, sort=False).agg(
+        raw_frames=("right", "size"), first_right=("right", "sum"),
+        first_wrong=("first_wrong", "sum"), no_answer=("none", "sum"),
+        top5=("top5_correct", "sum"), real3=("real3", "sum"),
+        pivots_mean=("pivots", "mean"), hyps_mean=("hypotheses", "mean"),
+        cand_median=("candidates", "median"), kept_per_lookup=("kept_per_lookup", "median"),
+        area_per_lookup=("area_per_lookup", "median")).reset_index()
+    return v.merge(r, on=GROUP, how="left")
+
+
+def fov_runs(fovs, frames: int, jobs: int, out: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The bench at other field widths (same sky, same 1024 px, five brightest stars,
+    noise 0 and 1 px x 0 and 3 false stars): (summary per field, condition and method
+    with the stars in view; the frames of the narrowest field)."""
     from startrack.camera._model import Camera
 
-    rows = []
+    tables, narrow = [], None
     for fov in fovs:
-        spec = make_spec(frames, noise=(0.0, 1.0), false=(0, 3))
+        spec = make_spec(frames, METHODS + ("angle_open", "triangle_first", "hybrid_single"),
+                         noise=(0.0, 1.0), false=(0, 3))
         spec = dataclasses.replace(spec, camera=Camera.from_fov(1024, 1024, fov))
         res = run_comparison(spec, out / f"fov_{fov:g}", jobs=jobs, resume=False)
-        view = pd.read_csv(res.frames_csv).groupby("condition")["n_true_in_view"]
-        s = res.summary.assign(fov_deg=fov, view_mean=res.summary["condition"].map(
-            view.mean()), view_min=res.summary["condition"].map(view.min()),
-            view_max=res.summary["condition"].map(view.max()))
-        rows.append(s)
-    return pd.concat(rows, ignore_index=True)
+        f = pd.read_csv(res.frames_csv)
+        view = f.groupby("condition")["n_true_in_view"]
+        t = f.groupby(GROUP, sort=False).agg(frames=("correct", "size"),
+                                             correct=("correct", "sum"),
+                                             wrong=("wrong", "sum")).reset_index()
+        t = t.assign(fov_deg=fov, view_mean=t["condition"].map(view.mean()),
+                     view_min=t["condition"].map(view.min()),
+                     view_max=t["condition"].map(view.max()))
+        tables.append(t)
+        if narrow is None or fov < narrow[0]:
+            narrow = (fov, f)
+    return pd.concat(tables, ignore_index=True), narrow[1]
 
 
 def patch_reading(n_stars: int, fov_rad: float, view_mean: float) -> dict:
@@ -126,20 +171,75 @@ def patch_reading(n_stars: int, fov_rad: float, view_mean: float) -> dict:
             "patch_fraction_of_sky": patch_sr / (4 * np.pi)}
 
 
+def plot(table: pd.DataFrame, path: Path, run: dict) -> Path:
+    methods = [m for m in PLOTTED if m in set(table["method"])]
+    return plot_rate_grid(
+        table, methods,
+        [RatePanel("verified and right", "correct", "frames"),
+         RatePanel("first hypothesis right, unverified", "first_right", "raw_frames")],
+        path, f"The 2011 paper's setup: random 2000-star sky, 17.5 deg, 5 brightest stars; "
+              f"verified {run['frames']} frames, raw {run['raw_frames']} frames per point "
+              f"(commit {run['git commit'][:12]})")
+
+
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=1000, help="bench frames per condition")
+    ap.add_argument("--frames", type=int, default=1000,
+                    help="verified bench frames per condition")
+    ap.add_argument("--raw-frames", type=int, default=300,
+                    help="frames per condition of the raw (unverified) pass")
     ap.add_argument("--timing-frames", type=int, default=300,
-                    help="frames per condition of the sequential timing/raw pass")
+                    help="frames per condition of the timing pass (one process)")
     ap.add_argument("--repeats", type=int, default=3, help="identify runs per timing")
+    ap.add_argument("--warmup", type=int, default=20,
+                    help="untimed frames per method before the timing pass")
     ap.add_argument("--methods", default=",".join(METHODS + VARIANTS),
                     help="comma-separated matcher names (variants included)")
     ap.add_argument("--fov", default="10,17.5,25",
-                    help="field widths (deg) of the FOV sensitivity run ('' to skip)")
+                    help="field widths (deg) of the field-width runs ('' to skip)")
     ap.add_argument("--fov-frames", type=int, default=200,
-                    help="bench frames per condition of the FOV sensitivity run")
-    results_doc.add_run_args(ap, "paper2011")
+                    help="bench frames per condition of the field-width runs")
+    ap.add_argument("--reuse", action="store_true",
+                    help="no measuring: the per-frame tables of the last run in --out, "
+                         "stamped with that run's record (give the same sizes)")
+    results_doc.add_run_args(ap, "paper2011", SLUG)
     return ap.parse_args(argv)
+
+
+def measure(args, spec: RunSpec) -> dict[str, pd.DataFrame]:
+    """The four measurements; returns the per-frame tables by name."""
+    t0 = time.perf_counter()
+    result = run_comparison(spec, args.out / "bench", jobs=args.jobs,
+                            resume=args.resume or False)
+    verified = pd.read_csv(result.frames_csv)
+    print(f"verified: {time.perf_counter() - t0:.0f} s", flush=True)
+    t0 = time.perf_counter()
+    raw = raw_frames(spec, args.raw_frames, args.jobs)
+    print(f"raw: {time.perf_counter() - t0:.0f} s", flush=True)
+    t0 = time.perf_counter()
+    oat = make_spec(args.frames, spec.methods, grid="oat")
+    load = os.getloadavg()
+    timing = timing_frames(oat, args.timing_frames, args.repeats, args.warmup)
+    timing.attrs["load"] = [round(x, 2) for x in (*load, *os.getloadavg())]
+    print(f"timing: {time.perf_counter() - t0:.0f} s", flush=True)
+    t0 = time.perf_counter()
+    fovs = [float(x) for x in args.fov.split(",") if x.strip()]
+    fov, fov10 = fov_runs(fovs, args.fov_frames, args.jobs, args.out) if fovs else (
+        pd.DataFrame(), pd.DataFrame(columns=verified.columns))
+    print(f"field widths: {time.perf_counter() - t0:.0f} s", flush=True)
+    data = {"verified": verified, "raw": raw, "timing": timing, "fov": fov, "fov10": fov10}
+    for name, frame in data.items():  # the per-frame tables, for --reuse
+        frame.to_csv(args.out / f"{name}_frames.csv", index=False)
+    (args.out / "timing_load.json").write_text(json.dumps(timing.attrs["load"]))
+    return data
+
+
+def reuse(out: Path) -> dict[str, pd.DataFrame]:
+    """The per-frame tables a previous run saved in ``out`` (``--reuse``)."""
+    data = {name: pd.read_csv(out / f"{name}_frames.csv")
+            for name in ("verified", "raw", "timing", "fov", "fov10")}
+    data["timing"].attrs["load"] = json.loads((out / "timing_load.json").read_text())
+    return data
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -147,40 +247,32 @@ def main(argv: list[str] | None = None) -> int:
     record = results_doc.run_record(argv, "scripts/paper2011.py")
     t_start = time.perf_counter()
     spec = make_spec(args.frames, methods=tuple(args.methods.split(",")))
-    result = run_comparison(spec, args.out / "bench", jobs=args.jobs,
-                            resume=args.resume or False)
-    print(format_table(result.summary))
-    t0 = time.perf_counter()
-    seq = sequential_pass(spec, args.timing_frames, args.repeats)
-    seq.to_csv(args.out / "seq.csv", index=False, float_format="%.6g")
-    table = combine(result.summary, seq)
-    table.to_csv(args.out / "table.csv", index=False, float_format="%.6g")
-    print(f"\nsequential pass: {min(args.timing_frames, args.frames)} frames per condition, "
-          f"best of {args.repeats} runs, {time.perf_counter() - t0:.0f} s\n")
-    print(results_doc.fmt_table(table, COLUMNS))
-    view = pd.read_csv(result.frames_csv).query("condition == 0")["n_true_in_view"]
-    fovs = [float(x) for x in args.fov.split(",") if x.strip()]
-    if fovs:
-        fov = fov_sensitivity(fovs, args.fov_frames, args.jobs, args.out)
-        fov.to_csv(args.out / "fov.csv", index=False, float_format="%.6g")
-        print(results_doc.fmt_table(fov, FOV_COLUMNS))
-    reading = patch_reading(spec.sky.n_stars, 0.025, float(view.mean()))
-    print(f"\n0.025 rad read as the field: {reading}")
-    results_doc.plot_sweeps(table, spec.conditions, spec.methods,
-                [("correct rate", [("correct_rate", "o-", "verified"),
-                                   ("first_right_rate", "x--", "raw 1st hyp."),
-                                   ("top5_rate", "s:", "verified, 5 stars")]),
-                 ("median ms (1 process)", [("seq_ms_median", "o-", "identify"),
-                                            ("matcher_ms_median", "x--", "matcher")])],
-                args.figures / "paper2011_sweeps.png",
-                f"Seed 000 setup: random 2000-star sky, 17.5 deg, 5 brightest stars. "
-                f"Verified: {spec.frames} frames per point; raw, 5-star and times: first "
-                f"{min(args.timing_frames, args.frames)}")
-    results_doc.save_run(args.out, record, wall_s=time.perf_counter() - t_start, frames=args.frames,
-             timing_frames=min(args.timing_frames, args.frames), repeats=args.repeats,
-             fov_frames=args.fov_frames, jobs=args.jobs, view_mean=float(view.mean()),
-             view_min=int(view.min()), view_max=int(view.max()), reading=reading)
-    print(f"\nwrote {args.out}/ and {results_doc.render()}")
+    if args.reuse:  # stamped with the run that measured the frames, not this one
+        data = reuse(args.out)
+        record = {**json.loads((args.out / "record.json").read_text()),
+                  "re-rendered": {k: record[k] for k in ("command", "git commit",
+                                                         "date (UTC)")}}
+    else:
+        (args.out).mkdir(parents=True, exist_ok=True)
+        (args.out / "record.json").write_text(json.dumps(record))
+        data = measure(args, spec)
+    table = summary_table(data["verified"], data["raw"])
+    timing = timing_table(data["timing"])
+    claim_rows = claims.claims_table(data)
+    view = data["verified"].query("condition == 0")["n_true_in_view"]
+    extra = dict(frames=args.frames, raw_frames=min(args.raw_frames, args.frames),
+                 timing_frames=min(args.timing_frames, args.frames), repeats=args.repeats,
+                 warmup=args.warmup, fov_frames=args.fov_frames, jobs=args.jobs,
+                 timing_load=data["timing"].attrs["load"], cpus=os.cpu_count(),
+                 view_mean=float(view.mean()), view_min=int(view.min()),
+                 view_max=int(view.max()),
+                 reading=patch_reading(spec.sky.n_stars, 0.025, float(view.mean())))
+    figure = plot(table, args.figures / "paper2011_rates.png", {**record, **extra})
+    results_doc.save_tables(args.data, record, {
+        "table": table, "timing": timing, "fov": data["fov"], "claims": claim_rows},
+        wall_s=time.perf_counter() - t_start, figure=str(figure.relative_to(ROOT)), **extra)
+    print(claim_rows[claim_rows["condition"] == "pooled"].to_string(index=False))
+    print(f"\nwrote {args.data}/, {figure} and {results_doc.render()}")
     return 0
 
 

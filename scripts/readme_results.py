@@ -1,8 +1,11 @@
-"""Regenerate the README's results table: run `startrack compare` on the Hipparcos preset
-and write its summary between the README's results markers, with the command, the commit
-and the date it ran at. Nothing in that table is typed by hand.
+"""Regenerate the README's results: run `startrack compare` on the Hipparcos preset and
+write its summary between the README's results markers, with the command, the commit and
+the date it ran at; and write what docs/results.md shows of the two papers (each section's
+verdicts and stamp, from the tables saved in docs/data/) between the papers markers.
+Nothing in either is typed by hand.
 
     .venv/bin/python scripts/readme_results.py                      # ours only
+    .venv/bin/python scripts/readme_results.py --papers-only        # the papers' lines only
     PYTHONPATH=. /work/peers-venv/bin/python scripts/readme_results.py \
         --methods angle,triangle,hybrid,radial,pyramid,tetra3,tetra3rs  # with the peers
 
@@ -23,6 +26,7 @@ from startrack.bench.report import summary_table
 
 ROOT = Path(__file__).resolve().parents[1]
 START, END = "<!-- results:start -->", "<!-- results:end -->"
+PAPERS_START, PAPERS_END = "<!-- papers:start -->", "<!-- papers:end -->"
 DEFAULT_METHODS = "angle,triangle,hybrid,radial,pyramid"
 
 
@@ -41,13 +45,50 @@ def section(summary: pd.DataFrame, command: str, commit: str, date: str) -> str:
             + summary_table(summary) + f"\n{END}")
 
 
+def papers_section() -> str:
+    """The README's lines on the two papers: what each section of docs/results.md says
+    (scripts/_results_doc.py's summaries, from the saved tables)."""
+    sys.path.insert(0, str(ROOT / "scripts"))
+    import _results_doc
+
+    lines = [f"* {_results_doc.section_summary(s)}" for s in _results_doc.SECTIONS]
+    return (f"{PAPERS_START}\n`docs/results.md` re-runs the two papers' experiments, their "
+            "literal variants beside ours, and judges each claim with paired tests; it is "
+            "rendered by `scripts/_results_doc.py` from the tables each paper's script saves "
+            "in `docs/data/` (written here by `scripts/readme_results.py`):\n\n"
+            + "\n".join(lines) + f"\n{PAPERS_END}")
+
+
+def replace_block(text: str, start: str, end: str, block: str) -> str | None:
+    """``text`` with the part from ``start`` to ``end`` replaced by ``block`` (which
+    carries both markers); None when the markers are missing."""
+    if start not in text or end not in text:
+        return None
+    head, rest = text.split(start, 1)
+    return head + block + rest.split(end, 1)[1]
+
+
+def write_papers() -> int:
+    text = (ROOT / "README.md").read_text()
+    new = replace_block(text, PAPERS_START, PAPERS_END, papers_section())
+    if new is None:
+        print(f"README.md has no {PAPERS_START} ... {PAPERS_END} markers", file=sys.stderr)
+        return 2
+    (ROOT / "README.md").write_text(new)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--methods", default=DEFAULT_METHODS)
     ap.add_argument("--frames", type=int, default=100)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "readme")
+    ap.add_argument("--papers-only", action="store_true",
+                    help="only the papers' lines, from docs/data/ (no compare run)")
     args = ap.parse_args(argv)
+    if args.papers_only:
+        return write_papers()
     from startrack.bench.report import _git_commit, provenance
 
     commit = _git_commit() or "?"  # the code the numbers come from, before anything changes
@@ -66,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     when = provenance(command)["date (UTC)"] + " UTC"
     (ROOT / "README.md").write_text(head + section(summary, command, commit, when) + tail)
     print(summary_table(summary))
-    return 0
+    return write_papers()
 
 
 if __name__ == "__main__":

@@ -13,7 +13,8 @@ Two measurements on the same deterministic frames (startrack.bench.frames):
     .venv/bin/python scripts/seed002_radial.py                # the full run
     .venv/bin/python scripts/seed002_radial.py --frames 100 --raw-frames 50   # quick look
 
-Writes out/seed002_radial/ (bench/, raw.csv, table.csv, run.json),
+Writes out/seed002_radial/ (bench/, raw.csv, table.csv), docs/data/radial-features/
+(table.csv and run.json, the saved tables the section is rendered from),
 docs/figures/seed002_radial_misid.png and docs/results.md (scripts/_results_doc.py), and
 prints the tables.
 """
@@ -83,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--limit", type=int, default=20, help="hypotheses looked at per frame")
     ap.add_argument("--methods", default=",".join(METHODS + VARIANTS),
                     help="comma-separated matcher names (variants included)")
-    results_doc.add_run_args(ap, "seed002_radial")
+    results_doc.add_run_args(ap, "seed002_radial", "radial-features")
     args = ap.parse_args(argv)
 
     record = results_doc.run_record(argv, "scripts/seed002_radial.py")
@@ -107,7 +108,8 @@ def main(argv: list[str] | None = None) -> int:
                 args.figures / "seed002_radial_misid.png",
                 "Seed 002 setup: 4 x 4 deg, 4096 px, Hipparcos: misidentifications")
     view = pd.read_csv(result.frames_csv).query("condition == 0")["n_true_in_view"]
-    results_doc.save_run(args.out, record, wall_s=time.perf_counter() - t_start, frames=args.frames,
+    results_doc.save_tables(args.data, record, {"table": table},
+             wall_s=time.perf_counter() - t_start, frames=args.frames,
              raw_frames=min(args.raw_frames, args.frames), limit=args.limit,
              max_stars=args.max_stars, jobs=args.jobs, view_mean=float(view.mean()),
              view_min=int(view.min()), view_max=int(view.max()))

@@ -13,9 +13,9 @@ DEFAULT_METHOD = "pyramid"
 #: the matchers startrack ships (startrack.matchers registers them; a test holds the two
 #: equal); plugins add theirs
 BUILTIN_METHODS = ("angle", "angle_closed", "angle_open", "astrometry", "hybrid",
-                   "hybrid_nofourth", "pyramid", "quad", "radial", "radial_noise",
-                   "radial_paper", "radial_patch", "sss", "tetra3", "tetra3rs", "triangle",
-                   "triangle_nopivot")
+                   "hybrid_nofourth", "hybrid_single", "pyramid", "quad", "radial",
+                   "radial_noise", "radial_paper", "radial_patch", "sss", "tetra3",
+                   "tetra3rs", "triangle", "triangle_first", "triangle_nopivot")
 #: default ``--fov-tolerance``: the true FOV may be this fraction above or below nominal
 DEFAULT_FOV_TOLERANCE = 0.10
 #: the horizontal FOVs (degrees) searched when none is given: down to 0.8 deg, where the

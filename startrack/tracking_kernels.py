@@ -12,7 +12,6 @@ import math
 import numpy as np
 from numba import njit
 
-from startrack import prediction_kernels
 from startrack.matching import verify_kernels
 from startrack.matching.check_kernels import binomial_tail
 from startrack.matching.labelling_kernels import warm_up as _warm_up_labelling
@@ -266,5 +265,4 @@ def warm_up() -> None:
     consistent_pairs(v, m, xy, xy, geometry, 50.0, 1.0, 2.0, 24)
     attempt(*args, 0)
     nearby(v, m, geometry, 9.0)
-    prediction_kernels.warm_up()
     _warm_up_labelling()  # a tracked frame's labelling

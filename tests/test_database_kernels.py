@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from startrack._core import database as kernels
+from startrack._core import parse
 from startrack.database.kvector import KVector
 from startrack.database.pairs import build_pair_arrays
-from startrack.sky import parse_kernels, random_sky
+from startrack.sky import random_sky
 
 
 def test_merge_counts_are_searchsorted():
@@ -72,24 +73,24 @@ def test_decimal_fields_are_parsed_as_numpy_parses_them():
                                           strict=True)]
     texts += ["-0.00", "0", "+1.5", "123456789012345", "0.0000159148", "-.5", "7."]
     raw = _field_bytes(texts, 16)
-    values, ok = parse_kernels.decimal_column(raw, 0, 16)
+    values, ok = parse.decimal_column(raw, 0, 16)
     assert ok
     want = np.array(texts, dtype="S16").astype(np.float64)
     assert values.tobytes() == want.tobytes()  # bit for bit, signed zero included
-    blank, _ = parse_kernels.decimal_column(_field_bytes(["", "1.0"], 6), 0, 6)
+    blank, _ = parse.decimal_column(_field_bytes(["", "1.0"], 6), 0, 6)
     assert np.isnan(blank[0]) and blank[1] == 1.0
 
 
 @pytest.mark.parametrize("text", ["1e5", "nan", "1.2.3", "12345678901234567", "-", "1\t"])
 def test_other_fields_are_left_to_the_general_parser(text):
-    _, ok = parse_kernels.decimal_column(_field_bytes([text, "2.0"], 20), 0, 20)
+    _, ok = parse.decimal_column(_field_bytes([text, "2.0"], 20), 0, 20)
     assert not ok
 
 
 def test_records_need_one_line_length():
-    assert parse_kernels.records(b"abcd\nefgh\n", 3).shape == (2, 4)
-    assert parse_kernels.records(b"abcd\nefgh", 3).shape == (2, 4)  # no final newline
-    assert parse_kernels.records(b"abcd\nefg\n", 3) is None
-    assert parse_kernels.records(b"ab\ncd\n", 3) is None  # shorter than a record
-    raw = parse_kernels.records(b"abcd\n    \nefgh\n", 3)
-    assert parse_kernels.blank_rows(raw).tolist() == [False, True, False]
+    assert parse.records(b"abcd\nefgh\n", 3).shape == (2, 4)
+    assert parse.records(b"abcd\nefgh", 3).shape == (2, 4)  # no final newline
+    assert parse.records(b"abcd\nefg\n", 3) is None
+    assert parse.records(b"ab\ncd\n", 3) is None  # shorter than a record
+    raw = parse.records(b"abcd\n    \nefgh\n", 3)
+    assert parse.blank_rows(raw).tolist() == [False, True, False]

@@ -2,17 +2,31 @@
 
 import numpy as np
 import pytest
+from startrack._core.extract import row_runs as _row_runs
 
-from startrack import extract_blocks as blocks
-from startrack.extract_runs import row_runs as _row_runs
+from startrack._core import sky_blocks as blocks
 
 NO_GRID = np.zeros((0, 0))
 NO_MASK = np.zeros((0, 0), np.uint8)
 
 
+def layout(shape, tile):
+    return blocks.Layout(shape[0], shape[1], tile)
+
+
+def weights(shape, lay):
+    return blocks.weights(shape[0], shape[1], lay)
+
+
+def unpack(w):
+    return w.row_lo, w.row_hi, w.row_t, w.col_lo, w.col_hi, w.col_t
+
+
 def reference_means(image, lay, fill=0.0):
-    """Block means by reshaping the blocks' pixels (tiles laid out as in ``layout``)."""
-    n_r, n_c, t_r, t_c, o_r, o_c, b, nb_r, nb_c = lay
+    """Block means by reshaping the blocks' pixels (tiles laid out as in ``Layout``)."""
+    n_r, n_c, t_r, t_c = lay.tiles_down, lay.tiles_across, lay.tile_h, lay.tile_w
+    o_r, o_c, b, nb_r, nb_c = (lay.first_row, lay.first_col, lay.block, lay.blocks_down,
+                               lay.blocks_across)
     image = np.where(np.isfinite(image), image, fill).astype(np.float64)
     out = np.empty((n_r * nb_r, n_c * nb_c))
     for i in range(n_r):
@@ -28,8 +42,9 @@ def reference_means(image, lay, fill=0.0):
 def test_block_means_match_numpy(shape, tile):
     rng = np.random.default_rng(shape[0])
     image = rng.integers(0, 65535, shape).astype(np.uint16)
-    lay = blocks.layout(shape, tile)
-    n_r, n_c, t_r, t_c, o_r, o_c, b, nb_r, nb_c = lay
+    lay = layout(shape, tile)
+    n_r, n_c, t_r, t_c = lay.tiles_down, lay.tiles_across, lay.tile_h, lay.tile_w
+    o_r, o_c, b = lay.first_row, lay.first_col, lay.block
     assert b == (4 if min(t_r, t_c) >= 8 else 1)
     assert o_r >= 0 and o_c >= 0
     assert o_r + n_r * t_r <= shape[0] and o_c + n_c * t_c <= shape[1]
@@ -51,7 +66,7 @@ def test_integer_block_sums_equal_the_float_ones_bit_for_bit(dtype):
     image[:40, :40] = info.max
     image[40:80, :40] = info.min
     for tile in (31, 7):
-        lay = blocks.layout(image.shape, tile)
+        lay = layout(image.shape, tile)
         np.testing.assert_array_equal(blocks.block_means(image, 0.0, lay),
                                       blocks.block_means(image.astype(np.float64), 0.0, lay))
 
@@ -74,22 +89,22 @@ def test_source_mask_is_the_dilated_comparison():
 def test_tile_medians_match_numpy_with_mask_model_and_known():
     rng = np.random.default_rng(5)
     shape, tile = (200, 260), 31
-    lay = blocks.layout(shape, tile)
-    nb_r, nb_c = lay[7], lay[8]
-    _, block_w = blocks.weights(shape, lay)
-    means = rng.normal(0.0, 3.0, (lay[0] * nb_r, lay[1] * nb_c)).astype(np.float32)
-    grid = rng.normal(10.0, 2.0, (lay[0], lay[1]))
-    model = means - blocks.residual(means, grid, *block_w)  # the model at the blocks
-    r0, r1, fr, c0, c1, fc = block_w
+    lay = layout(shape, tile)
+    nb_r, nb_c = lay.blocks_down, lay.blocks_across
+    _, block_w = weights(shape, lay)
+    means = rng.normal(0.0, 3.0, lay.means_shape).astype(np.float32)
+    grid = rng.normal(10.0, 2.0, lay.grid_shape)
+    model = means - blocks.residual(means, grid, block_w)  # the model at the blocks
+    r0, r1, fr, c0, c1, fc = unpack(block_w)
     rows = grid[r0] * (1 - fr)[:, None] + grid[r1] * fr[:, None]
     np.testing.assert_allclose(model, rows[:, c0] * (1 - fc) + rows[:, c1] * fc, atol=1e-4)
     ignore = (rng.random(means.shape) < 0.3).astype(np.uint8)
     ignore[:nb_r, :nb_c] = 1  # a tile with every block ignored
 
     def tiles(values, mask):
-        out = np.full((lay[0], lay[1]), np.nan)
-        for i in range(lay[0]):
-            for j in range(lay[1]):
+        out = np.full(lay.grid_shape, np.nan)
+        for i in range(lay.tiles_down):
+            for j in range(lay.tiles_across):
                 v = values[i * nb_r:(i + 1) * nb_r, j * nb_c:(j + 1) * nb_c]
                 keep = mask[i * nb_r:(i + 1) * nb_r, j * nb_c:(j + 1) * nb_c] == 0
                 if keep.any():
@@ -97,33 +112,33 @@ def test_tile_medians_match_numpy_with_mask_model_and_known():
         return out
 
     none = np.zeros(means.shape, np.uint8)
-    plain = blocks.tile_medians(means, NO_MASK, nb_r, nb_c, NO_GRID, block_w, NO_GRID)
+    plain = blocks.tile_medians(means, NO_MASK, lay, NO_GRID, block_w, NO_GRID)
     np.testing.assert_array_equal(plain, tiles(means, none))
-    masked = blocks.tile_medians(means, ignore, nb_r, nb_c, NO_GRID, block_w, NO_GRID)
+    masked = blocks.tile_medians(means, ignore, lay, NO_GRID, block_w, NO_GRID)
     np.testing.assert_array_equal(masked, tiles(means, ignore))
     assert np.isnan(masked[0, 0]) and np.isfinite(masked[1:, 1:]).all()
-    sub = blocks.tile_medians(means, ignore, nb_r, nb_c, grid, block_w, NO_GRID)
+    sub = blocks.tile_medians(means, ignore, lay, grid, block_w, NO_GRID)
     np.testing.assert_allclose(sub, tiles(means - model, ignore), atol=1e-4)
     # known medians are taken as they are where no block of a tile is ignored
     sparse = np.zeros_like(ignore)
     sparse[nb_r + 1, 2 * nb_c + 3] = 1
-    known = np.full((lay[0], lay[1]), -7.0)
-    reused = blocks.tile_medians(means, sparse, nb_r, nb_c, NO_GRID, block_w, known)
+    known = np.full(lay.grid_shape, -7.0)
+    reused = blocks.tile_medians(means, sparse, lay, NO_GRID, block_w, known)
     assert reused[1, 2] == tiles(means, sparse)[1, 2]
-    assert np.all(np.delete(reused.ravel(), 1 * lay[1] + 2) == -7.0)
+    assert np.all(np.delete(reused.ravel(), 1 * lay.tiles_across + 2) == -7.0)
 
 
 def test_block_weights_put_each_tile_value_at_its_blocks_centre():
     shape, tile = (200, 260), 31
-    lay = blocks.layout(shape, tile)
-    pixel_w, block_w = blocks.weights(shape, lay)
+    lay = layout(shape, tile)
+    pixel_w, block_w = weights(shape, lay)
     rows, cols = np.mgrid[0:shape[0], 0:shape[1]]
     plane = 5.0 + 0.3 * cols - 0.7 * rows
     means = blocks.block_means(plane, 0.0, lay)
-    grid = blocks.tile_medians(means, NO_MASK, lay[7], lay[8], NO_GRID, block_w, NO_GRID)
+    grid = blocks.tile_medians(means, NO_MASK, lay, NO_GRID, block_w, NO_GRID)
     # a plane's tile medians are the plane at the tiles' centres: bilinear is exact
-    np.testing.assert_allclose(blocks.residual(means, grid, *block_w), 0.0, atol=1e-3)
-    r0, r1, fr, c0, c1, fc = pixel_w
+    np.testing.assert_allclose(blocks.residual(means, grid, block_w), 0.0, atol=1e-3)
+    r0, r1, fr, c0, c1, fc = unpack(pixel_w)
     at = grid[r0] * (1 - fr)[:, None] + grid[r1] * fr[:, None]
     np.testing.assert_allclose(at[:, c0] * (1 - fc) + at[:, c1] * fc, plane, atol=1e-3)
 

@@ -9,8 +9,9 @@ import pytest
 from scipy import ndimage
 from waiting import CHILD_TIMEOUT_S
 
-from startrack import extract_parallel as par
-from startrack import extract_runs as runs
+from startrack._core import blobs
+from startrack._core import extract as runs
+from startrack.centroids import _threads as par
 from startrack.centroids._extract import CentroidConfig, _sky_model, extract_centroids
 from startrack.io._images import read_image
 
@@ -74,8 +75,8 @@ def components(image, cuts, smooth=False, threshold=1500.0):
     model = _sky_model(np.full(image.shape, 1000, np.uint16), 31, True, 1)
     pieces = [runs.band_runs(image, model, threshold, smooth, np.inf, a, b)
               for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
-    return runs.join_runs(np.concatenate([p[0] for p in pieces]),
-                          np.concatenate([p[1] for p in pieces]))
+    return blobs.join_runs(np.concatenate([p[0] for p in pieces]),
+                           np.concatenate([p[1] for p in pieces]))
 
 
 def test_band_cuts_do_not_change_components():
@@ -97,16 +98,14 @@ def test_components_are_the_8_connected_labels():
     found = components(image, [0, 37, 38, 100, 150])
     labels, n = ndimage.label(image > 5000, np.ones((3, 3)))
     assert len(found) == n
-    np.testing.assert_array_equal(np.sort(found[:, runs.AREA]),
+    np.testing.assert_array_equal(np.sort(found[:, runs.COLUMNS["area"]]),
                                   np.sort(np.bincount(labels.ravel())[1:]).astype(float))
 
 
 def test_thread_count_and_bands(monkeypatch):
-    from numba import config
-
-    monkeypatch.setattr(config, "NUMBA_NUM_THREADS", 1)
+    monkeypatch.setattr(par, "usable_cores", lambda: 1)
     assert par.thread_count(None) == 1 and par.thread_count(3) == 3
-    monkeypatch.setattr(config, "NUMBA_NUM_THREADS", 4)
+    monkeypatch.setattr(par, "usable_cores", lambda: 4)
     monkeypatch.setattr(par.os, "cpu_count", lambda: 4)
     monkeypatch.setattr(par.os, "getloadavg", lambda: (1.2, 0.0, 0.0))
     assert par.thread_count(None) == 4  # the load is this process's own thread

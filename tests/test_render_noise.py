@@ -27,8 +27,8 @@ def _both_paths(lam, sensor, n, seed):
     others = render._sky_pixels(flat, lam, table, np.random.default_rng(seed), fast)
     assert len(others) == 0
     slow = np.empty(n, np.uint16)
-    render._pixel_chain(flat, np.arange(n), _chain(sensor), np.random.default_rng(seed + 1),
-                        slow)
+    render._pixel_chain(flat, np.arange(n), render.readout_chain(sensor),
+                        np.random.default_rng(seed + 1), slow)
     return fast.astype(np.float64), slow.astype(np.float64)
 
 

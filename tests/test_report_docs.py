@@ -168,11 +168,11 @@ def test_rate_error_bars_never_negative_at_full_rates(tmp_path):
     import numpy as np
     import pandas as pd
 
-    from startrack.bench.plots import _rate_panel
+    from startrack.bench.plots import rate_panel
 
     # n = 6 and 21 round the upper end below 1 at k = n; n = 11 the lower above 0 at k = 0
     rows = pd.DataFrame({"solved_rate": [1.0, 1.0, 0.0], "solved": [6, 21, 0],
                          "frames": [6, 21, 11]})
     fig, ax = plt.subplots()
-    _rate_panel(ax, rows, np.arange(3.0), "solved_rate", "solved", {})
+    rate_panel(ax, rows, np.arange(3.0), "solved_rate", "solved", {})
     plt.close(fig)

@@ -8,13 +8,13 @@ import math
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from startrack._core.predict import rotation_exp as _exp
+from startrack._core.predict import rotation_log as _log
 
 from startrack.attitude import boresight_error_arcsec, random_attitudes
 from startrack.bench.tracking import TrackCondition, make_sequence
 from startrack.errors import InputError
 from startrack.matchers import get_matcher
-from startrack.prediction_kernels import rotation_exp as _exp
-from startrack.prediction_kernels import rotation_log as _log
 from startrack.simulate._trajectory import constant_rate, profile_trajectory, read_profile
 from startrack.solver._lost_in_space import identify
 from startrack.tracking._track import Prior, track

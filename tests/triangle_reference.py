@@ -59,6 +59,7 @@ def _lookup(m: PlanarTriangleMatcher, obs_tri: np.ndarray, features: tuple[float
                               polar - k * s_polar, polar + k * s_polar)
     diag.candidates += n_area
     diag.extra["polar_kept"] = diag.extra.get("polar_kept", 0) + len(idx)
+    diag.extra["lookups"] = diag.extra.get("lookups", 0) + 1
     rows = table.rows[idx]
     side_tol = k * np.sqrt(2.0) * sigma
     cand, perm = map_vertices(obs_tri, m.database.vectors[rows], side_tol,

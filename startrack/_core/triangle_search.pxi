@@ -101,6 +101,12 @@ cdef class TriangleSearch:
         """The memo memory as grown, for the next frame's search."""
         return self.memory
 
+    def looked_up(self):
+        """The ordered triples (a, b, c) looked up so far, by code (a * n + b) * n + c."""
+        n = self.n
+        codes = np.flatnonzero(np.asarray(self.info)[:, 0] >= 0)
+        return [(int(c // (n * n)), int(c // n % n), int(c % n)) for c in codes]
+
     cdef void _keep(self, Py_ssize_t code) except *:
         """The polar-kept triangles of the sorted triple ``code``, into ``kept``."""
         cdef Py_ssize_t n = self.n, e, r, m = 0, fill = self.kept_fill, t = self.lut[code]
@@ -175,10 +181,12 @@ cdef class TriangleSearch:
                                                                _PERMS[3 * picks[1, e] + v]]
         self.store_fill = fill + count
 
-    cdef tuple _pivots(self, hyps, long long[::1] stars, Py_ssize_t min_stars):
+    cdef tuple _pivots(self, hyps, long long[::1] stars, Py_ssize_t min_stars,
+                       bint pivot_first):
         """Pivot from the triple in ``stars[:3]`` while more than one row is left or
-        fewer than ``min_stars`` stars are in: a triangle (newest two chain stars, a new
-        star in index order) joined on the shared two. Returns (rows, chain stars)."""
+        fewer than ``min_stars`` stars are in: a triangle (newest two chain stars, or the
+        first triangle's last two when ``pivot_first``, and a new star in index order)
+        joined on the shared two. Returns (rows, chain stars)."""
         cdef Py_ssize_t n_stars = 3, cp = 1, cq = 2, extra
         cdef Span span
         cdef bint found
@@ -193,17 +201,21 @@ cdef class TriangleSearch:
                 if joined.shape[0]:
                     hyps = joined
                     stars[n_stars] = extra
-                    cp, cq, n_stars = cq, n_stars, n_stars + 1
+                    if not pivot_first:
+                        cp, cq = cq, n_stars
+                    n_stars += 1
                     found = True
                     break
             if not found:
                 break  # stars ran out: the survivors go to verification
         return hyps, n_stars
 
-    def next_answer(self, Py_ssize_t start, Py_ssize_t min_stars, Py_ssize_t max_ambiguous):
+    def next_answer(self, Py_ssize_t start, Py_ssize_t min_stars, Py_ssize_t max_ambiguous,
+                    bint pivot_first=False):
         """From triple ``start`` on, the first whose lookup leaves catalog triangles: (its
         index, chain stars, at most ``max_ambiguous`` rows of catalog stars after the
-        pivots); the index is the number of triples when none is left."""
+        pivots); the index is the number of triples when none is left. ``pivot_first``:
+        every pivot triangle shares two stars with the first one (the 2011 paper)."""
         stars_arr = np.empty(self.n, np.int64)
         cdef long long[::1] stars = stars_arr
         cdef Py_ssize_t t, n_triples = self.triples.shape[0]
@@ -215,6 +227,6 @@ cdef class TriangleSearch:
             stars[0], stars[1], stars[2] = self.triples[t, 0], self.triples[t, 1], \
                 self.triples[t, 2]
             hyps = np.asarray(self.store[span.start:span.stop]).copy()
-            hyps, n_stars = self._pivots(hyps, stars, min_stars)
+            hyps, n_stars = self._pivots(hyps, stars, min_stars, pivot_first)
             return t, stars_arr[:n_stars].copy(), hyps[:max_ambiguous].copy()
         return n_triples, stars_arr[:0].copy(), np.empty((0, 3), np.int64)

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from startrack.bench.conditions import VARIABLES, Condition, sweep
+from startrack.bench.stats import wilson
 from startrack.io._writer import atomic_path
 
 LABELS = {
@@ -37,28 +38,8 @@ MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 ERROR_RESOLUTION_ARCSEC = 1e-3
 
 
-#: the two-sided 95% normal quantile, scipy.stats.norm.ppf(0.975) to double precision
-Z95 = 1.959963984540054
-
-
-def wilson(successes, trials, z: float = Z95) -> tuple[np.ndarray, np.ndarray]:
-    """Wilson score interval (low, high) of a binomial rate; NaN where trials is 0.
-
-    The same interval as ``scipy.stats.binomtest(k, n).proportion_ci(method="wilson")``
-    (tests/test_plots.py holds them equal), kept here because it is vectorised: scipy's
-    gives one interval per call (~0.1-1 ms each), this one a whole summary at once.
-    """
-    k = np.asarray(successes, dtype=np.float64)
-    n = np.asarray(trials, dtype=np.float64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        p = k / n
-        denom = 1.0 + z * z / n
-        centre = (p + z * z / (2 * n)) / denom
-        half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return np.clip(centre - half, 0.0, 1.0), np.clip(centre + half, 0.0, 1.0)
-
-
-def _save(fig, path: Path) -> Path:
+def save_figure(fig, path: Path) -> Path:
+    """Write ``fig`` to ``path`` as PNG (atomically) and close it."""
     import matplotlib.pyplot as plt
 
     with atomic_path(path) as tmp:
@@ -67,13 +48,22 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def _offsets(values: np.ndarray, n_methods: int) -> np.ndarray:
+def offsets(values: np.ndarray, n_methods: int) -> np.ndarray:
     """Sideways shift per method: 1.5% of the axis span, centred on the true value."""
     span = float(np.ptp(values)) or 1.0
     return (np.arange(n_methods) - (n_methods - 1) / 2.0) * 0.015 * span
 
 
-def _rate_panel(ax, rows: pd.DataFrame, x: np.ndarray, column: str, count: str, style):
+def method_style(j: int, method: str) -> dict:
+    """How method number ``j`` is drawn in every rate plot (the compare report's and the
+    papers' results): its own marker, a thin line, labelled by its name."""
+    return dict(marker=MARKERS[j % len(MARKERS)], label=method, linewidth=1.2,
+                markersize=5, alpha=0.9)
+
+
+def rate_panel(ax, rows: pd.DataFrame, x: np.ndarray, column: str, count: str, style):
+    """Draw ``rows[column]`` against ``x`` with its 95% Wilson interval from the counts
+    ``rows[count]`` over ``rows["frames"]``."""
     k = rows[count].to_numpy(dtype=float)
     n = rows["frames"].to_numpy(dtype=float)
     low, high = wilson(k, n)
@@ -126,14 +116,13 @@ def _sweep_figure(part: pd.DataFrame, var: str, methods: list[str], held: str):
     fig, axes = plt.subplots(1, 4, figsize=(16, 4.2))
     fig.subplots_adjust(left=0.04, right=0.99, bottom=0.14, top=0.80, wspace=0.25)
     values = np.sort(part[var].unique().astype(float))
-    shift = _offsets(values, len(methods))
+    shift = offsets(values, len(methods))
     for j, method in enumerate(methods):
         rows = part[part["method"] == method].sort_values(var)
         x = rows[var].to_numpy(dtype=float) + shift[j]
-        style = dict(marker=MARKERS[j % len(MARKERS)], label=method, linewidth=1.2,
-                     markersize=5, alpha=0.9)
-        _rate_panel(axes[0], rows, x, "correct_rate", "correct", style)
-        _rate_panel(axes[1], rows, x, "wrong_rate", "wrong", style)
+        style = method_style(j, method)
+        rate_panel(axes[0], rows, x, "correct_rate", "correct", style)
+        rate_panel(axes[1], rows, x, "wrong_rate", "wrong", style)
         med = rows["time_median_ms"].to_numpy(dtype=float)
         p95 = rows["time_p95_ms"].to_numpy(dtype=float)
         axes[2].errorbar(x, med, yerr=[np.zeros_like(med), p95 - med], capsize=3, **style)
@@ -169,7 +158,7 @@ def _format_axes(axes, part: pd.DataFrame, var: str) -> None:
     axes[0].set_ylim(*rate_limits(part["correct"], part["frames"]))
     axes[1].set_ylim(*rate_limits(part["wrong"], part["frames"]))
     for ax in axes[:2]:
-        ax.yaxis.set_major_formatter(_percent)
+        ax.yaxis.set_major_formatter(percent_label)
     axes[2].set_yscale("log")
     axes[2].yaxis.set_major_formatter(FormatStrFormatter("%g"))
     times = part[["time_median_ms", "time_p95_ms"]].to_numpy(dtype=float)
@@ -191,7 +180,8 @@ def _format_axes(axes, part: pd.DataFrame, var: str) -> None:
                      transform=axes[3].transAxes, ha="center", va="center", fontsize=9)
 
 
-def _percent(value, _position) -> str:
+def percent_label(value, _position) -> str:
+    """A rate axis tick as a percentage (matplotlib tick formatter)."""
     return f"{100 * value:.4g}%"
 
 
@@ -219,7 +209,7 @@ def plot_sweeps(summary: pd.DataFrame, conditions: list[Condition], methods: lis
             continue
         part = summary[summary["condition"].isin(picked)]
         held = held_text(conditions, (var,))
-        written.append(_save(_sweep_figure(part, var, methods, held),
+        written.append(save_figure(_sweep_figure(part, var, methods, held),
                              out / f"plot_{var}.png"))
     heat = plot_heatmap(summary, conditions, methods, out)
     if heat is not None:
@@ -270,13 +260,14 @@ def plot_heatmap(summary: pd.DataFrame, conditions: list[Condition], methods: li
         ax.set_ylabel(SHORT[vy])
         ax.set_title(method, fontsize=10)
     fig.colorbar(image, ax=axes[0].tolist(), shrink=0.9, label="correct rate",
-                 format=_percent)
+                 format=percent_label)
     frames = int(part["frames"].iloc[0])
     fig.suptitle(f"correct rate over {SHORT[vx]} x {SHORT[vy]}: {frames} frames per cell; "
                  f"{held_text(conditions, (vx, vy))}", fontsize=10)
-    return _save(fig, out / "heatmap_correct.png")
+    return save_figure(fig, out / "heatmap_correct.png")
 
 __all__ = [
-    "ALWAYS_SHOWN", "ERROR_RESOLUTION_ARCSEC", "LABELS", "MARKERS", "SHORT", "Z95",
-    "floor_errors", "held_text", "plot_heatmap", "plot_sweeps", "rate_limits", "wilson",
+    "ALWAYS_SHOWN", "ERROR_RESOLUTION_ARCSEC", "LABELS", "MARKERS", "SHORT", "floor_errors",
+    "held_text", "method_style", "offsets", "percent_label", "plot_heatmap", "plot_sweeps",
+    "rate_limits", "rate_panel", "save_figure",
 ]

@@ -1,4 +1,4 @@
-"""Angle method with pivoting (seed 000): star pairs looked up by angle, narrowed by pivots.
+"""Angle method with pivoting (the 2011 paper): star pairs looked up by angle, narrowed by pivots.
 
 A hypothesis assigns catalog rows to a growing chain of observed stars; the candidates
 are kept as an (n_hypotheses x n_chain_stars) array of catalog rows. One observed pair
@@ -11,8 +11,9 @@ pivots go on until one hypothesis remains or the stars run out.
 ``closing`` says how many of the closing pairs (new star to earlier chain stars) are
 looked up: "until_one" (ours: until one hypothesis is left, so the last star's other
 angles may go unchecked), "all" (every one), "none" (the paper's literal chain: each
-pivot shares one star with the last pair, no closing angle). The variants ``angle_closed``
-and ``angle_open`` are the last two.
+pivot shares one star with the last pair, no closing angle). The variant ``angle_closed``
+is "all"; ``angle_open`` is the paper's chain whole: "none", no star skipped
+(``max_skips=0``) and an ambiguous end refused (``max_ambiguous=1``).
 
 The on-board catalog the pairs are looked up in is the pattern stars' pair table (stars
 with fewer than ``pattern_per_region`` brighter ones within half the FOV, as Pyramid's
@@ -53,10 +54,10 @@ CLOSING = ("until_one", "all", "none")
 
 @register
 class AngleMatcher(Matcher):
-    """Seed 000's angle method: pair lookups with pivoting on shared stars."""
+    """The 2011 paper's angle method: pair lookups with pivoting on shared stars."""
 
     name = "angle"
-    description = "inter-star angles, pivoting on pairs that share a star (seed 000)"
+    description = "inter-star angles, pivoting on pairs that share a star (2011 paper)"
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_chains: int = 220, max_lookups: int = 1600, max_skips: int = 5,
@@ -162,5 +163,8 @@ def _count(frame: core.AngleFrame, base: tuple, diag: MatchDiagnostics) -> None:
 
 register_variant(AngleMatcher, "angle_closed",
                  "angle method, every closing angle checked (variant)", closing="all")
+# The paper's chain: each pivot shares one star with the last pair, no star is left out,
+# and a chain that ends with more than one answer is "indeterminate" (no hypothesis).
 register_variant(AngleMatcher, "angle_open",
-                 "angle method, no closing angle (seed 000 literal, variant)", closing="none")
+                 "angle method, the 2011 paper's chain: no closing angle, no skipped star, "
+                 "one answer or none (variant)", closing="none", max_skips=0, max_ambiguous=1)

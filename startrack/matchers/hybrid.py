@@ -1,4 +1,4 @@
-"""Hybrid matcher (seed 000's method): angle lookups shortlist, planar triangles decide.
+"""Hybrid matcher (the 2011 paper's method): angle lookups shortlist, planar triangles decide.
 
 First every pair of the brightest observed stars is looked up in the catalog pair table.
 The angle method is not run to the end: it only *shortlists*, for each observed star a,
@@ -16,7 +16,8 @@ chance triangles are common). That fourth-star check is what the Pyramid matcher
 as a pivot, and it is counted so here. Triangles no other star confirms (the rest may be
 false stars) are tried last in each pass. ``fourth_star=False`` (the variant
 ``hybrid_nofourth``) leaves the check out, as the paper does: each passing triangle goes
-to verification as it is.
+to verification as it is. ``hybrid_single`` is the paper's hybrid whole: no check, one
+pass (no vote relaxation, no second round), each triangle's best catalog triangle only.
 
 The angle lookups are in the pattern stars' pair table (as the angle matcher's: see
 there): at 1 px noise on Hipparcos the first pass's shortlists then hold tens of stars,
@@ -197,5 +198,10 @@ class HybridMatcher(Matcher):
 
 
 register_variant(HybridMatcher, "hybrid_nofourth",
-                 "hybrid without the fourth-star check (seed 000 literal, variant)",
-                 fourth_star=False)
+                 "hybrid without the fourth-star check (variant)", fourth_star=False)
+# The paper's hybrid as written: one shortlist (every angle of a star must vote for its
+# catalog star), then each triangle's best catalog triangle, no pivot, no second pass.
+register_variant(HybridMatcher, "hybrid_single",
+                 "hybrid in one pass, one hypothesis per triangle, no fourth star (2011 "
+                 "paper literal, variant)", fourth_star=False, max_false=0,
+                 max_per_triangle=1, extra_stars=0)

@@ -7,6 +7,13 @@ by comparing the three side lengths, and the mirror image is refused (triple pro
 While several catalog triangles remain, the matcher pivots on a triangle that shares two
 stars with the last one and keeps the hypotheses in which the shared stars agree.
 
+The 2011 paper (Sedaghat, Toloei, Ghanbarpoor) pivots instead on triangles that share two
+stars with the *first* triangle (``pivot_first=True``), only while more than one answer is
+left, and calls a search that runs out of stars indeterminate: the variant
+``triangle_first``. Its "binary test tree" (to cut the combinations of three tests) is
+named in one sentence, with no structure given, so it is not built here: the k-vector
+range on area, the polar-moment filter and the sorted join do that job.
+
 The lookups, the vertex mapping and the pivot joins run compiled
 (:class:`startrack._core.triangles.TriangleSearch`), returning at each triple that leaves
 an answer so that verification's first acceptance ends the search.
@@ -44,9 +51,13 @@ class PlanarTriangleMatcher(Matcher):
     description = "planar triangles (area + polar moment, k-vector), pivoting"
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
-                 max_ambiguous: int = 5, min_stars: int = 4) -> None:
+                 max_ambiguous: int = 5, min_stars: int = 4,
+                 pivot_first: bool = False) -> None:
         super().__init__(database, config)
         self.max_ambiguous = max_ambiguous  # hypotheses yielded when pivots run out
+        # Every pivot triangle shares two stars with the first triangle (the paper), not
+        # with the last one (ours: a chain that spreads over the frame).
+        self.pivot_first = bool(pivot_first)
         # Pivot at least once even when the first triangle is unique: a fourth star costs
         # one lookup, removes most chance matches, and a hypothesis spread over more of the
         # frame gives verification a better first attitude.
@@ -91,17 +102,26 @@ class PlanarTriangleMatcher(Matcher):
     def _search(self, search: TriangleSearch, n_triples: int,
                 diag: MatchDiagnostics) -> Iterator[Hypothesis]:
         """The compiled search's answers, with its counters in ``diag``."""
-        base = (diag.candidates, diag.pivots, diag.extra.get("polar_kept", 0))
+        base = (diag.candidates, diag.pivots, diag.extra.get("polar_kept", 0),
+                diag.extra.get("lookups", 0))
         t = 0
         while t < n_triples:
-            t, stars, rows = search.next_answer(t, self.min_stars, self.max_ambiguous)
+            t, stars, rows = search.next_answer(t, self.min_stars, self.max_ambiguous,
+                                                 self.pivot_first)
             diag.candidates = base[0] + search.candidates
             diag.pivots = base[1] + search.pivots
             if search.lookups:
+                # per lookup: area-window candidates (``candidates``), the polar filter's
                 diag.extra["polar_kept"] = base[2] + search.polar_kept
+                diag.extra["lookups"] = base[3] + search.lookups
             for row in rows if t < n_triples else ():
                 yield Hypothesis(stars.copy(), row)
             t += 1
 
+
 register_variant(PlanarTriangleMatcher, "triangle_nopivot",
                  "planar triangles, no forced pivot on a unique triangle (variant)", min_stars=3)
+register_variant(PlanarTriangleMatcher, "triangle_first",
+                 "planar triangles pivoting on the first triangle, one answer or none "
+                 "(2011 paper literal, variant)", min_stars=3, max_ambiguous=1,
+                 pivot_first=True)

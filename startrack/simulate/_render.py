@@ -8,6 +8,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 from scipy.special import erf
 
+from startrack._core import render as rk
 from startrack.camera._model import Camera
 from startrack.simulate import _noise as render_noise
 from startrack.simulate._scene import Scene
@@ -116,7 +117,7 @@ def digitise(expected: np.ndarray, sensor: SensorModel, rng: np.random.Generator
 
     Pixels at the frame's common sky value draw their count from its exact distribution
     (``render_noise.adu_table``, one compiled uniform draw each); for the others shot noise is exact
-    Poisson up to ``render_kernels.GAUSS_ABOVE`` expected electrons and Gaussian (same
+    Poisson up to ``startrack._core.render.GAUSS_ABOVE`` expected electrons and Gaussian (same
     mean and variance) above, plus Gaussian read noise. Every draw comes from ``rng``.
     """
     expected = np.asarray(expected)
@@ -124,13 +125,19 @@ def digitise(expected: np.ndarray, sensor: SensorModel, rng: np.random.Generator
         expected = expected.astype(np.float64)
     flat = np.ascontiguousarray(expected).ravel()
     out = np.empty(flat.shape, np.uint16)
-    chain = (float(sensor.full_well), float(sensor.read_noise), float(sensor.gain),
-             float(sensor.bias_adu), float(sensor.adc_max))
+    chain = readout_chain(sensor)
     lam = render_noise.flat_value(flat)
-    table = None if lam is None else render_noise.adu_table(lam, *chain)
+    table = None if lam is None else render_noise.adu_table(
+        lam, chain.full_well, chain.read_noise, chain.gain, chain.bias, chain.adc_max)
     others = np.arange(flat.size) if table is None else _sky_pixels(flat, lam, table, rng, out)
     _pixel_chain(flat[others], others, chain, rng, out)
     return out.reshape(expected.shape)
+
+
+def readout_chain(sensor: SensorModel) -> rk.Readout:
+    """The sensor's read-out constants as the compiled noise kernels take them."""
+    return rk.Readout(float(sensor.full_well), float(sensor.read_noise), float(sensor.gain),
+                      float(sensor.bias_adu), float(sensor.adc_max))
 
 
 _CHUNK = 1 << 18  # pixels per call: the index scratch stays small whatever the frame
@@ -138,24 +145,19 @@ _CHUNK = 1 << 18  # pixels per call: the index scratch stays small whatever the 
 
 def _sky_pixels(flat, lam, table, rng, out) -> np.ndarray:
     """Counts of the pixels that expect ``lam``; returns the indices of the others."""
-    from startrack import render_kernels as rk  # numba: its kernels load on first use
-
-    cdf, guide, a0 = table
-    lam = flat.dtype.type(lam)
+    sky = rk.SkyTable(float(flat.dtype.type(lam)), *table)
     # a compiled generator seeded from ``rng`` (never all zero): no array of uniforms
     state = rng.integers(1, 2**63, size=4, dtype=np.int64).astype(np.uint64)
     scratch, parts = np.empty(min(_CHUNK, flat.size), np.int64), []
     for start in range(0, flat.size, _CHUNK):
         stop = min(start + _CHUNK, flat.size)
-        n = rk.sky_pixels(flat, start, stop, lam, state, cdf, guide, a0, out, scratch)
+        n = rk.sky_pixels(flat, start, stop, sky, state, out, scratch)
         parts.append(scratch[:n].copy())
     return np.concatenate(parts)
 
 
 def _pixel_chain(lam, where, chain, rng, out) -> None:
     """Counts of the pixels ``where`` (expecting ``lam``) into ``out``, pixel by pixel."""
-    from startrack import render_kernels as rk  # numba: as above
-
     electrons = np.empty(lam.shape, np.float32)
     rk.shot_noise(lam, rng.random(lam.shape), electrons)
     for mark, draw in ((-1.0, rng.poisson),
@@ -164,8 +166,7 @@ def _pixel_chain(lam, where, chain, rng, out) -> None:
         sel = np.flatnonzero(electrons == mark)
         if len(sel):
             electrons[sel] = draw(lam[sel])
-    rk.readout(electrons, rng.standard_normal(lam.shape, dtype=np.float32), *chain, out,
-               where)
+    rk.readout(electrons, rng.standard_normal(lam.shape, dtype=np.float32), chain, out, where)
 
 
 def render_frame(scene: Scene, camera: Camera, sensor: SensorModel, rng: np.random.Generator,

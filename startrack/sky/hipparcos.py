@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
+from startrack._core import parse
 from startrack.errors import InputError
 from startrack.io._cache import cache_dir, cached_parse
-from startrack.sky import parse_kernels
 from startrack.sky.catalog import Catalog, vectors_to_radec
 
 # Bump when the parsed arrays change meaning, so stale caches are never reused.
@@ -52,23 +52,23 @@ def _fixed_width_column(raw: np.ndarray, start: int, stop: int) -> np.ndarray:
 def _records(data: bytes) -> np.ndarray:
     """The non-blank records of ``data`` as bytes (records x _RECORD_LEN), as one array
     when the lines have one length (hip2.dat's are 276 bytes), else line by line."""
-    raw = parse_kernels.records(data, _RECORD_LEN)
+    raw = parse.records(data, _RECORD_LEN)
     if raw is not None:
-        return np.ascontiguousarray(raw[~parse_kernels.blank_rows(raw), :_RECORD_LEN])
+        return np.ascontiguousarray(raw[~parse.blank_rows(raw), :_RECORD_LEN])
     lines = [line for line in data.splitlines() if line.strip()]
     return np.array(lines, dtype=f"S{_RECORD_LEN}").view(np.uint8).reshape(len(lines), -1)
 
 
 def _column(raw: np.ndarray, start: int, stop: int) -> np.ndarray:
     """:func:`_fixed_width_column`, compiled when every field is a plain decimal."""
-    values, ok = parse_kernels.decimal_column(raw, start - 1, stop)
+    values, ok = parse.decimal_column(raw, start - 1, stop)
     return values if ok else _fixed_width_column(raw, start, stop)
 
 
 def parse_hip2(path: Path) -> dict[str, np.ndarray]:
     """HIP, J1991.25 position, proper motion and Hp of every usable record in ``path``.
 
-    The fixed-width fields are read by the compiled parser (:mod:`parse_kernels`), not
+    The fixed-width fields are read by the compiled parser (:mod:`startrack._core.parse`), not
     ``pandas.read_fwf`` or ``astropy.io.ascii``: the same numbers many times faster, which
     counts on a first run that has no cache yet (scripts/bench_library_fits.py).
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from startrack.centroids._extract import extract_centroids
 from startrack.centroids._table import Centroids, read_centroid_csv
 from startrack.errors import InputError, InputFileNotFoundError
 from startrack.io._images import FITS_SUFFIXES, read_image
@@ -82,8 +83,6 @@ def image_input(image: np.ndarray, name: str, centroid_config=None,
     ``downsample`` N: found on the image binned N x N (summed), reported in the full
     image's pixels (docs/conventions.md: binned pixel i covers pixels N i to N i + N - 1,
     whose centre is N i + (N - 1) / 2)."""
-    from startrack.centroids._extract import extract_centroids  # numba: kernels, not at --help
-
     t0 = time.perf_counter()
     source = image if downsample == 1 else bin_image(image, downsample)
     setup_ms = warm_extraction(source, centroid_config)
@@ -101,8 +100,6 @@ def warm_extraction(image: np.ndarray, centroid_config=None) -> float:
     its brightest pixel) once per process, pixel type and configuration, so the timed
     extraction after it compiles or loads no kernel; returns the milliseconds it took
     (0 when already warm)."""
-    from startrack.centroids._extract import extract_centroids  # numba: as above
-
     key = (np.asarray(image).dtype.str, repr(centroid_config))
     if key in _warmed:
         return 0.0

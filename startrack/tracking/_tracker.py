@@ -21,8 +21,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from startrack._core.predict import Motion, predict_attitude
 from startrack.database import StarDatabase
-from startrack.prediction_kernels import predict_attitude
 from startrack.tracking._track import CatalogCone, Prior, TrackConfig, track, warm_up
 from startrack.types import Observation, Solution
 from startrack.verify._verification import VerifyConfig
@@ -73,9 +73,8 @@ class Tracker:
         a, rot_a, sig_a = b, rot_b, sig_b  # one attitude: no rate yet
         if len(self.history) >= 2 and b - self.history[-2][0] <= cfg.max_coast_frames + 1:
             a, rot_a, sig_a = self.history[-2]
-        matrix, sigma = predict_attitude(rot_a, rot_b, b - a, n, sig_a, sig_b,
-                                         cfg.unknown_rate_rad, cfg.accel_fraction,
-                                         cfg.rate_floor_rad)
+        motion = Motion(cfg.unknown_rate_rad, cfg.accel_fraction, cfg.rate_floor_rad)
+        matrix, sigma = predict_attitude(rot_a, rot_b, b - a, n, sig_a, sig_b, motion)
         return Prior(matrix, sigma)
 
     def attempt(self, obs: Observation, database: StarDatabase, verify_config: VerifyConfig,

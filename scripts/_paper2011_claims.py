@@ -1,0 +1,282 @@
+"""The 2011 triangle-base paper's claims, each quoted in full, and the paired tests that
+judge them on the bench's frames (scripts/paper2011.py saves them as claims.csv).
+
+Every test compares two methods on the same frames of the same conditions: per frame an
+outcome for each (right or not, answered or not, faster or not, ...), and the exact
+McNemar test on the frames where the two differ (for "faster" and "fewer", the exact
+sign test: the same binomial). One row per condition of the test's scope and one pooled
+row; the verdict rule (:func:`verdict`) reads those rows only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from startrack.bench.stats import mcnemar_exact
+
+#: a difference is called significant below this two-sided p-value
+ALPHA = 0.05
+
+
+@dataclass(frozen=True)
+class Test:
+    """``a`` is claimed better than ``b`` on ``measure`` ("better"), or at least as good
+    ("as good": the claim holds unless ``b`` is significantly better somewhere), over the
+    conditions of ``scope``: "grid" (every noise x false-star condition), "false" (those
+    with false stars), "noise" (no false star), "fov10" (the 10 deg field)."""
+
+    measure: str
+    a: str
+    b: str
+    scope: str
+    sense: str = "better"
+
+
+@dataclass(frozen=True)
+class Claim:
+    key: str
+    short: str  # the claim in a few words, for the README
+    where: str
+    original: str
+    english: str  # "" when the original is English
+    tests: tuple[Test, ...]
+    note: str = ""
+
+
+#: what each measure's outcome is, per frame (the doc's wording)
+MEASURES = {
+    "verified": "verified and right (`identify()`, shared verification)",
+    "raw_right": "first hypothesis right, unverified (the paper's accuracy)",
+    "answers": "yields any hypothesis",
+    "faster": "faster identify() on the frame (best of repeats, one process)",
+    "fewer_pivots": "fewer pivots on the frame",
+    "fewer_candidates": "fewer catalog candidates per lookup (triangle: after the polar "
+                        "moment filter; angle: pairs in the window)",
+    "no_pivots": "no pivot on the frame",
+}
+
+ANGLE_EN = ("A method for narrowing down to one solution involves employing many angles "
+            "within the field of view in a certain order, called \u201cpivoting,\u201d which "
+            "can be time consuming and does not always yield a solution.")
+TRIANGLE_EN = ("By using both the area and polar moment properties of the planar triangle, "
+               "the range of possible solutions is very quickly narrowed, fewer pivots to "
+               "other planar triangles are required, and the method is more likely to "
+               "yield the correct solution than the angle method.")
+HYBRID_EN = ("Second, by triangle method in fewer time identification completed, because "
+             "FOV is smaller. So this new method is faster than triangle and more accurate "
+             "than angle method and we do not pivoting the same as each method.")
+FALSE_EN = ("In addition, Simulation results show the performance of the new method as "
+            "well as its robustness with respect to including false stars.")
+# The Persian sentences as printed, reassembled from the PDF's text, whose lines come out
+# in scrambled order (one sentence per constant).
+SPEED_FA = ("اين تركيب باعث افزايش سرعت الگوريتم جستجو نسبت به روش مثلثي مي‌شود زيرا حجم "
+            "محاسبات را بسيار كاهش داده و دقت آن نيز به مراتب نسبت به روش زاويه بالاتر است.")
+SPEED_EN = ("This combination makes the search algorithm faster than the triangle method, "
+            "because it greatly reduces the amount of computation, and its accuracy is also "
+            "far higher than the angle method's.")
+FALSE_FA = ("اين روش در مقابل ستاره‌هاي اشتباه در ميدان ديد نيز مقاومت بيشتري نسبت به "
+            "هركدام از روش‌ها دارد.")
+FALSE_FA_EN = ("This method is also more robust against false stars in the field of view "
+               "than either of the methods.")
+STARS_FA = ("يك نكتة منفي اين روش عدم كارايي آن با كمتر از 3 ستاره در ميدان ديد آن است، در "
+            "حالي كه در روش زاويه به دو ستاره نياز است. بعد از خطاي اندازه‌گيري جستجوگر، "
+            "معمولاً بيشتر از دو ستاره در روش زاويه مورد نياز است. چيزي كه مشاهده مي‌شود "
+            "اين است كه در روش مثلثي ستاره‌هاي مشترك كمتري مورد نياز است كه در نهايت نسبت "
+            "به روش زاويه به تعداد كمتري ستاره براي رسيدن به پاسخ صحيح نياز دارد.")
+STARS_EN = ("One drawback of this method is that it does not work with fewer than 3 stars in "
+            "its field of view, while the angle method needs two stars. After the tracker's "
+            "measurement error, usually more than two stars are needed in the angle method. "
+            "What is observed is that the triangle method needs fewer shared stars, so that "
+            "in the end it needs fewer stars than the angle method to reach the correct "
+            "answer.")
+HUNDREDS_FA = ("تست هر پاسخ ممكن با مثلث اول به‌جاي مقايسه با اشتراك، كار زمان‌بري است كه "
+               "صدها پاسخ به ازاي هر مثلث در ميدان ديد وجود دارد. براي كاهش تعداد تركيبات "
+               "در 3 تست، درخت تست دودويي ايجاد مي‌شود.")
+HUNDREDS_EN = ("Testing each possible answer against the first triangle instead of comparing "
+               "by pivoting is time-consuming, since there are hundreds of answers for every "
+               "triangle in the field of view. To reduce the number of combinations in 3 "
+               "tests, a binary test tree is created.")
+
+CLAIMS = (
+    Claim("C1", "the angle method's pivoting does not always answer",
+          "Abstract (English, as printed)", ANGLE_EN, "",
+          (Test("answers", "triangle", "angle", "grid"),
+           Test("answers", "triangle_first", "angle_open", "grid"))),
+    Claim("C2", "triangles narrow faster, pivot less and are right more often than angles",
+          "Abstract (English, as printed)", TRIANGLE_EN, "",
+          (Test("fewer_candidates", "triangle", "angle", "grid"),
+           Test("fewer_pivots", "triangle", "angle", "grid"),
+           Test("fewer_pivots", "triangle_first", "angle_open", "grid"),
+           Test("raw_right", "triangle", "angle", "grid"),
+           Test("raw_right", "triangle_first", "angle_open", "grid"))),
+    Claim("C3", "the hybrid is faster than the triangle method",
+          "Abstract (English, as printed): speed", HYBRID_EN, "",
+          (Test("faster", "hybrid", "triangle", "noise"),
+           Test("faster", "hybrid", "triangle", "false"),
+           Test("faster", "hybrid_single", "triangle_first", "noise"))),
+    Claim("C4", "the hybrid is faster than triangles and more accurate than angles",
+          "Abstract (Persian): speed and accuracy", SPEED_FA, SPEED_EN,
+          (Test("faster", "hybrid", "triangle", "noise"),
+           Test("raw_right", "hybrid", "angle", "grid"),
+           Test("raw_right", "hybrid_single", "angle_open", "grid"),
+           Test("verified", "hybrid", "angle", "grid"))),
+    Claim("C5", "the hybrid needs no pivoting",
+          "Abstract (English, as printed): no pivoting", HYBRID_EN, "",
+          (Test("no_pivots", "hybrid", "triangle", "grid"),
+           Test("no_pivots", "hybrid_single", "triangle_first", "grid"),
+           Test("raw_right", "hybrid_single", "hybrid", "grid", "as good")),
+          note="the last test asks what leaving the pivots out costs"),
+    Claim("C6", "the hybrid is robust to false stars",
+          "Abstract (English, as printed)", FALSE_EN, "",
+          (Test("raw_right", "hybrid", "triangle", "false"),
+           Test("raw_right", "hybrid", "angle", "false"),
+           Test("raw_right", "hybrid_single", "triangle_first", "false"),
+           Test("raw_right", "hybrid_single", "angle_open", "false"),
+           Test("verified", "hybrid", "triangle", "false"),
+           Test("verified", "hybrid", "angle", "false"))),
+    Claim("C7", "the hybrid is more robust to false stars than either method",
+          "Abstract (Persian): false stars", FALSE_FA, FALSE_FA_EN,
+          (Test("raw_right", "hybrid", "triangle", "false"),
+           Test("raw_right", "hybrid", "angle", "false"),
+           Test("verified", "hybrid", "triangle", "false"),
+           Test("verified", "hybrid", "angle", "false")),
+          note="C6's tests of ours: the Persian sentence says 'than either' method"),
+    Claim("C8", "triangles need fewer stars than angles",
+          "Triangle method section (Persian)", STARS_FA, STARS_EN,
+          (Test("verified", "triangle", "angle", "fov10"),
+           Test("verified", "triangle_first", "angle_open", "fov10"),
+           Test("verified", "triangle", "angle", "grid"))),
+    Claim("C9", "hundreds of catalog triangles per observed one",
+          "Triangle method section (Persian)", HUNDREDS_FA, HUNDREDS_EN, (),
+          note="no two methods compared: the catalog triangles per lookup are counted"),
+)
+
+#: per measure: the per-frame table it is read from and the column
+SOURCE = {"verified": ("verified", "correct"), "raw_right": ("raw", "first_right"),
+          "answers": ("raw", "yielded"), "faster": ("timing", "seq_ms"),
+          "fewer_pivots": ("raw", "pivots"), "no_pivots": ("raw", "pivots"),
+          "fewer_candidates": ("raw", "kept_per_lookup")}
+KEY = ["condition", "frame"]
+
+
+def per_lookup(raw: pd.DataFrame) -> pd.Series:
+    """Catalog candidates per lookup on each frame: the triangle matcher's after the polar
+    moment filter (``x_polar_kept``), the others' (angle pairs) as counted."""
+    kept = raw["x_polar_kept"] if "x_polar_kept" in raw else pd.Series(np.nan, raw.index)
+    lookups = raw["x_lookups"] if "x_lookups" in raw else pd.Series(np.nan, raw.index)
+    found = kept.where(kept.notna(), raw["candidates"])
+    return found / lookups.where(lookups > 0)
+
+
+def outcomes(frames: pd.DataFrame, measure: str, a: str, b: str) -> pd.DataFrame:
+    """Per frame of both methods (the frames both have): ``oa``, ``ob`` as booleans, with
+    the frame's condition columns."""
+    _, col = SOURCE[measure]
+    conds = frames.drop_duplicates(KEY).set_index(KEY)[["noise_px", "false_stars"]]
+    va = frames[frames["method"] == a].set_index(KEY)[col].rename("va")
+    vb = frames[frames["method"] == b].set_index(KEY)[col].rename("vb")
+    both = pd.concat([va, vb], axis=1, join="inner").dropna()
+    if measure in ("faster", "fewer_pivots", "fewer_candidates"):
+        oa, ob = both["va"] < both["vb"], both["vb"] < both["va"]
+    elif measure == "no_pivots":
+        oa, ob = both["va"] == 0, both["vb"] == 0
+    else:
+        oa, ob = both["va"].astype(bool), both["vb"].astype(bool)
+    return conds.join(pd.DataFrame({"oa": oa, "ob": ob}), how="inner").reset_index()
+
+
+def _in_scope(frame: pd.DataFrame, scope: str) -> pd.DataFrame:
+    if scope == "false":
+        return frame[frame["false_stars"] > 0]
+    if scope == "noise":
+        return frame[frame["false_stars"] == 0]
+    return frame
+
+
+def paired_rows(claim: Claim, number: int, test: Test, sources: dict) -> list[dict]:
+    """The paired test's rows: one per condition of its scope, then the pooled one."""
+    source, _ = SOURCE[test.measure]
+    frames = sources["fov10" if test.scope == "fov10" else source]
+    paired = _in_scope(outcomes(frames, test.measure, test.a, test.b), test.scope)
+    groups = [((n, f), g) for (n, f), g in paired.groupby(["noise_px", "false_stars"])]
+    groups.append(((np.nan, np.nan), paired))
+    rows = []
+    for j, ((noise, false), g) in enumerate(groups, start=1):
+        res = mcnemar_exact(g["oa"].to_numpy(), g["ob"].to_numpy())
+        pooled = j == len(groups)
+        rows.append({"row": f"{claim.key}.{number}" + ("" if pooled else f".{j}"),
+                     "claim": claim.key, "test": number, "measure": test.measure,
+                     "a": test.a, "b": test.b, "scope": test.scope, "sense": test.sense,
+                     "condition": "pooled" if pooled else f"{noise:g} px/{int(false)} false",
+                     "noise_px": noise, "false_stars": false, "n": res.frames,
+                     "k_a": int(g["oa"].sum()), "k_b": int(g["ob"].sum()),
+                     "only_a": res.only_a, "only_b": res.only_b, "p": res.p})
+    return rows
+
+
+def claims_table(sources: dict) -> pd.DataFrame:
+    """Every claim's paired tests on the frames in ``sources`` ("verified": the bench's
+    frames.csv rows, "raw": the raw pass's, "timing": the timing pass's, "fov10": the
+    10 deg field's bench rows), one row per condition and test; the row id is
+    claim.test.condition, claim.test for the pooled row."""
+    rows = []
+    for claim in CLAIMS:
+        for number, test in enumerate(claim.tests, start=1):
+            rows += paired_rows(claim, number, test, sources)
+    return pd.DataFrame(rows)
+
+
+def _conditions(picked: pd.DataFrame, every: pd.DataFrame) -> str:
+    """The conditions ``picked`` among ``every``, named; "all but ..." when shorter."""
+    if len(picked) > len(every) / 2:
+        rest = every[~every["row"].isin(picked["row"])]
+        return (f"all {len(every)} conditions" if rest.empty else
+                f"{len(picked)} of {len(every)} conditions, all but "
+                + ", ".join(rest["condition"]))
+    return ", ".join(picked["condition"])
+
+
+def verdict(rows: pd.DataFrame) -> tuple[str, str]:
+    """(verdict, detail) of one test from its rows (the pooled row last), read from the
+    p-values: "reproduced" when the pooled row and at least half the conditions show
+    ``a`` significantly better and none ``b``; "reproduced only under" the conditions
+    that show it (the reverse named too); else "not reproduced". With ``sense`` "as
+    good": reproduced unless ``b`` is significantly better somewhere."""
+    cond, pooled = rows.iloc[:-1], rows.iloc[-1]
+    sig = cond["p"] < ALPHA
+    a_sig = cond[sig & (cond["only_a"] > cond["only_b"])]
+    b_sig = cond[sig & (cond["only_b"] > cond["only_a"])]
+    pooled_a = pooled["p"] < ALPHA and pooled["only_a"] > pooled["only_b"]
+    pooled_b = pooled["p"] < ALPHA and pooled["only_b"] > pooled["only_a"]
+    named = _conditions(b_sig if len(b_sig) else a_sig, cond)
+    if pooled["sense"] == "as good":
+        if not len(b_sig) and not pooled_b:
+            return "reproduced", "no condition where the second is significantly better"
+        return "not reproduced", f"the second is significantly better at {named or 'pooled'}"
+    reverse = f"; the reverse at {_conditions(b_sig, cond)}" if len(b_sig) else ""
+    if pooled_a and not len(b_sig) and len(a_sig) >= len(cond) / 2:
+        return "reproduced", f"significant in {len(a_sig)} of {len(cond)} conditions"
+    if len(a_sig):
+        return "reproduced only under", _conditions(a_sig, cond) + reverse
+    if pooled_a:
+        return "reproduced only under", "the conditions pooled, in none alone" + reverse
+    if pooled_b or len(b_sig):
+        return "not reproduced", f"the reverse is significant at {named or 'pooled'}"
+    return "not reproduced", "no significant difference"
+
+
+def claim_verdict(rows: pd.DataFrame) -> str:
+    """A claim's verdict from its tests' rows: "reproduced" when every test is,
+    "not reproduced" when none is even in part, else "reproduced only under" the
+    conditions and for the methods its tests name; "" when it has no test."""
+    words = [verdict(g)[0] for _, g in rows.groupby("test", sort=True)]
+    if not words:
+        return ""
+    if all(w == "reproduced" for w in words):
+        return "reproduced"
+    if all(w == "not reproduced" for w in words):
+        return "not reproduced"
+    return "reproduced only under"
