@@ -221,22 +221,21 @@ def solve(source: str | Path | np.ndarray, **options) -> SolveResult:
 
     Examples
     --------
-    The centroids of a random sky seen at a known attitude (seeded):
+    A frame rendered (seeded) from a random sky at a known attitude, solved from its pixels:
 
     >>> import numpy as np
     >>> import startrack
     >>> from startrack.attitude import from_radec_roll
-    >>> from startrack.camera import Camera
-    >>> from startrack.simulate import observe
-    >>> from startrack.sky import load_sky
-    >>> camera = Camera.from_fov(1024, 1024, 20.0)
-    >>> truth = from_radec_roll(120.0, -30.0, 15.0)
-    >>> scene = observe(load_sky("random", camera), camera, truth, np.random.default_rng(7))
-    >>> result = startrack.solve(np.column_stack([scene.x, scene.y]), fov_deg=20.0,
-    ...                          size=(1024, 1024), sky="random")
-    >>> result.solved, round(result.ra_deg, 3), round(result.dec_deg, 3)
-    (True, 120.0, -30.0)
-    >>> bool((result.stars["catalog_id"] == scene.catalog_id).all())
+    >>> from startrack.simulate import SensorModel, observe, render_frame
+    >>> camera = startrack.Camera.from_fov(640, 480, 20.0)
+    >>> rng = np.random.default_rng(3)
+    >>> truth = from_radec_roll(80.0, 25.0, -40.0)
+    >>> scene = observe(startrack.load_sky("random", camera), camera, truth, rng)
+    >>> image = render_frame(scene, camera, SensorModel(), rng)
+    >>> result = startrack.solve(image, fov_deg=20.0, sky="random")
+    >>> result.solved, round(result.ra_deg, 2), round(result.dec_deg, 2), round(result.roll_deg)
+    (True, 80.0, 25.0, 320)
+    >>> len(result.stars) == len(scene)
     True
     """
     return Solver(**options).solve(source)
