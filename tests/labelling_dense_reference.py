@@ -1,9 +1,11 @@
-"""The dense formulation of the final labelling: observed x catalog tables, as
-startrack.matching.labelling_kernels computed it before it moved to the pairs within the match
-radius. Kept as the reference that tests/test_labelling_kernels.py holds the compiled
-kernel to: numpy's semantics where they decide a result (a median is NaN when any value is
-NaN, the best score is the first maximum with NaN counted as the maximum, a runner-up is
-NaN when any other score is NaN, a comparison with NaN is False), and the same errors.
+"""The dense formulation of the final labelling: observed x catalog tables, as the
+labelling computed it before it moved to the pairs within the match radius, in plain
+Python and numpy. Kept as the reference that tests/test_labelling_kernels.py holds the
+compiled labelling to: numpy's semantics where they decide a result (a median is NaN when
+any value is NaN, the best score is the first maximum with NaN counted as the maximum, a
+runner-up is NaN when any other score is NaN, a comparison with NaN is False), and the
+same errors (Python's: a float division by zero raises, but in the brightness fit, which
+divides as numpy does).
 """
 
 from __future__ import annotations
@@ -11,19 +13,18 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
-# The scalar helpers are the compiled kernel's own: the reference is the dense tables.
-from startrack.matching.labelling_kernels import (
-    _MAD_TO_SIGMA,
-    _MEDIAN_R2_TO_SIGMA2,
-    N_REASONS,
-    _log,
-    _median,
-)
+_MAD_TO_SIGMA = 1.4826
+_MEDIAN_R2_TO_SIGMA2 = 1.0 / (2.0 * math.log(2.0))  # Rayleigh: median d^2 = 2 ln2 sigma^2
+N_REASONS = 4
+_log = math.log  # raises ValueError at or below 0, NaN for NaN
 
 
-@njit(cache=True)
+def _median(values: np.ndarray) -> float:
+    """numpy's median (NaN for none or any NaN), as a Python float."""
+    return float(np.median(values)) if len(values) else math.nan
+
+
 def _unresolved(x, y, j, resolve2):
     """Whether another catalog star lies within ``sqrt(resolve2)`` of catalog star j: the
     direct scan (the kernel sweeps the catalog once, sorted along x)."""
@@ -34,7 +35,6 @@ def _unresolved(x, y, j, resolve2):
     return hit
 
 
-@njit(cache=True)
 def _best_two(score):
     """Per row: the index of the best score (numpy's argmax), the best and the runner-up
     (numpy's max of the rest: NaN if any is NaN; -inf if none)."""
@@ -61,7 +61,6 @@ def _best_two(score):
     return best, top, nxt
 
 
-@njit(cache=True)
 def _isolated(near):
     """Pairs that are each other's only candidate, in row-major order."""
     n_obs, n_cat = near.shape
@@ -83,7 +82,6 @@ def _isolated(near):
     return oi[:k], ci[:k]
 
 
-@njit(cache=True, error_model="numpy")  # x / 0 is inf or NaN, as numpy's
 def _brightness(flux, has_flux, near, mag, oi, ci, mag_sigmas, min_mag_sigma, min_fit):
     """Per pair, whether it is consistent in brightness and the log-likelihood ratio of
     its brightness (true star against false star; 0 without a usable flux); the fitted
@@ -125,19 +123,20 @@ def _brightness(flux, has_flux, near, mag, oi, ci, mag_sigmas, min_mag_sigma, mi
                     continue
                 off = abs(inst[i] - mag[j] - zero)
                 ok[i, j] = off <= limit
-                t = off / sigma
+                with np.errstate(divide="ignore", invalid="ignore"):  # x / 0 as numpy's
+                    t = np.float64(off) / np.float64(sigma)
                 log_b[i, j] = -0.5 * (t * t) - norm
     return ok, log_b, sigma, True
 
 
-@njit(cache=True)
 def _rivals(cand, log_g, gap):
     """Each observed star's best catalog candidate and its score, and whether that pair
     has no rival on either side within the likelihood ``gap``."""
     n_obs, n_cat = cand.shape
     best_c, top_o, next_o = _best_two(log_g)
     # -inf - -inf (no candidate at all) is NaN, and NaN > gap is False.
-    clear_o = np.isfinite(top_o) & ~(next_o - top_o > gap)
+    with np.errstate(invalid="ignore"):
+        clear_o = np.isfinite(top_o) & ~(next_o - top_o > gap)
     score = np.full((n_cat, n_obs), -np.inf)  # per catalog star: its rival observed stars
     for i in range(n_obs):
         for j in range(n_cat):
@@ -145,7 +144,8 @@ def _rivals(cand, log_g, gap):
             if cand[i, j] and not (clear_o[i] and best_c[i] != j):
                 score[j, i] = log_g[i, j]
     best_i, top_c, next_c = _best_two(score)
-    clear_c = np.isfinite(top_c) & ~(next_c - top_c > gap)
+    with np.errstate(invalid="ignore"):
+        clear_c = np.isfinite(top_c) & ~(next_c - top_c > gap)
     clear = np.zeros(n_obs, np.bool_)
     if n_cat:
         for i in range(n_obs):
@@ -154,7 +154,6 @@ def _rivals(cand, log_g, gap):
     return best_c, top_o, clear
 
 
-@njit(cache=True)
 def _tables(ox, oy, x, y, radius2):
     """Squared distances observed x catalog, and which are within the match radius."""
     d2 = np.empty((len(ox), len(x)))
@@ -165,7 +164,6 @@ def _tables(ox, oy, x, y, radius2):
     return d2, d2 <= radius2
 
 
-@njit(cache=True)
 def _residual_sigma(d2, oi, ci, sigma0, min_sigma_px, min_fit):
     """The residual scatter per axis: fitted over the isolated pairs when there are enough
     (``sigma0`` otherwise), floored at ``min_sigma_px``."""
@@ -177,10 +175,9 @@ def _residual_sigma(d2, oi, ci, sigma0, min_sigma_px, min_fit):
         sigma = math.sqrt(_median(pair_d2) * _MEDIAN_R2_TO_SIGMA2)
     if min_sigma_px > sigma:
         sigma = min_sigma_px
-    return sigma
+    return float(sigma)
 
 
-@njit(cache=True)
 def _coincidence_log(near, area):
     """Log density (per px^2) of a false star on an unobserved catalog star, and the log
     probability that a catalog star is observed, from this frame's own counts (plus one,
@@ -192,7 +189,6 @@ def _coincidence_log(near, area):
     return _log((n_false + 1.0) / area * unobserved), _log(1.0 - unobserved)
 
 
-@njit(cache=True)
 def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area, gap,
                  log_false_odds, resolve2, mag_sigmas, min_mag_sigma, min_sigma_px, min_fit):
     """The final labelling (:func:`startrack.verify._labelling.label_stars`, whose parameters
@@ -218,7 +214,7 @@ def label_kernel(ox, oy, x, y, mag, rows, flux, has_flux, radius2, sigma0, area,
     for i in range(n_obs):
         for j in range(n_cat):
             if cand[i, j]:
-                log_g[i, j] = -d2[i, j] / (2.0 * (sigma * sigma))
+                log_g[i, j] = -float(d2[i, j]) / (2.0 * (sigma * sigma))
     best_c, top, clear = _rivals(cand, log_g, gap)
     withheld = np.zeros(N_REASONS, np.int64)
     ok = np.zeros(n_obs, np.bool_)

@@ -1,5 +1,6 @@
-"""The compiled labelling over the pairs within the radius gives what the dense
-observed x catalog formulation gives, on random frames built to exercise every rule."""
+"""The compiled labelling (startrack._core.verify.label_stars) over the pairs within the
+radius gives what the dense observed x catalog formulation gives, on random frames built
+to exercise every rule."""
 
 from __future__ import annotations
 
@@ -8,8 +9,17 @@ import math
 import numpy as np
 import pytest
 from labelling_dense_reference import label_kernel as dense_kernel
+from startrack._core.verify import label_stars
 
-from startrack.matching.labelling_kernels import label_kernel
+# The order of the labelling's thresholds after the positions in the cases below (the
+# fields of the compiled LabelParams structure).
+FIELDS = ("has_flux", "radius2", "sigma0", "area", "log_gap", "log_false_odds", "resolve2",
+          "mag_sigmas", "min_mag_sigma", "min_sigma_px", "min_fit")
+
+
+def label_kernel(ox, oy, x, y, mag, rows, flux, *params):
+    """The compiled labelling with the dense reference's positional arguments."""
+    return label_stars(ox, oy, x, y, mag, rows, flux, dict(zip(FIELDS, params, strict=True)))
 
 
 def _case(rng: np.random.Generator) -> tuple:

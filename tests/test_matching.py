@@ -157,7 +157,7 @@ def test_nearest_matches_keep_the_nearest_claim(radius, spread):
     """The grid search gives the brute-force answer: each observed star its nearest
     catalog star within the radius (the lower index on a tie), each catalog star kept by
     its nearest claimant (the lower observed index on a tie)."""
-    from startrack.matching.nearest_kernels import nearest_matches
+    from startrack._core._nearest import matches as nearest_matches
 
     rng = np.random.default_rng(int(radius + spread))
     ox, oy = rng.uniform(0, spread, 40), rng.uniform(0, spread, 40)
@@ -182,7 +182,7 @@ def test_nearest_matches_keep_the_nearest_claim(radius, spread):
 def test_pairs_within_is_the_brute_force_list(radius2):
     """The pair search lists exactly the pairs a full observed x catalog table keeps, by
     observed then catalog index; NaN positions pair with nothing."""
-    from startrack.matching.nearest_kernels import pairs_within
+    from startrack._core._nearest import pairs as pairs_within
 
     rng = np.random.default_rng(17)
     cx, cy = rng.uniform(0, 200, 60), rng.uniform(0, 200, 60)
@@ -203,9 +203,11 @@ def test_pairs_within_is_the_brute_force_list(radius2):
 def test_compiled_projection_is_the_cameras(k1):
     """Verification projects through the compiled kernel; it must land every catalog
     vector where Camera.vector_to_pixel and in_image put it, lens included."""
+    from startrack._core.verify import project
+
     from startrack.camera._distortion import RadialDistortion
     from startrack.camera._model import Camera
-    from startrack.matching.verify_kernels import project
+    from startrack.verify._frame import camera_geometry
 
     camera = Camera.from_fov(1024, 768, 20.0, distortion=RadialDistortion(k1=k1))
     rng = np.random.default_rng(int(abs(k1) * 10) + 3)
@@ -215,7 +217,7 @@ def test_compiled_projection_is_the_cameras(k1):
     matrix = Rotation.random(random_state=rng).as_matrix()
     sky = vectors @ matrix.T  # catalog vectors whose camera-frame directions are `vectors`
     for margin in (-3.0, 0.0, 40.0):
-        px, py, inside = project(sky, matrix, camera.geometry, margin)
+        px, py, inside = project(sky, matrix, camera_geometry(camera), margin)
         x, y, front = camera.vector_to_pixel(vectors)
         want = front & camera.in_image(x, y, margin=-margin)
         np.testing.assert_array_equal(inside, want)
@@ -225,8 +227,9 @@ def test_compiled_projection_is_the_cameras(k1):
 
 
 def test_compiled_wahba_and_quaternion_agree_with_scipy():
+    from startrack._core.shared import matrix_to_quaternion, wahba
+
     from startrack.attitude import wahba_matrices
-    from startrack.matching.wahba_kernels import matrix_to_quaternion, wahba
 
     rng = np.random.default_rng(17)
     for _ in range(50):
@@ -265,11 +268,11 @@ def _random_frames(seed, count, scales):
         yield t, rng, scale, cx, cy, ox, oy
 
 
-def test_pairs_within_grid_is_the_strip_search():
-    """The grid search lists what the strip search lists, on frames at every scale, with
-    rounded (tied) positions, NaN and infinite coordinates and radii on the boundary."""
-    from startrack.matching.nearest_fallback_kernels import _pairs_strip
-    from startrack.matching.nearest_kernels import pairs_within
+def test_pairs_within_grid_is_the_brute_force_scan():
+    """The grid search lists what a scan of every pair lists, on frames at every scale,
+    with rounded (tied) positions, NaN and infinite coordinates and radii on the
+    boundary."""
+    from startrack._core._nearest import pairs as pairs_within
 
     for t, rng, scale, cx, cy, ox, oy in _random_frames(23, 3000, (1.0, 200.0, 1e6, 1e-3)):
         m, n = len(cx), len(ox)
@@ -284,20 +287,27 @@ def test_pairs_within_grid_is_the_strip_search():
         radius2 = (0.0, (scale / 50) ** 2, (scale / 10) ** 2, (scale * 5) ** 2, -1.0)[t % 5]
         if t % 19 == 0 and n:
             ox[0], oy[0], radius2 = cx[0] + scale / 50, cy[0], (scale / 50) ** 2
-        for got, want in zip(pairs_within(ox, oy, cx, cy, radius2),
-                             _pairs_strip(ox, oy, cx, cy, radius2), strict=True):
-            np.testing.assert_array_equal(got, want)
+        with np.errstate(invalid="ignore"):
+            full = (ox[:, None] - cx[None, :]) ** 2 + (oy[:, None] - cy[None, :]) ** 2
+        want_obs, want_cat = np.nonzero(full <= radius2)
+        got = pairs_within(ox, oy, cx, cy, radius2)
+        for a, b in zip(got, (want_obs, want_cat, full[want_obs, want_cat],
+                              np.searchsorted(want_obs, np.arange(n + 1))), strict=True):
+            np.testing.assert_array_equal(a, b)
 
 
-def test_nearest_scanning_only_the_reached_cells_is_the_3x3_search():
-    """Scanning only the cells a star's radius reaches finds what the 3 x 3 cell search
-    finds, at every scale, with ties, rounded positions and stars off the catalog's
-    extent."""
-    from startrack.matching.nearest_fallback_kernels import _nearest_cells
-    from startrack.matching.nearest_kernels import _nearest
+def test_nearest_scanning_only_the_reached_cells_is_the_brute_force_scan():
+    """Scanning only the cells a star's radius reaches finds each star's nearest catalog
+    star within the radius (the lower index on a tie), at every scale, with ties,
+    rounded positions and stars off the catalog's extent."""
+    from startrack._core._nearest import nearest
 
     for t, _, scale, cx, cy, ox, oy in _random_frames(29, 3000, (1.0, 1024.0, 1e5, 1e-2)):
         radius = (0.0, scale / 100, scale / 20, 3 * scale)[t % 4]
-        for got, want in zip(_nearest(ox, oy, cx, cy, radius),
-                             _nearest_cells(ox, oy, cx, cy, radius), strict=True):
-            np.testing.assert_array_equal(got, want)
+        found, dist2 = nearest(ox, oy, cx, cy, radius)
+        d2 = (ox[:, None] - cx[None, :]) ** 2 + (oy[:, None] - cy[None, :]) ** 2
+        best = np.argmin(d2, axis=1) if len(cx) else np.zeros(len(ox), np.int64)
+        best_d = d2[np.arange(len(ox)), best] if len(cx) else np.full(len(ox), np.inf)
+        hit = best_d <= radius * radius
+        np.testing.assert_array_equal(found, np.where(hit, best, -1))
+        np.testing.assert_array_equal(dist2, np.where(hit, best_d, np.inf))

@@ -14,9 +14,9 @@ from startrack.attitude import boresight_error_arcsec
 from startrack.bench.tracking import TrackCondition, make_sequence
 from startrack.camera._distortion import RadialDistortion
 from startrack.camera._model import Camera
-from startrack.matching.projector import CAPTURE
 from startrack.matching.verify_kernels import project
 from startrack.tracking._track import CatalogCone, Prior, TrackConfig, _attempt, hypotheses, track
+from startrack.verify._frame import CAPTURE
 from startrack.verify._verification import VerifyConfig, verify
 
 

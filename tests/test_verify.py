@@ -175,57 +175,25 @@ def test_random_centroids_never_solved_by_default_method(hip_db):
 
 
 def test_refinement_beyond_the_cone_margin_gives_the_same_answer(random_db, monkeypatch):
-    """When refinement moves the boresight beyond the cached cone's margin, verify()
-    leaves the one-call path and refines again on a fresh cone; forcing that on every
-    frame (no margin at all) must give the same identities and attitude."""
-    from startrack.matching import projector
+    """When refinement moves the boresight beyond the cone's margin, the compiled check
+    looks a fresh cone up and refines again there; forcing that on every frame (no margin
+    at all) must give the same identities and attitude."""
+    from startrack.verify import _frame
 
     cases = [(Hypothesis(np.arange(3), f.truth_rows[:3]), f.obs)
              for f, _ in _frames(random_db, 6, seed=4, noise_px=0.5, false_stars=2)
              if np.all(f.truth_rows[:3] >= 0)]
     plain = [verify(h, obs, random_db, CONFIG) for h, obs in cases]
-    calls = []
-    original = projector.CatalogProjector._refine_on_cone
-
-    def counted(self, obs_m, cat_m):
-        calls.append(1)
-        return original(self, obs_m, cat_m)
-
-    monkeypatch.setattr(projector, "CONE_REUSE_FRACTION", 0.0)
-    monkeypatch.setattr(projector.CatalogProjector, "_refine_on_cone", counted)
+    monkeypatch.setattr(_frame, "CONE_REUSE_FRACTION", 0.0)
     forced = [verify(h, obs, random_db, CONFIG) for h, obs in cases]
-    assert len(calls) >= sum(p.accepted for p in plain) > 0  # the fallback really ran
+    cones = [_frame.FrameVerifier(obs, random_db, CONFIG).check(
+        np.asarray(h.obs_index, np.int64), np.asarray(h.cat_index, np.int64)).cones
+        for h, obs in cases]
+    accepted = [p.accepted for p in plain]
+    assert sum(accepted) > 0 and all(c >= 2 for c, a in zip(cones, accepted, strict=True) if a)
     for a, b in zip(plain, forced, strict=True):
         assert a.accepted == b.accepted
         np.testing.assert_array_equal(a.obs_index, b.obs_index)
         np.testing.assert_array_equal(a.cat_index, b.cat_index)
         if a.accepted:
             np.testing.assert_allclose(a.matrix, b.matrix, atol=1e-9)
-
-
-def test_frame_constants_kept_across_frames_give_each_frame_its_own_answer(random_db):
-    """The check kernels' constants are kept from frame to frame of one camera, noise and
-    config; each frame's fluxes and a change of config still come through: every answer
-    equals the one computed with nothing kept."""
-    from startrack.matching import projector
-
-    cases = []
-    for frame, rng in _frames(random_db, 8, seed=6, noise_px=0.4, false_stars=2):
-        if np.all(frame.truth_rows[:3] >= 0):
-            flux = rng.uniform(1e3, 1e5, len(frame.obs))  # each frame its own fluxes
-            obs = Observation.from_pixels(frame.obs.x, frame.obs.y, frame.obs.camera, 0.4,
-                                          flux)
-            cases.append((Hypothesis(np.arange(3), frame.truth_rows[:3]), obs))
-    configs = [CONFIG, VerifyConfig(match_radius_px=3.0), CONFIG]
-    kept = [verify(h, obs, random_db, c) for h, obs in cases for c in configs]
-    fresh = []
-    for h, obs in cases:
-        for c in configs:
-            projector._last_params[:] = [None, None]
-            fresh.append(verify(h, obs, random_db, c))
-    assert sum(v.accepted for v in kept) >= len(cases)
-    for a, b in zip(kept, fresh, strict=True):
-        assert a.accepted == b.accepted and a.false_probability == b.false_probability
-        np.testing.assert_array_equal(a.obs_index, b.obs_index)
-        np.testing.assert_array_equal(a.cat_index, b.cat_index)
-        np.testing.assert_array_equal(a.matrix, b.matrix)

@@ -7,12 +7,16 @@ import numpy as np
 
 from libc.math cimport M_PI, asin, atan2, cos, fabs, fmax, fmin, sin
 
+cimport numpy as cnp
+from startrack._core._arrays cimport empty_i64
 from startrack._core._sort cimport first_at_least
 
 cdef double BAND_RAD = M_PI / 180.0  # declination band height (startrack.database.cone)
 # Windows are widened by this (radians) so that rounding never drops a star on an edge;
 # the dot test decides.
 cdef double EDGE = 1e-9
+
+cnp.import_array()  # the C API the _arrays helpers call
 
 
 cdef class ConeTable:
@@ -67,7 +71,7 @@ cdef long long[::1] cone_rows(ConeTable table, const double[:] direction, double
     for w in range(n):
         size += spans[w, 1] - spans[w, 0]
     cdef double cos_radius = cos(radius)
-    out = np.empty(size, np.int64)
+    out = empty_i64(size)
     cdef long long[::1] view = out
     cdef const double[:, ::1] v = table.vectors
     for w in range(n):

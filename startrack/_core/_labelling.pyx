@@ -14,11 +14,16 @@ import numpy as np
 
 from libc.math cimport INFINITY, M_PI, NAN, fabs, isfinite, isnan, log, log10, sqrt
 
+cimport numpy as cnp
+from startrack._core._arrays cimport (copy_i64, empty_f64, empty_i64, full_f64, ones_u8,
+                                      zeros_f64, zeros_i64, zeros_u8)
 from startrack._core._nearest cimport Pairs, pairs_within
 from startrack._core._stats cimport median_inplace, ptp
 
 cdef double _MAD_TO_SIGMA = 1.4826
 cdef double _MEDIAN_R2_TO_SIGMA2 = 1.0 / (2.0 * log(2.0))  # Rayleigh: median d^2 = 2 ln2 s^2
+
+cnp.import_array()  # the C API the _arrays helpers call
 
 
 cdef class Labels:
@@ -49,110 +54,30 @@ cdef struct _Logs:
 
 
 cdef Best _best_two(const double[::1] values, Py_ssize_t lo, Py_ssize_t hi,
-                    const long long[::1] order) noexcept:
-    """Over the entries ``order[lo:hi]`` of a dense row whose others are -inf: numpy's
-    argmax (the first maximum, NaN counted as the maximum; -1 when all are -inf), the
-    best and numpy's max of the rest (NaN if any is NaN)."""
+                    const long long* order) noexcept:
+    """Over the entries ``order[lo:hi]`` (NULL: lo:hi themselves) of a dense row whose
+    others are -inf: numpy's argmax (the first maximum, NaN counted as the maximum; -1
+    when all are -inf), the best and numpy's max of the rest (NaN if any is NaN)."""
     cdef Best out
-    cdef Py_ssize_t s
+    cdef Py_ssize_t s, e
     cdef double v
     out.index, out.top, out.runner_up = -1, -INFINITY, -INFINITY
     for s in range(lo, hi):
         if isnan(out.top):
             break
-        v = values[order[s]]
+        e = s if order == NULL else order[s]
+        v = values[e]
         if isnan(v) or v > out.top:
-            out.index, out.top = order[s], v
+            out.index, out.top = e, v
     for s in range(lo, hi):
-        v = values[order[s]]
-        if order[s] != out.index and (isnan(v) or v > out.runner_up):
+        e = s if order == NULL else order[s]
+        v = values[e]
+        if e != out.index and (isnan(v) or v > out.runner_up):
             out.runner_up = v
     return out
 
 
-cdef class _Fit:
-    """The brightness fit: per pair whether it is consistent in brightness and its
-    log-likelihood ratio, the fitted scatter and whether brightness is used."""
-    cdef unsigned char[::1] ok
-    cdef double[::1] log_b
-    cdef double sigma
-    cdef bint used
-
-
-@cython.cdivision(True)  # x / 0 is inf or NaN, as numpy's
-cdef _Fit _brightness(Pairs pairs, const double[::1] flux, const double[::1] mag,
-                      const long long[::1] iso_pair, LabelParams p):
-    cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_obs = flux.shape[0], i, k, n_fit = 0
-    cdef _Fit fit = _Fit.__new__(_Fit)
-    fit.ok, fit.log_b = np.ones(n_pairs, np.uint8), np.zeros(n_pairs)
-    fit.sigma, fit.used = NAN, False
-    if not p.has_flux:
-        return fit
-    cdef double[::1] inst = np.full(n_obs, NAN)
-    for i in range(n_obs):
-        if isfinite(flux[i]) and flux[i] > 0.0:
-            inst[i] = -2.5 * log10(flux[i])
-    cdef double[::1] offset = np.empty(iso_pair.shape[0])
-    for k in range(iso_pair.shape[0]):
-        i = pairs.obs[iso_pair[k]]
-        if not isnan(inst[i]):
-            offset[n_fit] = inst[i] - mag[pairs.cat[iso_pair[k]]]
-            n_fit += 1
-    if n_fit < p.min_fit:
-        return fit
-    offset = offset[:n_fit]
-    cdef double zero = median_inplace(offset)
-    for k in range(n_fit):
-        offset[k] = fabs(offset[k] - zero)
-    cdef double sigma = _MAD_TO_SIGMA * median_inplace(offset)
-    if p.min_mag_sigma > sigma:
-        sigma = p.min_mag_sigma
-    if mag.shape[0] == 0:  # as numpy's ptp of nothing
-        raise ValueError("zero-size array to reduction operation maximum which has no identity")
-    cdef double span = ptp(mag)
-    if 2.0 * p.mag_sigmas * sigma > span:
-        span = 2.0 * p.mag_sigmas * sigma
-    if span == 0.0:  # as Python's float division
-        raise ZeroDivisionError("float division by zero")
-    cdef double norm = _log(sigma * sqrt(2.0 * M_PI) / span), limit = p.mag_sigmas * sigma
-    cdef double off, t
-    for k in range(n_pairs):
-        i = pairs.obs[k]
-        if not isnan(inst[i]):  # a usable flux
-            off = fabs(inst[i] - mag[pairs.cat[k]] - zero)
-            fit.ok[k] = off <= limit
-            t = off / sigma
-            fit.log_b[k] = -0.5 * (t * t) - norm
-    fit.sigma, fit.used = sigma, True
-    return fit
-
-
-cdef long long[::1] _isolated(Pairs pairs, const long long[::1] per_cat):
-    """The pairs that are each other's only candidate, by observed index."""
-    cdef Py_ssize_t n = pairs.start.shape[0] - 1, i, k = 0
-    out = np.empty(n, np.int64)
-    cdef long long[::1] view = out
-    for i in range(n):
-        if pairs.start[i + 1] - pairs.start[i] == 1 and per_cat[pairs.cat[pairs.start[i]]] == 1:
-            view[k] = pairs.start[i]
-            k += 1
-    return out[:k]
-
-
-cdef double _residual_sigma(Pairs pairs, const long long[::1] iso_pair, LabelParams p):
-    """The residual scatter per axis: fitted over the isolated pairs when there are enough
-    (the stated noise otherwise), floored at ``min_sigma_px``."""
-    cdef double sigma = p.sigma0
-    cdef Py_ssize_t k
-    cdef double[::1] d2
-    if iso_pair.shape[0] >= p.min_fit:
-        d2 = np.empty(iso_pair.shape[0])
-        for k in range(iso_pair.shape[0]):
-            d2[k] = pairs.d2[iso_pair[k]]
-        sigma = sqrt(median_inplace(d2) * _MEDIAN_R2_TO_SIGMA2)
-    if p.min_sigma_px > sigma:
-        sigma = p.min_sigma_px
-    return sigma
+include "_labelling_fit.pxi"
 
 
 cdef inline bint _clear(Best b, double gap) noexcept:
@@ -168,13 +93,12 @@ cdef unsigned char[::1] _rivals(Pairs pairs, const unsigned char[::1] cand,
     within the likelihood ``gap``."""
     cdef Py_ssize_t n_obs = pairs.start.shape[0] - 1, n_pairs = pairs.obs.shape[0]
     cdef Py_ssize_t i, j, k
-    cdef long long[::1] identity = np.arange(n_pairs, dtype=np.int64)
-    cdef unsigned char[::1] clear_o = np.zeros(n_obs, np.uint8)
+    cdef unsigned char[::1] clear_o = zeros_u8(n_obs)
     cdef Best b
     for i in range(n_obs):
-        b = _best_two(log_g, pairs.start[i], pairs.start[i + 1], identity)
+        b = _best_two(log_g, pairs.start[i], pairs.start[i + 1], NULL)
         best_pair[i], top[i], clear_o[i] = b.index, b.top, _clear(b, gap)
-    cdef double[::1] rival = np.full(n_pairs, -INFINITY)  # per catalog star: its rivals
+    cdef double[::1] rival = full_f64(n_pairs, -INFINITY)  # per catalog star: its rivals
     for k in range(n_pairs):
         i = pairs.obs[k]
         # An observed star clearly matched to another catalog star is no rival here.
@@ -182,22 +106,22 @@ cdef unsigned char[::1] _rivals(Pairs pairs, const unsigned char[::1] cand,
             rival[k] = log_g[k]
     # By catalog then observed index: a counting sort of the pairs, which come by
     # observed index, is that order.
-    cdef long long[::1] cat_start = np.zeros(n_cat + 1, np.int64)
+    cdef long long[::1] cat_start = zeros_i64(n_cat + 1)
     for k in range(n_pairs):
         cat_start[pairs.cat[k] + 1] += 1
     for j in range(n_cat):
         cat_start[j + 1] += cat_start[j]
-    cdef long long[::1] by_cat = np.empty(n_pairs, np.int64)
-    cdef long long[::1] fill = np.array(cat_start[:n_cat], np.int64)
+    cdef long long[::1] by_cat = empty_i64(n_pairs)
+    cdef long long[::1] fill = copy_i64(cat_start, n_cat)
     for k in range(n_pairs):
         by_cat[fill[pairs.cat[k]]] = k
         fill[pairs.cat[k]] += 1
-    cdef unsigned char[::1] clear = np.zeros(n_obs, np.uint8)
+    cdef unsigned char[::1] clear = zeros_u8(n_obs)
     for i in range(n_obs):
         k = best_pair[i]
         if k >= 0 and clear_o[i]:
             j = pairs.cat[k]
-            b = _best_two(rival, cat_start[j], cat_start[j + 1], by_cat)
+            b = _best_two(rival, cat_start[j], cat_start[j + 1], &by_cat[0])
             clear[i] = _clear(b, gap) and b.index == k
     return clear
 
@@ -207,10 +131,13 @@ cdef unsigned char[::1] _crowded(const double[::1] x, const double[::1] y, doubl
     neighbour): a sweep along x, in x order, that stops where the x gap alone reaches the
     limit, so a frame costs O(m log m) and not O(n m)."""
     cdef Py_ssize_t m = x.shape[0], a, b, i, j
-    cdef unsigned char[::1] crowded = np.zeros(m, np.uint8)
+    cdef unsigned char[::1] crowded = zeros_u8(m)
     if not resolve2 > 0.0:
         return crowded  # no squared distance is below it
-    cdef long long[::1] order = np.argsort(np.asarray(x))
+    xs = x.base  # the array itself when it is one, with no copy
+    if not (isinstance(xs, np.ndarray) and xs.ndim == 1 and xs.shape[0] == m):
+        xs = np.asarray(x)
+    cdef long long[::1] order = cnp.PyArray_ArgSort(xs, 0, cnp.NPY_QUICKSORT)
     cdef double gap, dx, dy
     for a in range(m):
         i = order[a]
@@ -244,7 +171,7 @@ cdef Labels label(const double[::1] ox, const double[::1] oy, const double[::1] 
     cdef Py_ssize_t n_obs = ox.shape[0], n_cat = x.shape[0], i, k
     cdef Pairs pairs = pairs_within(ox, oy, x, y, p.radius2)
     cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_false = n_obs, n_unobserved = n_cat
-    cdef long long[::1] per_cat = np.zeros(n_cat, np.int64)
+    cdef long long[::1] per_cat = zeros_i64(n_cat)
     for k in range(n_pairs):
         per_cat[pairs.cat[k]] += 1
     cdef long long[::1] iso_pair = _isolated(pairs, per_cat)
@@ -261,12 +188,12 @@ cdef Labels label(const double[::1] ox, const double[::1] oy, const double[::1] 
     cdef double log_false = _log((n_false + 1.0) / p.area * unobserved)
     cdef double log_seen = _log(1.0 - unobserved)
     cdef double log_norm = _log(2.0 * M_PI * (sigma * sigma))  # before dividing by it
-    cdef double[::1] log_g = np.full(n_pairs, -INFINITY)  # residual log-likelihoods
+    cdef double[::1] log_g = full_f64(n_pairs, -INFINITY)  # residual log-likelihoods
     for k in range(n_pairs):
         if fit.ok[k]:
             log_g[k] = -pairs.d2[k] / (2.0 * (sigma * sigma))
-    cdef long long[::1] best = np.empty(n_obs, np.int64)
-    cdef double[::1] top = np.empty(n_obs)
+    cdef long long[::1] best = empty_i64(n_obs)
+    cdef double[::1] top = empty_f64(n_obs)
     cdef unsigned char[::1] clear = _rivals(pairs, fit.ok, log_g, p.log_gap, n_cat, best, top)
     cdef unsigned char[::1] crowded = _crowded(x, y, p.resolve2)
     cdef _Logs logs = _Logs(log_false, log_seen, log_norm, p.log_false_odds, sigma)
@@ -282,7 +209,7 @@ cdef Labels _decide(Pairs pairs, _Fit fit, const long long[::1] best,
     cdef Py_ssize_t n_obs = best.shape[0], i, k, c, n_ok = 0
     cdef Labels out = Labels.__new__(Labels)
     out.withheld[:] = [0, 0, 0, 0]
-    obs, cat = np.empty(n_obs, np.int64), np.empty(n_obs, np.int64)
+    obs, cat = empty_i64(n_obs), empty_i64(n_obs)
     cdef long long[::1] obs_v = obs, cat_v = cat
     cdef long long best_cat
     cdef double log_true

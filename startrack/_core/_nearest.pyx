@@ -10,6 +10,12 @@ import numpy as np
 
 from libc.math cimport INFINITY, fabs, fmax, fmin, isfinite, isnan, sqrt
 
+cimport numpy as cnp
+from startrack._core._arrays cimport (copy_i64, empty_f64, empty_i64, full_f64, full_i64,
+                                      zeros_i64)
+
+cnp.import_array()  # the C API the _arrays helpers call
+
 
 cdef class Pairs:
     def __iter__(self):
@@ -39,8 +45,8 @@ cdef _Cells _bucket(const double[::1] x, const double[::1] y, Grid grid):
     cdef Py_ssize_t m = x.shape[0], j, c, gx, gy, n_cells = grid.nx * grid.ny
     cdef _Cells cells = _Cells.__new__(_Cells)
     cells.grid = grid
-    cells.start = np.zeros(n_cells + 1, np.int64)
-    cdef long long[::1] cell = np.full(m, -1, np.int64)
+    cells.start = zeros_i64(n_cells + 1)
+    cdef long long[::1] cell = full_i64(m, -1)
     for j in range(m):
         if isfinite(x[j]) and isfinite(y[j]):
             gx = min(<Py_ssize_t>((x[j] - grid.x0) / grid.size), grid.nx - 1)
@@ -49,8 +55,8 @@ cdef _Cells _bucket(const double[::1] x, const double[::1] y, Grid grid):
             cells.start[cell[j] + 1] += 1
     for c in range(n_cells):
         cells.start[c + 1] += cells.start[c]
-    cdef long long[::1] fill = np.array(cells.start[:n_cells], np.int64)
-    cells.order = np.empty(cells.start[n_cells], np.int64)
+    cdef long long[::1] fill = copy_i64(cells.start, n_cells)
+    cells.order = empty_i64(cells.start[n_cells])
     for j in range(m):
         if cell[j] >= 0:
             cells.order[fill[cell[j]]] = j
@@ -123,17 +129,17 @@ cdef class _PairList:
     cdef Py_ssize_t count
 
     def __cinit__(self, Py_ssize_t cap):
-        self.obs = np.empty(cap, np.int64)
-        self.cat = np.empty(cap, np.int64)
-        self.d2 = np.empty(cap)
+        self.obs = empty_i64(cap)
+        self.cat = empty_i64(cap)
+        self.d2 = empty_f64(cap)
         self.count = 0
 
     cdef void add(self, Py_ssize_t first, Py_ssize_t i, Py_ssize_t j, double d2) except *:
         cdef Py_ssize_t k = self.count, cap = self.obs.shape[0]
         if k == cap:
-            self.obs = np.concatenate([self.obs.base[:k], np.empty(cap, np.int64)])
-            self.cat = np.concatenate([self.cat.base[:k], np.empty(cap, np.int64)])
-            self.d2 = np.concatenate([self.d2.base[:k], np.empty(cap)])
+            self.obs = np.concatenate([self.obs.base[:k], empty_i64(cap)])
+            self.cat = np.concatenate([self.cat.base[:k], empty_i64(cap)])
+            self.d2 = np.concatenate([self.d2.base[:k], empty_f64(cap)])
         while k > first and self.cat[k - 1] > j:
             self.obs[k], self.cat[k], self.d2[k] = self.obs[k - 1], self.cat[k - 1], self.d2[k - 1]
             k -= 1
@@ -156,7 +162,7 @@ cdef Pairs pairs_within(const double[::1] ox, const double[::1] oy, const double
     rounding cannot drop a pair the exact test keeps, reaches."""
     cdef Py_ssize_t n = ox.shape[0], m = x.shape[0], i, j, gx, gy, q, c
     cdef Py_ssize_t gx0 = 0, gx1 = -1, gy0 = 0, gy1 = -1
-    cdef long long[::1] start = np.zeros(n + 1, np.int64)
+    cdef long long[::1] start = zeros_i64(n + 1)
     cdef _PairList found = _PairList(n + 16)
     cdef double half = sqrt(radius2) * (1.0 + 1e-9) + 1e-9 if radius2 >= 0.0 else -1.0
     cdef double pad, dx, dy, d2
@@ -231,15 +237,15 @@ cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
     """Pair each observed star with its nearest catalog star within ``radius_px``; a
     catalog star claimed by several keeps the nearest (on a tie, the first)."""
     cdef Py_ssize_t n = ox.shape[0], i, j, k = 0
-    cdef long long[::1] nearest = np.full(n, -1, np.int64)
-    cdef double[::1] dist2 = np.full(n, INFINITY)
+    cdef long long[::1] nearest = full_i64(n, -1)
+    cdef double[::1] dist2 = full_f64(n, INFINITY)
     _nearest(ox, oy, cx, cy, radius_px, nearest, dist2)
-    cdef long long[::1] owner = np.full(cx.shape[0], -1, np.int64)
+    cdef long long[::1] owner = full_i64(cx.shape[0], -1)
     for i in range(n):
         j = nearest[i]
         if j >= 0 and (owner[j] < 0 or dist2[i] < dist2[owner[j]]):
             owner[j] = i
-    obs, cat = np.empty(n, np.int64), np.empty(n, np.int64)
+    obs, cat = empty_i64(n), empty_i64(n)
     cdef long long[::1] obs_v = obs, cat_v = cat
     for i in range(n):
         if nearest[i] >= 0 and owner[nearest[i]] == i:
@@ -259,7 +265,7 @@ def nearest(ox, oy, cx, cy, double radius_px):
     """The nearest catalog star of each observed star within ``radius_px`` (-1: none) and
     its squared distance (inf: none), before the one-to-one rule."""
     n = len(ox)
-    found, dist2 = np.full(n, -1, np.int64), np.full(n, np.inf)
+    found, dist2 = full_i64(n, -1), full_f64(n, np.inf)
     _nearest(ox, oy, cx, cy, radius_px, found, dist2)
     return found, dist2
 

@@ -14,10 +14,16 @@ import numpy as np
 
 from libc.math cimport M_PI, acos, exp, fmax, fmin, lgamma, log, log1p
 
+cimport numpy as cnp
+
+from startrack._core._arrays cimport (empty_f64, empty_i64, empty_rows, zeros_f64, zeros_i64,
+                                      zeros_u8)
 from startrack._core._cone cimport ConeTable, cone_rows
 from startrack._core._labelling cimport LabelParams, Labels, label
 from startrack._core._nearest cimport Nearest, nearest_matches
 from startrack._core._wahba cimport matrix_to_quaternion, wahba
+
+cnp.import_array()  # the C API the _arrays helpers call
 
 cdef double _ARCSEC = 180.0 / M_PI * 3600.0
 # cephes' MINLOG, log(2^-1022): below it scipy's bdtrc underflows to 0

@@ -85,7 +85,7 @@ cdef class Verdict:
 cdef Verdict _verdict(int status, double[:, ::1] first, Py_ssize_t cones):
     cdef Verdict v = Verdict.__new__(Verdict)
     v.status, v.first, v.final, v.cones = status, first, first, cones
-    v.obs = v.rows = np.zeros(0, np.int64)
+    v.obs = v.rows = zeros_i64(0)
     v.probability, v.confirmed = 1.0, 0
     v.residuals = v.quaternion = None
     return v
@@ -96,7 +96,7 @@ cdef FirstTest _first(Frame frame, const long long[::1] hyp_obs,
                       CheckParams params):
     """The hypothesis's attitude and whether each of its pairs fits (no match yet)."""
     cdef Py_ssize_t k
-    cdef double[:, ::1] sky = np.empty((hyp_rows.shape[0], 3))
+    cdef double[:, ::1] sky = empty_rows(hyp_rows.shape[0], 3)
     for k in range(hyp_rows.shape[0]):
         sky[k, 0], sky[k, 1], sky[k, 2] = (catalog[hyp_rows[k], 0], catalog[hyp_rows[k], 1],
                                            catalog[hyp_rows[k], 2])
@@ -125,13 +125,13 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
         r, stars = _refine_on_fresh_cone(frame, r.matrix, params, cone, v)
     cdef Labelled done = _label_at(frame, stars, r.matrix, r.projection, params)
     v.status, v.final, v.obs, v.rows = ACCEPTED, done.final, done.obs, _take(stars.rows, done.pos)
-    cdef double[:, ::1] cat = np.empty((done.pos.shape[0], 3))
+    cdef double[:, ::1] cat = empty_rows(done.pos.shape[0], 3)
     for k in range(done.pos.shape[0]):
         cat[k, 0], cat[k, 1], cat[k, 2] = (stars.vectors[done.pos[k], 0],
                                            stars.vectors[done.pos[k], 1],
                                            stars.vectors[done.pos[k], 2])
     v.residuals = residual_arcsec(frame.vectors, done.obs, done.final, cat)
-    v.quaternion = np.empty(4)
+    v.quaternion = empty_f64(4)
     matrix_to_quaternion(done.final, v.quaternion)
     return v
 
@@ -143,7 +143,7 @@ cdef inline double _drift(const double[:, ::1] a, const double[:, ::1] b) noexce
 
 cdef _take(const long long[::1] rows, const long long[::1] pos):
     """``rows[pos]`` as an int64 array."""
-    out = np.empty(pos.shape[0], np.int64)
+    out = empty_i64(pos.shape[0])
     cdef long long[::1] view = out
     cdef Py_ssize_t k
     for k in range(pos.shape[0]):

@@ -8,13 +8,13 @@ cdef FirstTest _fit_hypothesis(Frame frame, const long long[::1] hyp_obs,
     Wahba attitude, and whether each of its pairs lies within the match radius
     (``cos_radius``) of the other there."""
     cdef Py_ssize_t m = hyp_obs.shape[0], k
-    cdef double[:, ::1] cam = np.empty((m, 3))
+    cdef double[:, ::1] cam = empty_rows(m, 3)
     for k in range(m):
         cam[k, 0], cam[k, 1], cam[k, 2] = (frame.vectors[hyp_obs[k], 0],
                                            frame.vectors[hyp_obs[k], 1],
                                            frame.vectors[hyp_obs[k], 2])
     cdef FirstTest test = FirstTest.__new__(FirstTest)
-    test.matrix = np.empty((3, 3))
+    test.matrix = empty_rows(3, 3)
     wahba(cam, hyp_sky, test.matrix)
     test.fits = fits_within(cam, hyp_sky, test.matrix, cos_radius)
     test.confirmed = 0
@@ -83,7 +83,7 @@ cdef Labelled _label_at(Frame frame, Stars stars, double[:, ::1] matrix,
         projection = project(stars.vectors, matrix, frame.geometry)
     cdef _Selection s = _select(projection, frame.geometry, params.radius_px)
     cdef Py_ssize_t m = s.where.shape[0], k
-    cdef double[::1] mags = np.empty(m)
+    cdef double[::1] mags = empty_f64(m)
     for k in range(m):
         mags[k] = stars.mags[s.where[k]]
     cdef Labels labels = label(frame.x, frame.y, s.x, s.y, mags, s.where, frame.flux,
@@ -108,7 +108,7 @@ cdef double[::1] residual_arcsec(const double[:, ::1] obs_vectors, const long lo
                                  const double[:, :] matrix, const double[:, :] cat_vectors):
     """Angle (arcseconds) between each observed star ``obs[k]`` rotated to the sky by
     ``matrix`` (camera to sky) and its catalog vector ``cat_vectors[k]``."""
-    cdef double[::1] out = np.empty(obs.shape[0])
+    cdef double[::1] out = empty_f64(obs.shape[0])
     cdef Py_ssize_t k
     cdef int i
     cdef double dot

@@ -25,8 +25,8 @@ cdef Stars _gather(const double[:, ::1] catalog, const double[::1] mags, rows):
     cdef const long long[::1] r = rows
     cdef Py_ssize_t m = r.shape[0], i
     cdef Stars out = Stars.__new__(Stars)
-    cdef double[:, ::1] vectors = np.empty((m, 3))
-    cdef double[::1] row_mags = np.empty(m)
+    cdef double[:, ::1] vectors = empty_rows(m, 3)
+    cdef double[::1] row_mags = empty_f64(m)
     for i in range(m):
         vectors[i, 0], vectors[i, 1], vectors[i, 2] = (catalog[r[i], 0], catalog[r[i], 1],
                                                        catalog[r[i], 2])
@@ -60,7 +60,7 @@ cdef Projection project(const double[:, ::1] vectors, const double[:, :] matrix,
     none."""
     cdef Py_ssize_t n = vectors.shape[0], i
     cdef Projection p = Projection.__new__(Projection)
-    p.x, p.y, p.valid = np.zeros(n), np.zeros(n), np.zeros(n, np.uint8)
+    p.x, p.y, p.valid = zeros_f64(n), zeros_f64(n), zeros_u8(n)
     cdef double a, b, c, vx, vy, vz, u, w, r2, s
     for i in range(n):
         a, b, c = vectors[i, 0], vectors[i, 1], vectors[i, 2]  # R^T v: in the camera frame
@@ -84,7 +84,7 @@ cdef unsigned char[::1] within(Projection p, Geometry g, double margin):
     cdef double lo_x = -0.5 - margin, hi_x = g.width - 0.5 + margin
     cdef double lo_y = -0.5 - margin, hi_y = g.height - 0.5 + margin
     cdef Py_ssize_t i
-    cdef unsigned char[::1] inside = np.zeros(p.x.shape[0], np.uint8)
+    cdef unsigned char[::1] inside = zeros_u8(p.x.shape[0])
     for i in range(p.x.shape[0]):
         inside[i] = p.valid[i] and lo_x <= p.x[i] <= hi_x and lo_y <= p.y[i] <= hi_y
     return inside
@@ -103,7 +103,7 @@ cdef _Selection _select(Projection p, Geometry g, double margin):
     for i in range(inside.shape[0]):
         m += inside[i]
     cdef _Selection s = _Selection.__new__(_Selection)
-    s.where, s.x, s.y = np.empty(m, np.int64), np.empty(m), np.empty(m)
+    s.where, s.x, s.y = empty_i64(m), empty_f64(m), empty_f64(m)
     for i in range(inside.shape[0]):
         if inside[i]:
             s.where[k], s.x[k], s.y[k] = i, p.x[i], p.y[i]
@@ -118,7 +118,7 @@ cdef Matches match_projected(Frame frame, Projection projection, double radius):
     cdef Nearest near = nearest_matches(frame.x, frame.y, s.x, s.y, radius)
     cdef Matches m = Matches.__new__(Matches)
     cdef Py_ssize_t k
-    m.obs, m.pos, m.n_in = near.obs, np.empty(near.cat.shape[0], np.int64), s.where.shape[0]
+    m.obs, m.pos, m.n_in = near.obs, empty_i64(near.cat.shape[0]), s.where.shape[0]
     for k in range(near.cat.shape[0]):
         m.pos[k] = s.where[near.cat[k]]
     return m
@@ -131,7 +131,7 @@ cdef Matches match(Frame frame, const double[:, ::1] vectors, const double[:, :]
 
 cdef Py_ssize_t _confirmed(Matches m, const long long[::1] hyp_obs, Py_ssize_t n_obs):
     """How many of the matched observed stars are not among ``hyp_obs``."""
-    cdef unsigned char[::1] chosen = np.zeros(n_obs, np.uint8)
+    cdef unsigned char[::1] chosen = zeros_u8(n_obs)
     cdef Py_ssize_t k, count = 0
     for k in range(hyp_obs.shape[0]):
         chosen[hyp_obs[k]] = True
@@ -160,8 +160,8 @@ cdef double[:, ::1] _fit(const double[:, ::1] obs_vectors, const long long[::1] 
                          const double[:, ::1] vectors, const long long[::1] pos):
     """The Wahba attitude of observed ``obs[k]`` on catalog vector ``pos[k]``."""
     cdef Py_ssize_t m = obs.shape[0], k
-    cdef double[:, ::1] cam = np.empty((m, 3)), sky = np.empty((m, 3))
-    cdef double[:, ::1] r = np.empty((3, 3))
+    cdef double[:, ::1] cam = empty_rows(m, 3), sky = empty_rows(m, 3)
+    cdef double[:, ::1] r = empty_rows(3, 3)
     for k in range(m):
         cam[k, 0], cam[k, 1], cam[k, 2] = (obs_vectors[obs[k], 0], obs_vectors[obs[k], 1],
                                            obs_vectors[obs[k], 2])

@@ -10,6 +10,8 @@ converts to the structure.
 
 import numpy as np
 
+cimport numpy as cnp
+from startrack._core._arrays cimport empty_rows
 from startrack._core._cone cimport ConeTable as _ConeTable, cone_rows as _cone_rows
 from startrack._core._labelling cimport LabelParams, Labels, label
 from startrack._core._verify cimport CheckParams, Geometry, Projection, Status
@@ -25,6 +27,8 @@ ConeTable, Frame, Stars, Verdict = _ConeTable, _Frame, _Stars, _Verdict
 
 BAD_INDEX, REJECTED, NOT_ACCEPTED, ACCEPTED = (Status.BAD_INDEX, Status.REJECTED,
                                                Status.NOT_ACCEPTED, Status.ACCEPTED)
+
+cnp.import_array()  # the C API the _arrays helpers call
 
 
 cdef class Verifier:
@@ -94,7 +98,7 @@ def fitting_rows(const double[:, ::1] obs_vectors, const long long[::1] hyp_obs,
         return rows
     cdef const long long[:, :] r = rows
     cdef Py_ssize_t m = hyp_obs.shape[0], h, k
-    cdef double[:, ::1] cam = np.empty((m, 3)), sky = np.empty((m, 3)), fit = np.empty((3, 3))
+    cdef double[:, ::1] cam = empty_rows(m, 3), sky = empty_rows(m, 3), fit = empty_rows(3, 3)
     keep = np.zeros(r.shape[0], np.bool_)
     for k in range(m):
         cam[k, :] = obs_vectors[hyp_obs[k], :]

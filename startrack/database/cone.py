@@ -1,6 +1,6 @@
 """Catalog rows within a cone of the sky: declination bands of stars sorted by right
-ascension, searched over the bands and the RA span the cone covers, then a compiled
-dot-product test.
+ascension, searched over the bands and the RA span the cone covers, then a dot-product
+test (compiled: :func:`startrack._core.verify.cone_rows`).
 
 Verification looks up one cone per hypothesis, so the lookup must cost microseconds, not
 the ~0.1 ms of a k-d tree ball query with its Python overhead; the bands' RA windows hold
@@ -13,9 +13,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
-from startrack.database.sort_kernels import first_at_least
+from startrack._core.verify import ConeTable, cone_rows
 
 BAND_RAD = math.radians(1.0)  # declination band height
 # Windows are widened by this (radians) so that rounding never drops a star on an edge;
@@ -23,72 +22,16 @@ BAND_RAD = math.radians(1.0)  # declination band height
 EDGE = 1e-9
 
 
-@njit(cache=True)
-def _windows(ra_sorted, band_start, direction, radius):
-    """The (start, stop) positions of ``order`` that can hold the cone's stars: per band
-    the RA window of the cone (two pieces where it wraps through RA 0)."""
-    n_bands = band_start.shape[0] - 1
-    dec = math.asin(max(-1.0, min(1.0, direction[2])))
-    ra = math.atan2(direction[1], direction[0]) % (2.0 * math.pi)
-    b0 = max(int((dec - radius + math.pi / 2.0) / BAND_RAD - EDGE), 0)
-    b1 = min(int((dec + radius + math.pi / 2.0) / BAND_RAD + EDGE), n_bands - 1)
-    # The widest RA offset of any point of the cone; all of it when a pole is inside.
-    half = math.pi
-    if abs(dec) + radius < math.pi / 2.0 - EDGE and radius < math.pi / 2.0:
-        half = math.asin(min(1.0, math.sin(radius) / math.cos(dec))) + EDGE
-    spans = np.empty((2 * max(b1 - b0 + 1, 0), 2), np.int64)
-    n = 0
-    for b in range(b0, b1 + 1):
-        lo, hi = band_start[b], band_start[b + 1]
-        a, z = ra - half, ra + half
-        if half >= math.pi:
-            a, z = 0.0, 2.0 * math.pi
-        elif a < 0.0:  # the window wraps through RA 0: two pieces
-            spans[n, 0], spans[n, 1] = first_at_least(ra_sorted, lo, hi, a + 2.0 * math.pi), hi
-            n += 1
-            a = 0.0
-        elif z >= 2.0 * math.pi:
-            spans[n, 0] = lo
-            spans[n, 1] = first_at_least(ra_sorted, lo, hi, z - 2.0 * math.pi + EDGE)
-            n += 1
-            z = 2.0 * math.pi
-        s0 = first_at_least(ra_sorted, lo, hi, a)
-        spans[n, 0], spans[n, 1] = s0, first_at_least(ra_sorted, s0, hi, z + EDGE)
-        n += 1
-    return spans[:n]
-
-
-@njit(cache=True)
-def cone_rows(vectors, order, ra_sorted, band_start, direction, radius):
-    """Rows of ``vectors`` within ``radius`` of ``direction``, ascending. ``order`` lists
-    the rows band by band (``band_start``: each band's first position), by right
-    ascension within a band (``ra_sorted``, in [0, 2 pi))."""
-    spans = _windows(ra_sorted, band_start, direction, radius)
-    size = 0
-    for w in range(spans.shape[0]):
-        size += spans[w, 1] - spans[w, 0]
-    cos_radius = math.cos(radius)
-    dx, dy, dz = direction[0], direction[1], direction[2]
-    out = np.empty(size, np.int64)
-    k = 0
-    for w in range(spans.shape[0]):
-        for s in range(spans[w, 0], spans[w, 1]):
-            row = order[s]
-            if vectors[row, 0] * dx + vectors[row, 1] * dy + vectors[row, 2] * dz \
-                    >= cos_radius:
-                out[k] = row
-                k += 1
-    return np.sort(out[:k])
-
-
 @dataclass(frozen=True)
 class ConeIndex:
-    """Unit vectors (n, 3) and their rows by declination band, then right ascension."""
+    """Unit vectors (n, 3) and their rows by declination band, then right ascension;
+    ``table`` holds the same arrays for the compiled lookups."""
 
     vectors: np.ndarray
     order: np.ndarray
     ra_sorted: np.ndarray
     band_start: np.ndarray
+    table: ConeTable
 
     @classmethod
     def build(cls, vectors: np.ndarray) -> ConeIndex:
@@ -99,18 +42,19 @@ class ConeIndex:
         band = np.minimum(((dec + math.pi / 2.0) / BAND_RAD).astype(np.int64), n_bands - 1)
         order = np.lexsort((ra, band)).astype(np.int64)
         band_start = np.searchsorted(band[order], np.arange(n_bands + 1)).astype(np.int64)
-        return cls(vectors, order, np.ascontiguousarray(ra[order]), band_start)
+        ra_sorted = np.ascontiguousarray(ra[order])
+        return cls(vectors, order, ra_sorted, band_start,
+                   ConeTable(vectors, order, ra_sorted, band_start))
 
     def rows(self, direction: np.ndarray, radius_rad: float) -> np.ndarray:
         """Rows within ``radius_rad`` of the unit vector ``direction``, ascending."""
         direction = np.ascontiguousarray(direction, dtype=np.float64)
-        return cone_rows(self.vectors, self.order, self.ra_sorted, self.band_start,
-                         direction, min(float(radius_rad), math.pi))
+        return cone_rows(self.table, direction, min(float(radius_rad), math.pi))
 
 
 def warm_up() -> None:
-    """Compile (or load from numba's cache) the lookup on a tiny index, so that the first
-    timed lookup (a tracked sequence's first frame) does not load it."""
+    """A lookup on a tiny index. The lookup is compiled at install, so nothing is left to
+    warm; kept for the tracking warm-up that still calls it."""
     v = np.array([[0.0, 0.0, 1.0], [0.01, 0.0, 1.0], [0.0, 0.01, 1.0]])
     ConeIndex.build(v / np.sqrt((v * v).sum(axis=1))[:, None]).rows(np.array([0.0, 0.0, 1.0]),
                                                                      0.1)

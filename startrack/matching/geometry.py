@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-from numba import njit
+
+from startrack._core.geometry import angle_table as _angles
 
 
 def triple_products(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -27,15 +26,3 @@ def angle_table(a: np.ndarray, b: np.ndarray | None = None) -> np.ndarray:
     a = np.ascontiguousarray(a, dtype=np.float64)
     b = a if b is None else np.ascontiguousarray(b, dtype=np.float64)
     return _angles(a, b)
-
-
-@njit(cache=True)
-def _angles(a, b):
-    # Compiled: on a frame's stars numpy's matmul, clip and arccos cost more in calls
-    # than in arithmetic.
-    out = np.empty((a.shape[0], b.shape[0]))
-    for i in range(a.shape[0]):
-        for j in range(b.shape[0]):
-            dot = a[i, 0] * b[j, 0] + a[i, 1] * b[j, 1] + a[i, 2] * b[j, 2]
-            out[i, j] = math.acos(max(-1.0, min(1.0, dot)))
-    return out

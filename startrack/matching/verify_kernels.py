@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from startrack.database.cone import cone_rows
+from startrack.matching.cone_kernels import cone_rows
 from startrack.matching.labelling_kernels import label_kernel
 from startrack.matching.nearest_kernels import nearest_matches
 from startrack.matching.wahba_kernels import matrix_to_quaternion, wahba

@@ -7,14 +7,12 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from startrack._core.verify import residual_arcsec
 from startrack.matchers.base import Matcher
-from startrack.matching.projector import CatalogProjector
-from startrack.matching.verify_kernels import residual_angles
 from startrack.solver._deadline import Deadline
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
+from startrack.verify._frame import FrameVerifier
 from startrack.verify._verification import Verification, VerifyConfig, verify
-
-_ARCSEC = 180.0 / np.pi * 3600.0
 
 
 def residuals_arcsec(rotation: Rotation | np.ndarray, obs: Observation, obs_index: np.ndarray,
@@ -22,10 +20,10 @@ def residuals_arcsec(rotation: Rotation | np.ndarray, obs: Observation, obs_inde
     """Angle between each observed star, rotated to the sky (by a Rotation or its 3 x 3
     matrix, camera to sky), and its catalog star."""
     matrix = rotation if isinstance(rotation, np.ndarray) else rotation.as_matrix()
-    return residual_angles(np.ascontiguousarray(obs.vectors, dtype=np.float64),
-                           np.asarray(obs_index, dtype=np.int64),
+    return residual_arcsec(np.ascontiguousarray(obs.vectors, dtype=np.float64),
+                           np.ascontiguousarray(obs_index, dtype=np.int64),
                            np.ascontiguousarray(matrix, dtype=np.float64),
-                           np.ascontiguousarray(cat_vectors, dtype=np.float64)) * _ARCSEC
+                           np.ascontiguousarray(cat_vectors, dtype=np.float64))
 
 
 def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = None,
@@ -48,7 +46,7 @@ def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = N
     t0 = time.perf_counter()
     deadline = Deadline.after_ms(timeout_ms).earliest(deadline)
     seen: set[tuple] = set()
-    project = None
+    checker = None
     result = None
     timed_out = False
     if len(obs) >= 3:
@@ -63,9 +61,9 @@ def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = N
             if key in seen:
                 continue
             diag.hypotheses += 1
-            # One projector for the frame: each hypothesis looks up its own cone in it.
-            project = project or CatalogProjector(obs, matcher.database, config.radius_px(obs))
-            check = verify(hyp, obs, matcher.database, config, project)
+            # One verifier for the frame: each hypothesis looks up its own cone in it.
+            checker = checker or FrameVerifier(obs, matcher.database, config)
+            check = verify(hyp, obs, matcher.database, config, checker)
             if check.accepted:
                 result = check
                 break

@@ -35,11 +35,11 @@ from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.database.cone import warm_up as warm_up_cone_lookup
 from startrack.matching.check_kernels import scipy_quaternion
-from startrack.matching.projector import CAPTURE, CONE_LOOKUP_MARGIN, MAX_REFINEMENTS, cone_radius
 from startrack.prior_kernels import attempt_at_prior
 from startrack.solver._lost_in_space import residuals_arcsec
 from startrack.tracking_kernels import attempt, consistent_pairs, nearby
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
+from startrack.verify._frame import CAPTURE, CONE_LOOKUP_MARGIN, MAX_REFINEMENTS, cone_radius
 from startrack.verify._labelling import kernel_params
 from startrack.verify._verification import VerifyConfig, rotation_of
 

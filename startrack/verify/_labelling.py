@@ -26,7 +26,8 @@ pair is reported only when all of these hold:
   credited as the star). This is what keeps out a residual
   far beyond the other matches' scatter.
 
-The arithmetic is one compiled kernel, :func:`startrack.matching.labelling_kernels.label_kernel`.
+The arithmetic is one compiled call, :func:`startrack._core.verify.label_stars` (the same
+labelling verification runs inside its own compiled call).
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from startrack.matching.labelling_kernels import label_kernel
+from startrack._core.verify import label_stars as _label_stars
 from startrack.types import Observation
 
 #: Catalog stars closer than this many pixels are one spot (as startrack.sky merges them).
@@ -103,29 +104,43 @@ def label_stars(obs: Observation, rows: np.ndarray, x: np.ndarray, y: np.ndarray
     config = config or LabelConfig()
     x, y, mag = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, mag))
     rows = np.ascontiguousarray(rows, dtype=np.int64)
-    params = kernel_params(obs, radius_px, config)
-    # The kernel does not check bounds: unequal lengths must not reach it.
-    if not (len(obs.x) == len(obs.y) == len(params[0]) and len(x) == len(y) == len(mag)
+    flux = obs.kernel_flux()
+    # The compiled call does not check bounds: unequal lengths must not reach it.
+    if not (len(obs.x) == len(obs.y) == len(flux) and len(x) == len(y) == len(mag)
             == len(rows)):
         raise ValueError("label_stars: observed or catalog arrays of unequal lengths")
-    obs_index, cat_index, withheld, sigma, mag_sigma, used = label_kernel(
+    obs_index, cat_index, withheld, sigma, mag_sigma, used = _label_stars(
         np.ascontiguousarray(obs.x, dtype=np.float64),
-        np.ascontiguousarray(obs.y, dtype=np.float64), x, y, mag, rows, *params)
+        np.ascontiguousarray(obs.y, dtype=np.float64), x, y, mag, rows, flux,
+        label_params(obs, radius_px, config))
     return Labelling(obs_index, cat_index, dict(zip(REASONS, withheld.tolist(), strict=True)),
                      sigma, mag_sigma if used else None)
 
 
+def label_params(obs: Observation, radius_px: float, config: LabelConfig | None = None,
+                 ) -> dict:
+    """The labelling's thresholds for this frame as the compiled labelling takes them
+    (the fields of its ``LabelParams`` structure: logs and squares taken)."""
+    config = config or LabelConfig()
+    sigma_px = float(obs.sigma_rad * obs.camera.f_px)
+    return {
+        "has_flux": obs.flux is not None,
+        "radius2": float(radius_px) ** 2,
+        "sigma0": sigma_px,
+        "area": float(obs.camera.width * obs.camera.height),
+        "log_gap": math.log(config.ambiguity),
+        "log_false_odds": math.log(config.false_odds_flux if obs.flux is not None
+                                   else config.false_odds),
+        "resolve2": max(float(config.resolve_px), config.resolve_sigmas * sigma_px) ** 2,
+        "mag_sigmas": float(config.mag_sigmas),
+        "min_mag_sigma": float(config.min_mag_sigma),
+        "min_sigma_px": float(config.min_sigma_px),
+        "min_fit": int(config.min_fit),
+    }
+
+
 def kernel_params(obs: Observation, radius_px: float, config: LabelConfig | None = None,
                   ) -> tuple:
-    """The frame's fluxes and the thresholds as :func:`startrack.matching.labelling_kernels.
-    label_kernel` takes them after its positions (``flux`` ... ``min_fit``): for compiled
-    callers that label inside a larger kernel."""
-    config = config or LabelConfig()
-    return (obs.kernel_flux(), obs.flux is not None, float(radius_px) ** 2,
-            float(obs.sigma_rad * obs.camera.f_px), float(obs.camera.width * obs.camera.height),
-            math.log(config.ambiguity),
-            math.log(config.false_odds_flux if obs.flux is not None else config.false_odds),
-            max(float(config.resolve_px),
-                config.resolve_sigmas * float(obs.sigma_rad * obs.camera.f_px)) ** 2,
-            float(config.mag_sigmas), float(config.min_mag_sigma), float(config.min_sigma_px),
-            int(config.min_fit))
+    """:func:`label_params` as the numba tracking kernels still take them: the fluxes,
+    then the fields in their order (until tracking calls the compiled verification)."""
+    return (obs.kernel_flux(), *label_params(obs, radius_px, config).values())

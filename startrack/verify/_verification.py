@@ -11,19 +11,20 @@ probability below ``max_false_probability`` (binomial tail, as tetra3 argues).
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from startrack.database import StarDatabase
-from startrack.matching import check_kernels as check
-from startrack.matching import verify_kernels as kern
-from startrack.matching.projector import CatalogProjector
+from startrack._core import shared
+from startrack._core.verify import ACCEPTED, BAD_INDEX, NOT_ACCEPTED, binomial_tail
 from startrack.types import Hypothesis, Observation
-from startrack.verify._labelling import kernel_params, label_stars
+from startrack.verify._frame import FrameVerifier
+
+if TYPE_CHECKING:
+    from startrack.database import StarDatabase
 
 
 @dataclass(frozen=True)
@@ -57,8 +58,8 @@ class Verification:
     cat_index: np.ndarray
     false_probability: float
     confirmed: int  # matched stars outside the hypothesis
-    #: once accepted by the one-call path: each reported star's residual (arcsec, in the
-    #: order of obs_index, which is then ascending) and the attitude's quaternion
+    #: once accepted: each reported star's residual (arcsec, in the order of obs_index,
+    #: which is then ascending) and the attitude's quaternion ``[x, y, z, w]``
     residual_arcsec: np.ndarray | None = None
     quaternion: np.ndarray | None = None
 
@@ -70,114 +71,70 @@ class Verification:
 
 
 def rotation_of(matrix: np.ndarray, quat: np.ndarray | None = None) -> Rotation:
-    """``Rotation.from_quat(matrix_to_quaternion(matrix))``, the same numbers built through
-    the pickling protocol from ``quat`` (default: computed), the quaternion normalised as
-    from_quat normalises it (:func:`startrack.matching.check_kernels.scipy_quaternion`):
-    from_quat's input checks cost as much as the rest of a solved frame's Python."""
-    if not _state_matches():
-        return Rotation.from_quat(kern.matrix_to_quaternion(matrix))
-    rotation = Rotation.__new__(Rotation)
-    quat = check.scipy_quaternion(matrix) if quat is None else quat
-    rotation.__setstate__((np.reshape(quat, (1, 4)), True))
-    return rotation
-
-
-@functools.cache
-def _state_matches() -> bool:
-    """Whether this scipy's pickled state builds the Rotation from_quat does."""
-    matrix = kern.wahba(np.eye(3), np.array([[0.0, 0.6, 0.8], [1.0, 0.0, 0.0],
-                                             [0.0, 0.8, -0.6]]))
-    try:
-        rotation = Rotation.__new__(Rotation)
-        rotation.__setstate__((check.scipy_quaternion(matrix).reshape(1, 4), True))
-        ref = Rotation.from_quat(kern.matrix_to_quaternion(matrix))
-        return bool(rotation.single and np.array_equal(rotation.as_quat(canonical=False),
-                                                       ref.as_quat(canonical=False))
-                    and np.array_equal(rotation.as_matrix(), ref.as_matrix()))
-    except (AttributeError, TypeError, ValueError):
-        return False
+    """The Rotation of ``matrix`` (camera to sky): ``Rotation.from_quat`` of its
+    quaternion ``quat`` as the compiled core computes it
+    (:func:`startrack._core.shared.matrix_to_quaternion`; computed when None)."""
+    if quat is None:
+        quat = shared.matrix_to_quaternion(np.ascontiguousarray(matrix, dtype=np.float64))
+    return Rotation.from_quat(quat)
 
 
 def false_match_probability(n_other: int, n_confirmed: int, n_catalog_in_image: int,
                             radius_px: float, width: int, height: int) -> float:
     """Chance that ``n_confirmed`` or more of ``n_other`` stars land on a catalog star by
-    coincidence under a wrong attitude (the compiled tail every verification path uses,
-    :func:`startrack.matching.check_kernels.binomial_tail`: scipy's ``bdtrc`` to 1e-12)."""
+    coincidence under a wrong attitude (the compiled tail verification itself uses,
+    :func:`startrack._core.verify.binomial_tail`: scipy's ``bdtrc`` to 1e-12)."""
     if n_confirmed <= 0:
         return 1.0
     p = min(1.0, n_catalog_in_image * math.pi * radius_px**2 / (width * height))
-    return float(check.binomial_tail(n_confirmed - 1, n_other, p))
+    return float(binomial_tail(n_confirmed - 1, n_other, p))
 
 
 def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
-           config: VerifyConfig, project: CatalogProjector | None = None) -> Verification:
+           config: VerifyConfig, checker: FrameVerifier | None = None) -> Verification:
     """Solve the attitude from ``hypothesis`` and accept it only on independent evidence.
 
-    ``project`` replaces the default projector (the catalog cone around each attitude)
-    with one of the same class over other rows: tracking passes one restricted to the
-    stars around its prediction, so that a tracked frame is held to exactly this test
-    and labelling."""
+    One compiled call (:class:`startrack.verify._frame.FrameVerifier`): the first test,
+    the bound, the refinement, the final labelling and the refit. ``checker`` is the
+    frame's verifier when the caller holds one (one per frame serves every hypothesis;
+    tracking's holds the catalog rows around its prediction).
+
+    Raises
+    ------
+    IndexError
+        A hypothesis index beyond the frame's stars or the catalog (numpy's rule; a
+        negative one counts from the end).
+    """
     obs_h = np.ascontiguousarray(hypothesis.obs_index, dtype=np.int64)
     cat_h = np.ascontiguousarray(hypothesis.cat_index, dtype=np.int64)
-    project = project or CatalogProjector(obs, database, config.radius_px(obs))
-    # Evidence comes only from stars the matcher did not choose (``confirmed``).
-    status, matrix, obs_m, cat_m, prob, confirmed, final, resid, quat = project.check(
-        obs_h, cat_h, config, kernel_params)
-    if status == check.ACCEPTED:
-        return Verification(True, final, obs_m, cat_m, prob, confirmed, resid, quat)
-    if status == check.NOT_ACCEPTED:
-        return Verification(False, matrix, obs_m, cat_m, prob, confirmed)
-    if status == check.BEYOND_CONE:  # refined beyond the cone: step by step on a fresh one
-        obs_m, cat_m, final = _final_labels(project, project.refine(obs_m, cat_m)[2])
-        return Verification(True, final, obs_m, cat_m, prob, confirmed)
-    if status == check.REJECTED:
-        return _rejected()
-    return _verify_steps(obs_h, cat_h, obs, database, config, project)
-
-
-def _verify_steps(obs_h: np.ndarray, cat_h: np.ndarray, obs: Observation,
-                  database: StarDatabase, config: VerifyConfig,
-                  project: CatalogProjector) -> Verification:
-    """:func:`verify` step by step, for a hypothesis the one-call path refuses to index
-    (repeated or out-of-range stars, unequal lengths): numpy's indexing decides."""
-    if len(obs_h) < 3 or len(set(cat_h.tolist())) != len(cat_h) \
-            or len(set(obs_h.tolist())) != len(obs_h):
-        return _rejected()
-    radius_px = config.radius_px(obs)
-    matrix, obs_m, cat_m, n_cat, confirmed = project.first_match(
-        obs_h, database.vectors[cat_h], math.cos(radius_px / obs.camera.f_px))
-    if matrix is None:
-        return _rejected()
-    n_other = len(obs) - len(obs_h)
-    prob = false_match_probability(n_other, confirmed, n_cat, radius_px,
-                                   obs.camera.width, obs.camera.height)
-    accepted = confirmed >= config.min_confirmed and prob <= config.max_false_probability
-    if not accepted:
-        return Verification(False, matrix, obs_m, cat_m, prob, confirmed)
-    labelled = project.accept(obs_m, cat_m, kernel_params(obs, radius_px))
-    if labelled is None:  # refined beyond the cone: step by step on a fresh one
-        labelled = _final_labels(project, project.refine(obs_m, cat_m)[2])
-    obs_m, cat_m, matrix = labelled
-    return Verification(True, matrix, obs_m, cat_m, prob, confirmed)
-
-
-def _rejected() -> Verification:
+    checker = checker or FrameVerifier(obs, database, config)
+    verdict = checker.check(obs_h, cat_h)
+    if verdict.status == BAD_INDEX and _distinct(obs_h, cat_h):
+        verdict = checker.check(_wrapped(obs_h, len(obs)),
+                                _wrapped(cat_h, len(database.vectors)))
+    if verdict.status == ACCEPTED:
+        return Verification(True, verdict.final, verdict.obs, verdict.rows,
+                            verdict.probability, verdict.confirmed, verdict.residuals,
+                            verdict.quaternion)
+    if verdict.status == NOT_ACCEPTED:
+        return Verification(False, verdict.first, verdict.obs, verdict.rows,
+                            verdict.probability, verdict.confirmed)
     return _REJECTED
+
+
+def _distinct(obs_h: np.ndarray, cat_h: np.ndarray) -> bool:
+    """Whether a hypothesis pairs three or more distinct stars with as many rows."""
+    return (len(obs_h) == len(cat_h) >= 3 and len(set(obs_h.tolist())) == len(obs_h)
+            and len(set(cat_h.tolist())) == len(cat_h))
+
+
+def _wrapped(index: np.ndarray, size: int) -> np.ndarray:
+    """``index`` as numpy reads it: negative from the end, IndexError beyond."""
+    bad = index[(index < -size) | (index >= size)]
+    if len(bad):
+        raise IndexError(f"index {int(bad[0])} is out of bounds for axis 0 with size {size}")
+    return np.where(index < 0, index + size, index)
 
 
 _NONE = np.zeros(0, np.int64)  # empty, so sharing it across refusals is safe
 _REJECTED = Verification(False, None, _NONE, _NONE, 1.0, 0)
-
-
-def _final_labels(project: CatalogProjector,
-                  matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The identities to report at the accepted attitude (startrack.verify._labelling: one-to-one,
-    ambiguous stars left unidentified), and the attitude refitted to them."""
-    rows, cx, cy = project(matrix, project.radius_px)
-    mag = project.database.catalog.mag[rows]
-    labels = label_stars(project.obs, rows, cx, cy, mag, project.radius_px)
-    if len(labels.obs_index) < 3:  # the attitude stands on verification's evidence
-        return labels.obs_index, labels.cat_index, matrix
-    return (labels.obs_index, labels.cat_index,
-            kern.wahba(project.obs_vectors[labels.obs_index],
-                       project.database.vectors[labels.cat_index]))

@@ -1,0 +1,153 @@
+"""The one compiled verification (startrack._core.verify): scipy's binomial tail, scipy's
+Rotation, numpy's indexing rules for odd hypotheses, and the numba check kernels it
+replaces, to the bit, while they exist."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+from scipy.special import bdtrc
+from startrack._core.verify import NOT_ACCEPTED, binomial_tail
+from synth import synthetic_frame
+
+from startrack._core import shared
+from startrack.attitude import random_attitudes
+from startrack.camera import Camera
+from startrack.database import StarDatabase
+from startrack.sky import random_sky
+from startrack.types import Hypothesis, Observation
+from startrack.verify._frame import FrameVerifier
+from startrack.verify._verification import VerifyConfig, rotation_of, verify
+
+CONFIG = VerifyConfig()
+
+
+@pytest.fixture(scope="module")
+def random_db() -> StarDatabase:
+    return StarDatabase(random_sky(2000, seed=3), Camera.from_fov(1024, 1024, 17.5))
+
+
+def test_binomial_tail_agrees_with_scipy():
+    """Over the counts and densities verification meets, within 1e-12 relative, and 0
+    exactly where scipy's underflows."""
+    worst, checked = 0.0, 0
+    for n in (*range(1, 61), 80, 120, 200, 300):
+        for p in (*np.logspace(-7, -0.3, 25), 0.9):
+            for k in range(-1, n + 1):
+                ref, got = bdtrc(k, n, p), binomial_tail(k, n, p)
+                if ref == 0.0 or got == 0.0:
+                    assert ref == got or max(ref, got) < 1e-290, (k, n, p, ref, got)
+                    continue
+                worst = max(worst, abs(got - ref) / ref)
+                checked += 1
+    assert checked > 10000
+    assert worst <= 1e-12
+
+
+def test_binomial_tail_edges():
+    assert binomial_tail(-1, 10, 0.1) == 1.0
+    assert binomial_tail(10, 10, 0.1) == 0.0
+    assert binomial_tail(3, 10, 0.0) == 0.0
+    assert binomial_tail(3, 10, 1.0) == 1.0
+    tail = [binomial_tail(k, 40, 1e-3) for k in range(40)]
+    assert all(a > b for a, b in zip(tail, tail[1:], strict=False) if b > 0.0)
+
+
+def _cases(db, rng, n_frames, fixed):
+    """(hypothesis, observation, fixed rows or None): right, partial, swapped and random
+    hypotheses, and frames cut to four stars (too few confirmations)."""
+    for rot in random_attitudes(n_frames, rng):
+        frame = synthetic_frame(db.catalog, db.camera, rot, rng, noise_px=0.5, false_stars=3)
+        obs, truth = frame.obs, frame.truth_rows
+        obs = Observation.from_pixels(obs.x, obs.y, obs.camera, 0.5,
+                                      rng.uniform(1e3, 1e5, len(obs)))
+        real = np.flatnonzero(truth >= 0)
+        if len(real) < 6:
+            continue
+        rows = db.cone(rot.as_matrix()[:, 2], np.radians(14.0)) if fixed else None
+        few = Observation(obs.vectors[real[:4]], obs.x[real[:4]], obs.y[real[:4]],
+                          obs.camera, obs.sigma_rad)
+        yield Hypothesis(np.arange(3), truth[real[:3]]), few, rows
+        for idx in (real[:3], real[:4], real[2:5]):
+            yield Hypothesis(idx, truth[idx]), obs, rows
+        yield Hypothesis(real[:3], truth[real[[1, 0, 2]]]), obs, rows
+        yield Hypothesis(real[:3], rng.choice(len(db.vectors), 3, replace=False)), obs, rows
+
+
+@pytest.mark.parametrize("fixed", [False, True])
+def test_verification_reports_its_attitude_as_from_quat(random_db, fixed):
+    """An accepted attitude's Rotation is scipy's from_quat of its quaternion, and its
+    residuals are the angles between the labelled stars and their catalog stars."""
+    rng = np.random.default_rng(21)
+    accepted = refused = 0
+    for hyp, obs, rows in _cases(random_db, rng, 8, fixed):
+        checker = FrameVerifier(obs, random_db, CONFIG, rows)
+        got = verify(hyp, obs, random_db, CONFIG, checker)
+        if not got.accepted:
+            refused += 1
+            continue
+        accepted += 1
+        ref = Rotation.from_quat(shared.matrix_to_quaternion(got.matrix))
+        np.testing.assert_array_equal(got.rotation.as_quat(canonical=False),
+                                      ref.as_quat(canonical=False))
+        sky = obs.vectors[got.obs_index] @ got.matrix.T
+        dots = np.clip(np.sum(sky * random_db.vectors[got.cat_index], axis=1), -1, 1)
+        np.testing.assert_allclose(got.residual_arcsec, np.degrees(np.arccos(dots)) * 3600,
+                                   atol=1e-3)
+    assert accepted >= 10 and refused >= 5
+
+
+def test_rotation_of_is_from_quat():
+    rng = np.random.default_rng(5)
+    for rot in random_attitudes(50, rng):
+        matrix = np.ascontiguousarray(rot.as_matrix())
+        np.testing.assert_array_equal(rotation_of(matrix).as_matrix(), Rotation.from_quat(
+            shared.matrix_to_quaternion(matrix)).as_matrix())
+
+
+def test_unusual_hypotheses_follow_numpys_indexing(random_db):
+    """Repeated stars are refused, an index beyond the frame or the catalog raises
+    numpy's IndexError, and a negative one counts from the end."""
+    rng = np.random.default_rng(2)
+    frame = synthetic_frame(random_db.catalog, random_db.camera,
+                            random_attitudes(1, rng)[0], rng, noise_px=0.3)
+    obs, t = frame.obs, frame.truth_rows
+    assert not verify(Hypothesis(np.array([0, 1, 1]), t[:3]), obs, random_db,
+                      CONFIG).accepted
+    with pytest.raises(IndexError):
+        verify(Hypothesis(np.arange(3), np.array([t[0], t[1], 10**7])), obs, random_db, CONFIG)
+    with pytest.raises(IndexError):
+        verify(Hypothesis(np.array([0, 1, len(obs)]), t[:3]), obs, random_db, CONFIG)
+    n = len(obs)
+    plain = verify(Hypothesis(np.array([n - 3, n - 2, n - 1]), t[n - 3:]), obs, random_db,
+                   CONFIG)
+    negative = verify(Hypothesis(np.array([-3, -2, -1]), t[n - 3:]), obs, random_db, CONFIG)
+    assert plain.accepted == negative.accepted
+    np.testing.assert_array_equal(plain.obs_index, negative.obs_index)
+
+
+def test_too_few_confirmations_are_not_accepted_with_their_bound(random_db):
+    rng = np.random.default_rng(8)
+    seen = 0
+    for hyp, obs, _ in _cases(random_db, rng, 6, False):
+        if len(obs) != 4:
+            continue
+        verdict = FrameVerifier(obs, random_db, CONFIG).check(
+            np.asarray(hyp.obs_index, np.int64), np.asarray(hyp.cat_index, np.int64))
+        assert verdict.status == NOT_ACCEPTED and verdict.confirmed <= 1
+        seen += 1
+    assert seen >= 3
+
+
+def test_angle_table_is_numpys_arccos():
+    from startrack.matching.geometry import angle_table
+
+    rng = np.random.default_rng(9)
+    a = rng.normal(size=(40, 3))
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    a[1] = a[0]  # a dot product that rounds beyond 1 is clipped, not NaN
+    want = np.arccos(np.clip(a @ a[:7].T, -1.0, 1.0))
+    # near 0 an ulp of the dot product is 1e-8 rad of angle
+    np.testing.assert_allclose(angle_table(a, a[:7]), want, rtol=0, atol=1e-7)
+    assert np.all(np.isfinite(angle_table(a)))
