@@ -1,18 +1,28 @@
 """startrack: a star-tracker simulator and star-identification bench.
 
-``startrack.solve(...)`` and ``startrack.Solver(...)`` are the Python API
-(docs/conventions.md); they are imported on first use so that ``import startrack``
-and the command line start fast.
+The public API (docs/api.md): ``startrack.solve(...)`` and ``startrack.Solver(...)`` answer
+frames with a :class:`SolveResult`; :class:`Camera`, :func:`load_sky`,
+:func:`extract_centroids`, :class:`Matcher` and :func:`register` are the stages they are
+built from. Each is imported on first use, so that ``import startrack`` and the command
+line start fast.
 """
+
+from startrack._lazy import lazy_exports
 
 __version__ = "0.1.0"
 
-__all__ = ["Solver", "SolveResult", "solve", "__version__"]
+__all__ = [
+    "Camera", "Matcher", "SolveResult", "Solver", "__version__", "extract_centroids",
+    "load_sky", "register", "solve",
+]
 
-
-def __getattr__(name: str):
-    if name in ("Solver", "SolveResult", "solve"):
-        from startrack import api
-
-        return getattr(api, name)
-    raise AttributeError(f"module 'startrack' has no attribute {name!r}")
+__getattr__, __dir__ = lazy_exports(__name__, {
+    "Camera": "camera",
+    "Matcher": "matchers",
+    "SolveResult": "api",
+    "Solver": "api",
+    "extract_centroids": "centroids",
+    "load_sky": "sky",
+    "register": "matchers",
+    "solve": "api",
+})

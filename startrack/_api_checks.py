@@ -12,8 +12,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+from startrack.camera._file import camera_from_dict, load_camera
 from startrack.camera._model import Camera
 from startrack.errors import InputError, as_builtin
+from startrack.solver._aberration import parse_time
 from startrack.validate import (
     EPOCH_YEAR,
     FOV_DEG,
@@ -44,8 +46,6 @@ def api_camera(camera) -> Camera | None:
     """A Camera from a Camera, a camera file path or a mapping of camera-file keys."""
     if camera is None or isinstance(camera, Camera):
         return camera
-    from startrack.camera._file import camera_from_dict, load_camera
-
     try:
         if isinstance(camera, Mapping):
             return camera_from_dict(dict(camera), where="camera")
@@ -63,13 +63,11 @@ def api_time(time):
     """An astropy Time from ISO 8601 text, a Time, or a number taken as a Julian year."""
     if time is None:
         return None
-    from astropy.time import Time
+    from astropy.time import Time  # astropy: loaded only when a time is given
 
     if isinstance(time, Time):
         return time
     if isinstance(time, str):
-        from startrack.solver._aberration import parse_time
-
         return parse_time(time, where="time")
     year = check_number(time, "time (a Julian year)", EPOCH_YEAR)
     return Time(float(year), format="jyear", scale="utc")

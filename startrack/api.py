@@ -8,14 +8,12 @@ answer is a :class:`SolveResult` whose ``to_dict()`` is the JSON record that
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from startrack._api_checks import api_camera, api_prior, api_size, api_time, check_solver_numbers
-from startrack.attitude import to_quaternion, to_radec_roll
+from startrack._result import STAR_COLUMNS, SolveResult
 from startrack.camera._model import Camera
 from startrack.centroids._table import (
     DEFAULT_SIGMA_PX,
@@ -25,124 +23,12 @@ from startrack.centroids._table import (
 )
 from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD
 from startrack.errors import InputError, as_builtin
-from startrack.solver._identifier import FrameResult
+from startrack.solver._hints import preset, user_hints
 from startrack.solver._inputs import FrameInput, image_input, read_input
 from startrack.solver._pipeline import Options, Pipeline
+from startrack.tracking._sequence import SequenceSolver, prior_from_radec_roll
+from startrack.units import degree_options, scale_value
 from startrack.validate import NumberTypeError
-
-STAR_COLUMNS = ["x", "y", "catalog_id", "ra_deg", "dec_deg", "residual_arcsec"]
-
-
-@dataclass(frozen=True)
-class SolveResult:
-    """One frame's answer. ``catalog_id`` is the HIP number for Hipparcos, the source id
-    for a deeper catalog and the 0-based index for a random sky."""
-
-    frame: FrameResult
-
-    @property
-    def solved(self) -> bool:
-        return self.frame.solution.solved
-
-    @property
-    def reason(self) -> str | None:
-        """Why the frame is not solved ("too_few_stars", "no_match", ...); None if solved."""
-        return None if self.solved else (self.frame.solution.reason or "no_match")
-
-    @property
-    def mode(self) -> str | None:
-        """How it was solved: "lost_in_space" or "tracking"; None if not solved."""
-        return self.frame.solution.mode if self.solved else None
-
-    @property
-    def lock(self) -> str | None:
-        """A tracking Solver's lock state after this frame (startrack.tracking._tracker); else
-        None."""
-        return self.frame.solution.lock
-
-    @property
-    def quaternion(self) -> np.ndarray | None:
-        """Camera-to-ICRS attitude, scalar first [w, x, y, z]."""
-        rot = self.frame.solution.rotation
-        return None if rot is None or not self.solved else to_quaternion(rot)
-
-    def _radec_roll(self) -> tuple[float, float, float] | tuple[None, None, None]:
-        rot = self.frame.solution.rotation
-        return (None, None, None) if rot is None or not self.solved else to_radec_roll(rot)
-
-    @property
-    def ra_deg(self) -> float | None:
-        return self._radec_roll()[0]
-
-    @property
-    def dec_deg(self) -> float | None:
-        return self._radec_roll()[1]
-
-    @property
-    def roll_deg(self) -> float | None:
-        return self._radec_roll()[2]
-
-    @property
-    def fov_deg(self) -> float | None:
-        """The horizontal field of view of the camera the frame was solved with."""
-        return self.frame.camera.fov_deg if self.solved else None
-
-    @property
-    def rotation(self):
-        """The attitude as a scipy ``Rotation`` (camera to ICRS); None if not solved."""
-        return self.frame.solution.rotation if self.solved else None
-
-    @property
-    def boresight(self):
-        """The boresight as an astropy ``SkyCoord`` (ICRS); None if not solved."""
-        if not self.solved:
-            return None
-        from astropy.coordinates import SkyCoord
-
-        return SkyCoord(self.ra_deg, self.dec_deg, unit="deg", frame="icrs")
-
-    @property
-    def wcs(self):
-        """The solved frame's astropy ``WCS`` (TAN, with SIP terms when they are fitted
-        or the camera has lens distortion; ``startrack identify --wcs`` writes the same
-        header); None if not solved. Pixels are ours: ``all_pix2world(x, y, 0)``."""
-        if not self.solved:
-            return None
-        import warnings
-
-        from astropy.wcs import WCS, FITSFixedWarning
-
-        from startrack.outputs._wcs import solved_wcs_header
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", FITSFixedWarning)
-            return WCS(solved_wcs_header(self.frame))
-
-    @property
-    def quality(self) -> dict | None:
-        """The record's ``quality`` (docs/conventions.md): residuals, the attitude's
-        1-sigma, the false-match probability, the catalog; None if not solved."""
-        quality = self.frame.quality
-        return None if quality is None else quality.to_dict()
-
-    def __repr__(self) -> str:
-        name = "" if self.frame.input == "<array>" else f" {Path(self.frame.input).name}"
-        if not self.solved:
-            return f"<SolveResult{name}: not solved ({self.reason})>"
-        q = self.quality
-        return (f"<SolveResult{name}: solved by {self.frame.solution.method}, RA "
-                f"{self.ra_deg:.5f} Dec {self.dec_deg:+.5f} roll {self.roll_deg:.3f} deg, "
-                f"FOV {self.fov_deg:.3f} deg, {q['n_matched']} stars, rms "
-                f"{q['rms_arcsec']:.2f} arcsec>")
-
-    @property
-    def stars(self) -> pd.DataFrame:
-        """The identified stars: x, y, catalog_id, ra_deg, dec_deg, residual_arcsec."""
-        return pd.DataFrame(self.to_dict()["stars"], columns=STAR_COLUMNS)
-
-    def to_dict(self) -> dict:
-        """The docs/conventions.md solution record (``input`` is left out for arrays)."""
-        return self.frame.record(with_input=self.frame.input != "<array>")
 
 
 def _builtin_errors(method):
@@ -163,28 +49,74 @@ def _builtin_errors(method):
 class Solver:
     r"""Loads catalog and database once; :meth:`solve` answers one frame at a time.
 
-    Give the camera as ``fov_deg`` (with ``size=(width, height)`` for centroid arrays;
-    images give their own size) or ``camera`` (a :class:`Camera` or a camera file path);
-    either is nominal, good to ``fov_tolerance`` (a fraction; 0: exact). With neither, the
-    field of view is searched (:data:`startrack.defaults.BLIND_FOV_RANGE`).
-    The other keywords are ``startrack identify``'s options (``time``: ISO 8601 text or an
-    astropy Time, for the aberration correction).
+    Give the camera as ``fov_deg`` (with ``size`` for centroid arrays; images give their
+    own size) or ``camera``; either is nominal, good to ``fov_tolerance``. With neither,
+    the field of view is searched (:data:`startrack.defaults.BLIND_FOV_RANGE`). The
+    keywords are ``startrack identify``'s options; angles may be astropy Quantities.
 
-    Hints (:mod:`startrack.solver._hints`): ``ra``, ``dec``, ``radius`` (the boresight lies within
-    ``radius`` of (ra, dec)); ``scale_low``, ``scale_high`` in ``scale_units``
-    ("degwidth", "arcsecperpix" or "focalmm" with ``pixel_size_um``) instead of
-    ``fov_deg``; ``downsample`` (centroids found on the image binned N x N);
-    ``header_hints`` (a FITS input's WCS, DATE-OBS and EXPTIME; default on); ``config``,
-    a preset (``configs/*.toml`` or its name) whose camera and sky are the defaults.
-    Angles may be astropy Quantities. Errors are :class:`~startrack.errors.InputError`\ s
-    that are also ``FileNotFoundError`` (a missing file) or ``ValueError`` (bad values).
+    Parameters
+    ----------
+    fov_deg : float, optional
+        The horizontal field of view, degrees.
+    camera : Camera, str, Path or mapping, optional
+        A :class:`~startrack.camera.Camera`, a camera file or its keys
+        (docs/conventions.md).
+    size : (int, int), optional
+        (width, height) in pixels of the frames given as centroid arrays.
+    method : str
+        The matcher (:func:`startrack.matchers.available_methods`).
+    sky : str, optional
+        ``"random"``, ``"hipparcos"``, ``"gaia"``, ``"tycho2"`` or a catalog file;
+        default: chosen for the field of view (docs/conventions.md, "Default sky").
+    mag_limit, epoch, sigma_px, max_stars, timeout_ms, fov_tolerance
+        As ``identify``'s options of the same names.
+    track : bool
+        The frames given to :meth:`solve` are one sequence, in order: the first is solved
+        lost-in-space, each later one by tracking from the attitudes before it (falling
+        back to lost-in-space); :meth:`reset` starts a new sequence.
+    prior : (float, float, float), optional
+        (ra, dec, roll) in degrees, 1-sigma ``prior_sigma_deg``: seeds the first frame of
+        a sequence, or every frame without ``track``.
+    time : str or astropy.time.Time, optional
+        The observation time (ISO 8601), for the aberration correction.
+    ra, dec, radius, scale_low, scale_high, scale_units, pixel_size_um, downsample
+        Hints (:mod:`startrack.solver._hints`): the boresight lies within ``radius`` of
+        (ra, dec); the scale lies in [scale_low, scale_high] ``scale_units``
+        ("degwidth", "arcsecperpix" or "focalmm" with ``pixel_size_um``); centroids
+        are found on the image binned ``downsample`` x ``downsample``.
+    header_hints : bool
+        Use a FITS input's WCS, DATE-OBS and EXPTIME (default on).
+    config : str or Path, optional
+        A preset (``configs/*.toml`` or its name) whose camera and sky are the defaults.
 
-    Tracking (``identify --track``): with ``track=True`` the frames given to :meth:`solve`
-    are one sequence, in order: the first is solved lost-in-space, each later one by
-    tracking from the attitudes before it (falling back to lost-in-space when tracking
-    fails); :meth:`reset` starts a new sequence. ``prior=(ra, dec, roll)`` in degrees,
-    1-sigma ``prior_sigma_deg`` (``identify --prior``), seeds the first frame of a
-    sequence, or every frame without ``track``. ``SolveResult.mode`` says which solved it.
+    Raises
+    ------
+    ValueError
+        A keyword out of its documented range (an :class:`~startrack.errors.InputError`).
+    TypeError
+        A keyword of the wrong type, e.g. ``prior=(1, 2)``.
+    FileNotFoundError
+        A camera or preset file that does not exist.
+
+    Examples
+    --------
+    A frame of 20 degrees seen at a known attitude (seeded), solved from its centroids:
+
+    >>> import numpy as np
+    >>> from startrack import Solver
+    >>> from startrack.attitude import from_radec_roll
+    >>> from startrack.camera import Camera
+    >>> from startrack.simulate import observe
+    >>> from startrack.sky import load_sky
+    >>> camera = Camera.from_fov(1024, 1024, 20.0)
+    >>> truth = from_radec_roll(120.0, -30.0, 15.0)
+    >>> scene = observe(load_sky("random", camera), camera, truth, np.random.default_rng(7))
+    >>> solver = Solver(fov_deg=20.0, size=(1024, 1024), sky="random", track=True)
+    >>> first = solver.solve(np.column_stack([scene.x, scene.y]))
+    >>> first.mode, round(first.ra_deg, 3), round(first.dec_deg, 3), round(first.roll_deg, 3)
+    ('lost_in_space', 120.0, -30.0, 15.0)
+    >>> solver.solve(np.column_stack([scene.x, scene.y])).mode
+    'tracking'
     """
 
     @_builtin_errors
@@ -199,9 +131,6 @@ class Solver:
                  radius=None, scale_low=None, scale_high=None, scale_units: str = "degwidth",
                  pixel_size_um: float | None = None, downsample: int = 1,
                  header_hints: bool = True, config: str | Path | None = None) -> None:
-        from startrack.solver._hints import preset, user_hints
-        from startrack.units import degree_options, scale_value
-
         deg = degree_options(dict(fov_deg=fov_deg, prior=prior, ra=ra, dec=dec,
                                   radius=radius, prior_sigma_deg=prior_sigma_deg))
         fov_deg, prior, prior_sigma_deg = deg["fov_deg"], deg["prior"], deg["prior_sigma_deg"]
@@ -225,8 +154,6 @@ class Solver:
                                           downsample=downsample, sky_spec=sky_spec))
         self._sequence = None
         if track or prior is not None:
-            from startrack.tracking._sequence import SequenceSolver, prior_from_radec_roll
-
             seed = None if prior is None else prior_from_radec_roll(*prior, prior_sigma_deg)
             self._sequence = SequenceSolver(self._pipeline, track=track, prior=seed)
 
@@ -237,8 +164,30 @@ class Solver:
 
     @_builtin_errors
     def solve(self, source: str | Path | np.ndarray) -> SolveResult:
-        """Solve a path (image or centroid CSV), a 2-D image array, or an N x 2 / N x 3
-        array of centroids (x, y[, flux]; brightest first when there is no flux)."""
+        """Solve one frame.
+
+        Parameters
+        ----------
+        source : str, Path or numpy.ndarray
+            A path (PNG, TIFF, FITS image or centroid CSV), a 2-D image array, or an
+            N x 2 / N x 3 array of centroids (x, y[, flux]; brightest first when there is
+            no flux), pixels as in docs/conventions.md.
+
+        Returns
+        -------
+        SolveResult
+            The answer; ``solved`` is False (with a ``reason``) when the frame holds too
+            few stars or no hypothesis passes verification.
+
+        Raises
+        ------
+        FileNotFoundError
+            ``source`` names no file.
+        ValueError
+            An unreadable input, or centroids that are not finite pixel positions.
+        TypeError
+            An array of a dtype that holds no light (complex, text).
+        """
         try:
             frame = _as_input(source, self._pipeline.options.downsample)
         except InputError:
@@ -250,7 +199,45 @@ class Solver:
 
 
 def solve(source: str | Path | np.ndarray, **options) -> SolveResult:
-    """Solve one frame; ``options`` are :class:`Solver`'s keywords."""
+    """Solve one frame: ``Solver(**options).solve(source)``.
+
+    Parameters
+    ----------
+    source : str, Path or numpy.ndarray
+        A path (image or centroid CSV), a 2-D image, or N x 2 / N x 3 centroids
+        (:meth:`Solver.solve`).
+    **options
+        :class:`Solver`'s keywords (``fov_deg``, ``size``, ``sky``, ``method``, ...).
+
+    Returns
+    -------
+    SolveResult
+        The attitude, the identified stars and the JSON record of the frame.
+
+    Raises
+    ------
+    ValueError, TypeError, FileNotFoundError
+        Bad options or an unreadable input, as :class:`Solver` and :meth:`Solver.solve`.
+
+    Examples
+    --------
+    A frame rendered (seeded) from a random sky at a known attitude, solved from its pixels:
+
+    >>> import numpy as np
+    >>> import startrack
+    >>> from startrack.attitude import from_radec_roll
+    >>> from startrack.simulate import SensorModel, observe, render_frame
+    >>> camera = startrack.Camera.from_fov(640, 480, 20.0)
+    >>> rng = np.random.default_rng(3)
+    >>> truth = from_radec_roll(80.0, 25.0, -40.0)
+    >>> scene = observe(startrack.load_sky("random", camera), camera, truth, rng)
+    >>> image = render_frame(scene, camera, SensorModel(), rng)
+    >>> result = startrack.solve(image, fov_deg=20.0, sky="random")
+    >>> result.solved, round(result.ra_deg, 2), round(result.dec_deg, 2), round(result.roll_deg)
+    (True, 80.0, 25.0, 320)
+    >>> len(result.stars) == len(scene)
+    True
+    """
     return Solver(**options).solve(source)
 
 
@@ -278,3 +265,5 @@ def _as_input(source: str | Path | np.ndarray, downsample: int = 1) -> FrameInpu
         return image_input(array, "<array>", downsample=downsample)
     raise InputError(f"cannot solve an array of shape {array.shape}: give a 2-D image or "
                      "an N x 2 / N x 3 array of centroids")
+
+__all__ = ["STAR_COLUMNS", "SolveResult", "Solver", "solve"]

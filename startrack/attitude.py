@@ -85,3 +85,8 @@ def boresight_error_arcsec(a: Rotation, b: Rotation) -> float:
     """Angle between the two attitudes' boresights, in arcseconds."""
     za, zb = a.apply([0.0, 0.0, 1.0]), b.apply([0.0, 0.0, 1.0])
     return float(np.degrees(np.arccos(np.clip(za @ zb, -1.0, 1.0))) * 3600.0)
+
+__all__ = [
+    "angle_between_deg", "boresight_error_arcsec", "from_quaternion", "from_radec_roll",
+    "random_attitudes", "solve_wahba", "to_quaternion", "to_radec_roll", "wahba_matrices",
+]

@@ -39,3 +39,9 @@ DEFAULT_MAX_PAIRS = 25_000_000
 def max_pairs() -> int:
     """The pair budget: ``$STARTRACK_MAX_PAIRS``, else :data:`DEFAULT_MAX_PAIRS`."""
     return int(env_number("STARTRACK_MAX_PAIRS", DEFAULT_MAX_PAIRS, PAIRS))
+
+__all__ = [
+    "BLIND_FOV_RANGE", "BUILTIN_METHODS", "DEFAULT_FOV_TOLERANCE", "DEFAULT_MAX_PAIRS",
+    "DEFAULT_METHOD", "DEFAULT_PRIOR_SIGMA_DEG", "GAIA_BELOW_FOV_DEG", "SCALE_UNITS",
+    "max_pairs",
+]

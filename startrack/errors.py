@@ -44,3 +44,7 @@ class StartrackWarning(UserWarning):
     def __str__(self) -> str:
         return one_line(super().__str__())
 
+__all__ = [
+    "InputError", "InputFileNotFoundError", "InputValueError", "StartrackWarning", "as_builtin",
+    "one_line",
+]

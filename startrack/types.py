@@ -116,3 +116,5 @@ class Timing:
     def to_dict(self) -> dict:
         return {"centroid": round(self.centroid, 3), "identify": round(self.identify, 3),
                 "total": round(self.total, 3), "setup": round(self.setup, 3)}
+
+__all__ = ["Hypothesis", "MatchDiagnostics", "Observation", "Solution", "Timing"]

@@ -17,7 +17,7 @@ def to_degrees(value, where: str):
     """``value`` in degrees: a number as it is, a Quantity converted (None stays None)."""
     if value is None or not hasattr(value, "unit"):
         return value
-    from astropy import units as u
+    from astropy import units as u  # astropy: only for a Quantity
 
     try:
         return float(value.to_value(u.deg))
@@ -30,7 +30,7 @@ def scale_value(value, units: str, where: str) -> tuple[float | None, str]:
     ``degwidth``; angle per pixel: ``arcsecperpix``; a length: ``focalmm``)."""
     if value is None or not hasattr(value, "unit"):
         return value, units
-    from astropy import units as u
+    from astropy import units as u  # astropy: only for a Quantity
 
     for unit, name in ((u.deg, "degwidth"), (u.arcsec / u.pix, "arcsecperpix"),
                        (u.mm, "focalmm")):
@@ -50,3 +50,5 @@ def degree_options(options: dict) -> dict:
             raise InputValueError(f"prior: expected (ra, dec, roll), got "
                                   f"{out['prior']!r}") from None
     return out
+
+__all__ = ["DEGREE_KEYWORDS", "degree_options", "scale_value", "to_degrees"]

@@ -160,3 +160,12 @@ def check_attitude(value, where: str) -> tuple[float, float, float]:
                               f"{_shown(value)}")
     return tuple(float(check_number(v, f"{where}: {name}", b)) for v, name, b in
                  zip(parts, ("ra", "dec", "roll"), (RA_DEG, DEC_DEG, ROLL_DEG), strict=True))
+
+__all__ = [
+    "Bounds", "CACHE_MAX_MB", "DEC_DEG", "DOWNSAMPLE", "EPOCH_YEAR", "EXPTIME_S", "FALSE_STARS",
+    "FOV_DEG", "FOV_TOLERANCE", "FPS", "FRACTION", "FRAMES", "IMAGE_PIXELS", "IMAGE_SIDE_PX",
+    "JOBS", "MAG_LIMIT", "MAG_NOISE", "MAX_STARS", "NumberError", "NumberTypeError", "PAIRS",
+    "PIXEL_SIZE_UM", "PRIOR_SIGMA_DEG", "RADIUS_DEG", "RATE_DPS", "RA_DEG", "ROLL_DEG", "SCALE",
+    "SEED", "SIGMA_PX", "THRESHOLD_ARCSEC", "TIMEOUT_MS", "check_attitude", "check_keywords",
+    "check_number", "env_number", "parse_number",
+]

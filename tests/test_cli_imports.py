@@ -10,7 +10,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+from click.testing import CliRunner
+
+from startrack.cli import main
 from startrack.defaults import BUILTIN_METHODS
+from startrack.io import _cache
 from startrack.matchers import available_methods
 from startrack.matchers.base import registry
 
@@ -69,3 +73,12 @@ def test_a_solve_loads_no_jit_compiler(tmp_path):
     proc = subprocess.run([sys.executable, "-c", SOLVE, str(frame)], capture_output=True,
                           text=True, check=True, env=env)
     assert proc.stdout.split() == ["True", "False"]
+
+
+def test_help_cites_what_users_have():
+    """cache --help gives the cap the code uses; calibrate --help cites the shipped docs."""
+    text = " ".join(CliRunner().invoke(main, ["cache", "--help"]).output.split())
+    assert f"(default {_cache.DEFAULT_CACHE_MAX_MB})" in text
+    assert "interfaces.md" not in text
+    calibrate = " ".join(CliRunner().invoke(main, ["calibrate", "--help"]).output.split())
+    assert "docs/conventions.md" in calibrate and "interfaces.md" not in calibrate

@@ -15,6 +15,7 @@ from startrack.attitude import random_attitudes
 from startrack.camera._model import Camera
 from startrack.centroids._table import Centroids
 from startrack.database import quads as Q
+from startrack.outputs._records import frame_record
 from startrack.simulate._scene import stars_in_view
 from startrack.sky import SkySpec, load_sky
 from startrack.solver._fov_search import BlindSolver, fit_focal, focal_range, windows
@@ -105,7 +106,7 @@ def test_fov_within_the_tolerance_solves_and_is_fitted(error):
         assert result.solution.solved
         assert _boresight_error_arcsec(result.solution.rotation, rot) < 60.0
         assert result.camera.fov_deg == pytest.approx(CAMERA.fov_deg, abs=0.01)
-        assert result.record()["fov_deg"] == pytest.approx(CAMERA.fov_deg, abs=0.01)
+        assert frame_record(result)["fov_deg"] == pytest.approx(CAMERA.fov_deg, abs=0.01)
 
 
 @pytest.mark.parametrize("error", [0.0, 0.01])
@@ -121,7 +122,7 @@ def test_an_exact_camera_is_reported_as_given_unless_the_data_reject_it(error):
         assert _boresight_error_arcsec(result.solution.rotation, rot) < 60.0
         if error == 0.0:
             assert result.camera == pipeline.setup_for(frame)[0]
-            assert result.record()["fov_deg"] == CAMERA.fov_deg
+            assert frame_record(result)["fov_deg"] == CAMERA.fov_deg
         else:  # fitted, its k1 trading a little against the focal length
             assert result.camera.fov_deg == pytest.approx(CAMERA.fov_deg, abs=0.03)
 

@@ -21,6 +21,7 @@ from startrack.attitude import random_attitudes
 from startrack.camera._model import Camera
 from startrack.centroids._table import Centroids
 from startrack.errors import InputError
+from startrack.outputs._records import frame_record
 from startrack.simulate._scene import stars_in_view
 from startrack.sky import SkySpec, load_sky
 from startrack.solver._deadline import Deadline
@@ -124,7 +125,7 @@ def test_the_deadline_is_shared_by_the_nominal_method_and_the_fov_search(monkeyp
     monkeypatch.setattr(Identifier, "identify", slow_identify)
     limited = Pipeline(Options(**options, timeout_ms=1000.0)).solve(_frame(xy))
     assert not limited.solution.solved and limited.solution.reason == "timeout"
-    assert limited.record()["reason"] == "timeout"
+    assert frame_record(limited)["reason"] == "timeout"
 
 
 def test_a_pair_table_over_budget_leaves_the_fov_search_to_answer(monkeypatch):

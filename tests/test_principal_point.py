@@ -12,6 +12,7 @@ import pytest
 from startrack.api import Solver
 from startrack.attitude import boresight_error_arcsec, random_attitudes
 from startrack.camera._model import Camera
+from startrack.outputs._records import frame_record
 from startrack.simulate._scene import observe
 from startrack.sky import SkySpec, load_sky
 from startrack.verify._evidence import MIN_MATCHED, evidence_problem, require_evidence
@@ -144,4 +145,4 @@ def test_an_answer_without_its_evidence_is_not_solved(hipparcos, damage):
                               cat_index=sol.cat_index[:keep], residual_arcsec=res)
     refused = require_evidence(dataclasses.replace(frame, solution=bad))
     assert not refused.solution.solved and refused.solution.reason == "unverified"
-    assert refused.record()["status"] == "not_solved" and refused.record()["stars"] == []
+    assert frame_record(refused)["status"] == "not_solved" and frame_record(refused)["stars"] == []

@@ -19,6 +19,7 @@ from startrack.bench import runner
 from startrack.bench.conditions import Condition
 from startrack.bench.runner import RunSpec, execute
 from startrack.camera._model import Camera
+from startrack.outputs._records import frame_record
 from startrack.sky import SkySpec, random_sky, resolve_sky
 from startrack.solver import _identifier as identifier_module
 from startrack.solver import _inputs as frame_input
@@ -50,7 +51,7 @@ def test_first_identify_reports_its_setup_outside_total(csv_frames, monkeypatch)
     monkeypatch.setattr(identifier_module, "time",
                         types.SimpleNamespace(perf_counter=lambda: float(next(ticks))))
     pipeline = Pipeline(Options(camera=CAMERA, sky="random", fov_tolerance=0.0))
-    first, second = (pipeline.run(p).record() for p in csv_frames)
+    first, second = (frame_record(pipeline.run(p)) for p in csv_frames)
     assert first["status"] == second["status"] == "solved"
     t1, t2 = first["timing_ms"], second["timing_ms"]
     assert t1["setup"] >= 3600e3  # the identifier's load and warm-up, on the first input

@@ -105,3 +105,8 @@ def sweep(conditions: list[Condition], variable: str) -> list[int]:
     picked = [k for k, c in enumerate(conditions)
               if all(getattr(c, v) == getattr(base, v) for v in others)]
     return sorted(picked, key=lambda k: getattr(conditions[k], variable))
+
+__all__ = [
+    "Condition", "GRIDS", "OPTIONAL", "SOURCES", "VARIABLES", "base_condition",
+    "build_conditions", "parse_values", "sweep",
+]

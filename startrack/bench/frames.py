@@ -168,3 +168,8 @@ def label_spots(x: np.ndarray, y: np.ndarray, star_x: np.ndarray, star_y: np.nda
         hit = np.isfinite(dist)
         truth[hit] = np.asarray(star_rows, dtype=np.int64)[nearest[hit]]
     return truth
+
+__all__ = [
+    "BenchFrame", "SIGMA_FLOOR_PX", "TRUTH_RADIUS_PX", "frame_attitude", "frame_scene",
+    "label_spots", "make_frame", "matcher_camera", "true_camera",
+]

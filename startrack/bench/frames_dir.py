@@ -233,3 +233,8 @@ def identify_command(folder: str | Path):
              for f, n in zip(truth["frame"], truth["file"], strict=True)}
     return lambda row: ["startrack", "identify", files[int(row["frame"])], "--method",
                         str(row["method"])]
+
+__all__ = [
+    "FramesFolder", "compare_frames_folder", "export_frames", "identify_command",
+    "read_frames_folder", "run_frames_folder",
+]

@@ -37,3 +37,7 @@ def label_pass(spec: RunSpec, frames: int, *, neighbours: int = DEFAULT_NEIGHBOU
                jobs: int = 1) -> pd.DataFrame:
     """:func:`label_unit` over the first ``frames`` frames of every condition."""
     return map_units(label_unit, spec, frames, jobs=jobs, neighbours=neighbours)
+
+__all__ = [
+    "label_pass", "label_unit",
+]

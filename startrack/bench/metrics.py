@@ -156,3 +156,8 @@ def summarise(frames: pd.DataFrame, key_columns: list[str]) -> pd.DataFrame:
     for key, g in frames.groupby(key_columns, sort=False):
         rows.append({**dict(zip(key_columns, key, strict=True)), **_summarise_group(g)})
     return pd.DataFrame(rows)
+
+__all__ = [
+    "DEFAULT_THRESHOLD_ARCSEC", "FrameScore", "NOISE_SIGMAS", "attitude_errors", "score_frame",
+    "summarise",
+]

@@ -265,3 +265,9 @@ def plot_heatmap(summary: pd.DataFrame, conditions: list[Condition], methods: li
     fig.suptitle(f"correct rate over {SHORT[vx]} x {SHORT[vy]}: {frames} frames per cell; "
                  f"{held_text(conditions, (vx, vy))}", fontsize=10)
     return save_figure(fig, out / "heatmap_correct.png")
+
+__all__ = [
+    "ALWAYS_SHOWN", "ERROR_RESOLUTION_ARCSEC", "LABELS", "MARKERS", "SHORT", "floor_errors",
+    "held_text", "method_style", "offsets", "percent_label", "plot_heatmap", "plot_sweeps",
+    "rate_limits", "rate_panel", "save_figure",
+]

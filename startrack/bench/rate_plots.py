@@ -80,3 +80,5 @@ def plot_rate_grid(table: pd.DataFrame, methods: list[str], panels: list[RatePan
                  fontsize=9)
     path.parent.mkdir(parents=True, exist_ok=True)
     return save_figure(fig, path)
+
+__all__ = ["RatePanel", "SWEEPS", "plot_rate_grid", "sweep_rows"]

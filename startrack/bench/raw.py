@@ -268,3 +268,8 @@ def summarise_raw(rows: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
             if yielded.any() else float("nan"),
         })
     return pd.DataFrame(out)
+
+__all__ = [
+    "DEFAULT_LIMIT", "RawScore", "TimedMatcher", "pairs_off", "raw_pass", "raw_unit",
+    "score_hypotheses", "summarise_raw", "timed_runs", "top_correct",
+]

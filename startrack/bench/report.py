@@ -197,3 +197,8 @@ def replay_text(rows: list[dict]) -> str:
             lines.append("  solved quaternion [w, x, y, z]: "
                          + ", ".join(f"{v:+.9f}" for v in solved_q))
     return "\n".join(lines)
+
+__all__ = [
+    "LIBRARIES", "MAX_LISTED", "NOT_REPLAYED", "REPORT_FILE", "command_line", "failures",
+    "provenance", "replay_text", "summary_table", "write_report",
+]

@@ -286,3 +286,9 @@ def progress_bar(total: int, initial: int, enabled: bool):
     from startrack.outputs._progress import progress
 
     return progress(total, initial=initial, desc="compare", unit="frame", quiet=not enabled)
+
+__all__ = [
+    "ATTITUDE_COLUMNS", "COLUMNS", "KEY_COLUMNS", "LoadedBench", "RunSpec", "SCORE_COLUMNS",
+    "TIMING_COLUMNS", "bench_frame", "connect", "execute", "frame_row", "load_bench",
+    "point_patch", "progress_bar", "run_chunk", "run_unit",
+]

@@ -198,3 +198,8 @@ def format_table(summary: pd.DataFrame) -> str:
         "t_p95_ms": summary["time_p95_ms"].map("{:.2f}".format),
     })
     return table.to_string(index=False)
+
+__all__ = [
+    "DB_FILE", "GROUP_COLUMNS", "RunOutputs", "SUMMARY_FILE", "format_table",
+    "lost_in_space_identity", "run_comparison", "run_in_folder", "same_or_new",
+]

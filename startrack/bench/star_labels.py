@@ -90,3 +90,7 @@ def score_labels(labels: StarLabels, truth_rows: np.ndarray) -> dict[str, int]:
             "misidentified": int((given & ~right).sum()),
             "false_labelled": int((given & (truth < 0)).sum()),
             "duplicates": int(np.count_nonzero(counts > 1))}
+
+__all__ = [
+    "StarLabels", "label_every_star", "score_labels", "star_triangles",
+]

@@ -114,3 +114,7 @@ def mcnemar_exact(a, b) -> McNemar:
     p = 1.0 if discordant == 0 else min(
         1.0, 2.0 * float(binom.cdf(min(only_a, only_b), discordant, 0.5)))
     return McNemar(only_a, only_b, int(np.sum(a & b)), int(np.sum(~a & ~b)), p)
+
+__all__ = [
+    "McNemar", "Z95", "clopper_pearson", "format_p", "format_rate", "mcnemar_exact", "wilson",
+]

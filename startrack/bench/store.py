@@ -154,3 +154,9 @@ def write_canonical(path: Path, columns: list[str], methods: list[str]) -> int:
         for unit in sorted(done):
             writer.writerows(done[unit])
     return sum(len(rows) for rows in done.values())
+
+__all__ = [
+    "FRAMES_FILE", "FramesWriter", "RUN_FILE", "RUN_FORMAT", "code_fingerprint", "differences",
+    "format_rows", "format_value", "read_done", "read_run", "run_identity", "same_run",
+    "write_canonical", "write_run",
+]

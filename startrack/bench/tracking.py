@@ -262,3 +262,10 @@ def run_tracking_bench(catalog: Catalog, camera: Camera, conditions: list[TrackC
     per_frame = pd.concat(parts, ignore_index=True)
     keys = ["condition", *VARIABLES, "method"]
     return per_frame, summarise_tracking(per_frame, keys)
+
+__all__ = [
+    "PEER", "PEER_LIS", "RATE_AXIS", "Runner", "SeqFrame", "TrackCondition", "VARIABLES",
+    "is_tracking_method", "lock_events", "lost_in_space", "make_sequence", "oat_conditions",
+    "ours", "peer_available", "run_sequence", "run_tracking_bench", "runners_for",
+    "seeded_rotations", "sequence_rotations", "summarise_tracking", "tetra3rs_hinted",
+]

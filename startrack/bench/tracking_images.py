@@ -85,3 +85,5 @@ def summarise_images(df: pd.DataFrame) -> pd.DataFrame:
     table["lis_over_track"] = [medians[(fov, "lost_in_space")] / medians[(fov, "track")]
                                for fov in table["fov"]]
     return table
+
+__all__ = ["FOV_CASES", "WRONG_ARCSEC", "rendered_sequence", "run_images", "summarise_images"]

@@ -244,3 +244,9 @@ def lock_states(solved: np.ndarray, tracked: np.ndarray) -> list[str]:
             states.append("lost" if locked else "none")
         locked, ever = bool(ok), ever or bool(ok)
     return states
+
+__all__ = [
+    "BASE_RATE", "COLUMNS", "DEFAULT_FRAMES", "DEFAULT_LEVELS", "LABELS", "LOCK_ROWS",
+    "compare_tracking", "lock_states", "lost_in_space_name", "markdown_table",
+    "markdown_table_ratio", "parse_levels", "plot_sweeps", "plot_timeline", "time_ratios",
+]

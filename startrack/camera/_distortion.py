@@ -17,6 +17,7 @@ import numpy as np
 
 from startrack._core.camera import RadialLens
 from startrack.errors import InputError
+from startrack.validate import check_number
 
 MODELS = ("radial",)
 _KEYS = {"model", "k1", "k2", "k3"}
@@ -72,8 +73,6 @@ class RadialDistortion:
 
 
 def _number(value, key: str, where: str) -> float:
-    from startrack.validate import check_number
-
     return float(check_number(value, f"{where}: distortion '{key}'"))
 
 

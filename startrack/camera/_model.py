@@ -25,7 +25,38 @@ class Camera:
 
     Pixel (x, y) = (column, row), (0, 0) the centre of the top-left pixel. Camera +z is
     the boresight, +x towards increasing columns, +y towards increasing rows.
-    ``distortion`` maps the ideal pinhole point to the observed pixel (None: a pinhole).
+    Build one with :meth:`from_fov` or :meth:`from_optics` (they check their values), or
+    read a camera file with :func:`startrack.camera.load_camera`.
+
+    Parameters
+    ----------
+    width, height : int
+        The image size in pixels.
+    f_px : float
+        The focal length in pixels.
+    cx, cy : float
+        The principal point in pixels (the image centre is ((width-1)/2, (height-1)/2)).
+    distortion : RadialDistortion, optional
+        Maps the ideal pinhole point to the observed pixel (None: a pinhole).
+
+    Raises
+    ------
+    startrack.errors.InputError
+        From :meth:`from_fov` and :meth:`from_optics`: a size, field of view or focal
+        length out of range (a ``ValueError``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from startrack.camera import Camera
+    >>> camera = Camera.from_fov(1024, 768, 20.0)
+    >>> round(camera.f_px, 3), camera.cx, camera.cy
+    (2903.696, 511.5, 383.5)
+    >>> camera.pixel_to_vector(np.array([511.5]), np.array([383.5]))  # the boresight
+    array([[0., 0., 1.]])
+    >>> x, y, in_front = camera.vector_to_pixel(np.array([[0.01, -0.02, 1.0]]))
+    >>> round(float(x[0]), 2), round(float(y[0]), 2), bool(in_front[0])
+    (540.54, 325.43, True)
     """
 
     width: int

@@ -9,7 +9,7 @@ __all__ = [
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, {
-    "CentroidConfig": "_extract",
+    "CentroidConfig": "_config",
     "Centroids": "_table",
     "extract_centroids": "_extract",
     "read_centroid_csv": "_table",

@@ -1,12 +1,10 @@
 """Centroid extraction: a grey frame in, the stars' sub-pixel positions out (compiled core).
 
-Pipeline: local sky background removed (tile medians of 4 x 4 block means, interpolated;
-estimated twice, the second time without the blocks the first one showed to hold
-sources); noise from the median absolute deviation; detection on a lightly smoothed copy
-at ``k_sigma`` noise sigmas; 8-connected components; intensity-weighted centroids of the
-unsmoothed background-removed pixels; hot pixels and oversized blobs rejected; saturated
-spots flagged. Pixel convention (docs/conventions.md): (0, 0) is the centre of the top-left
-pixel, x = column, y = row.
+Pipeline: sky background removed (tile medians of 4 x 4 block means, interpolated; estimated
+twice, the second time without the blocks that held sources); noise from the median absolute
+deviation; detection at ``k_sigma`` sigmas on a lightly smoothed copy; 8-connected components;
+intensity-weighted centroids of the unsmoothed pixels, background removed; hot pixels and
+oversized blobs rejected; saturated spots flagged. Pixels as docs/conventions.md says.
 
 The frame is read twice in full, in its own dtype: once for the block means
 (``startrack._core.sky_blocks``, from which the sky model is made; ``sky_grid`` cleans
@@ -26,104 +24,56 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from startrack._core import blobs, sky_blocks, sky_grid
 from startrack._core import extract as kern
 from startrack.centroids import _threads as par
+from startrack.centroids._config import FAST, CentroidConfig  # noqa: F401 (FAST re-exported)
 from startrack.centroids._table import Centroids
 
 _MAD_TO_SIGMA = 1.4826
 _MASK_SIGMA = 3.0  # blocks above this (grown) are left out of the final sky model
-_AREA_PER_MPX = 400  # default max_area of a 1024 x 1024 frame, scaled with the frame
 _NO_MASK = np.zeros((0, 0), np.uint8)
 _NO_GRID = np.zeros((0, 0))
 _NATIVE = (np.uint8, np.uint16, np.int16, np.float32, np.float64)  # kernels take these
 
 
-@dataclass(frozen=True)
-class CentroidConfig:
-    """Settings of ``extract_centroids``; the defaults suit 8- and 16-bit star frames.
-
-    k_sigma: detection threshold, in noise sigmas of the smoothed background-free image.
-    background_size: px, side of the tiles whose medians model the sky background; larger
-        than a star, smaller than the scale of vignetting or sky glow.
-    min_area, max_area: px, accepted size of a detected spot (detection-mask pixels).
-        ``max_area=None`` scales with the frame: 400 px per 1024 x 1024 pixels (at least
-        400), since the same optics on a larger detector spread a star over more pixels.
-    max_saturated_area: px, size limit of a spot with a saturated pixel, whose image
-        blooms with brightness (None = 4 x max_area): the brightest stars are kept.
-    hot_pixel_fraction: a spot whose brightest pixel holds more than this fraction of the
-        flux in the 3x3 box around it, or whose 8 neighbours hold no significant flux, is a
-        hot pixel (or cosmic ray), not a star, whose image always spreads over neighbours.
-    saturation: pixel value at which a spot is flagged saturated; None = the integer
-        dtype's maximum (no flag for float images).
-    smooth: pre-smooth with a 3x3 Gaussian for detection only (centroids use raw pixels).
-    max_stars: keep at most this many, brightest first (None = all).
-    fast: one sky model, without the second, source-masked estimate: somewhat faster, at
-        the cost of the faintest stars near bright ones (bright stars' wings leak into
-        the sky model); ``FAST`` is this preset.
-    threads: threads that the passes over the pixels run on (None = the cores this
-        process may use, or fewer when other processes keep them busy). The result is
-        the same, bit for bit, whatever the number.
-    """
-
-    k_sigma: float = 5.0
-    background_size: int = 31
-    min_area: int = 2
-    max_area: int | None = None
-    max_saturated_area: int | None = None
-    hot_pixel_fraction: float = 0.9
-    saturation: float | None = None
-    smooth: bool = True
-    max_stars: int | None = None
-    fast: bool = False
-    threads: int | None = None
-
-    def __post_init__(self) -> None:
-        if not self.k_sigma > 0:
-            raise ValueError(f"k_sigma must be > 0, got {self.k_sigma}")
-        if self.background_size < 3:
-            raise ValueError(f"background_size must be >= 3 px, got {self.background_size}")
-        if not 1 <= self.min_area <= (self.max_area or self.min_area):
-            raise ValueError(f"need 1 <= min_area <= max_area, got {self.min_area}, "
-                             f"{self.max_area}")
-        if self.max_saturated_area is not None and self.max_saturated_area < self.min_area:
-            raise ValueError(f"max_saturated_area must be >= min_area, got "
-                             f"{self.max_saturated_area}")
-        if not 0 < self.hot_pixel_fraction <= 1:
-            raise ValueError(f"hot_pixel_fraction must be in (0, 1], got "
-                             f"{self.hot_pixel_fraction}")
-        if self.threads is not None and self.threads < 1:
-            raise ValueError(f"threads must be >= 1, got {self.threads}")
-
-    def area_limits(self, shape: tuple[int, int]) -> tuple[int, int]:
-        """(max_area, max_saturated_area) in px for a frame of ``shape``."""
-        auto = max(_AREA_PER_MPX, round(_AREA_PER_MPX * shape[0] * shape[1] / 2**20))
-        max_area = self.max_area if self.max_area is not None else auto
-        saturated = self.max_saturated_area if self.max_saturated_area is not None \
-            else 4 * max_area
-        return max_area, saturated
-
-
-FAST = CentroidConfig(fast=True)
 
 
 def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -> Centroids:
-    """Find the stars in a 2-D grey frame.
+    """Find the stars in a 2-D grey frame (how: the module docstring).
 
     Parameters
     ----------
-    image : 2-D array of any real dtype (uint8, uint16, int16 and float frames are read as
-        they are; other dtypes are converted to float64). NaN and infinite pixels are
-        dead: neutral for the sky model and never detected.
+    image : numpy.ndarray
+        2-D, of any real dtype (uint8, uint16, int16 and float as they are, others as
+        float64);
+        NaN and infinite pixels are dead: neutral for the sky model, never detected.
     config : CentroidConfig, optional
+        Thresholds, sizes and threads (default ``CentroidConfig()``).
 
     Returns
     -------
-    Centroids sorted brightest first.
+    Centroids
+        Pixel x, y (docs/conventions.md), flux, area and saturation, brightest first.
+
+    Raises
+    ------
+    ValueError
+        ``image`` is not a non-empty 2-D array.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from startrack.centroids import extract_centroids
+    >>> yy, xx = np.mgrid[:96, :96]
+    >>> image = np.random.default_rng(0).normal(100.0, 2.0, (96, 96))
+    >>> image += 900.0 * np.exp(-((xx - 30.2) ** 2 + (yy - 40.7) ** 2) / 4.5)
+    >>> stars = extract_centroids(image)
+    >>> len(stars), round(float(stars.x[0]), 1), round(float(stars.y[0]), 1)
+    (1, 30.2, 40.7)
     """
     config = config or CentroidConfig()
     image = np.asarray(image)

@@ -153,3 +153,5 @@ def _add_commands() -> None:
 
 
 _add_commands()
+
+__all__ = ["StartrackGroup", "Terminated", "main"]

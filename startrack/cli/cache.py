@@ -6,19 +6,20 @@ import click
 
 from startrack.cli import main
 from startrack.cli.options import notes, verbosity
+from startrack.io._cache import DEFAULT_CACHE_MAX_MB
 
 
 def _mb(n: int) -> str:
     return f"{n / (1024 * 1024):.1f} MB"
 
 
-@main.group()
-def cache() -> None:
-    """The on-disk cache of catalogs and star databases (rebuilt when missing).
+@main.group(help=f"""The on-disk cache of catalogs and star databases (rebuilt when missing).
 
     Its folder is $STARTRACK_CACHE_DIR, else the user cache folder; its size is capped at
-    $STARTRACK_CACHE_MAX_MB megabytes (default 2048), least recently used entries first
-    out."""
+    $STARTRACK_CACHE_MAX_MB megabytes (default {DEFAULT_CACHE_MAX_MB}), least recently used
+    entries first out.""")
+def cache() -> None:
+    """``startrack cache``: its help text reads the cap from the code (DEFAULT_CACHE_MAX_MB)."""
 
 
 @cache.command()
@@ -54,3 +55,5 @@ def clear(quiet, verbose) -> None:
     count, freed = clear_cache()
     click.echo(f"removed {count} entr{'y' if count == 1 else 'ies'} ({_mb(freed)}) "
                f"from {cache_dir()}")
+
+__all__ = ["cache", "clear", "info"]

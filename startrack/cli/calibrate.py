@@ -17,7 +17,6 @@ from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, 
 from startrack.defaults import DEFAULT_METHOD
 from startrack.errors import InputError
 from startrack.io._writer import Writer
-from startrack.solver._inputs import read_input
 from startrack.validate import DOWNSAMPLE, EPOCH_YEAR, FOV_DEG, MAG_LIMIT
 
 
@@ -75,6 +74,7 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
                     overwrite)
     writer.check(output, "--output")  # before any work
     note, detail = notes(quiet, verbose)
+    from startrack.solver._inputs import read_input  # the compiled centroider: at run time
     frames = [read_input(Path(name), downsample=downsample) for name in inputs]
     if fov_deg is None and camera_path is None and preset_camera is None:
         fov_deg = hinted_fov(frames, hints, size, not hint_values["no_header_hints"])
@@ -181,3 +181,5 @@ def _nominal(frames, fov_deg, camera_path, size, preset_camera=None):
     if not math.isfinite(camera.f_px):
         raise InputError("calibrate: the nominal camera has no finite focal length")
     return camera
+
+__all__ = ["calibrate", "hinted_fov"]

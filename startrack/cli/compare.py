@@ -254,3 +254,8 @@ def _run_spec(cfg, spec_sky, names, levels, grid, frames, seed, source, max_star
         seed=cfg.frames.seed if seed is None else seed, camera=cfg.camera, sky=spec_sky,
         sensor=cfg.sensor, source=source, grid=grid, max_stars=max_stars,
         hot_pixel_fraction=cfg.frames.hot_pixel_fraction, threshold_arcsec=threshold_arcsec)
+
+__all__ = [
+    "DEFAULT_FRAMES", "DEFAULT_LEVELS", "DEFAULT_METHODS", "DEFAULT_OUT", "MAX_UNITS",
+    "compare", "parse_methods",
+]

@@ -54,3 +54,5 @@ def hints_from(values: dict, fov_given: bool) -> Hints | None:
     return user_hints(values["ra"], values["dec"], values["radius"], values["scale_low"],
                       values["scale_high"], values["scale_units"], values["pixel_size"],
                       fov_given=fov_given)
+
+__all__ = ["HINT_KEYS", "hint_options", "hints_from"]

@@ -158,7 +158,8 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
     (options override it). Exit 0 when every input is solved, 1 when one is not, 2 on bad
     usage or an unreadable input (the other inputs are still answered).
     Conventions (pixels, attitude, JSON record, exit codes): docs/conventions.md."""
-    from startrack.outputs._records import EXIT_CODES, error_record  # the compiled core: when run
+    # the compiled core: when run
+    from startrack.outputs._records import EXIT_CODES, error_record, frame_record
 
     writer, output = _output_writer(inputs, camera_path, overwrite, output)
     side = SideOutputs(writer, list(inputs), annotate_path, wcs_path, corr_path)
@@ -190,7 +191,7 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
                     pending.append(error_record(name, str(exc)))
                     worst = 2
                     continue
-                record = result.record()
+                record = frame_record(result)
                 _report(note, name, record, prior is not None and not (track or quiet))
                 worst = max(worst, EXIT_CODES[record["status"]])
                 for rec in [*pending, record]:
@@ -258,3 +259,5 @@ def _solver(options, track: bool, prior, prior_sigma_deg: float):
         return pipeline
     return SequenceSolver(pipeline, track=track, prior=None if prior is None
                           else prior_from_radec_roll(*prior, prior_sigma_deg))
+
+__all__ = ["identify"]

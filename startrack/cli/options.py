@@ -105,3 +105,8 @@ def notes(quiet: bool, verbose: bool):
         if verbose and not quiet:
             click.echo(text, err=True)
     return note, detail
+
+__all__ = [
+    "Number", "SKY_HELP", "SKY_NAME", "SkyName", "index_dir_option", "notes", "triple",
+    "verbosity",
+]

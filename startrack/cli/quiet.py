@@ -93,3 +93,5 @@ def library_noise_captured():
         root.removeHandler(sink)
         if finder is not None and finder in sys.meta_path:
             sys.meta_path.remove(finder)
+
+__all__ = ["NOTES", "library_noise_captured"]

@@ -196,3 +196,5 @@ def _apparent(catalog, obs_time):
     from startrack.solver._aberration import apparent_catalog
 
     return apparent_catalog(catalog, obs_time)
+
+__all__ = ["DEFAULT_OUT", "simulate"]

@@ -152,3 +152,5 @@ def random_rotation(rng: np.random.Generator):
     from startrack.attitude import random_attitudes
 
     return random_attitudes(1, rng)[0]
+
+__all__ = ["BLOCK", "FrameWriter", "SIDECAR_UNITS", "check_disk", "random_rotation"]

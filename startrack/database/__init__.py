@@ -8,15 +8,24 @@ on-disk cache when the same sky, field of view and parameters were built before.
 from __future__ import annotations
 
 import math
+import time
 from functools import cached_property
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from startrack.camera._model import Camera
+from startrack.database import triangles as tri
 from startrack.database.cone import ConeIndex
 from startrack.database.kvector import KVector
-from startrack.database.pairs import PairTable, build_pair_arrays, pair_table_from_arrays
+from startrack.database.pairs import (
+    PairTable,
+    build_pair_arrays,
+    pair_table_from_arrays,
+    select_pair_arrays,
+)
+from startrack.database.radial import build_radial_arrays, radial_table_from_arrays
+from startrack.database.triangles import brighter_neighbours
 from startrack.io._cache import cached_arrays
 from startrack.sky import Catalog
 
@@ -43,8 +52,6 @@ class StarDatabase:
                 **extra}
 
     def _cached(self, kind: str, params: dict, build) -> dict[str, np.ndarray]:
-        import time
-
         t0 = time.perf_counter()
         arrays = cached_arrays(kind, self._key(**params), build)
         self.build_seconds[kind] = time.perf_counter() - t0
@@ -64,9 +71,6 @@ class StarDatabase:
         of :func:`startrack.database.triangles.brighter_neighbours`. None: every pair."""
         if max_per_region is None:
             return self.pairs
-        from startrack.database.pairs import select_pair_arrays
-        from startrack.database.triangles import brighter_neighbours
-
         radius = math.radians(region_radius_deg or self.camera.fov_deg / 2.0)
         key = (int(max_per_region), round(radius, 9))
         tables = self.__dict__.setdefault("_pattern_pairs", {})
@@ -91,8 +95,6 @@ class StarDatabase:
         """Triangles of the stars with fewer than ``max_per_region`` brighter stars within
         ``region_radius_deg`` (default half the FOV); "auto" fits a budget, None: all
         stars. See :mod:`startrack.database.triangles`."""
-        from startrack.database import triangles as tri
-
         radius = math.radians(region_radius_deg or self.camera.fov_deg / 2.0)
         arrays = self._cached(
             "triangles", {"max_per_region": max_per_region, "radius": round(radius, 9),
@@ -127,8 +129,6 @@ class StarDatabase:
     def radial(self, radius_rad: float, ring_width_rad: float):
         """Radial features of every catalog star (rings of ``ring_width_rad`` out to
         ``radius_rad``, at most the image diagonal); see :mod:`startrack.database.radial`."""
-        from startrack.database.radial import build_radial_arrays, radial_table_from_arrays
-
         radius_rad = min(float(radius_rad), self.max_angle_rad)
         key = (round(radius_rad, 12), round(float(ring_width_rad), 12))
         tables = self.__dict__.setdefault("_radial_tables", {})

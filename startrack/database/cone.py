@@ -50,3 +50,6 @@ class ConeIndex:
         """Rows within ``radius_rad`` of the unit vector ``direction``, ascending."""
         direction = np.ascontiguousarray(direction, dtype=np.float64)
         return cone_rows(self.table, direction, min(float(radius_rad), math.pi))
+
+
+__all__ = ["BAND_RAD", "ConeIndex", "EDGE", "cone_rows"]

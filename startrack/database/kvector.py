@@ -57,3 +57,5 @@ def binary_search_range(sorted_values: np.ndarray, lo: float, hi: float) -> tupl
     """The same answer as ``KVector.range`` by binary search: the baseline to test against."""
     s = sorted_values
     return int(np.searchsorted(s, lo, side="left")), int(np.searchsorted(s, hi, side="right"))
+
+__all__ = ["KVector", "binary_search_range"]

@@ -46,3 +46,5 @@ def select_pair_arrays(arrays: dict[str, np.ndarray], keep: np.ndarray) -> dict[
     still sorted by angle: a pair table over a subset of the catalog, e.g. pattern stars."""
     sel = keep[arrays["i"]] & keep[arrays["j"]]
     return {"i": arrays["i"][sel], "j": arrays["j"][sel], "angle": arrays["angle"][sel]}
+
+__all__ = ["PairTable", "build_pair_arrays", "pair_table_from_arrays", "select_pair_arrays"]

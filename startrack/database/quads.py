@@ -175,3 +175,10 @@ def quad_level(catalog, level_deg: float) -> QuadLevel:
     arrays = cached_arrays("quads", params,
                            lambda: build_level_arrays(catalog.vectors, level_deg))
     return QuadLevel(level_deg, arrays)
+
+__all__ = [
+    "BIN", "EDGES", "FORMAT_VERSION", "K_NEAREST", "LEVEL_STEP", "MAX_HIGHER",
+    "MAX_PATTERN_SIZE", "NBINS", "PATTERN_SIZE", "QuadLevel", "RATIO_STEPS", "STARS_PER_FRAME",
+    "all_quads", "build_level_arrays", "edge_angles", "keys_of", "level_for", "level_stars",
+    "pattern_radii", "quad_level", "ratios",
+]

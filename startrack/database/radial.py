@@ -188,3 +188,8 @@ def radial_table_from_arrays(arrays: dict[str, np.ndarray], radius_rad: float,
     count = popcount_rows(bits)
     return RadialTable(bits, _pack(spread), count, float(radius_rad), float(ring_width_rad),
                        count / nq, spread.sum(axis=1) / nq)
+
+__all__ = [
+    "POPCOUNT", "RadialTable", "build_radial_arrays", "n_rings", "observed_masks",
+    "popcount_rows", "radial_features", "radial_table_from_arrays",
+]

@@ -183,3 +183,8 @@ def triangle_table_from_arrays(arrays: dict[str, np.ndarray]) -> TriangleTable:
     cap = int(arrays["max_per_region"])
     return TriangleTable(arrays["area"], arrays["polar"], arrays["rows"], arrays["pattern"],
                          None if cap < 0 else cap, KVector.build(arrays["area"]))
+
+__all__ = [
+    "TRIANGLE_BUDGET", "TriangleTable", "auto_max_per_region", "brighter_neighbours",
+    "build_triangle_arrays", "feature_sigmas", "triangle_features", "triangle_table_from_arrays",
+]

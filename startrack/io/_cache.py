@@ -26,14 +26,18 @@ import os
 import re
 import struct
 import time
+import warnings
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import xxhash
+from platformdirs import user_cache_dir
 
+from startrack.errors import StartrackWarning
 from startrack.io._writer import atomic_path
+from startrack.validate import CACHE_MAX_MB, env_number
 
 CACHE_VERSION = 4  # 2: a checksum; 3: XXH3-128 instead of SHA-256; 4: the key inside
 DEFAULT_CACHE_MAX_MB = 2048  # room for a blind search's Gaia pattern tables beside the rest
@@ -49,15 +53,12 @@ def cache_dir() -> Path:
     env = os.environ.get("STARTRACK_CACHE_DIR")
     if env:
         return Path(env)
-    from platformdirs import user_cache_dir
-
     return Path(user_cache_dir("startrack"))
 
 
 def cache_max_bytes() -> int:
-    """The cache size cap: ``$STARTRACK_CACHE_MAX_MB`` megabytes (default 2048)."""
-    from startrack.validate import CACHE_MAX_MB, env_number
-
+    """The cache size cap: ``$STARTRACK_CACHE_MAX_MB`` megabytes (default
+    :data:`DEFAULT_CACHE_MAX_MB`)."""
     mb = env_number("STARTRACK_CACHE_MAX_MB", DEFAULT_CACHE_MAX_MB, CACHE_MAX_MB)
     return int(mb * 1024 * 1024)
 
@@ -204,10 +205,6 @@ _warned_unwritable: list[str] = []  # the cache folders already warned about, th
 def _warn_unwritable(exc: OSError) -> None:
     """Say once that the cache cannot be written: every run then rebuilds its databases
     (a minute and more), which the user would otherwise see only as slowness."""
-    import warnings
-
-    from startrack.errors import StartrackWarning
-
     folder = str(cache_dir())
     if folder in _warned_unwritable:
         return

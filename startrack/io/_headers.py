@@ -8,11 +8,13 @@ applies the same limit to the camera it renders.
 
 from __future__ import annotations
 
+import datetime as dt
 import os
 import struct
 from pathlib import Path
 
 from startrack.errors import InputError
+from startrack.validate import IMAGE_PIXELS, env_number
 
 DEFAULT_MAX_IMAGE_PIXELS = 8192 * 8192
 _JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
@@ -20,8 +22,6 @@ _JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0
 
 def max_image_pixels() -> int:
     """The largest image (width x height) startrack reads or renders."""
-    from startrack.validate import IMAGE_PIXELS, env_number
-
     return int(env_number("STARTRACK_MAX_IMAGE_PIXELS", DEFAULT_MAX_IMAGE_PIXELS, IMAGE_PIXELS))
 
 
@@ -78,7 +78,7 @@ def _jpeg(path: Path) -> tuple[int, int] | None:
 
 
 def _tiff(path: Path) -> tuple[int, int] | None:
-    import tifffile
+    import tifffile  # tifffile: only a TIFF's header needs it
 
     try:
         with tifffile.TiffFile(path) as tif:
@@ -106,3 +106,29 @@ def check_image_size(path: Path) -> None:
     size = header_size(path)
     if size is not None:
         check_pixels(size[0], size[1], str(path))
+
+
+def date_obs_of(path: str | Path | None) -> str | None:
+    """The exposure time recorded in an image file, ISO 8601, or None when not known:
+    DATE-OBS of a FITS file, the DateTime tag of a TIFF."""
+    if path is None:
+        return None
+    path = Path(path)
+    suffix = path.suffix.lower()
+    try:
+        if suffix in (".fits", ".fit", ".fts"):
+            from astropy.io import fits  # astropy: the header reader loads it only here
+
+            value = fits.getheader(path).get("DATE-OBS")
+            return str(value) if value else None
+        if suffix in (".tif", ".tiff"):
+            import tifffile  # tifffile: only a TIFF's header needs it
+
+            with tifffile.TiffFile(path) as tif:
+                tag = tif.pages[0].tags.get("DateTime")
+            if tag is None:
+                return None
+            return dt.datetime.strptime(str(tag.value), "%Y:%m:%d %H:%M:%S").isoformat()
+    except (OSError, ValueError, KeyError):
+        return None
+    return None

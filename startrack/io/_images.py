@@ -28,7 +28,7 @@ _CV2_SUFFIXES = PNG_SUFFIXES + TIFF_SUFFIXES + (".jpg", ".jpeg", ".bmp", ".pgm",
 @contextlib.contextmanager
 def _opencv_quiet() -> Iterator[None]:
     """Silence OpenCV's own logging where this build exposes it (not every 4.x does)."""
-    import cv2
+    import cv2  # cv2: OpenCV, loaded by the first image read
 
     logging = getattr(getattr(cv2, "utils", None), "logging", None)
     if logging is None:
@@ -67,7 +67,7 @@ def read_image(path: str | Path) -> np.ndarray:
 
 
 def _read_raster(path: Path, suffix: str) -> np.ndarray:
-    import cv2
+    import cv2  # cv2: OpenCV, loaded by the first image read
 
     data = np.fromfile(path, dtype=np.uint8)
     if data.size == 0:
@@ -89,7 +89,7 @@ def _read_raster(path: Path, suffix: str) -> np.ndarray:
 
 def _reject_tiff_stack(path: Path) -> None:
     """OpenCV would silently read only the first page of a multi-frame TIFF."""
-    import tifffile
+    import tifffile  # tifffile: only for a TIFF
 
     try:
         with tifffile.TiffFile(path) as tif:
@@ -103,7 +103,7 @@ def _reject_tiff_stack(path: Path) -> None:
 
 
 def _read_tiff_fallback(path: Path) -> np.ndarray | None:
-    import tifffile
+    import tifffile  # tifffile: only for a TIFF
 
     try:
         return np.asarray(tifffile.imread(path, key=0))
@@ -112,7 +112,7 @@ def _read_tiff_fallback(path: Path) -> np.ndarray | None:
 
 
 def _read_fits(path: Path) -> np.ndarray:
-    from astropy.io import fits
+    from astropy.io import fits  # astropy: only for a FITS image
 
     if path.stat().st_size == 0:
         raise InputError(f"{path}: empty file (0 bytes)")
@@ -193,7 +193,7 @@ def _check_2d(path: Path, image: np.ndarray) -> np.ndarray:
 
 def write_png16(path: str | Path, image: np.ndarray) -> None:
     """Write a 16-bit grey PNG atomically; floats are rounded and clipped to 0..65535."""
-    import cv2
+    import cv2  # cv2: OpenCV, loaded by the first image read
 
     path = Path(path)
     image = _check_2d(path, image)
@@ -213,7 +213,7 @@ def write_fits(path: str | Path, image: np.ndarray,
 
     ``header`` is a mapping of keyword -> value (or an astropy Header).
     """
-    from astropy.io import fits
+    from astropy.io import fits  # astropy: only for a FITS image
 
     path = Path(path)
     image = _check_2d(path, image)

@@ -84,7 +84,7 @@ class RunFolder:
 
     # --- while the run holds the folder ---------------------------------------------------
     def __enter__(self) -> RunFolder:
-        import fcntl
+        import fcntl  # fcntl: POSIX only, the lock is taken only where it exists
 
         self.check()
         try:

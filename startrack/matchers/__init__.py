@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib
 import pkgutil
 import warnings
+from importlib.metadata import entry_points
 
 from startrack.errors import InputError, StartrackWarning
 from startrack.matchers.base import Matcher, MatcherConfig, register, registry
@@ -37,8 +38,6 @@ def _load_plugins() -> None:
     or a module whose import registers its matchers with :func:`register`. A plugin that
     fails to load, or takes a name already used, is skipped with a one-line warning: one
     broken package must not stop every command."""
-    from importlib.metadata import entry_points
-
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         try:
             loaded = ep.load()

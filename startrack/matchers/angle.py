@@ -168,3 +168,7 @@ register_variant(AngleMatcher, "angle_closed",
 register_variant(AngleMatcher, "angle_open",
                  "angle method, the 2011 paper's chain: no closing angle, no skipped star, "
                  "one answer or none (variant)", closing="none", max_skips=0, max_ambiguous=1)
+
+__all__ = [
+    "AngleMatcher",
+]

@@ -20,6 +20,7 @@ import shutil
 import subprocess
 import tempfile
 import time
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +35,7 @@ from startrack.errors import InputError
 from startrack.matchers._peer import PeerMatcher, peer_hypothesis_groups, positions_to_indices
 from startrack.matchers.base import MatcherConfig, register
 from startrack.sky.catalog import radec_to_vectors
+from startrack.sky.tycho2 import index_files
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 #: a star of astrometry.net's index and one of our catalog closer than this are one star
@@ -65,8 +67,6 @@ def solve_field_available() -> bool:
 
 def _index_config(folder: Path) -> Path:
     """A ``--config`` file listing the index files of the tycho2 sky's folder."""
-    from startrack.sky.tycho2 import index_files
-
     files = index_files()
     if not solve_field_available() or not files:
         raise InputError(INSTALL)
@@ -77,7 +77,7 @@ def _index_config(folder: Path) -> Path:
 
 def write_xylist(path: Path, x: np.ndarray, y: np.ndarray, flux: np.ndarray) -> None:
     """Our centroids (0-based pixels) as a FITS xylist (1-based X, Y and FLUX)."""
-    from astropy.io import fits
+    from astropy.io import fits  # astropy: only when astrometry.net runs
 
     cols = [fits.Column(name="X", format="D", array=np.asarray(x, float) + 1.0),
             fits.Column(name="Y", format="D", array=np.asarray(y, float) + 1.0),
@@ -87,7 +87,7 @@ def write_xylist(path: Path, x: np.ndarray, y: np.ndarray, flux: np.ndarray) -> 
 
 def read_corr(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(field x, field y in our 0-based pixels, index star unit vectors) of a .corr file."""
-    from astropy.io import fits
+    from astropy.io import fits  # astropy: only when astrometry.net runs
 
     with fits.open(path) as hdus:
         t = hdus[1].data
@@ -100,10 +100,8 @@ def wcs_attitude(path: Path) -> Rotation | None:
     """Our attitude from a solved ``.wcs`` whose reference pixel is the image centre
     (``--crpix-center``): the boresight is CRVAL, and the CD matrix's columns are the
     directions of +x and +y there in (east, north); None when it is missing or mirrored."""
-    import warnings
-
-    from astropy.io import fits
-    from astropy.wcs import WCS
+    from astropy.io import fits  # astropy: only when astrometry.net runs
+    from astropy.wcs import WCS  # astropy: as above
 
     try:
         with warnings.catch_warnings():
@@ -213,3 +211,8 @@ class AstrometryMatcher(PeerMatcher):
         for obs_h, cat_h in peer_hypothesis_groups(obs_index, cat_index,
                                                     self.hypothesis_stars, self.max_hypotheses):
             yield Hypothesis(obs_h, cat_h)
+
+__all__ = [
+    "AstrometryMatcher", "FieldSolution", "IDENTITY_ARCSEC", "INSTALL", "read_corr",
+    "solve_field", "solve_field_available", "wcs_attitude", "write_xylist",
+]

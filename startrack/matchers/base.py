@@ -39,7 +39,48 @@ class MatcherConfig:
 
 
 class Matcher(ABC):
-    """Base class: subclasses set ``name`` and implement :meth:`hypotheses`."""
+    """A star-identification method: subclasses set ``name`` and implement
+    :meth:`hypotheses`; :func:`register` makes one available by its name.
+
+    A matcher proposes, the shared verification decides: every hypothesis it yields is
+    held to the same evidence before an attitude is reported.
+
+    Parameters
+    ----------
+    database : StarDatabase
+        The catalog's pattern tables for one camera (:class:`startrack.database.StarDatabase`).
+    config : MatcherConfig, optional
+        The settings every matcher shares (default ``MatcherConfig()``).
+
+    Raises
+    ------
+    TypeError
+        Instantiating a subclass that does not implement :meth:`hypotheses`.
+
+    Examples
+    --------
+    The smallest complete matcher: it proposes that the first three stars seen are
+    catalog rows 0, 1 and 2 (verification would refuse that, as it should).
+
+    >>> import numpy as np
+    >>> from startrack.camera import Camera
+    >>> from startrack.database import StarDatabase
+    >>> from startrack.matchers import Matcher
+    >>> from startrack.sky import load_sky
+    >>> from startrack.types import Hypothesis, MatchDiagnostics, Observation
+    >>> class FirstThree(Matcher):
+    ...     name = "doc-first-three"
+    ...     def hypotheses(self, obs, diag, screen_rad=None):
+    ...         diag.hypotheses += 1
+    ...         yield Hypothesis(np.arange(3), np.arange(3))
+    >>> camera = Camera.from_fov(640, 480, 15.0)
+    >>> matcher = FirstThree(StarDatabase(load_sky("random", camera), camera))
+    >>> obs = Observation.from_pixels(np.array([10.0, 200.0, 300.0]),
+    ...                               np.array([5.0, 90.0, 400.0]), camera, 0.5)
+    >>> diag = MatchDiagnostics()
+    >>> [h.cat_index.tolist() for h in matcher.hypotheses(obs, diag)], diag.hypotheses
+    ([[0, 1, 2]], 1)
+    """
 
     name: ClassVar[str]
     description: ClassVar[str] = ""
@@ -81,7 +122,47 @@ _REGISTRY: dict[str, type[Matcher]] = {}
 
 
 def register(cls: type[Matcher]) -> type[Matcher]:
-    """Class decorator: make a matcher available by its ``name``."""
+    """Class decorator: make a matcher available by its ``name`` (``--method NAME``,
+    ``Solver(method=NAME)``). Other packages register theirs through the
+    ``startrack.matchers`` entry point group (docs/conventions.md).
+
+    Parameters
+    ----------
+    cls : type
+        A :class:`Matcher` subclass with a ``name``.
+
+    Returns
+    -------
+    type
+        ``cls`` itself, registered.
+
+    Raises
+    ------
+    ValueError
+        Another class is already registered under ``cls.name``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import startrack
+    >>> from startrack.matchers import Matcher, get_matcher, register
+    >>> @register
+    ... class Nothing(Matcher):
+    ...     name = "doc-nothing"
+    ...     def hypotheses(self, obs, diag, screen_rad=None):
+    ...         return iter(())
+    >>> get_matcher("doc-nothing") is Nothing
+    True
+    >>> startrack.solve(np.array([[10.0, 20.0], [30.0, 40.0], [500.0, 600.0]]),
+    ...                 fov_deg=20.0, size=(1024, 1024), sky="random",
+    ...                 method="doc-nothing").reason
+    'no_match'
+    >>> class Other(Nothing):
+    ...     pass
+    >>> register(Other)
+    Traceback (most recent call last):
+    ValueError: matcher 'doc-nothing' registered twice
+    """
     if cls.name in _REGISTRY and _REGISTRY[cls.name] is not cls:
         raise ValueError(f"matcher {cls.name!r} registered twice")
     _REGISTRY[cls.name] = cls
@@ -105,3 +186,5 @@ def register_variant(base: type[Matcher], name: str, description: str,
         "name": name, "description": description, "__init__": __init__,
         "variant_of": base.name, "__doc__": f"{description}: {base.__name__} with {preset}."})
     return register(cls)
+
+__all__ = ["Matcher", "MatcherConfig", "register", "register_variant", "registry"]

@@ -205,3 +205,7 @@ register_variant(HybridMatcher, "hybrid_single",
                  "hybrid in one pass, one hypothesis per triangle, no fourth star (2011 "
                  "paper literal, variant)", fourth_star=False, max_false=0,
                  max_per_triangle=1, extra_stars=0)
+
+__all__ = [
+    "HybridMatcher", "angle_votes",
+]

@@ -125,3 +125,7 @@ register_variant(PlanarTriangleMatcher, "triangle_first",
                  "planar triangles pivoting on the first triangle, one answer or none "
                  "(2011 paper literal, variant)", min_stars=3, max_ambiguous=1,
                  pivot_first=True)
+
+__all__ = [
+    "PlanarTriangleMatcher",
+]

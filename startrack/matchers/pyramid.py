@@ -122,3 +122,7 @@ class PyramidMatcher(Matcher):
     def _count(frame: core.PyramidFrame, diag: MatchDiagnostics) -> None:
         diag.extra["triples"], diag.extra["triangles"] = frame.triples, frame.triangles
         diag.candidates, diag.pivots = frame.candidates, frame.pivots
+
+__all__ = [
+    "PyramidMatcher",
+]

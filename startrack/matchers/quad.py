@@ -184,3 +184,9 @@ class QuadMatcher(Matcher):
         for h in self.scaled(obs.x, obs.y, obs.camera, f / (1 + self.tolerance),
                              f * (1 + self.tolerance), diag):
             yield h.hypothesis
+
+__all__ = [
+    "CHECK_RADIUS_PX", "CHECK_STARS", "IMAGE_NEAREST", "IMAGE_STARS", "MAX_CANDIDATES", "PERMS",
+    "PERM_EDGES", "QuadMatcher", "RATIO_TOLERANCE", "ScaledHypothesis", "confirmations",
+    "match_patterns",
+]

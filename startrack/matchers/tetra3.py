@@ -108,3 +108,5 @@ class Tetra3Matcher(PeerMatcher):
         diag.extra["peer_matches"] = int(result["Matches"])
         obs_index = positions_to_indices(centroids, np.asarray(result["matched_centroids"]))
         yield from self.peer_hypotheses(obs_index, result["matched_catID"])
+
+__all__ = ["Tetra3Matcher", "attitude_from_tetra3", "tetra3_centroids"]

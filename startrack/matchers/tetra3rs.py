@@ -113,3 +113,5 @@ class Tetra3rsMatcher(PeerMatcher):
             diag.extra["peer_quaternion"] = to_quaternion(rotation)
         obs_index = np.asarray(result.matched_centroids, dtype=np.int64)
         yield from self.peer_hypotheses(obs_index, result.matched_catalog_ids)
+
+__all__ = ["Tetra3rsMatcher", "attitude_from_tetra3rs", "tetra3rs_centroids"]

@@ -22,3 +22,7 @@ def observed_features(vectors: np.ndarray, triples: list[tuple[int, int, int]],
     verts = [vectors[idx[:, m]] for m in range(3)]
     feats = np.column_stack([*triangle_features(*verts), *feature_sigmas(*verts, sigma)])
     return dict(zip(triples, map(tuple, feats.tolist()), strict=True))
+
+__all__ = [
+    "feature_sigma", "observed_features",
+]

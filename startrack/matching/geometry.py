@@ -26,3 +26,7 @@ def angle_table(a: np.ndarray, b: np.ndarray | None = None) -> np.ndarray:
     a = np.ascontiguousarray(a, dtype=np.float64)
     b = a if b is None else np.ascontiguousarray(b, dtype=np.float64)
     return _angles(a, b)
+
+__all__ = [
+    "angle_table", "handedness", "triple_products",
+]

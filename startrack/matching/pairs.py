@@ -176,3 +176,8 @@ def compact_pairs(pi: np.ndarray, pj: np.ndarray) -> tuple[np.ndarray, np.ndarra
     rows, inverse = np.unique(np.concatenate([pi, pj]), return_inverse=True)
     inverse = inverse.astype(np.int32)
     return inverse[:len(pi)].copy(), inverse[len(pi):].copy(), rows.astype(np.int64)
+
+__all__ = [
+    "PairIndex", "PairLookup", "compact_pairs", "join_close", "join_extend", "join_sorted",
+    "member_pairs", "pair_index",
+]

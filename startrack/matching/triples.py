@@ -36,3 +36,7 @@ def triple_array(first: int, n: int, limit: int) -> np.ndarray:
 def brightness_triples(n: int) -> list[tuple[int, int, int]]:
     """Every triple of the ``n`` brightest stars, those of the brightest stars first."""
     return sorted(itertools.combinations(range(n), 3), key=lambda t: (t[2], t[1], t[0]))
+
+__all__ = [
+    "brightness_triples", "smart_triples", "triple_array", "triple_order",
+]

@@ -11,7 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
+from startrack.io._resources import resource_path
 from startrack.io._writer import atomic_path
+from startrack.outputs._annotate_sky import draw_compass, draw_grid
+from startrack.outputs._records import frame_record
+from startrack.outputs._wcs import solved_wcs_header
 
 #: catalog stars at least this bright get their IAU name beside the HIP number
 NAME_MAG_LIMIT = 5.5
@@ -50,7 +54,7 @@ def stretch(image: np.ndarray) -> np.ndarray:
 
 def _background(img: np.ndarray, block: int = 32) -> np.ndarray:
     """The slowly varying background: medians of block x block tiles, interpolated."""
-    import cv2
+    import cv2  # cv2: OpenCV, loaded only when a PNG is annotated
 
     h, w = img.shape
     ny, nx = max(1, h // block), max(1, w // block)
@@ -62,8 +66,6 @@ def _background(img: np.ndarray, block: int = 32) -> np.ndarray:
 @functools.lru_cache(maxsize=1)
 def star_names() -> dict[int, str]:
     """IAU (WGSN) star names by HIP number, from data/iau_star_names.csv."""
-    from startrack.io._resources import resource_path
-
     path = resource_path("data", "iau_star_names.csv")
     with open(path, newline="", encoding="utf-8") as fh:
         return {int(row["hip"]): row["name"] for row in csv.DictReader(fh)}
@@ -110,7 +112,7 @@ def _labels(frame) -> list[str]:
 
 def caption(frame) -> str:
     """The caption: input, attitude (RA, Dec, roll), FOV, stars identified, rms residual."""
-    record = frame.record()
+    record = frame_record(frame)
     fov = record.get("fov_deg", frame.camera.fov_deg)
     head = f"{Path(frame.input).name}   method {frame.solution.method}   FOV {fov:.3f} deg"
     if not frame.solution.solved:
@@ -167,7 +169,7 @@ def _draw_stars(ax, frame, width: int) -> tuple | None:
 
 def _draw_caption(fig, frame, scale: tuple | None, width: int) -> None:
     """The caption band under the frame: the text, the residual scale bar, the legend."""
-    import matplotlib.lines
+    import matplotlib.lines  # matplotlib: only when a PNG is annotated
 
     fig_w, fig_h = fig.bbox.width, fig.bbox.height
     band = _CAPTION_PX / fig_h
@@ -194,10 +196,10 @@ def write_annotated(frame, path: str | Path) -> None:
     (:func:`startrack.outputs._wcs.solved_wcs_header`). A centroid-list input (no image) is drawn
     on a black frame of the camera's size.
     """
-    import matplotlib
+    import matplotlib  # matplotlib: only when a PNG is annotated
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib: after its backend is chosen
 
     w, h = frame.camera.width, frame.camera.height
     shown = stretch(frame.image) if frame.image is not None else np.zeros((h, w))
@@ -207,9 +209,7 @@ def write_annotated(frame, path: str | Path) -> None:
     rect = (MARGIN_LEFT_PX / fig_w, _CAPTION_PX / fig_h, w / fig_w, h / fig_h)
     wcs = None
     if frame.solution.solved:
-        from astropy.wcs import WCS
-
-        from startrack.outputs._wcs import solved_wcs_header
+        from astropy.wcs import WCS  # astropy: only for a solved frame's grid
 
         wcs = WCS(solved_wcs_header(frame))
         ax = fig.add_axes(rect, projection=wcs)
@@ -223,8 +223,6 @@ def write_annotated(frame, path: str | Path) -> None:
     ax.set_xlim(-0.5, w - 0.5)
     ax.set_ylim(h - 0.5, -0.5)  # row 0 at the top, as in the PNG
     if wcs is not None:
-        from startrack.outputs._annotate_sky import draw_compass, draw_grid
-
         draw_grid(ax)
         # in the right margin, beside the frame, so it hides no star
         draw_compass(fig, wcs, w, h, centre=(MARGIN_LEFT_PX + w + 0.5 * MARGIN_RIGHT_PX,

@@ -51,7 +51,7 @@ def draw_compass(fig, wcs, width: int, height: int, centre: tuple[float, float],
 
 def _arrow(text: str, tip: tuple, tail: tuple):
     """An arrow from ``tail`` to ``tip`` in figure pixels."""
-    from matplotlib.text import Annotation
+    from matplotlib.text import Annotation  # matplotlib: only when a PNG is annotated
 
     return Annotation(text, xy=tip, xytext=tail, xycoords="figure pixels",
                       textcoords="figure pixels",

@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from startrack.io._writer import atomic_text
+from startrack.outputs._annotate import residual_pixels
+from startrack.sky.catalog import vectors_to_radec
 
 #: Columns; units are in the names (px: pixels as in docs/conventions.md, deg, arcsec).
 CORR_COLUMNS = [
@@ -21,9 +23,6 @@ CORR_COLUMNS = [
 
 def corr_rows(frame) -> list[list]:
     """The rows of one :class:`~startrack.solver._identifier.FrameResult`; none when not solved."""
-    from startrack.outputs._annotate import residual_pixels
-    from startrack.sky.catalog import vectors_to_radec
-
     sol = frame.solution
     if not sol.solved or sol.rotation is None or len(sol.obs_index) == 0:
         return []

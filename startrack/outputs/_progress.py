@@ -7,6 +7,8 @@ from __future__ import annotations
 import sys
 import time
 
+from tqdm import tqdm
+
 #: seconds between two progress lines when stderr is not a terminal
 LINE_SECONDS = 10.0
 
@@ -68,8 +70,6 @@ def progress(total: int, *, initial: int = 0, desc: str, unit: str, quiet: bool 
     """A progress counter for ``total`` steps (``update(n)``, ``close()``): a tqdm bar
     when stderr is a terminal, :class:`LineProgress` when it is not, a silent one with
     ``quiet``."""
-    from tqdm import tqdm
-
     if quiet or sys.stderr.isatty():
         return tqdm(total=total, initial=initial, file=sys.stderr, unit=unit, desc=desc,
                     disable=quiet, dynamic_ncols=True, leave=leave)

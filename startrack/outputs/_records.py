@@ -68,6 +68,34 @@ def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timi
     return record
 
 
+#: the sky keys that describe only a random sky (its size and seed)
+RANDOM_SKY_KEYS = ("n_stars", "seed")
+
+
+def sky_record(source: dict) -> dict:
+    """``diagnostics.sky``: the sky's specification, without a random sky's size and seed
+    for a real catalog."""
+    if source.get("kind", "random") == "random":
+        return source
+    return {k: v for k, v in source.items() if k not in RANDOM_SKY_KEYS}
+
+
+def frame_record(frame, with_input: bool = True) -> dict:
+    """The docs/conventions.md solution record of one input's
+    :class:`~startrack.solver.FrameResult` (``input`` left out when not ``with_input``)."""
+    extra = {"sigma_px": frame.sigma_px, "match_radius_px": frame.match_radius_px,
+             "sky": sky_record(frame.catalog.source), "camera": frame.camera.to_dict()}
+    if frame.time_utc is not None:
+        extra["time_utc"] = frame.time_utc
+    record = solution_record(frame.solution, frame.obs, frame.catalog, frame.timing,
+                             input_name=frame.input if with_input else None, extra=extra,
+                             fov_deg=frame.camera.fov_deg)
+    quality = frame.quality
+    if quality is not None:
+        record["quality"] = quality.to_dict()
+    return record
+
+
 def _sigma_line(quality: dict | None) -> list[str]:
     """The attitude's 1-sigma line of a table, when the record has a quality."""
     if not quality or quality.get("sigma_boresight_arcsec") is None:

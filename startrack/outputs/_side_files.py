@@ -71,7 +71,7 @@ class SideOutputs:
     def add(self, frame) -> None:
         """Write one input's annotated PNG and WCS (when solved) and keep its corr rows."""
         if self.annotate is not None:
-            from startrack.outputs._annotate import write_annotated
+            from startrack.outputs._annotate import write_annotated  # astropy, matplotlib
 
             path = self._target("annotate", frame.input)
             with self.writer.path(path, "--annotate") as tmp:
@@ -79,13 +79,13 @@ class SideOutputs:
         if self.wcs is not None:
             path = self._target("wcs", frame.input)
             if frame.solution.solved:
-                from startrack.outputs._wcs import solved_wcs_header, write_wcs
+                from startrack.outputs._wcs import solved_wcs_header, write_wcs  # astropy
 
                 header = solved_wcs_header(frame)
                 with self.writer.path(path, "--wcs") as tmp:
                     write_wcs(tmp, header)
         if self.corr is not None:
-            from startrack.outputs._corr import corr_rows
+            from startrack.outputs._corr import corr_rows  # astropy (via the WCS)
 
             self._corr_rows.extend(corr_rows(frame))
 
@@ -93,7 +93,7 @@ class SideOutputs:
         """Write the corr table (every input's rows, in input order)."""
         if self.corr is None:
             return
-        from startrack.outputs._corr import write_corr
+        from startrack.outputs._corr import write_corr  # astropy (via the WCS)
 
         with self.writer.path(self.corr, "--corr") as tmp:
             write_corr(tmp, self._corr_rows)

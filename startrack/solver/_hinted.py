@@ -14,6 +14,7 @@ import dataclasses
 from collections import OrderedDict
 
 from startrack.defaults import BLIND_FOV_RANGE
+from startrack.errors import InputError
 from startrack.solver._hints import (
     Hints,
     cone_radius_deg,
@@ -76,8 +77,6 @@ def _child(pipeline, frame: FrameInput, hints: Hints):
     if hints.scale is not None:
         size = opt.size or frame.size
         if size is None:
-            from startrack.errors import InputError
-
             raise InputError(f"{frame.name}: a centroid list with a scale range needs the "
                              "image size (--size WxH)")
         fov, tol = fov_range_deg(hints.scale, size[0])

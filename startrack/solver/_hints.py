@@ -14,6 +14,7 @@ range becomes a nominal FOV and tolerance (:func:`fov_range_deg`).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,7 +23,10 @@ import numpy as np
 from startrack.camera._model import Camera
 from startrack.defaults import SCALE_UNITS
 from startrack.errors import InputError
+from startrack.io._images import FITS_SUFFIXES
+from startrack.simulate._config import load_config
 from startrack.sky.catalog import Catalog, radec_to_vectors
+from startrack.solver._aberration import fits_time
 from startrack.validate import (
     DEC_DEG,
     EXPTIME_S,
@@ -147,10 +151,8 @@ def header_hints(path: Path | None, size: tuple[int, int] | None) -> Hints | Non
             str(header.get(f"CTYPE{i}", "")).upper().startswith(("RA", "DEC"))
             for i in (1, 2)):
         return None  # no celestial WCS: astropy.wcs (slow to import) is not needed
-    import warnings
-
-    from astropy.wcs import WCS, FITSFixedWarning
-    from astropy.wcs.utils import proj_plane_pixel_scales
+    from astropy.wcs import WCS, FITSFixedWarning  # astropy: only for a FITS header's WCS
+    from astropy.wcs.utils import proj_plane_pixel_scales  # astropy: as above
 
     try:
         with warnings.catch_warnings():
@@ -182,11 +184,9 @@ def _on_grid(ra: float, dec: float, radius: float) -> Pointing:
 
 def fits_header(path: Path | None):
     """The primary (or first image) header of a FITS file; None for any other input."""
-    from startrack.io._images import FITS_SUFFIXES
-
     if path is None or Path(path).suffix.lower() not in FITS_SUFFIXES:
         return None
-    from astropy.io import fits
+    from astropy.io import fits  # astropy: only for a FITS input
 
     try:
         with fits.open(path, memmap=False) as hdus:
@@ -201,15 +201,13 @@ def fits_header(path: Path | None):
 def header_time(path: Path | None):
     """The middle of a FITS exposure (DATE-OBS plus half of EXPTIME) as an astropy Time,
     or None when the header has no DATE-OBS."""
-    from startrack.solver._aberration import fits_time
-
     when = fits_time(path) if path is not None else None
     if when is None:
         return None
     header = fits_header(path)
     exptime = None if header is None else header.get("EXPTIME")
     if isinstance(exptime, int | float) and math.isfinite(exptime) and exptime > 0:
-        from astropy import units as u
+        from astropy import units as u  # astropy: only with a FITS EXPTIME
 
         # 1e300 s moved the time past erfa's table: a traceback, not a one-line error
         check_number(exptime, f"{path}: EXPTIME", EXPTIME_S)
@@ -245,8 +243,6 @@ def preset(config, camera, fov_deg, hints: Hints | None):
     (camera, None) without a preset."""
     if config is None:
         return camera, None
-    from startrack.simulate._config import load_config
-
     loaded = load_config(config)
     if camera is None and fov_deg is None and (hints is None or hints.scale is None):
         camera = loaded.camera

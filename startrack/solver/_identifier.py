@@ -1,4 +1,4 @@
-"""One camera and sky loaded for identification, and the complete record of an input.
+"""One camera and sky loaded for identification, and the complete answer for an input.
 
 :class:`Identifier` holds a catalog, its database and a matcher for one camera and turns
 an input's centroids into a :class:`FrameResult`; :class:`startrack.solver._pipeline.Pipeline`
@@ -22,7 +22,6 @@ from startrack.centroids._table import DEFAULT_SIGMA_PX, Centroids
 from startrack.database import StarDatabase
 from startrack.errors import InputError
 from startrack.matchers import MatcherConfig, get_matcher
-from startrack.outputs._records import solution_record
 from startrack.simulate._scene import stars_in_view
 from startrack.sky import Catalog, check_pair_budget
 from startrack.solver._deadline import Deadline
@@ -36,7 +35,8 @@ from startrack.verify._verification import VerifyConfig
 
 @dataclass(frozen=True)
 class FrameResult:
-    """One input's answer with everything that produced it."""
+    """One input's answer with everything that produced it (its JSON record:
+    :func:`startrack.outputs.frame_record`)."""
 
     input: str
     solution: Solution
@@ -50,36 +50,10 @@ class FrameResult:
     image: np.ndarray | None = None
     time_utc: str | None = None  # observation time the attitude is corrected for (ISO)
 
-    def record(self, with_input: bool = True) -> dict:
-        """The docs/conventions.md solution record of this input."""
-        extra = {"sigma_px": self.sigma_px, "match_radius_px": self.match_radius_px,
-                 "sky": sky_record(self.catalog.source), "camera": self.camera.to_dict()}
-        if self.time_utc is not None:
-            extra["time_utc"] = self.time_utc
-        record = solution_record(self.solution, self.obs, self.catalog, self.timing,
-                                 input_name=self.input if with_input else None, extra=extra,
-                                 fov_deg=self.camera.fov_deg)
-        quality = self.quality
-        if quality is not None:
-            record["quality"] = quality.to_dict()
-        return record
-
     @property
     def quality(self) -> Quality | None:
         """Residuals, the attitude's 1-sigma and the catalog used (None: not solved)."""
         return solution_quality(self.solution, self.obs, self.catalog)
-
-
-#: the sky keys that describe only a random sky (its size and seed)
-RANDOM_SKY_KEYS = ("n_stars", "seed")
-
-
-def sky_record(source: dict) -> dict:
-    """``diagnostics.sky``: the sky's specification, without a random sky's size and seed
-    for a real catalog."""
-    if source.get("kind", "random") == "random":
-        return source
-    return {k: v for k, v in source.items() if k not in RANDOM_SKY_KEYS}
 
 
 def frame_timing(frame: FrameInput, identify_ms: float) -> Timing:

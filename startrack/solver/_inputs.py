@@ -13,8 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+from startrack.centroids._extract import extract_centroids
 from startrack.centroids._table import Centroids, read_centroid_csv
 from startrack.errors import InputError, InputFileNotFoundError
+from startrack.io._images import FITS_SUFFIXES, read_image
 
 CSV_SUFFIXES = (".csv",)
 #: the side of the crop the extraction is warmed on (big enough for its threaded path)
@@ -55,8 +57,6 @@ def read_input(path: str | Path, centroid_config=None, downsample: int = 1) -> F
         centroids = read_centroid_csv(path)
         return FrameInput(str(path), centroids, path=path,
                           read_ms=(time.perf_counter() - t0) * 1000.0)
-    from startrack.io._images import read_image
-
     reader_ms = _reader_loaded(path)
     t0 = time.perf_counter()
     image = read_image(path)
@@ -68,8 +68,6 @@ def read_input(path: str | Path, centroid_config=None, downsample: int = 1) -> F
 def _reader_loaded(path: Path) -> float:
     """Import the image reader's library (astropy's FITS module, else OpenCV) before the
     read is timed; the milliseconds of a first import (``timing_ms.setup``), else 0."""
-    from startrack.io._images import FITS_SUFFIXES
-
     module = "astropy.io.fits" if path.suffix.lower() in FITS_SUFFIXES else "cv2"
     if module in sys.modules:
         return 0.0
@@ -85,8 +83,6 @@ def image_input(image: np.ndarray, name: str, centroid_config=None,
     ``downsample`` N: found on the image binned N x N (summed), reported in the full
     image's pixels (docs/conventions.md: binned pixel i covers pixels N i to N i + N - 1,
     whose centre is N i + (N - 1) / 2)."""
-    from startrack.centroids._extract import extract_centroids
-
     t0 = time.perf_counter()
     source = image if downsample == 1 else bin_image(image, downsample)
     setup_ms = warm_extraction(source, centroid_config)
@@ -104,8 +100,6 @@ def warm_extraction(image: np.ndarray, centroid_config=None) -> float:
     its brightest pixel) once per process, pixel type and configuration, so the timed
     extraction after it compiles or loads no kernel; returns the milliseconds it took
     (0 when already warm)."""
-    from startrack.centroids._extract import extract_centroids
-
     key = (np.asarray(image).dtype.str, repr(centroid_config))
     if key in _warmed:
         return 0.0

@@ -35,11 +35,15 @@ from startrack.sky import (
     sky_spec,
 )
 from startrack.sky.default import gaia_min_fov, search_sky_kind
+from startrack.solver._aberration import correct_result
 from startrack.solver._deadline import Deadline
 from startrack.solver._fov_search import BlindSolver, refit_fov, solve_approximate
+from startrack.solver._hinted import frame_hints, solve_hinted
+from startrack.solver._hints import cut_to_cone, header_time
 from startrack.solver._identifier import FrameResult, Identifier, SetupClock, frame_timing
 from startrack.solver._inputs import FrameInput, read_input
 from startrack.solver._options import Options, with_fov
+from startrack.verify._evidence import require_evidence
 
 
 class Pipeline:
@@ -115,8 +119,6 @@ class Pipeline:
         """:meth:`solve` without the aberration correction: the attitude in the catalog's
         frame (what a tracker predicts from), through the fitted camera when the field
         of view was nominal or unknown; with hints, through :mod:`startrack.solver._hinted`."""
-        from startrack.solver._hinted import frame_hints, solve_hinted
-
         hints = frame_hints(self, frame)
         if hints is not None:
             return solve_hinted(self, frame, hints)
@@ -218,8 +220,6 @@ class Pipeline:
         if self.cone is None:
             return self.catalogs[sky]
         if sky not in self._cut:
-            from startrack.solver._hints import cut_to_cone
-
             self._cut[sky] = cut_to_cone(self.catalogs[sky], *self.cone)
         return self._cut[sky]
 
@@ -229,10 +229,6 @@ class Pipeline:
         answer passes here, so here an answer without its evidence is refused
         (:func:`startrack.verify._evidence.require_evidence`), and given the one-time cost it
         waited for (``timing_ms.setup``)."""
-        from startrack.solver._aberration import correct_result
-        from startrack.solver._hints import header_time
-        from startrack.verify._evidence import require_evidence
-
         result = require_evidence(result)
         when = self.options.time
         if when is None and frame.path is not None and self.options.header_hints:
