@@ -273,3 +273,37 @@ def test_stage_code_does_not_import_the_plugin_package_for_types():
         imported = {m for m in _imports(PACKAGE / f"{name}.py")
                     if m.startswith("startrack.matchers")}
         assert {m for m in imported if not any(m.startswith(a) for a in ok)} == set(), name
+
+
+_PY_DEF = re.compile(r"^\s*def\s+(\w+)\((.*?)\)\s*(?:->[^:]*)?:", re.M | re.S)
+
+
+def _positional(args: str) -> list[str]:
+    """The positional parameters of a ``def`` in a Cython source (not ``self``; none after
+    a bare ``*`` or ``*args``)."""
+    names = []
+    for arg in re.split(r",(?![^\[]*\])", args):
+        arg = arg.strip()
+        if arg.startswith("*"):
+            break
+        if arg and arg != "self":
+            names.append(arg)
+    return names
+
+
+def test_no_compiled_entry_point_takes_more_than_ten_positional_arguments():
+    """Frame constants cross into the compiled core as named records, not long argument
+    lists (docs: one small typed entry point per stage)."""
+    long = [f"{path.name}:{name} ({len(_positional(args))})"
+            for path in sorted((PACKAGE / "_core").glob("*.py[xi]"))
+            for name, args in _PY_DEF.findall(path.read_text())
+            if len(_positional(args)) > 10]
+    assert long == []
+    assert len(_positional("self, a, b=1, *, c, d")) == 2  # the rule itself can count
+
+
+@pytest.mark.parametrize("path", sorted(p for suffix in ("pyx", "pxi", "pxd")
+                                         for p in (PACKAGE / "_core").glob(f"*.{suffix}")),
+                         ids=lambda p: p.name)
+def test_compiled_sources_are_short(path):
+    assert len(path.read_text().splitlines()) <= MAX_FILE_LINES
