@@ -112,7 +112,7 @@ class Ours:
 
 def run(args) -> list[dict]:
     errors = [float(e) for e in args.errors.split(",")]
-    settings = [(f"{e:g}%", e) for e in errors] + [("no FOV", None)]
+    settings = [(f"{e:g}%", e) for e in errors] + ([] if args.no_blind else [("no FOV", None)])
     rows = []
     for fov in (float(v) for v in args.fovs.split(",")):
         camera, frames, catalog = frames_for(fov, args.frames, args.seed, with_catalog=True)
@@ -190,6 +190,7 @@ def main() -> None:
     ap.add_argument("--fovs", default="11.4,20")
     ap.add_argument("--errors", default="0,2,5,10")
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--no-blind", action="store_true", help="skip the no-FOV setting")
     ap.add_argument("--tolerance", type=float, default=TOLERANCE,
                     help="startrack's --fov-tolerance; the peers' fov_max_error follows it "
                          "(0: the FOV declared exact)")
