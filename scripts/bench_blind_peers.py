@@ -66,10 +66,17 @@ from startrack.solver._pipeline import FrameInput, Options, Pipeline  # noqa: E4
 TOLERANCE = 0.10  # startrack's --fov-tolerance unless --tolerance says otherwise
 
 
+#: the peers' half-width when startrack is told the FOV exactly (tolerance 0): tetra3rs
+#: solves nothing with a zero error, so they get this much (0.1 deg of 20)
+EXACT_HALF_WIDTH = 0.005
+
+
 def search_half_width(tolerance: float) -> float:
     """The half-width (a fraction of the estimate) of the FOVs startrack searches at
-    ``tolerance``: the peers' fov_max_error (an exact FOV, 0, is searched as given)."""
-    return (1.0 + tolerance) * (1.0 + MARGIN) - 1.0 if tolerance > 0 else 0.0
+    ``tolerance``: the peers' fov_max_error (:data:`EXACT_HALF_WIDTH` for an exact FOV)."""
+    if tolerance <= 0:
+        return EXACT_HALF_WIDTH
+    return (1.0 + tolerance) * (1.0 + MARGIN) - 1.0
 SOLVERS = ("startrack", "tetra3", "tetra3rs", "astrometry")
 
 
