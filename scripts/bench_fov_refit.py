@@ -15,13 +15,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _timing import median_us  # noqa: E402
 from bench_identify import make_frames  # noqa: E402
 
 from startrack.camera import Camera  # noqa: E402
@@ -30,16 +30,6 @@ from startrack.solver._fov_fit import fit_camera  # noqa: E402
 from startrack.solver._fov_search import refit_fov  # noqa: E402
 from startrack.solver._identifier import Identifier  # noqa: E402
 from startrack.types import Observation  # noqa: E402
-
-
-def _median_us(fn, repeats: int) -> float:
-    """The median of ``repeats`` timed calls of ``fn``, in microseconds."""
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)) * 1e6
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -85,8 +75,8 @@ def main(argv: list[str] | None = None) -> int:
 
     fit(solved[0])()  # warm-up: every kernel and lazy table before the clock
     refit(solved[0])()
-    fit_us = [_median_us(fit(r), args.repeats) for r in solved]
-    refit_us = [_median_us(refit(r), args.repeats) for r in solved]
+    fit_us = [median_us(fit(r), args.repeats) for r in solved]
+    refit_us = [median_us(refit(r), args.repeats) for r in solved]
     kept = sum(refit_fov(r, db, vc) is not None for r in solved)
     print(f"{len(solved)} of {len(frames)} frames solved by {args.method} at a nominal FOV "
           f"{args.fov_error:+.1%} off ({args.fov} deg, {args.size} px, "

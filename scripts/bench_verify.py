@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from _timing import median_us  # noqa: E402
 from synth import synthetic_frame  # noqa: E402
 
 from startrack.attitude import random_attitudes  # noqa: E402
@@ -45,16 +45,6 @@ def _cases(db, frames, seed):
             yield frame.obs, Hypothesis(real[:3], wrong), False
 
 
-def _median_us(call) -> float:
-    call()  # not timed: a first call
-    times = []
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        call()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)) * 1e6
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=40)
@@ -66,8 +56,8 @@ def main() -> None:
     for obs, hyp, right in _cases(db, args.frames, seed=1):
         checker = FrameVerifier(obs, db, config)
         obs_h, cat_h = (np.asarray(a, np.int64) for a in (hyp.obs_index, hyp.cat_index))
-        compiled = _median_us(partial(verify, hyp, obs, db, config, checker))
-        call = _median_us(partial(checker.check, obs_h, cat_h))
+        compiled = median_us(partial(verify, hyp, obs, db, config, checker), REPEATS)
+        call = median_us(partial(checker.check, obs_h, cat_h), REPEATS)
         rows[right].append((compiled, call))
     for right, label in ((True, "right hypothesis (accepted)"), (False, "random (refused)")):
         a = np.array(rows[right])
