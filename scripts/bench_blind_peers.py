@@ -58,6 +58,7 @@ from bench_blind import (  # noqa: E402
 from bench_blind_peer_solvers import PEERS  # noqa: E402
 
 from startrack.centroids._table import Centroids  # noqa: E402
+from startrack.defaults import DEFAULT_METHOD  # noqa: E402
 from startrack.errors import InputError  # noqa: E402
 from startrack.sky.hipparcos import CATALOG_EPOCH  # noqa: E402
 from startrack.solver._fov_search import MARGIN  # noqa: E402
@@ -87,8 +88,10 @@ def estimate(fov: float, err: float | None, i: int) -> float | None:
 class Ours:
     """startrack through its pipeline, one per estimate (loaded once, warmed on junk)."""
 
-    def __init__(self, camera, sky_kind: str, timeout_ms: float, tolerance: float) -> None:
+    def __init__(self, camera, sky_kind: str, timeout_ms: float, tolerance: float,
+                 method: str = DEFAULT_METHOD) -> None:
         self.camera, self.timeout_ms, self.tolerance = camera, timeout_ms, tolerance
+        self.method = method
         # a blind search uses Gaia: carried to the epoch of the (Hipparcos) frames
         self.epoch = CATALOG_EPOCH if sky_kind == "hipparcos" else None
         self._pipelines: dict[float | None, Pipeline] = {}
@@ -97,6 +100,7 @@ class Ours:
         if est not in self._pipelines:
             size = (self.camera.width, self.camera.height)
             options = Options(fov_deg=est, size=size, fov_tolerance=self.tolerance,
+                              method=self.method,
                               epoch=None if est is not None else self.epoch)
             pipeline = Pipeline(options)
             pipeline.solve(junk_input(size))  # every table loaded, untimed, no limit
@@ -124,7 +128,8 @@ def run(args) -> list[dict]:
     for fov in (float(v) for v in args.fovs.split(",")):
         camera, frames, catalog = frames_for(fov, args.frames, args.seed, with_catalog=True)
         kind = catalog.source["kind"]
-        solvers = {"startrack": Ours(camera, kind, args.timeout_ms, args.tolerance)}
+        solvers = {"startrack": Ours(camera, kind, args.timeout_ms, args.tolerance,
+                                     args.method)}
         for name, make in PEERS.items():
             if name not in args.peers.split(","):
                 continue
@@ -201,6 +206,9 @@ def main() -> None:
     ap.add_argument("--tolerance", type=float, default=TOLERANCE,
                     help="startrack's --fov-tolerance; the peers' fov_max_error follows it "
                          "(0: the FOV declared exact)")
+    ap.add_argument("--method", default=DEFAULT_METHOD,
+                    help="startrack's --method (default: the CLI's); quad is scale-free: "
+                         "with a nominal FOV it goes straight to the focal-length search")
     ap.add_argument("--timeout-ms", type=float, default=5000.0,
                     help="wall-clock limit per frame, the same for every solver")
     ap.add_argument("--peer-span", type=float, default=2.0,
@@ -223,7 +231,8 @@ def main() -> None:
             "wrong: frames with a wrong pointing or a wrong star; (pointing): of them, "
             "those whose boresight is more than 60\" off. FOV search half-width given to "
             f"the peers: {search_half_width(args.tolerance):.3f} of the estimate (startrack's "
-            f"--fov-tolerance {args.tolerance:g}); per-frame limit {args.timeout_ms:g} ms."
+            f"--fov-tolerance {args.tolerance:g}, --method {args.method}); per-frame limit "
+            f"{args.timeout_ms:g} ms."
             f"\n\n{table(rows)}"))
 
 

@@ -80,3 +80,33 @@ def match_quads(quads: np.ndarray, edges: np.ndarray, table: Q.QuadLevel,
     scale = edges[qi[good]].sum(axis=1) / np.take_along_axis(
         cat_edges[good], PERM_EDGES[best[good]], axis=1).sum(axis=1)
     return quads[qi[good]], cat_ordered, scale, error[good]
+
+
+def confirm_counts(x: np.ndarray, y: np.ndarray, camera, obs_q: np.ndarray,
+                   cat_q: np.ndarray, f: np.ndarray, cat_v: np.ndarray) -> np.ndarray:
+    """The batched numpy confirmation count that ``_core.quad_confirm`` replaced: SVD
+    Wahba per candidate, a k-d tree's nearest catalog star of each projected bright star."""
+    from scipy.spatial import cKDTree
+
+    from startrack.attitude import wahba_matrices
+    from startrack.matchers.quad import CHECK_RADIUS_PX, CHECK_STARS
+
+    def pinhole(px, py, fs):
+        v = np.stack([(px - camera.cx) / fs[:, None], (py - camera.cy) / fs[:, None],
+                      np.ones_like(px)], axis=-1)
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+    n = min(CHECK_STARS, len(x))
+    matrices = wahba_matrices(pinhole(x[obs_q], y[obs_q], f), cat_v[cat_q])
+    others = pinhole(np.broadcast_to(x[:n], (len(f), n)), np.broadcast_to(y[:n], (len(f), n)),
+                     f)
+    sky = np.einsum("pij,pkj->pki", matrices, others)
+    radius = CHECK_RADIUS_PX / f
+    _, rows = cKDTree(cat_v).query(sky.reshape(-1, 3),
+                                   distance_upper_bound=2.0 * np.sin(radius.max() / 2.0))
+    rows = rows.reshape(len(f), n)
+    hit = rows < len(cat_v)
+    cos = np.einsum("pkj,pkj->pk", sky, cat_v[np.where(hit, rows, 0)])
+    hit &= cos >= np.cos(radius)[:, None]
+    in_quad = (np.arange(n)[None, :, None] == obs_q[:, None, :]).any(axis=2)
+    return np.count_nonzero(hit & ~in_quad, axis=1)

@@ -10,11 +10,12 @@ from scipy.spatial.transform import Rotation
 from startrack._core.quad import image_quads
 
 from startrack.camera._model import Camera
+from startrack.database import StarDatabase
 from startrack.database import quads as Q
-from startrack.matchers.quad import RULES, match_patterns
+from startrack.matchers.quad import RULES, confirmations, match_patterns
 from startrack.simulate._scene import stars_in_view
 from startrack.sky import SkySpec, load_sky
-from tests.quad_reference import image_patterns, match_quads
+from tests.quad_reference import confirm_counts, image_patterns, match_quads
 
 
 @pytest.fixture(scope="module")
@@ -82,3 +83,28 @@ def test_no_patterns_and_an_empty_table_give_no_candidates(sky, levels):
     for obs_q, cat_q, scale, error in (none, match_patterns(vectors, empty, sky.vectors, 1.05)):
         assert obs_q.shape == (0, 4) and cat_q.shape == (0, 4)
         assert len(scale) == 0 and len(error) == 0
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_compiled_confirmation_count_is_the_numpy_one(sky, levels, seed):
+    """Every candidate of a window (true ones confirm many stars, false ones few), counted
+    in one compiled call, as the batched numpy count did; a row the checked catalog lacks
+    gives -1."""
+    camera = Camera.from_fov(1024, 1024, 16.0)
+    rng = np.random.default_rng(seed)
+    _, x, y = stars_in_view(sky, camera, Rotation.from_quat(rng.normal(size=4)))
+    x, y = x + rng.normal(0, 0.3, len(x)), y + rng.normal(0, 0.3, len(y))
+    level = levels[Q.level_for(16.0)]
+    obs_q, cat_q, scale, _ = match_patterns(camera.pixel_to_vector(x, y), level,
+                                            sky.vectors, 1.05)
+    f = camera.f_px * scale
+    db = StarDatabase(sky, camera)
+    got = confirmations(x, y, camera, obs_q, cat_q, f, db)
+    want = confirm_counts(x, y, camera, obs_q, cat_q, f, sky.vectors)
+    assert len(got) > 10 and np.array_equal(got, want)
+    assert got.max() >= 10 and got.min() <= 1  # the true pattern and coincidences
+    cut = np.zeros(len(cat_q), bool)
+    cut[::3] = True
+    cat_cut = np.where(cut[:, None], len(db.vectors) + cat_q, cat_q)
+    marked = confirmations(x, y, camera, obs_q, cat_cut, f, db)
+    assert np.all(marked[cut] == -1) and np.array_equal(marked[~cut], want[~cut])

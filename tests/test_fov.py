@@ -204,3 +204,23 @@ def test_real_frame_solves_with_no_fov():
     result = startrack.solve(REAL_FRAME, epoch=2019.6)
     assert result.solved and _off_arcsec(result) < 30.0
     assert result.fov_deg == pytest.approx(11.42, abs=0.02)
+
+
+@pytest.mark.parametrize("method", ["quad", "pyramid"])
+def test_a_scale_free_method_searches_at_once(monkeypatch, method):
+    """With a nominal FOV (2% off), a method that finds the scale itself goes straight to
+    the focal-length search; any other method is tried at the nominal FOV first."""
+    from startrack.solver._identifier import Identifier
+
+    tries = []
+    solve = Identifier.solve
+    monkeypatch.setattr(Identifier, "solve",
+                        lambda self, *a, **k: tries.append(1) or solve(self, *a, **k))
+    pipeline = Pipeline(Options(fov_deg=CAMERA.fov_deg * 1.02, size=(1024, 1024),
+                                sky="random", method=method, fov_tolerance=0.1))
+    for frame, _, rot in _frames(CAMERA, 3, seed=12):
+        result = pipeline.solve(frame)
+        assert result.solution.solved and result.solution.method in (method, "quad")
+        assert _boresight_error_arcsec(result.solution.rotation, rot) < 60.0
+        assert result.camera.fov_deg == pytest.approx(CAMERA.fov_deg, abs=0.02)
+    assert (len(tries) == 0) if method == "quad" else (len(tries) >= 3)  # pyramid: per frame

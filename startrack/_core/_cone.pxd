@@ -12,3 +12,7 @@ cdef class ConeTable:
 
 
 cdef long long[::1] cone_rows(ConeTable table, const double[:] direction, double radius)
+
+
+cdef bint any_within(ConeTable table, double dx, double dy, double dz, double radius,
+                     long long[:, ::1] spans) noexcept

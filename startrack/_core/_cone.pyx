@@ -83,3 +83,20 @@ cdef long long[::1] cone_rows(ConeTable table, const double[:] direction, double
     out = out[:k]
     out.sort()
     return out
+
+
+cdef bint any_within(ConeTable table, double dx, double dy, double dz, double radius,
+                     long long[:, ::1] spans) noexcept:
+    """Whether a row lies within ``radius`` of the unit vector (dx, dy, dz): the test of
+    :func:`cone_rows` with no array built, for lookups a few pixels wide. ``spans``:
+    scratch of two rows per declination band."""
+    cdef double dec = asin(fmax(-1.0, fmin(1.0, dz))), ra = atan2(dy, dx) % (2.0 * M_PI)
+    cdef Py_ssize_t n = _windows(table, dec, ra, radius, spans), w, s, row
+    cdef double cos_radius = cos(radius)
+    cdef const double[:, ::1] v = table.vectors
+    for w in range(n):
+        for s in range(spans[w, 0], spans[w, 1]):
+            row = table.order[s]
+            if v[row, 0] * dx + v[row, 1] * dy + v[row, 2] * dz >= cos_radius:
+                return True
+    return False

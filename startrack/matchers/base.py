@@ -86,6 +86,9 @@ class Matcher(ABC):
     description: ClassVar[str] = ""
     #: StarDatabase tables the method reads; :meth:`prepare` loads them before timing.
     tables: ClassVar[tuple[str, ...]] = ("pairs",)
+    #: whether the method finds the scale itself: with a nominal FOV the focal-length search
+    #: (which such a method serves) then runs at once, without a first try at the nominal
+    scale_free: ClassVar[bool] = False
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None) -> None:
         self.database = database

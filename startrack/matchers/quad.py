@@ -23,7 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from startrack._core.quad import QuadRules, QuadTable, match_window
-from startrack.attitude import wahba_matrices
+from startrack._core.quad_confirm import ConfirmRules
+from startrack._core.quad_confirm import confirmations as confirm_kernel
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.database import quads as Q
@@ -87,38 +88,22 @@ def match_patterns(vectors: np.ndarray, table: Q.QuadLevel, cat_vectors: np.ndar
     return found.obs, found.cat, found.scale, found.error
 
 
-def _pinhole(x: np.ndarray, y: np.ndarray, camera: Camera, f: np.ndarray) -> np.ndarray:
-    """Unit vectors (P x N x 3) of pixels ``x``, ``y`` (P x N) at focal lengths ``f`` (P)."""
-    v = np.stack([(x - camera.cx) / f[:, None], (y - camera.cy) / f[:, None],
-                  np.ones_like(x)], axis=-1)
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+CONFIRM_RULES = ConfirmRules(radius_px=CHECK_RADIUS_PX, check_stars=CHECK_STARS)
 
 
 def confirmations(x: np.ndarray, y: np.ndarray, camera: Camera, obs_q: np.ndarray,
                   cat_q: np.ndarray, f: np.ndarray, check: StarDatabase) -> np.ndarray:
     """For each candidate, how many of the ``CHECK_STARS`` brightest stars outside its
-    pattern lie within ``CHECK_RADIUS_PX`` of a catalog star at the attitude the pattern
-    gives: a cheap, batched first look that ranks candidates for verification."""
-    n = min(CHECK_STARS, len(x))
-    cat_v = check.vectors
-    if cat_q.max() >= len(cat_v):
-        ok = np.all(cat_q < len(cat_v), axis=1)
-        out = np.full(len(cat_q), -1, np.int64)
-        if ok.any():
-            out[ok] = confirmations(x, y, camera, obs_q[ok], cat_q[ok], f[ok], check)
-        return out
-    quad_v = _pinhole(x[obs_q], y[obs_q], camera, f)
-    matrices = wahba_matrices(quad_v, cat_v[cat_q])
-    others = _pinhole(np.broadcast_to(x[:n], (len(f), n)), np.broadcast_to(y[:n], (len(f), n)),
-                      camera, f)
-    sky = np.einsum("pij,pkj->pki", matrices, others)
-    radius = CHECK_RADIUS_PX / f
-    rows = check.nearest(sky, float(radius.max()), k=1)[..., 0]
-    hit = rows >= 0
-    cos = np.einsum("pkj,pkj->pk", sky, cat_v[np.where(hit, rows, 0)])
-    hit &= cos >= np.cos(radius)[:, None]
-    in_quad = (np.arange(n)[None, :, None] == obs_q[:, None, :]).any(axis=2)
-    return np.count_nonzero(hit & ~in_quad, axis=1)
+    pattern lie within ``CHECK_RADIUS_PX`` of a catalog star of ``check`` at the attitude
+    the pattern gives (pinhole, focal length ``f``); -1 for a candidate naming a row
+    ``check`` lacks: a cheap first look, in one compiled call
+    (:func:`startrack._core.quad_confirm.confirmations`), that ranks candidates for
+    verification."""
+    return confirm_kernel(CONFIRM_RULES, np.ascontiguousarray(x, np.float64),
+                          np.ascontiguousarray(y, np.float64), float(camera.cx),
+                          float(camera.cy), np.ascontiguousarray(obs_q, np.int64),
+                          np.ascontiguousarray(cat_q, np.int64),
+                          np.ascontiguousarray(f, np.float64), check.cone_index.table)
 
 
 @register
@@ -128,6 +113,7 @@ class QuadMatcher(Matcher):
     name = "quad"
     description = "scale-free 4-star patterns keyed on sorted edge ratios (tetra3's idea)"
     tables = ()
+    scale_free = True
     #: the focal-length window of :meth:`hypotheses` (a known camera): +-2%
     tolerance = 0.02
 
@@ -186,7 +172,7 @@ class QuadMatcher(Matcher):
             yield h.hypothesis
 
 __all__ = [
-    "CHECK_RADIUS_PX", "CHECK_STARS", "IMAGE_NEAREST", "IMAGE_STARS", "MAX_CANDIDATES", "PERMS",
-    "PERM_EDGES", "QuadMatcher", "RATIO_TOLERANCE", "ScaledHypothesis", "confirmations",
-    "match_patterns",
+    "CHECK_RADIUS_PX", "CHECK_STARS", "CONFIRM_RULES", "IMAGE_NEAREST", "IMAGE_STARS",
+    "MAX_CANDIDATES", "PERMS", "PERM_EDGES", "QuadMatcher", "RATIO_TOLERANCE",
+    "ScaledHypothesis", "confirmations", "match_patterns",
 ]

@@ -30,6 +30,9 @@ LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1 = 6, 0.04, 0.3
 BRIGHTEST = 16
 #: ... only when the whole frame confirmed at least this many stars (fewer cannot pass)
 BRIGHTEST_MIN_CONFIRMED = 3
+#: fit-and-verify rounds at most; they stop once a round matches the same stars as the one
+#: before (the next fit would start from its own optimum)
+REFIT_ROUNDS = 3
 
 
 def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
@@ -95,7 +98,7 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
     obs = Observation.from_pixels(x, y, camera, sigma_px)
     check = verify(hyp, obs, database, config)
     confirmed = check.confirmed
-    for _ in range(3):
+    for _ in range(REFIT_ROUNDS):
         if not check.accepted:
             return confirmed
         try:
@@ -106,8 +109,15 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
         if not (camera.f_px > 0 and math.isfinite(camera.f_px)):
             return 0
         obs = Observation.from_pixels(x, y, camera, sigma_px)
-        check = verify(hyp, obs, database, config)
+        last, check = check, verify(hyp, obs, database, config)
+        if check.accepted and _same_stars(last, check):
+            break  # a fit to the same stars again would return this camera
     return (check, camera, obs) if check.accepted else 0
+
+
+def _same_stars(a: Verification, b: Verification) -> bool:
+    return np.array_equal(a.obs_index, b.obs_index) and np.array_equal(a.cat_index,
+                                                                        b.cat_index)
 
 
 #: the given camera stands unless the fitted one lowers the matched stars' chi-square

@@ -147,12 +147,15 @@ class Pipeline:
 
     def _approximate(self, frame: FrameInput, camera: Camera, sky: SkySpec):
         """A nominal FOV: the configured method first (milliseconds when the FOV is right),
-        its FOV refitted and the pointing verified through the fitted camera; else the quad
-        search within the tolerance. A :class:`FrameResult` when the configured method's
-        answer stands (too few stars, a timeout), else the search's ``FovResult``."""
+        its FOV refitted and the pointing verified through the fitted camera; else (and at
+        once for a scale-free method) the quad search within the tolerance. A
+        :class:`FrameResult` when the configured method's answer stands (too few stars, a
+        timeout), else the search's ``FovResult``."""
         x, y = frame.centroids.x, frame.centroids.y
         deadline, spent, found = Deadline.after_ms(self.options.timeout_ms), 0.0, None
-        if self._tables_fit(camera, sky):  # else (a deep narrow-field sky) the search alone
+        # the search alone for a scale-free method (its first window holds the nominal FOV)
+        # or where the tables do not fit (a deep narrow-field sky)
+        if not get_matcher(self.options.method).scale_free and self._tables_fit(camera, sky):
             fresh = (camera, sky, self.options.method) not in self._identifiers
             nominal = self.identifier(camera, sky)
             if fresh:  # the refit's first use too, before this input's deadline starts
