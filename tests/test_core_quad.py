@@ -108,3 +108,33 @@ def test_the_compiled_confirmation_count_is_the_numpy_one(sky, levels, seed):
     cat_cut = np.where(cut[:, None], len(db.vectors) + cat_q, cat_q)
     marked = confirmations(x, y, camera, obs_q, cat_cut, f, db)
     assert np.all(marked[cut] == -1) and np.array_equal(marked[~cut], want[~cut])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_first_strong_candidate_is_true_and_one_the_ranking_holds(sky, seed):
+    """On a true frame the fast path's candidate names the true stars and is one of the
+    full ranking's candidates, with the same focal length, error and count (to rounding); on random
+    points it finds nothing (then the ranking runs)."""
+    from startrack.matchers.quad import STRONG_CONFIRMED, QuadMatcher
+    from startrack.types import MatchDiagnostics
+
+    camera = Camera.from_fov(1024, 1024, 16.0)
+    db = StarDatabase(sky, camera)
+    matcher = QuadMatcher(db)
+    rng = np.random.default_rng(seed)
+    rows, x, y = stars_in_view(sky, camera, Rotation.from_quat(rng.normal(size=4)))
+    x, y = x + rng.normal(0, 0.3, len(x)), y + rng.normal(0, 0.3, len(y))
+    lo, hi = camera.f_px / 1.03, camera.f_px * 1.03
+    strong = matcher.strong(x, y, camera, lo, hi, MatchDiagnostics())
+    assert strong is not None and strong.confirmed >= STRONG_CONFIRMED
+    assert np.array_equal(rows[strong.hypothesis.obs_index], strong.hypothesis.cat_index)
+    ranked = matcher.scaled(x, y, camera, lo, hi, MatchDiagnostics())
+    same = [h for h in ranked
+            if np.array_equal(h.hypothesis.obs_index, strong.hypothesis.obs_index)
+            and np.array_equal(h.hypothesis.cat_index, strong.hypothesis.cat_index)]
+    assert len(same) == 1
+    assert same[0].confirmed == strong.confirmed  # edges by libm's asin: within an ulp
+    assert same[0].f_px == pytest.approx(strong.f_px, rel=1e-12)
+    assert same[0].error == pytest.approx(strong.error, rel=1e-9, abs=1e-12)
+    junk_x, junk_y = rng.uniform(0, 1024, 40), rng.uniform(0, 1024, 40)
+    assert matcher.strong(junk_x, junk_y, camera, lo, hi, MatchDiagnostics()) is None

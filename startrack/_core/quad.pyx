@@ -5,9 +5,10 @@ the candidates ranked by edge agreement (see :mod:`startrack.matchers.quad`)."""
 
 import numpy as np
 
-from libc.math cimport INFINITY, M_PI, fabs, isfinite, sin, sqrt
+from libc.math cimport INFINITY, M_PI, asin, fabs, isfinite, sin, sqrt
 
 from startrack._core._stable cimport merge_sort
+from startrack._core.quad_confirm cimport Confirmer
 
 
 cdef class QuadTable:
@@ -194,32 +195,51 @@ cdef Py_ssize_t _best_orders(QuadRules rules, const double[:, ::1] edges, _Ints 
     """Each pair's best star order (``best``) and the pairs whose largest edge-ratio
     disagreement is within the tolerance (``good``, with that disagreement in ``error``);
     returns how many are good."""
-    cdef double img[6]
-    cdef double c[6]
-    cdef double largest, cmax, worst, least = 0.0, d
-    cdef Py_ssize_t p, m, n = 0
-    cdef int k, o
+    cdef double least
+    cdef Py_ssize_t p, n = 0
     for p in range(pat.n):
-        m = pat.a[p]
-        largest, cmax = edges[m, 0], cat_edges[p, 0]
-        for k in range(1, 6):
-            largest = max(largest, edges[m, k])
-            cmax = max(cmax, cat_edges[p, k])
-        for k in range(6):
-            img[k] = edges[m, k] / largest
-            c[k] = cat_edges[p, k] / cmax
-        for o in range(24):
-            worst = 0.0
-            for k in range(6):
-                d = fabs(img[k] - c[rules.perm_edges[o, k]])
-                if d > worst:
-                    worst = d
-            if o == 0 or worst < least:
-                least, best[p] = worst, o
+        least = _best_order(rules, edges, pat.a[p], cat_edges, p, &best[p])
         if least <= rules.tolerance:
             good[n], error[n] = p, least
             n += 1
     return n
+
+
+cdef double _best_order(QuadRules rules, const double[:, ::1] edges, Py_ssize_t m,
+                        const double[:, ::1] cat_edges, Py_ssize_t p,
+                        long long *best) noexcept:
+    """The best of the 24 star orders of image pattern ``m`` against catalog pattern ``p``
+    (written to ``best``) and its largest edge-ratio disagreement."""
+    cdef double img[6]
+    cdef double c[6]
+    cdef double largest = edges[m, 0], cmax = cat_edges[p, 0], worst, least = 0.0, d
+    cdef int k, o
+    for k in range(1, 6):
+        largest = max(largest, edges[m, k])
+        cmax = max(cmax, cat_edges[p, k])
+    for k in range(6):
+        img[k] = edges[m, k] / largest
+        c[k] = cat_edges[p, k] / cmax
+    for o in range(24):
+        worst = 0.0
+        for k in range(6):
+            d = fabs(img[k] - c[rules.perm_edges[o, k]])
+            if d > worst:
+                worst = d
+        if o == 0 or worst < least:
+            least, best[0] = worst, o
+    return least
+
+
+cdef inline double _scale(QuadRules rules, const double[:, ::1] edges, Py_ssize_t m,
+                          const double[:, ::1] cat_edges, Py_ssize_t p, long long o) noexcept:
+    """Observed over catalog pattern size (sums of the six edges, in matching order)."""
+    cdef double num = 0.0, den = 0.0
+    cdef int k
+    for k in range(6):
+        num += edges[m, k]
+        den += cat_edges[p, rules.perm_edges[o, k]]
+    return num / den
 
 
 cdef QuadMatches _ranked(QuadTable t, QuadRules rules, const long long[:, ::1] quads,
@@ -238,16 +258,11 @@ cdef QuadMatches _ranked(QuadTable t, QuadRules rules, const long long[:, ::1] q
     cdef double[::1] error = res.error
     cdef Py_ssize_t g, p, o
     cdef int k
-    cdef double num, den
     for g in range(n):
         p = good[g]
         o = best[p]
         error[g] = good_error[g]
-        num, den = 0.0, 0.0
-        for k in range(6):
-            num += edges[pat.a[p], k]
-            den += cat_edges[p, rules.perm_edges[o, k]]
-        scale[g] = num / den
+        scale[g] = _scale(rules, edges, pat.a[p], cat_edges, p, o)
         for k in range(4):
             obs[g, k] = quads[pat.a[p], k]
             cat[g, k] = t.quads[row.a[p], rules.perms[o, k]]
@@ -276,3 +291,4 @@ def match_window(QuadTable table, QuadRules rules, const double[:, ::1] cat,
 
 
 include "_quad_patterns.pxi"
+include "_quad_first.pxi"

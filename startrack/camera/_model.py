@@ -130,6 +130,10 @@ class Camera:
     @property
     def half_diagonal_deg(self) -> float:
         """Angle from the boresight to the farthest image corner."""
+        if self.distortion is None:  # a pinhole: no array work (verification asks per camera)
+            r = max(math.hypot(x - self.cx, y - self.cy)
+                    for x in (0.0, self.width - 1.0) for y in (0.0, self.height - 1.0))
+            return math.degrees(math.atan2(r, self.f_px))
         corners_x = np.array([0.0, self.width - 1.0, 0.0, self.width - 1.0])
         corners_y = np.array([0.0, 0.0, self.height - 1.0, self.height - 1.0])
         v = self.pixel_to_vector(corners_x, corners_y)

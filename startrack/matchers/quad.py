@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from startrack._core.quad import QuadRules, QuadTable, match_window
-from startrack._core.quad_confirm import ConfirmRules
+from startrack._core.quad import QuadRules, QuadTable, QuadWindow, first_confirmed, match_window
+from startrack._core.quad_confirm import Confirmer, ConfirmRules
 from startrack._core.quad_confirm import confirmations as confirm_kernel
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
@@ -38,6 +38,9 @@ IMAGE_NEAREST = 10
 RATIO_TOLERANCE = 0.012  # largest error of one edge ratio (key lookup and edge test)
 MAX_CANDIDATES = 4000  # best by edge agreement, before the confirmation count
 CHECK_STARS = 24  # brightest observed stars counted against the catalog per candidate
+#: a candidate with this many confirmations is verified before the others are ranked
+#: (a false pattern seldom has more than two)
+STRONG_CONFIRMED = 6
 CHECK_RADIUS_PX = 6.0  # generous: the focal length is known only from the pattern
 #: for each of the 24 star orders, the catalog edge that each image edge corresponds to
 _EDGE_INDEX = {tuple(e): k for k, e in enumerate(Q.EDGES.tolist())}
@@ -99,11 +102,15 @@ def confirmations(x: np.ndarray, y: np.ndarray, camera: Camera, obs_q: np.ndarra
     ``check`` lacks: a cheap first look, in one compiled call
     (:func:`startrack._core.quad_confirm.confirmations`), that ranks candidates for
     verification."""
-    return confirm_kernel(CONFIRM_RULES, np.ascontiguousarray(x, np.float64),
-                          np.ascontiguousarray(y, np.float64), float(camera.cx),
-                          float(camera.cy), np.ascontiguousarray(obs_q, np.int64),
+    return confirm_kernel(_confirmer(x, y, camera, check), np.ascontiguousarray(obs_q, np.int64),
                           np.ascontiguousarray(cat_q, np.int64),
-                          np.ascontiguousarray(f, np.float64), check.cone_index.table)
+                          np.ascontiguousarray(f, np.float64))
+
+
+def _confirmer(x: np.ndarray, y: np.ndarray, camera: Camera, check: StarDatabase) -> Confirmer:
+    return Confirmer(CONFIRM_RULES, np.ascontiguousarray(x, np.float64),
+                     np.ascontiguousarray(y, np.float64), float(camera.cx), float(camera.cy),
+                     check.cone_index.table)
 
 
 @register
@@ -134,6 +141,16 @@ class QuadMatcher(Matcher):
         catalog (a deeper level would hold no other star)."""
         return int(Q.level_stars(Q.level_for(fov_deg)) < len(self.database.vectors))
 
+    def _window(self, x: np.ndarray, y: np.ndarray, camera: Camera, f_lo: float,
+                f_hi: float, deeper: int) -> _Window | None:
+        f_mid = math.sqrt(f_lo * f_hi)
+        guess = dataclasses.replace(camera, f_px=f_mid)
+        if deeper > self.deeper_levels(guess.fov_deg):
+            return None
+        return _Window(f_mid, guess.pixel_to_vector(x, y),
+                       self.level(guess.fov_deg / Q.LEVEL_STEP ** deeper),
+                       math.sqrt(f_hi / f_lo) * 1.02)
+
     def scaled(self, x: np.ndarray, y: np.ndarray, camera: Camera, f_lo: float, f_hi: float,
                diag: MatchDiagnostics, check: StarDatabase | None = None, deeper: int = 0,
                ) -> list[ScaledHypothesis]:
@@ -144,16 +161,12 @@ class QuadMatcher(Matcher):
         the patterns of the level that many steps narrower than the nearest (fainter
         pattern stars: a sparse patch of sky holds too few of the nearest level's; none
         beyond :meth:`deeper_levels`)."""
-        f_mid = math.sqrt(f_lo * f_hi)
-        guess = dataclasses.replace(camera, f_px=f_mid)
-        if deeper > self.deeper_levels(guess.fov_deg):
+        w = self._window(x, y, camera, f_lo, f_hi, deeper)
+        if w is None:
             return []
-        vectors = guess.pixel_to_vector(x, y)
-        slack = math.sqrt(f_hi / f_lo) * 1.02
-        level = self.level(guess.fov_deg / Q.LEVEL_STEP ** deeper)
-        obs_q, cat_q, scale, error = match_patterns(vectors, level, self.database.vectors,
-                                                    slack)
-        f = f_mid * scale
+        obs_q, cat_q, scale, error = match_patterns(w.vectors, w.level, self.database.vectors,
+                                                    w.slack)
+        f = w.f_mid * scale
         keep = (f >= f_lo) & (f <= f_hi)
         obs_q, cat_q, f, error = obs_q[keep], cat_q[keep], f[keep], error[keep]
         diag.candidates += len(obs_q)
@@ -164,15 +177,62 @@ class QuadMatcher(Matcher):
         return [ScaledHypothesis(Hypothesis(obs_q[k], cat_q[k]), float(f[k]), float(error[k]),
                                  int(count[k])) for k in order]
 
+    def strong(self, x: np.ndarray, y: np.ndarray, camera: Camera, f_lo: float, f_hi: float,
+               diag: MatchDiagnostics, check: StarDatabase | None = None, deeper: int = 0,
+               ) -> ScaledHypothesis | None:
+        """The first candidate of :meth:`scaled`'s window with at least
+        ``STRONG_CONFIRMED`` confirmations, the patterns of the brightest stars first,
+        found without ranking the others (one compiled call,
+        :func:`startrack._core.quad.first_confirmed`); None when no candidate is that
+        strong (then :meth:`scaled` ranks them all)."""
+        w = self._window(x, y, camera, f_lo, f_hi, deeper)
+        if w is None:
+            return None
+        size = math.radians(w.level.level_deg) * w.slack
+        window = QuadWindow(max_edge=Q.PATTERN_SIZE * size,
+                            sparse_edge=Q.MAX_PATTERN_SIZE * size, f_mid=w.f_mid, f_lo=f_lo,
+                            f_hi=f_hi, min_count=STRONG_CONFIRMED)
+        found = first_confirmed(compiled_table(w.level), RULES, window,
+                                np.ascontiguousarray(self.database.vectors),
+                                np.ascontiguousarray(w.vectors, np.float64),
+                                _confirmer(x, y, camera, check or self.database))
+        if found is None:
+            return None
+        diag.candidates += 1
+        return ScaledHypothesis(Hypothesis(found.obs, found.cat), found.f_px, found.error,
+                                int(found.confirmed))
+
+    def candidates(self, x: np.ndarray, y: np.ndarray, camera: Camera, f_lo: float,
+                   f_hi: float, diag: MatchDiagnostics, check: StarDatabase | None = None,
+                   deeper: int = 0) -> Iterator[ScaledHypothesis]:
+        """:meth:`strong`'s candidate, then (only when the caller asks for more)
+        :meth:`scaled`'s ranking, which may hold that candidate again."""
+        first = self.strong(x, y, camera, f_lo, f_hi, diag, check, deeper)
+        if first is not None:
+            yield first
+        yield from self.scaled(x, y, camera, f_lo, f_hi, diag, check, deeper)
+
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
                    screen_rad: float | None = None) -> Iterator[Hypothesis]:
         f = obs.camera.f_px
-        for h in self.scaled(obs.x, obs.y, obs.camera, f / (1 + self.tolerance),
-                             f * (1 + self.tolerance), diag):
+        for h in self.candidates(obs.x, obs.y, obs.camera, f / (1 + self.tolerance),
+                                 f * (1 + self.tolerance), diag):
             yield h.hypothesis
+
+
+@dataclass(frozen=True)
+class _Window:
+    """One focal-length window as the image sees it: the focal length its vectors were
+    made with, those vectors, the pattern level searched, and how much larger than
+    assumed the scale may be."""
+
+    f_mid: float
+    vectors: np.ndarray
+    level: Q.QuadLevel
+    slack: float
 
 __all__ = [
     "CHECK_RADIUS_PX", "CHECK_STARS", "CONFIRM_RULES", "IMAGE_NEAREST", "IMAGE_STARS",
     "MAX_CANDIDATES", "PERMS", "PERM_EDGES", "QuadMatcher", "RATIO_TOLERANCE",
-    "ScaledHypothesis", "confirmations", "match_patterns",
+    "STRONG_CONFIRMED", "ScaledHypothesis", "confirmations", "match_patterns",
 ]

@@ -64,18 +64,23 @@ def _solution(check: Verification, obs: Observation, database: StarDatabase, met
                     check.false_probability, diag, (time.perf_counter() - t0) * 1000.0)
 
 
-def search_window(matcher: QuadMatcher, x, y, camera: Camera, f_lo: float, f_hi: float,
+def search_window(matcher: QuadMatcher, x, y, camera: Camera, window: Pass,
                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
-                  diag: MatchDiagnostics, seen: set, deadline: Deadline = NO_DEADLINE,
-                  deeper: int = 0):
-    """The first quad hypothesis with a focal length in [f_lo, f_hi] that passes
+                  diag: MatchDiagnostics, seen: set, deadline: Deadline = NO_DEADLINE):
+    """The first quad hypothesis of ``window`` (a focal-length range, a pattern level, and
+    either its one strong candidate or all of them ranked) that passes
     :func:`verify_fitted` against ``database``: (verification, camera, obs) or None.
-    ``deeper``: the patterns of the level that many steps below the nearest. Raises
-    :class:`SearchTimeout` when ``deadline`` passes first."""
+    Raises :class:`SearchTimeout` when ``deadline`` passes first."""
     n_cat = len(database.vectors)
     _check(deadline)
     tried = 0
-    for sh in matcher.scaled(x, y, camera, f_lo, f_hi, diag, database, deeper):
+    f_lo, f_hi = window.f_lo, window.f_hi
+    if window.strong_only:
+        strong = matcher.strong(x, y, camera, f_lo, f_hi, diag, database, window.deeper)
+        candidates = [] if strong is None else [strong]
+    else:
+        candidates = matcher.scaled(x, y, camera, f_lo, f_hi, diag, database, window.deeper)
+    for sh in candidates:
         hyp = sh.hypothesis
         key = tuple(sorted(zip(hyp.obs_index.tolist(), hyp.cat_index.tolist(), strict=True)))
         if sh.confirmed < MIN_CONFIRMED:
@@ -124,11 +129,27 @@ def f_of_fov(width: int, fov_deg: float) -> float:
     return (width / 2.0) / math.tan(math.radians(fov_deg) / 2.0)
 
 
-def passes(spans: list[tuple[float, float]]) -> list[tuple[int, float, float]]:
-    """(deeper, f_lo, f_hi) in search order: every window at its nearest pattern level,
-    then every window one level deeper (fainter pattern stars: a sparse patch of sky holds
-    too few of the nearest level's), so a frame the first pass solves costs no more."""
-    return [(deeper, lo, hi) for deeper in (0, 1) for lo, hi in spans]
+@dataclass(frozen=True)
+class Pass:
+    """One look at one focal-length window: its ends, how many pattern levels below the
+    nearest, and whether only its first strong candidate is tried
+    (:meth:`startrack.matchers.quad.QuadMatcher.strong`) or all of them, ranked."""
+
+    f_lo: float
+    f_hi: float
+    deeper: int = 0
+    strong_only: bool = False
+
+
+def passes(f_lo: float, f_hi: float) -> list[Pass]:
+    """[f_lo, f_hi]'s windows in search order: first each strong candidate (found without
+    ranking) of windows twice as wide, where most frames end, having paid little for the
+    wrong ones; then every window's candidates ranked, at its nearest pattern level, then
+    one level deeper (fainter pattern stars: a sparse patch of sky holds too few of the
+    nearest level's), so a frame an earlier pass solves costs no more."""
+    spans = windows(f_lo, f_hi)
+    return ([Pass(lo, hi, 0, True) for lo, hi in windows(f_lo, f_hi, WINDOW_STEP ** 2)]
+            + [Pass(lo, hi, deeper) for deeper in (0, 1) for lo, hi in spans])
 
 
 @dataclass(frozen=True)
@@ -169,9 +190,9 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
         return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db,
                        reason="too_few_stars")
     try:
-        for deeper, lo, hi in passes(windows(*focal_range(cam, tolerance))):
-            found = search_window(quad, x, y, cam, lo, hi, ident.sigma_px, db, config, diag,
-                                  seen, deadline, deeper)
+        for window in passes(*focal_range(cam, tolerance)):
+            found = search_window(quad, x, y, cam, window, ident.sigma_px, db, config, diag,
+                                  seen, deadline)
             if found is not None:
                 found = keep_given(found, cam, ident.sigma_px, db, config)
                 return _result(found, ident.catalog, quad.name, diag, t0, config, db)
@@ -230,11 +251,12 @@ class BlindSolver:
         db = self.database_for(base)
         reason = "no_match" if len(x) >= 3 else "too_few_stars"
         try:
-            for deeper, lo, hi in passes(windows(f_lo, f_hi)) if len(x) >= 3 else []:
+            for window in passes(f_lo, f_hi) if len(x) >= 3 else []:
                 _check(deadline)  # before the window's tables are built
-                db = self.database_for(dataclasses.replace(base, f_px=math.sqrt(lo * hi)))
-                found = search_window(self.matcher, x, y, base, lo, hi, self.sigma_px, db,
-                                      self.config, diag, seen, deadline, deeper)
+                db = self.database_for(dataclasses.replace(
+                    base, f_px=math.sqrt(window.f_lo * window.f_hi)))
+                found = search_window(self.matcher, x, y, base, window, self.sigma_px, db,
+                                      self.config, diag, seen, deadline)
                 if found is not None:
                     if camera is not None:
                         found = keep_given(found, camera, self.sigma_px, db, self.config)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -63,7 +64,7 @@ class Verification:
     residual_arcsec: np.ndarray | None = None
     quaternion: np.ndarray | None = None
 
-    @property
+    @cached_property  # a scipy Rotation costs tens of microseconds to make
     def rotation(self) -> Rotation | None:
         if self.matrix is None:
             return None
