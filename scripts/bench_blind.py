@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _cli import add_frames, script_parser
 
 from startrack.bench.conditions import Condition
 from startrack.bench.frames import make_frame
@@ -175,16 +176,26 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def add_grid_options(ap: argparse.ArgumentParser, fovs: str) -> None:
+    """The grid a blind benchmark runs over: ``--fovs`` (true field widths, deg), ``--errors``
+    (how far off, in %, the FOV given is), ``--frames`` per cell and their ``--seed``."""
+    add_frames(ap, 8, seed=7)
+    ap.add_argument("--fovs", default=fovs, help="comma-separated true field widths, deg")
+    ap.add_argument("--errors", default="0,2,5,10",
+                    help="comma-separated errors of the FOV given, %%")
+
+
+def floats(text: str) -> list[float]:
+    """A comma-separated option's numbers."""
+    return [float(v) for v in text.split(",")]
+
+
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=8)
-    ap.add_argument("--fovs", default="2,5,11.4,20,30")
-    ap.add_argument("--errors", default="0,2,5,10")
-    ap.add_argument("--seed", type=int, default=7)
+    ap = script_parser(__doc__)
+    add_grid_options(ap, "2,5,11.4,20,30")
     ap.add_argument("--doc", type=Path, help="write the table between this doc's markers")
     args = ap.parse_args()
-    fovs = [float(v) for v in args.fovs.split(",")]
-    errors = [float(v) for v in args.errors.split(",")]
+    fovs, errors = floats(args.fovs), floats(args.errors)
     started = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M")
     load0, t0 = os.getloadavg()[0], time.perf_counter()
     rows = run(fovs, errors, args.frames, args.seed)

@@ -35,7 +35,6 @@ between the doc's ``<!-- bench_blind_peers:start -->`` and ``:end -->`` markers 
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import datetime as dt
 import os
@@ -46,9 +45,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
+from _cli import script_parser  # noqa: E402
 from bench_blind import (  # noqa: E402
     WRONG_ARCSEC,
+    add_grid_options,
     boresight_arcsec,
+    floats,
     frames_for,
     junk_input,
     provenance_line,
@@ -122,10 +124,10 @@ class Ours:
 
 
 def run(args) -> list[dict]:
-    errors = [float(e) for e in args.errors.split(",")]
+    errors = floats(args.errors)
     settings = [(f"{e:g}%", e) for e in errors] + ([] if args.no_blind else [("no FOV", None)])
     rows = []
-    for fov in (float(v) for v in args.fovs.split(",")):
+    for fov in floats(args.fovs):
         camera, frames, catalog = frames_for(fov, args.frames, args.seed, with_catalog=True)
         kind = catalog.source["kind"]
         solvers = {"startrack": Ours(camera, kind, args.timeout_ms, args.tolerance,
@@ -197,11 +199,8 @@ def _ms(value: float) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=8)
-    ap.add_argument("--fovs", default="11.4,20")
-    ap.add_argument("--errors", default="0,2,5,10")
-    ap.add_argument("--seed", type=int, default=7)
+    ap = script_parser(__doc__)
+    add_grid_options(ap, "11.4,20")
     ap.add_argument("--no-blind", action="store_true", help="skip the no-FOV setting")
     ap.add_argument("--tolerance", type=float, default=TOLERANCE,
                     help="startrack's --fov-tolerance; the peers' fov_max_error follows it "

@@ -19,11 +19,11 @@ both should be near the photon limit).
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
 import numpy as np
+from _cli import add_repeats, script_parser
 from scipy.spatial import cKDTree
 
 from startrack.attitude import random_attitudes
@@ -109,8 +109,8 @@ def truth_score(found: np.ndarray, scene, sensor) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=15)
+    parser = script_parser(__doc__)
+    add_repeats(parser, 15)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     funcs = extractors()

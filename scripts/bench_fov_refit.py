@@ -13,7 +13,6 @@ anything is timed; the figures are per solved frame.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 from types import SimpleNamespace
@@ -21,6 +20,7 @@ from types import SimpleNamespace
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _cli import add_camera, add_frames, script_parser  # noqa: E402
 from _timing import median_us  # noqa: E402
 from bench_identify import make_frames  # noqa: E402
 
@@ -33,14 +33,11 @@ from startrack.types import Observation  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=100)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--fov", type=float, default=20.0)
+    ap = script_parser(__doc__)
+    add_frames(ap, 100, seed=0)
+    add_camera(ap, noise_px=0.3)
     ap.add_argument("--fov-error", type=float, default=0.005,
                     help="the nominal FOV is this fraction wider than the true one")
-    ap.add_argument("--size", type=int, default=1024)
-    ap.add_argument("--noise-px", type=float, default=0.3)
     ap.add_argument("--method", default="pyramid")
     ap.add_argument("--repeats", type=int, default=20, help="timed calls per frame")
     args = ap.parse_args(argv)

@@ -32,6 +32,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from _cli import add_camera, add_frames
 
 from startrack.attitude import angle_between_deg, boresight_error_arcsec, random_attitudes
 from startrack.camera._model import Camera
@@ -165,13 +166,10 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--methods", default=",".join(available_methods()),
                     help="comma-separated matcher names (default: all registered)")
-    ap.add_argument("--frames", type=int, default=200)
-    ap.add_argument("--seed", type=int, default=0)
+    add_frames(ap, 200, seed=0)
     ap.add_argument("--sky", choices=["hipparcos", "random"], default="hipparcos")
     ap.add_argument("--mag-limit", type=float, default=6.5)
-    ap.add_argument("--fov", type=float, default=20.0)
-    ap.add_argument("--size", type=int, default=1024, help="image width = height, px")
-    ap.add_argument("--noise-px", type=float, default=0.3)
+    add_camera(ap, noise_px=0.3)
     ap.add_argument("--sigma-px", type=float, default=None,
                     help="sigma the matchers assume (default: --noise-px)")
     ap.add_argument("--false-stars", type=int, default=3)

@@ -9,11 +9,11 @@ machine does not inflate).
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import time
 
 import numpy as np
+from _cli import add_repeats, script_parser
 
 from startrack.attitude import from_radec_roll
 from startrack.camera._model import Camera
@@ -44,8 +44,8 @@ def median_ms(fn, repeats: int) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=7)
+    parser = script_parser(__doc__)
+    add_repeats(parser, 7)
     parser.add_argument("--stars", type=int, default=100)
     args = parser.parse_args()
     sensor = SensorModel()

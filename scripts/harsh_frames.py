@@ -28,6 +28,7 @@ import argparse
 import sys
 
 import numpy as np
+from _cli import add_camera, add_frames, script_parser
 
 from startrack.attitude import boresight_error_arcsec
 from startrack.bench.conditions import Condition
@@ -113,14 +114,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = script_parser(__doc__)
     ap.add_argument("--methods", default=METHODS)
-    ap.add_argument("--frames", type=int, default=200)
-    ap.add_argument("--seed", type=int, default=0)
+    add_frames(ap, 200, seed=0)
     ap.add_argument("--mag-limit", type=float, default=6.5)
-    ap.add_argument("--fov", type=float, default=20.0)
-    ap.add_argument("--size", type=int, default=1024)
-    ap.add_argument("--noise-px", type=float, default=1.0)
+    add_camera(ap, noise_px=1.0)
     ap.add_argument("--false-stars", type=int, default=5)
     ap.add_argument("--missing", type=float, default=0.2)
     ap.add_argument("--mag-noise", type=float, default=0.0,

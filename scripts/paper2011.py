@@ -38,6 +38,7 @@ import _paper2011_claims as claims
 import _results_doc as results_doc
 import numpy as np
 import pandas as pd
+from _cli import add_paper_passes, script_parser
 
 from startrack.bench.conditions import build_conditions
 from startrack.bench.rate_plots import RatePanel, plot_rate_grid
@@ -183,18 +184,13 @@ def plot(table: pd.DataFrame, path: Path, run: dict) -> Path:
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=1000,
-                    help="verified bench frames per condition")
-    ap.add_argument("--raw-frames", type=int, default=300,
-                    help="frames per condition of the raw (unverified) pass")
+    ap = script_parser(__doc__)
+    add_paper_passes(ap, frames=1000, raw_frames=300, methods=",".join(METHODS + VARIANTS))
     ap.add_argument("--timing-frames", type=int, default=300,
                     help="frames per condition of the timing pass (one process)")
     ap.add_argument("--repeats", type=int, default=3, help="identify runs per timing")
     ap.add_argument("--warmup", type=int, default=20,
                     help="untimed frames per method before the timing pass")
-    ap.add_argument("--methods", default=",".join(METHODS + VARIANTS),
-                    help="comma-separated matcher names (variants included)")
     ap.add_argument("--fov", default="10,17.5,25",
                     help="field widths (deg) of the field-width runs ('' to skip)")
     ap.add_argument("--fov-frames", type=int, default=200,

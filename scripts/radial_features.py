@@ -21,7 +21,6 @@ docs/figures/radial_features_misid.png, and re-renders docs/results.md.
 
 from __future__ import annotations
 
-import argparse
 import resource
 import sys
 import time
@@ -32,6 +31,7 @@ import _radial_plot
 import _radial_tables
 import _results_doc as results_doc
 import pandas as pd
+from _cli import add_paper_passes, script_parser
 from _radial_paired import combine, label_summary, paired_tests
 
 from startrack.bench.conditions import build_conditions
@@ -64,18 +64,13 @@ def make_spec(frames: int, max_stars: int, methods=METHODS) -> RunSpec:
 
 
 def parse_args(argv):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=1000,
-                    help="verified (bench) frames per condition")
-    ap.add_argument("--raw-frames", type=int, default=500,
-                    help="frames per condition of the raw (unverified) pass")
+    ap = script_parser(__doc__)
+    add_paper_passes(ap, frames=1000, raw_frames=500, methods=",".join(METHODS))
     ap.add_argument("--label-frames", type=int, default=200,
                     help="frames per condition with every star labelled")
     ap.add_argument("--max-stars", type=int, default=8,
                     help="brightest stars a matcher may use for patterns")
     ap.add_argument("--limit", type=int, default=20, help="hypotheses looked at per frame")
-    ap.add_argument("--methods", default=",".join(METHODS),
-                    help="comma-separated matcher names (variants included)")
     results_doc.add_run_args(ap, "radial_features", SLUG)
     return ap.parse_args(argv)
 

@@ -14,13 +14,13 @@ Writes out/readme/ (the compare run) and README.md.
 
 from __future__ import annotations
 
-import argparse
 import shlex
 import subprocess
 import sys
 from pathlib import Path
 
 import pandas as pd
+from _cli import add_frames, script_parser
 
 from startrack.bench.report import summary_table
 
@@ -79,9 +79,9 @@ def write_papers() -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = script_parser(__doc__)
     ap.add_argument("--methods", default=DEFAULT_METHODS)
-    ap.add_argument("--frames", type=int, default=100)
+    add_frames(ap, 100)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "readme")
     ap.add_argument("--papers-only", action="store_true",

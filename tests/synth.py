@@ -15,7 +15,8 @@ from startrack.database import StarDatabase
 from startrack.matchers import Matcher, MatcherConfig, get_matcher
 from startrack.simulate._scene import stars_in_view
 from startrack.sky import Catalog
-from startrack.types import Observation
+from startrack.solver._lost_in_space import identify
+from startrack.types import MatchDiagnostics, Observation
 
 
 @dataclass(frozen=True)
@@ -101,3 +102,23 @@ def false_stars_first(db: StarDatabase, count: int, seed: int = 32,
         frame = SyntheticFrame(obs, truth, frame.rotation)
         obs, truth = with_false_star(frame, 0, rng)
     return obs, truth
+
+
+def solved_past_false_star(method: str, db: StarDatabase, **params):
+    """The named matcher's solution of :func:`false_star_first`'s frame, checked solved with
+    every identified star right; returned for its diagnostics. ``params`` go to the
+    matcher."""
+    obs, truth = false_star_first(db)
+    solution = identify(obs, prepared_matcher(method, db, **params))
+    assert_correct(solution, truth)
+    return solution
+
+
+def first_hypothesis(matcher: Matcher, db: StarDatabase):
+    """The matcher's first hypothesis on a noisy (0.3 px) frame of ``db``'s sky, checked to
+    pair every star with its true catalog row, and the diagnostics counted up to it."""
+    frame = next(frames(db.catalog, db.camera, 5, seed=71, noise_px=0.3))
+    diag = MatchDiagnostics()
+    first = next(iter(matcher.hypotheses(frame.obs, diag)))
+    assert np.all(frame.truth_rows[first.obs_index] == first.cat_index)
+    return first, diag

@@ -6,11 +6,10 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
-import sys
 from pathlib import Path
 
 from click.testing import CliRunner
+from waiting import run_python
 
 from startrack.cli import main
 from startrack.defaults import BUILTIN_METHODS
@@ -37,9 +36,7 @@ print(json.dumps({"answers": answers, "modules": sorted(sys.modules)}))
 
 
 def test_help_and_version_load_no_heavy_module():
-    proc = subprocess.run([sys.executable, "-c", CHILD, json.dumps(QUICK)],
-                          capture_output=True, text=True, check=True)
-    out = json.loads(proc.stdout)
+    out = json.loads(run_python(CHILD, json.dumps(QUICK)))
     assert [(a, code) for a, code, _ in out["answers"]] == [(a, 0) for a in QUICK]
     assert all(n > 20 for _, _, n in out["answers"])  # each printed its help or version
     loaded = out["modules"]
@@ -70,9 +67,7 @@ print(s.solved, any(m.split(".")[0] in ("numba", "llvmlite") for m in sys.module
 def test_a_solve_loads_no_jit_compiler(tmp_path):
     frame = Path(__file__).parent / "data" / "realsky_azi45.png"
     env = dict(os.environ, STARTRACK_CACHE_DIR=str(tmp_path))
-    proc = subprocess.run([sys.executable, "-c", SOLVE, str(frame)], capture_output=True,
-                          text=True, check=True, env=env)
-    assert proc.stdout.split() == ["True", "False"]
+    assert run_python(SOLVE, str(frame), env=env).split() == ["True", "False"]
 
 
 def test_help_cites_what_users_have():

@@ -2,12 +2,11 @@
 pure-Python) references of the same arithmetic, to the last bit; and the paths that use
 them load no JIT compiler."""
 
-import subprocess
-import sys
 import warnings
 
 import numpy as np
 import pytest
+from waiting import run_python
 
 from startrack._core import blobs, extract, predict, render, sky_blocks
 from startrack.centroids._extract import _geometry, _native
@@ -199,9 +198,7 @@ def test_extraction_rendering_and_prediction_load_no_jit_compiler():
             "extract_centroids(img)\n"
             "predict.rotation_exp(np.array([0.0, 0.0, 0.1]))\n"
             "print('numba' in sys.modules)\n")
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True)
-    assert run.stdout.strip() == "False"
+    assert run_python(code).strip() == "False"
 
 
 def reference_clean_grid(grid, average, fallback):

@@ -7,11 +7,10 @@ from __future__ import annotations
 import importlib
 import json
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from waiting import run_python
 
 API_DOC = Path(__file__).resolve().parents[1] / "docs" / "api.md"
 
@@ -52,9 +51,7 @@ print(json.dumps(answers))
 @pytest.fixture(scope="module")
 def doctest_results() -> dict:
     with_examples = [key for key, sections in PUBLIC.items() if "Examples" in sections]
-    proc = subprocess.run([sys.executable, "-c", CHILD, json.dumps(with_examples)],
-                          capture_output=True, text=True, check=True)
-    return json.loads(proc.stdout.splitlines()[-1])
+    return json.loads(run_python(CHILD, json.dumps(with_examples)).splitlines()[-1])
 
 
 def _docstring(module_name: str, name: str) -> str:

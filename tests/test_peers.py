@@ -8,13 +8,12 @@ smaller peer database (fewer patterns per field); the slow test uses the peers' 
 
 from __future__ import annotations
 
-import subprocess
 import sys
 
 import numpy as np
 import pytest
 from synth import synthetic_frame
-from waiting import CHILD_TIMEOUT_S
+from waiting import run_python
 
 from startrack.attitude import (
     angle_between_deg,
@@ -88,10 +87,8 @@ def test_registry_loads_without_the_peers():
         "    m(None).prepare()\n"
         "except InputError as e:\n"
         "    print(e)\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         timeout=CHILD_TIMEOUT_S)
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "tetra3rs needs the peers extra: pip install 'startrack[peers]'"
+    expected = "tetra3rs needs the peers extra: pip install 'startrack[peers]'"
+    assert run_python(code).strip() == expected
 
 
 @pytest.mark.parametrize("size", SIZES)

@@ -4,12 +4,14 @@ sequences solved from centroids (tracking, fallback after a jump, no wrong attit
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 from startrack._core.predict import rotation_exp as _exp
 from startrack._core.predict import rotation_log as _log
+from waiting import run_python
 
 from startrack.attitude import boresight_error_arcsec, random_attitudes
 from startrack.bench.tracking import TrackCondition, make_sequence
@@ -225,11 +227,5 @@ def test_a_tracked_sequence_runs_on_the_core_compiled_at_install(tmp_path):
     """Lost in space, then tracking, in a fresh process: the frames after the first are
     tracked, and no JIT compiler is ever loaded (every kernel was compiled at install,
     so no frame's time can hold a compile)."""
-    import os
-    import subprocess
-    import sys
-
     env = dict(os.environ, STARTRACK_CACHE_DIR=str(tmp_path))
-    out = subprocess.run([sys.executable, "-c", _NO_JIT_SCRIPT], env=env, text=True,
-                         capture_output=True, check=True).stdout.split()
-    assert out == ["3", "False"]
+    assert run_python(_NO_JIT_SCRIPT, env=env).split() == ["3", "False"]
