@@ -1,11 +1,13 @@
 """The radial-features paper's Tables 2 to 4: its own rows checked for consistency, and
 the same three tables made on one of our frames (its camera, a known sky patch).
 
-The paper's rows below are its printed numbers (pixel x, y; "longitude, latitude" in
-degrees), typed from the paper, not measured here.
+The paper's rows (scripts/data/radial_features_paper_rows.csv) are its printed numbers
+(pixel x, y; "longitude, latitude" in degrees), typed from the paper, not measured here.
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import astropy.units as u
 import numpy as np
@@ -15,28 +17,23 @@ from astropy.coordinates import SkyCoord
 from startrack.bench.runner import bench_frame, load_bench, point_patch
 from startrack.bench.star_labels import label_every_star
 
-# (table, row, x, y, longitude, latitude); Table 2 lists a star once per candidate.
-PAPER_ROWS = [
-    (2, 1, 3122.60, 2055.53, 108.4041, 34.9760), (2, 2, 4008.00, 1900.00, 108.0671, 35.7619),
-    (2, 3, 983.55, 1646.07, 109.7039, 34.8039), (2, 3, 983.55, 1646.07, 110.1570, 35.1245),
-    (2, 4, 1575.91, 1644.83, 109.7102, 34.1462), (2, 5, 1653.10, 1488.10, 109.7102, 34.1462),
-    (2, 5, 1653.10, 1488.10, 109.8025, 34.2758), (2, 6, 3130.05, 931.81, 108.4258, 33.2400),
-    (2, 7, 623.06, 930.80, 110.8699, 33.7943), (2, 8, 2292.79, 664.37, 110.1570, 35.1245),
-    (2, 9, 1012.41, 609.07, 110.7208, 33.1666), (2, 9, 1012.41, 609.07, 110.9324, 34.2254),
-    (2, 10, 2784.52, 604.04, 109.9016, 35.5301),
-    (3, 1, 2615.43, 3576.52, 107.4443, 33.9581), (3, 2, 1389.63, 3262.98, 108.4258, 33.2400),
-    (3, 3, 2284.39, 2201.92, 108.8191, 34.3884), (3, 4, 4008.00, 1900.00, 108.0670, 35.7619),
-    (3, 5, 1575.91, 1644.82, 109.7102, 34.1462), (3, 6, 1653.10, 1488.10, 109.8025, 34.2758),
-    (3, 7, 623.06, 930.80, 110.8699, 33.7943), (3, 8, 2292.79, 664.37, 110.1570, 35.1245),
-    (3, 9, 1012.41, 609.07, 110.9323, 34.2254), (3, 10, 1465.18, 423.47, 110.8402, 34.6396),
-    (3, 11, 1500.28, 66.71, 111.1346, 34.8303), (3, 12, 2784.52, 604.04, 109.9015, 35.5301),
-    (3, 13, 3122.60, 2055.53, 108.4040, 34.9760),
-    (4, 1, 1389.63, 3262.98, 108.4258, 33.2400), (4, 2, 2178.05, 3464.10, 108.4258, 33.2400),
-    (4, 3, 1575.91, 1644.82, 109.7102, 34.1462), (4, 4, 3284.58, 2239.62, 109.7102, 34.1462),
-]
-COLUMNS = ["table", "row", "x", "y", "lon", "lat"]
+#: the paper's printed rows, one a line: table, row, pixel x, y, and its "longitude,
+#: latitude" (deg); Table 2 lists a star once per candidate
+PAPER_ROWS_CSV = Path(__file__).resolve().parent / "data" / "radial_features_paper_rows.csv"
 #: the sky frames the printed "longitude, latitude" are tried in (astropy names)
 FRAMES = ("icrs", "fk4", "galactic", "geocentrictrueecliptic", "supergalactic")
+
+
+def paper_rows() -> pd.DataFrame:
+    """The paper's Tables 2 to 4 as printed (:data:`PAPER_ROWS_CSV`), read to the last bit
+    of each typed number.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns table, row, x, y (px), lon, lat (deg).
+    """
+    return pd.read_csv(PAPER_ROWS_CSV, float_precision="round_trip")
 
 
 def sky_vectors(lon_deg, lat_deg) -> np.ndarray:
@@ -71,7 +68,7 @@ def paper_checks(catalog, f_px: float) -> pd.DataFrame:
     only), the distance to the nearest catalog star reading the positions in each of
     :data:`FRAMES` (arcsec) and whether the same
     navigation star is another observed star's identity elsewhere in Tables 2 and 3."""
-    rows = pd.DataFrame(PAPER_ROWS, columns=COLUMNS)
+    rows = paper_rows()
     t3 = rows["table"] == 3
     scale, resid = similarity_fit(rows[t3])
     rows["fit_resid_arcsec"] = np.nan
