@@ -18,23 +18,13 @@ from startrack.errors import InputError, as_builtin
 from startrack.solver._aberration import parse_time
 from startrack.validate import (
     EPOCH_YEAR,
-    FOV_DEG,
-    FOV_TOLERANCE,
     IMAGE_SIDE_PX,
-    MAG_LIMIT,
-    MAX_STARS,
-    PRIOR_SIGMA_DEG,
-    SIGMA_PX,
-    TIMEOUT_MS,
+    SOLVER_BOUNDS,
     NumberTypeError,
     check_attitude,
     check_keywords,
     check_number,
 )
-
-SOLVER_BOUNDS = {"fov_deg": FOV_DEG, "fov_tolerance": FOV_TOLERANCE, "sigma_px": SIGMA_PX,
-                 "mag_limit": MAG_LIMIT, "epoch": EPOCH_YEAR, "max_stars": MAX_STARS,
-                 "timeout_ms": TIMEOUT_MS, "prior_sigma_deg": PRIOR_SIGMA_DEG}
 
 
 def check_solver_numbers(**values) -> None:

@@ -85,6 +85,10 @@ JOBS = Bounds(1, 4096, integer=True)
 CACHE_MAX_MB = Bounds(0.0, 1e9)  # a petabyte
 IMAGE_PIXELS = Bounds(1, 10**12, integer=True)
 PAIRS = Bounds(1, 10**12, integer=True)
+#: the solver's numeric settings by keyword: ``identify``'s options and ``Solver``'s keywords
+SOLVER_BOUNDS = {"fov_deg": FOV_DEG, "fov_tolerance": FOV_TOLERANCE, "sigma_px": SIGMA_PX,
+                 "mag_limit": MAG_LIMIT, "epoch": EPOCH_YEAR, "max_stars": MAX_STARS,
+                 "timeout_ms": TIMEOUT_MS, "prior_sigma_deg": PRIOR_SIGMA_DEG}
 
 
 def _shown(value) -> str:
@@ -149,6 +153,22 @@ def check_keywords(values: dict, bounds: dict[str, Bounds], where: str = "") -> 
             check_number(value, f"{where}{key}", bounds[key])
 
 
+def check_keys(data: dict, keys, where: str) -> None:
+    """An :class:`InputError` naming ``where`` and every key of ``data`` not in ``keys``."""
+    unknown = set(data) - set(keys)
+    if unknown:
+        raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+
+
+def check_table(data, keys, where: str, kind: str) -> dict:
+    """``data`` if it is a table (a dict) of ``kind`` keys, each one of ``keys``; else an
+    :class:`InputError` naming ``where`` (a file's tables and the API's mappings alike)."""
+    if not isinstance(data, dict):
+        raise InputError(f"{where}: expected a table of {kind} keys")
+    check_keys(data, keys, where)
+    return data
+
+
 def check_attitude(value, where: str) -> tuple[float, float, float]:
     """An attitude (ra, dec, roll) in degrees: exactly three numbers within range."""
     try:
@@ -166,6 +186,6 @@ __all__ = [
     "FOV_DEG", "FOV_TOLERANCE", "FPS", "FRACTION", "FRAMES", "IMAGE_PIXELS", "IMAGE_SIDE_PX",
     "JOBS", "MAG_LIMIT", "MAG_NOISE", "MAX_STARS", "NumberError", "NumberTypeError", "PAIRS",
     "PIXEL_SIZE_UM", "PRIOR_SIGMA_DEG", "RADIUS_DEG", "RATE_DPS", "RA_DEG", "ROLL_DEG", "SCALE",
-    "SEED", "SIGMA_PX", "THRESHOLD_ARCSEC", "TIMEOUT_MS", "check_attitude", "check_keywords",
-    "check_number", "env_number", "parse_number",
+    "SEED", "SIGMA_PX", "SOLVER_BOUNDS", "THRESHOLD_ARCSEC", "TIMEOUT_MS", "check_attitude",
+    "check_keys", "check_keywords", "check_number", "check_table", "env_number", "parse_number",
 ]

@@ -255,15 +255,3 @@ def _written(folder: Path) -> bool:
         return any(f.stat().st_size > 0 for f in folder.iterdir())
     except OSError:  # not made yet, or the file was just renamed or removed
         return False
-
-
-def test_sigterm_inside_a_compiled_kernel_is_still_terminated():
-    """numba runs a pending signal handler when its kernel calls back into Python and
-    wraps what the handler raised in a SystemError: still a clean exit 143."""
-    from startrack.cli import Terminated, _terminated
-
-    wrapped = SystemError("CPUDispatcher(...) returned a result with an exception set")
-    wrapped.__cause__ = SystemError("_numba_unpickle returned a result with an exception set")
-    wrapped.__cause__.__cause__ = Terminated()
-    assert _terminated(wrapped) and _terminated(Terminated())
-    assert not _terminated(SystemError("a real bug")) and not _terminated(None)

@@ -15,7 +15,7 @@ from pathlib import Path
 from startrack.camera._distortion import distortion_from_dict
 from startrack.camera._model import Camera
 from startrack.errors import InputError, InputFileNotFoundError
-from startrack.validate import FOV_DEG, IMAGE_SIDE_PX, check_number
+from startrack.validate import FOV_DEG, IMAGE_SIDE_PX, check_number, check_table
 
 CAMERA_KEYS = {"width", "height", "fov_deg", "focal_length_mm", "pixel_size_um", "cx", "cy",
                "distortion", "uncertainty"}  # uncertainty: calibrate's report, not read
@@ -61,11 +61,7 @@ def _focal_px(data: dict, width: int, where: str) -> float:
 
 def camera_from_dict(data: dict, where: str = "camera") -> Camera:
     """A camera from the docs/conventions.md keys; unknown, missing or bad values are errors."""
-    if not isinstance(data, dict):
-        raise InputError(f"{where}: expected a table of camera keys")
-    unknown = set(data) - CAMERA_KEYS
-    if unknown:
-        raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+    check_table(data, CAMERA_KEYS, where, "camera")
     if not isinstance(data.get("uncertainty", {}), dict):
         raise InputError(f"{where}: uncertainty must be a table")
     for key in ("width", "height"):

@@ -25,17 +25,6 @@ def _on_sigterm(signum, frame) -> None:
     raise Terminated()
 
 
-def _terminated(exc: BaseException | None) -> bool:
-    """Whether ``exc`` is, or was caused by, :class:`Terminated`: a compiled kernel that
-    calls back into Python runs the handler there and wraps what it raised in a
-    SystemError."""
-    while exc is not None:
-        if isinstance(exc, Terminated):
-            return True
-        exc = exc.__cause__ or exc.__context__
-    return False
-
-
 def _silence_stdout() -> None:
     """Point stdout at /dev/null so the interpreter's final flush cannot fail again."""
     try:
@@ -100,9 +89,7 @@ class StartrackGroup(click.Group):
         except click.exceptions.Abort:
             click.echo("startrack: aborted", err=True)
             return 130
-        except (Terminated, SystemError) as exc:
-            if not _terminated(exc):
-                raise
+        except Terminated:
             click.echo("startrack: terminated (SIGTERM); nothing half-written was left",
                        err=True)
             return 143

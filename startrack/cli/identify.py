@@ -36,19 +36,7 @@ from startrack.outputs._side_files import SideOutputs
 if TYPE_CHECKING:
     from startrack.solver._pipeline import Options
 
-from startrack.validate import (
-    DOWNSAMPLE,
-    EPOCH_YEAR,
-    FOV_DEG,
-    FOV_TOLERANCE,
-    IMAGE_SIDE_PX,
-    MAG_LIMIT,
-    MAX_STARS,
-    PRIOR_SIGMA_DEG,
-    SIGMA_PX,
-    TIMEOUT_MS,
-    check_number,
-)
+from startrack.validate import DOWNSAMPLE, IMAGE_SIDE_PX, SOLVER_BOUNDS, check_number
 
 
 def _size(ctx, param, value):
@@ -75,11 +63,11 @@ def _time(ctx, param, value):
 @click.argument("inputs", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--camera", "camera_path", type=click.Path(dir_okay=False),
               help="Camera file (JSON or TOML, keys in docs/conventions.md).")
-@click.option("--fov", "fov_deg", type=Number(FOV_DEG),
+@click.option("--fov", "fov_deg", type=Number(SOLVER_BOUNDS["fov_deg"]),
               help="Horizontal field of view in degrees (image size from the image, or "
                    "--size for a CSV).")
-@click.option("--fov-tolerance", type=Number(FOV_TOLERANCE), default=DEFAULT_FOV_TOLERANCE,
-              show_default=True,
+@click.option("--fov-tolerance", type=Number(SOLVER_BOUNDS["fov_tolerance"]),
+              default=DEFAULT_FOV_TOLERANCE, show_default=True,
               help="The true FOV may be this fraction above or below --fov (or the camera "
                    "file's); it is fitted and reported as fov_deg. 0: exactly as given. "
                    "With no FOV at all (no --fov, camera file or sidecar) a blind search "
@@ -90,11 +78,11 @@ def _time(ctx, param, value):
                    f"{GAIA_BELOW_FOV_DEG:g} deg, gaia below it, tycho2 (when installed) "
                    "where gaia is too shallow or with no FOV (docs/conventions.md).")
 @index_dir_option
-@click.option("--mag-limit", type=Number(MAG_LIMIT),
+@click.option("--mag-limit", type=Number(SOLVER_BOUNDS["mag_limit"]),
               help="Faintest catalog magnitude. Default for hipparcos: the faintest half "
                    "magnitude with <= 80 catalog stars in an average frame (20 deg -> 6.5, "
                    "11.4 deg -> 7.5).")
-@click.option("--epoch", type=Number(EPOCH_YEAR),
+@click.option("--epoch", type=Number(SOLVER_BOUNDS["epoch"]),
               help="Julian year to carry Hipparcos positions to by proper motion "
                    "(default: the catalog epoch, J1991.25).")
 @click.option("--time", "obs_time", callback=_time,
@@ -105,12 +93,12 @@ def _time(ctx, param, value):
 @click.option("--method", default=DEFAULT_METHOD, show_default=True,
               help=f"Matcher, one of: {', '.join(BUILTIN_METHODS)}, or a plugin's "
                    "(docs/results.md compares them).")
-@click.option("--max-stars", type=Number(MAX_STARS),
+@click.option("--max-stars", type=Number(SOLVER_BOUNDS["max_stars"]),
               help="Brightest stars the matcher may use to form patterns.")
-@click.option("--sigma-px", type=Number(SIGMA_PX),
+@click.option("--sigma-px", type=Number(SOLVER_BOUNDS["sigma_px"]),
               default=DEFAULT_SIGMA_PX, show_default=True,
               help="1-sigma centroid error in pixels; sets match tolerances.")
-@click.option("--timeout-ms", type=Number(TIMEOUT_MS),
+@click.option("--timeout-ms", type=Number(SOLVER_BOUNDS["timeout_ms"]),
               help="Wall-clock limit per input, over all its stages (the method, the FOV "
                    "refit and search); past it the input is not solved, with reason "
                    "timeout (the work is bounded without it too).")
@@ -139,7 +127,7 @@ def _time(ctx, param, value):
 @click.option("--prior", callback=triple("RA,DEC,ROLL"),
               help="Prior attitude RA,DEC,ROLL in degrees: each input (with --track, the "
                    "first) is solved near it first.")
-@click.option("--prior-sigma-deg", type=Number(PRIOR_SIGMA_DEG),
+@click.option("--prior-sigma-deg", type=Number(SOLVER_BOUNDS["prior_sigma_deg"]),
               default=DEFAULT_PRIOR_SIGMA_DEG, show_default=True,
               help="1-sigma uncertainty of --prior, degrees.")
 @hint_options

@@ -9,9 +9,11 @@ from __future__ import annotations
 import importlib
 import math
 from collections.abc import Iterator
+from dataclasses import asdict, dataclass, fields
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from types import ModuleType
+from typing import ClassVar
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -115,8 +117,9 @@ def peer_hypothesis_groups(obs_index: np.ndarray, cat_index: np.ndarray,
     return groups
 
 
-__all__ = ["PeerMatcher", "import_peer", "peer_hypothesis_groups", "peer_version",
-           "positions_to_indices", "write_gaia_binary", "write_hip_main"]
+__all__ = ["EdgeRatioSolve", "PeerMatcher", "PeerSettings", "import_peer",
+           "peer_hypothesis_groups", "peer_version", "positions_to_indices",
+           "write_gaia_binary", "write_hip_main"]
 
 
 #: tetra3's generate_database defaults; tetra3rs's generate_from_gaia uses the same.
@@ -124,28 +127,80 @@ PEER_DB_DEFAULTS = {"pattern_max_error": 0.001, "lattice_field_oversampling": 10
                     "patterns_per_lattice_field": 50, "verification_stars_per_fov": 150}
 
 
-class PeerMatcher(Matcher):
-    """What the peer adapters share: their database parameters, and how a peer's matched
-    stars become hypotheses that our verification accepts or refuses like any other.
+@dataclass(frozen=True)
+class PeerSettings:
+    """A peer's own solve settings, each a number and a keyword of its matcher's
+    constructor (a subclass names them and their defaults); none by default."""
 
-    The peer's full match list cannot be one hypothesis, since verification counts only
-    stars outside it as evidence; its matches go in groups of ``hypothesis_stars``.
+    def __post_init__(self) -> None:
+        for field in fields(self):  # a setting that is no number fails at construction
+            object.__setattr__(self, field.name, float(getattr(self, field.name)))
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class EdgeRatioSolve(PeerSettings):
+    """tetra3's solve settings (tetra3rs, its port, takes the same).
+
+    ``fov_max_error_deg``: how far the true FOV may be from the camera's; ``match_radius``:
+    a pattern's match radius as a fraction of the FOV; ``match_threshold``: the largest
+    false-match probability accepted; ``solve_timeout_ms``: the peer's time per frame.
+    """
+
+    fov_max_error_deg: float = 0.5
+    match_radius: float = 0.01
+    match_threshold: float = 1e-4
+    solve_timeout_ms: float = 5000.0
+
+
+class PeerMatcher(Matcher):
+    """What the peer adapters share: their settings and database parameters, and how a
+    peer's matched stars become hypotheses that our verification accepts or refuses like
+    any other.
+
+    Parameters
+    ----------
+    database : StarDatabase
+        Our catalog for one camera; the peer's database is built from it.
+    config : MatcherConfig, optional
+        The settings every matcher shares.
+    hypothesis_stars : int, default 4
+        Matched stars per hypothesis: the peer's full match list cannot be one hypothesis,
+        since verification counts only stars outside it as evidence.
+    max_hypotheses : int, default 3
+        Groups of ``hypothesis_stars`` handed to verification at most.
+    **keywords
+        The fields of the class's ``settings_type`` (the peer's solve settings, kept as
+        ``settings``); every other keyword is a database parameter of the peer
+        (``db_params``, over :data:`PEER_DB_DEFAULTS`).
     """
 
     tables = ()
+    #: the peer's own solve settings, built from the constructor's keywords
+    settings_type: ClassVar[type[PeerSettings]] = PeerSettings
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
-                 hypothesis_stars: int = 4, max_hypotheses: int = 3, **db_params) -> None:
+                 hypothesis_stars: int = 4, max_hypotheses: int = 3, **keywords) -> None:
         super().__init__(database, config)
         self.hypothesis_stars = int(hypothesis_stars)
         self.max_hypotheses = int(max_hypotheses)
-        self.db_params = {**PEER_DB_DEFAULTS, **db_params}
+        own = {field.name for field in fields(self.settings_type)}
+        self.settings = self.settings_type(**{k: v for k, v in keywords.items() if k in own})
+        self.db_params = {**PEER_DB_DEFAULTS,
+                          **{k: v for k, v in keywords.items() if k not in own}}
         self._solver = None
 
     def peer_hypotheses(self, obs_index: np.ndarray, catalog_ids: np.ndarray
                         ) -> Iterator[Hypothesis]:
         """Hypotheses from the peer's matched centroids and catalog ids (HIP numbers)."""
         cat_index = self.database.catalog.index_of(np.asarray(catalog_ids, dtype=np.int64))
+        yield from self.grouped_hypotheses(obs_index, cat_index)
+
+    def grouped_hypotheses(self, obs_index: np.ndarray, cat_index: np.ndarray
+                           ) -> Iterator[Hypothesis]:
+        """Hypotheses from the peer's matches as rows of our centroids and catalog."""
         for obs_h, cat_h in peer_hypothesis_groups(obs_index, cat_index, self.hypothesis_stars,
                                                     self.max_hypotheses):
             yield Hypothesis(obs_h, cat_h)

@@ -42,8 +42,8 @@ import numpy as np
 
 from startrack._core import angle as core
 from startrack.database import StarDatabase
-from startrack.database.pairs import PairTable
-from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
+from startrack.matchers._pattern import PatternPairMatcher
+from startrack.matchers.base import MatcherConfig, register, register_variant
 from startrack.matching.geometry import angle_table
 from startrack.matching.pairs import PairIndex, compact_pairs, pair_index
 from startrack.matching.triples import triple_array
@@ -53,7 +53,7 @@ CLOSING = ("until_one", "all", "none")
 
 
 @register
-class AngleMatcher(Matcher):
+class AngleMatcher(PatternPairMatcher):
     """The 2011 paper's angle method: pair lookups with pivoting on shared stars."""
 
     name = "angle"
@@ -62,9 +62,8 @@ class AngleMatcher(Matcher):
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_chains: int = 220, max_lookups: int = 1600, max_skips: int = 5,
                  max_ambiguous: int = 4, max_rows: int = 2_000_000,
-                 closing: str = "until_one", pattern_per_region: int | None = 15,
-                 region_radius_deg: float | None = None, extra_stars: int | None = None) -> None:
-        super().__init__(database, config)
+                 closing: str = "until_one", **pattern) -> None:
+        super().__init__(database, config, **pattern)  # pattern stars and extra_stars
         if closing not in CLOSING:
             raise ValueError(f"closing must be one of {', '.join(CLOSING)}, got {closing!r}")
         self.closing = closing
@@ -76,26 +75,14 @@ class AngleMatcher(Matcher):
         # Double stars closer than the centroid noise stay ambiguous whatever the pivots.
         self.max_ambiguous = int(max_ambiguous)
         self.max_rows = int(max_rows)  # a chain whose candidates outgrow this is dropped
-        # The on-board catalog the pairs are looked up in: the pattern stars (fewer than
-        # ``pattern_per_region`` brighter stars within ``region_radius_deg``, as Pyramid's
-        # and the triangle table's), None for every catalog star.
-        self.pattern_per_region = None if pattern_per_region is None else int(pattern_per_region)
-        self.region_radius_deg = region_radius_deg
-        # When the ``config.max_stars`` brightest leave no answer (false stars crowd them),
-        # the chains that start with up to this many fainter stars are tried next.
-        self.extra_stars = int(self.config.extra_stars if extra_stars is None else extra_stars)
-
-    def _table(self) -> PairTable:
-        return self.database.pattern_pairs(self.pattern_per_region, self.region_radius_deg)
 
     def prepare(self) -> None:
-        super().prepare()
-        pair_index(self._table(), len(self.database.vectors))
+        super().prepare()  # the pattern pairs' index
         _ = self._slot_vectors  # and the slots themselves
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
                    screen_rad: float | None = None) -> Iterator[Hypothesis]:
-        n = min(self.config.max_stars + max(self.extra_stars, 0), len(obs))
+        n = self.star_count(obs)
         if n < 3:
             return
         first = min(self.config.max_stars, n)

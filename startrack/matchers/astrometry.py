@@ -30,10 +30,9 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from startrack.attitude import to_quaternion
-from startrack.database import StarDatabase
 from startrack.errors import InputError
-from startrack.matchers._peer import PeerMatcher, peer_hypothesis_groups, positions_to_indices
-from startrack.matchers.base import MatcherConfig, register
+from startrack.matchers._peer import PeerMatcher, PeerSettings, positions_to_indices
+from startrack.matchers.base import register
 from startrack.sky.catalog import radec_to_vectors
 from startrack.sky.tycho2 import index_files
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
@@ -160,6 +159,15 @@ def solve_field(x: np.ndarray, y: np.ndarray, flux: np.ndarray, size: tuple[int,
         shutil.rmtree(run, ignore_errors=True)
 
 
+@dataclass(frozen=True)
+class SolveFieldSettings(PeerSettings):
+    """``scale_tolerance``: the image width solve-field may try, as a fraction above or
+    below the camera's; ``cpulimit_s``: its CPU time per frame."""
+
+    scale_tolerance: float = 0.05
+    cpulimit_s: float = 30.0
+
+
 @register
 class AstrometryMatcher(PeerMatcher):
     """astrometry.net's ``solve-field`` (quads of 4 stars, Tycho-2 index files)."""
@@ -167,15 +175,9 @@ class AstrometryMatcher(PeerMatcher):
     name = "astrometry"
     description = "peer: astrometry.net solve-field on the centroid list (Tycho-2 index)"
 
-    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
-                 scale_tolerance: float = 0.05, cpulimit_s: float = 30.0,
-                 hypothesis_stars: int = 4, max_hypotheses: int = 3, **db_params) -> None:
-        super().__init__(database, config, hypothesis_stars=hypothesis_stars,
-                         max_hypotheses=max_hypotheses, **db_params)
-        self.scale_tolerance = float(scale_tolerance)
-        self.cpulimit_s = float(cpulimit_s)
-        self._work: tempfile.TemporaryDirectory | None = None
-        self._tree: cKDTree | None = None
+    settings_type = SolveFieldSettings
+    _work: tempfile.TemporaryDirectory | None = None  # solve-field's config, by prepare
+    _tree: cKDTree | None = None  # our catalog's vectors, to name the stars it matched
 
     def prepare(self) -> None:
         if self._work is not None:
@@ -191,10 +193,10 @@ class AstrometryMatcher(PeerMatcher):
         cam = obs.camera
         x, y = cam.ideal_pixels(obs.x, obs.y)  # the peer knows no lens distortion
         flux = obs.flux if obs.flux is not None else np.arange(len(x), 0, -1, dtype=float)
-        tol = self.scale_tolerance
+        tol = self.settings.scale_tolerance
         found = solve_field(x, y, flux, (cam.width, cam.height),
                             (cam.fov_deg * (1.0 - tol), cam.fov_deg * (1.0 + tol)),
-                            self.cpulimit_s, Path(self._work.name))
+                            self.settings.cpulimit_s, Path(self._work.name))
         diag.method_ms = found.wall_ms
         diag.extra["peer_status"] = "solved" if found.solved else "not solved"
         if not found.solved:
@@ -208,9 +210,7 @@ class AstrometryMatcher(PeerMatcher):
         cat_index = np.where(np.isfinite(dist), rows, -1)
         if found.rotation is not None:
             diag.extra["peer_quaternion"] = to_quaternion(found.rotation)
-        for obs_h, cat_h in peer_hypothesis_groups(obs_index, cat_index,
-                                                    self.hypothesis_stars, self.max_hypotheses):
-            yield Hypothesis(obs_h, cat_h)
+        yield from self.grouped_hypotheses(obs_index, cat_index)
 
 __all__ = [
     "AstrometryMatcher", "FieldSolution", "IDENTITY_ARCSEC", "INSTALL", "read_corr",

@@ -42,7 +42,8 @@ import numpy as np
 from startrack._core import hybrid as kernels
 from startrack.database import StarDatabase
 from startrack.database.pairs import PairTable
-from startrack.matchers.base import Matcher, MatcherConfig, register, register_variant
+from startrack.matchers._pattern import PatternPairMatcher
+from startrack.matchers.base import MatcherConfig, register, register_variant
 from startrack.matching.features import feature_sigma
 from startrack.matching.geometry import angle_table, handedness
 from startrack.matching.pairs import PairIndex, pair_index
@@ -76,7 +77,7 @@ def _triples(n: int) -> np.ndarray:
 
 
 @register
-class HybridMatcher(Matcher):
+class HybridMatcher(PatternPairMatcher):
     """Sedaghat, Toloei and Ghanbarpoor (2011): angle shortlists, then planar triangles."""
 
     name = "hybrid"
@@ -84,29 +85,12 @@ class HybridMatcher(Matcher):
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_false: int = 3, max_per_triangle: int = 5,
-                 max_unconfirmed: int = 10, fourth_star: bool = True,
-                 pattern_per_region: int | None = 15,
-                 region_radius_deg: float | None = None, extra_stars: int | None = None) -> None:
-        super().__init__(database, config)
-        # When the ``config.max_stars`` brightest leave no answer (false stars crowd them),
-        # a second round runs on up to this many more stars.
-        self.extra_stars = int(self.config.extra_stars if extra_stars is None else extra_stars)
-        # The on-board catalog of the angle lookups: the pattern stars (fewer than
-        # ``pattern_per_region`` brighter stars within ``region_radius_deg``, as Pyramid's
-        # and the triangle table's), None for every catalog star.
-        self.pattern_per_region = None if pattern_per_region is None else int(pattern_per_region)
-        self.region_radius_deg = region_radius_deg
+                 max_unconfirmed: int = 10, fourth_star: bool = True, **pattern) -> None:
+        super().__init__(database, config, **pattern)  # pattern stars and extra_stars
         self.fourth_star = bool(fourth_star)
         self.max_unconfirmed = max_unconfirmed  # per pass, best first
         self.max_false = max_false  # votes the last pass may miss (false partners)
         self.max_per_triangle = max_per_triangle
-
-    def _table(self) -> PairTable:
-        return self.database.pattern_pairs(self.pattern_per_region, self.region_radius_deg)
-
-    def prepare(self) -> None:
-        super().prepare()
-        pair_index(self._table(), len(self.database.vectors))
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
                    screen_rad: float | None = None) -> Iterator[Hypothesis]:
@@ -116,7 +100,7 @@ class HybridMatcher(Matcher):
         diag.extra.update(triangles_tested=0, passes=0)
         yield from self._round(obs, first, self.max_false, diag)
         # False stars crowd the brightest: the fainter ones join, and more votes may miss.
-        n = min(self.config.max_stars + max(self.extra_stars, 0), len(obs))
+        n = self.star_count(obs)
         if n > first:
             yield from self._round(obs, n, self.max_false + n - first, diag)
 

@@ -33,7 +33,8 @@ from collections.abc import Iterator
 
 from startrack._core import pyramid as core
 from startrack.database import StarDatabase
-from startrack.matchers.base import Matcher, MatcherConfig, register
+from startrack.matchers._pattern import PatternPairMatcher
+from startrack.matchers.base import MatcherConfig, register
 from startrack.matching.pairs import pair_index
 from startrack.matching.triples import triple_array
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
@@ -45,7 +46,7 @@ CONFIRM_RADIUS = 3.0
 
 
 @register
-class PyramidMatcher(Matcher):
+class PyramidMatcher(PatternPairMatcher):
     """Mortari's Pyramid on the shared pair database."""
 
     name = "pyramid"
@@ -53,10 +54,8 @@ class PyramidMatcher(Matcher):
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_triples: int = 220, max_triangles: int = 500, max_pyramids: int = 4,
-                 pattern_per_region: int | None = 15, region_radius_deg: float | None = None,
-                 extra_stars: int | None = None, fallback: bool = False,
-                 fallback_triples: int = 56) -> None:
-        super().__init__(database, config)
+                 fallback: bool = False, fallback_triples: int = 56, **pattern) -> None:
+        super().__init__(database, config, **pattern)  # pattern stars and extra_stars
         self.max_triples = int(max_triples)  # triples tried per frame on the pattern pairs
         self.max_triangles = int(max_triangles)  # more catalog triangles: triple skipped
         # More confirmed pyramids than this: ambiguous, try another fourth star. A few are
@@ -69,21 +68,11 @@ class PyramidMatcher(Matcher):
         # for at most ``fallback_triples`` triples: off by default, since on a dense sky
         # each full-table triple costs ~100 pattern-star ones, and a frame with no star
         # pattern at all (junk) would pay it on every try.
-        self.pattern_per_region = None if pattern_per_region is None else int(pattern_per_region)
-        self.region_radius_deg = region_radius_deg
         self.fallback = bool(fallback)
         self.fallback_triples = int(fallback_triples)
-        # When the ``config.max_stars`` brightest fail (false stars crowd them), the triples
-        # with up to this many fainter stars are tried next.
-        self.extra_stars = int(self.config.extra_stars if extra_stars is None else extra_stars)
-
-    def prepare(self) -> None:
-        super().prepare()
-        for table in self._tables():
-            pair_index(table, len(self.database.vectors))
 
     def _tables(self) -> list:
-        tables = [self.database.pattern_pairs(self.pattern_per_region, self.region_radius_deg)]
+        tables = [self._table()]
         if self.pattern_per_region is not None and self.fallback:
             tables.append(self.database.pairs)
         return tables
@@ -101,7 +90,7 @@ class PyramidMatcher(Matcher):
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
                    screen_rad: float | None = None) -> Iterator[Hypothesis]:
-        n = min(self.config.max_stars + max(self.extra_stars, 0), len(obs))
+        n = self.star_count(obs)
         if n < 3:
             return
         tol = self.angle_tolerance(obs)

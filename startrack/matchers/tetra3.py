@@ -20,16 +20,16 @@ from pathlib import Path
 import numpy as np
 
 from startrack.attitude import from_radec_roll, to_quaternion
-from startrack.database import StarDatabase
 from startrack.io._cache import cached_file
 from startrack.matchers._peer import (
+    EdgeRatioSolve,
     PeerMatcher,
     import_peer,
     peer_version,
     positions_to_indices,
     write_hip_main,
 )
-from startrack.matchers.base import MatcherConfig, register
+from startrack.matchers.base import register
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
@@ -45,6 +45,10 @@ def attitude_from_tetra3(ra_deg: float, dec_deg: float, roll_deg: float):
     return from_radec_roll(ra_deg, dec_deg, -roll_deg)
 
 
+#: tetra3's solve_from_centroids keywords where they differ from :class:`EdgeRatioSolve`'s
+TETRA3_NAMES = {"fov_max_error_deg": "fov_max_error", "solve_timeout_ms": "solve_timeout"}
+
+
 @register
 class Tetra3Matcher(PeerMatcher):
     """tetra3's 4-star edge-ratio hash, on a database built from our catalog."""
@@ -52,16 +56,13 @@ class Tetra3Matcher(PeerMatcher):
     name = "tetra3"
     description = "peer: tetra3 (cedar-solve), 4-star edge-ratio pattern hash"
 
-    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
-                 fov_max_error_deg: float = 0.5, match_radius: float = 0.01,
-                 match_threshold: float = 1e-4, solve_timeout_ms: float = 5000.0,
-                 hypothesis_stars: int = 4, max_hypotheses: int = 3, **db_params) -> None:
-        super().__init__(database, config, hypothesis_stars=hypothesis_stars,
-                         max_hypotheses=max_hypotheses, **db_params)
-        self.solve_kwargs = {"fov_max_error": float(fov_max_error_deg),
-                             "match_radius": float(match_radius),
-                             "match_threshold": float(match_threshold),
-                             "solve_timeout": float(solve_timeout_ms)}
+    settings_type = EdgeRatioSolve
+
+    @property
+    def solve_kwargs(self) -> dict:
+        """The settings under tetra3's names for them."""
+        return {TETRA3_NAMES.get(key, key): value
+                for key, value in self.settings.as_dict().items()}
 
     def prepare(self) -> None:
         if self._solver is not None:

@@ -13,21 +13,22 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from startrack.attitude import to_quaternion
-from startrack.database import StarDatabase
 from startrack.io._cache import cached_file
 from startrack.matchers._peer import (
+    EdgeRatioSolve,
     PeerMatcher,
     import_peer,
     peer_version,
     write_gaia_binary,
 )
-from startrack.matchers.base import MatcherConfig, register
+from startrack.matchers.base import register
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
 
@@ -42,6 +43,13 @@ def attitude_from_tetra3rs(icrs_to_camera: np.ndarray) -> Rotation:
     return Rotation.from_matrix(np.asarray(icrs_to_camera, dtype=np.float64).T)
 
 
+@dataclass(frozen=True)
+class Tetra3rsSolve(EdgeRatioSolve):
+    """tetra3rs's defaults: tetra3's, with a stricter false-match probability."""
+
+    match_threshold: float = 1e-5
+
+
 @register
 class Tetra3rsMatcher(PeerMatcher):
     """tetra3rs's 4-star edge-ratio hash, on a database built from our catalog."""
@@ -49,17 +57,14 @@ class Tetra3rsMatcher(PeerMatcher):
     name = "tetra3rs"
     description = "peer: tetra3rs (Rust tetra3), 4-star edge-ratio pattern hash"
 
-    def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
-                 fov_max_error_deg: float = 0.5, match_radius: float = 0.01,
-                 match_threshold: float = 1e-5, solve_timeout_ms: int = 5000,
-                 hypothesis_stars: int = 4, max_hypotheses: int = 3, **db_params) -> None:
-        super().__init__(database, config, hypothesis_stars=hypothesis_stars,
-                         max_hypotheses=max_hypotheses, **db_params)
-        self.solve_kwargs = {"fov_max_error_deg": float(fov_max_error_deg),
-                             "match_radius": float(match_radius),
-                             "match_threshold": float(match_threshold),
-                             "solve_timeout_ms": int(solve_timeout_ms)}
-        self._camera_model = None
+    settings_type = Tetra3rsSolve
+    _camera_model = None  # (focal length and size, the peer's CameraModel) of the last frame
+
+    @property
+    def solve_kwargs(self) -> dict:
+        """The settings as tetra3rs's keywords (its timeout a whole number of ms)."""
+        settings = self.settings.as_dict()
+        return {**settings, "solve_timeout_ms": int(settings["solve_timeout_ms"])}
 
     def prepare(self) -> None:
         if self._solver is not None:

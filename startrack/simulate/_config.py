@@ -20,6 +20,7 @@ from startrack.validate import (
     MAG_NOISE,
     RATE_DPS,
     SEED,
+    check_keys,
     check_number,
 )
 
@@ -55,9 +56,7 @@ DEFAULT_CONFIG = {
 
 
 def _frames_from_dict(data: dict, where: str) -> FrameOptions:
-    unknown = set(data) - {f.name for f in dataclasses.fields(FrameOptions)}
-    if unknown:
-        raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+    check_keys(data, (f.name for f in dataclasses.fields(FrameOptions)), where)
     checks = {"count": FRAMES, "seed": SEED, "missing": FRACTION, "false_stars": FALSE_STARS,
               "mag_noise": MAG_NOISE, "hot_pixel_fraction": FRACTION}
     for key, bounds in checks.items():

@@ -8,6 +8,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from startrack.errors import InputError
+from startrack.validate import check_table
 
 
 @dataclass(frozen=True)
@@ -98,11 +99,7 @@ SENSOR_KEYS = frozenset(f.name for f in fields(SensorModel))
 
 def sensor_from_dict(data: dict, where: str = "sensor") -> SensorModel:
     """A sensor from a table of SensorModel fields; unknown keys are errors."""
-    if not isinstance(data, dict):
-        raise InputError(f"{where}: expected a table of sensor keys")
-    unknown = set(data) - SENSOR_KEYS
-    if unknown:
-        raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+    check_table(data, SENSOR_KEYS, where, "sensor")
     try:
         return SensorModel(**data)
     except InputError as exc:

@@ -33,7 +33,7 @@ from startrack.sky.hipparcos import hipparcos_arrays, load_hipparcos
 from startrack.sky.random_sky import random_sky
 from startrack.sky.tycho2 import load_tycho2, tycho2_arrays
 from startrack.sky.user_catalog import is_catalog_path, load_user_catalog
-from startrack.validate import EPOCH_YEAR, MAG_LIMIT, check_number
+from startrack.validate import EPOCH_YEAR, MAG_LIMIT, check_keys, check_number
 
 SKY_KINDS = ("random", "hipparcos", "gaia", "tycho2")
 #: the kind of a user's catalog file (``--sky FILE``): its path is the spec's ``path``
@@ -63,9 +63,7 @@ class SkySpec:
     @classmethod
     def from_dict(cls, data: dict, where: str = "sky") -> SkySpec:
         """A spec from a config table or sidecar; unknown keys and bad values are errors."""
-        unknown = set(data) - set(cls.__dataclass_fields__)
-        if unknown:
-            raise InputError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+        check_keys(data, cls.__dataclass_fields__, where)
         kind = data.get("kind", "random")
         if kind not in (*SKY_KINDS, FILE_KIND):
             raise InputError(f"{where}: kind must be one of {', '.join(SKY_KINDS)}, "

@@ -4,15 +4,17 @@
 focal lengths within ``--fov-tolerance`` of it with the scale-free ``quad`` matcher (the
 configured ``--method`` runs as before with ``--fov-tolerance 0``, an exact FOV). With
 no field of view at all, :class:`BlindSolver` sweeps the quad matcher over
-:data:`BLIND_FOV_RANGE` in windows a factor :data:`WINDOW_STEP` wide, each verified
-against the catalog cut for that field (the magnitude rule of
-:func:`startrack.sky.resolve_sky`). A solution is kept only if the camera fitted to its
-matched stars (least squares on the focal length with the attitude) passes the same
-verification (:func:`startrack.verify._verification.verify`, its binomial bound) again; the record
-reports that camera's ``fov_deg``, or the given camera's when the data do not reject it
-(:func:`startrack.solver._fov_fit.keep_given`). Every search takes the input's one
-:class:`~startrack.solver._deadline.Deadline` (``--timeout-ms``), checked before each window and
-each verification: past it the input is not solved, with reason ``"timeout"``.
+:data:`BLIND_FOV_RANGE`. Both take the windows in the order of :func:`passes`: each
+window's first strongly confirmed candidate, then every candidate ranked, in windows a
+factor :data:`WINDOW_STEP` wide, each verified against the catalog cut for that field (the
+magnitude rule of :func:`startrack.sky.resolve_sky`). A solution is kept only if the
+camera fitted to its matched stars (least squares on the focal length with the attitude)
+passes the same verification (:func:`startrack.verify._verification.verify`, its binomial
+bound) again; the record reports that camera's ``fov_deg``, or the given camera's when
+the data do not reject it (:func:`startrack.solver._fov_fit.keep_given`). Every search
+takes the input's one :class:`~startrack.solver._deadline.Deadline` (``--timeout-ms``),
+checked before each window and each verification: past it the input is not solved, with
+reason ``"timeout"``.
 """
 
 from __future__ import annotations
