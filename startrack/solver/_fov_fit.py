@@ -66,6 +66,7 @@ def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.nda
 
 def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
+                  accepted: Verification | None = None,
                   ) -> tuple[Verification, Camera, Observation] | None:
     """Verify ``hyp`` with ``camera``, fit the camera to every matched star and verify
     again with the fitted camera: (verification, camera, observation of every star), None
@@ -74,8 +75,10 @@ def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
     camera's faint detections, mostly stars the catalog lacks, each add a chance of a
     coincidence, and the bound over the bright stars alone holds just as well. Trying
     that second set of stars is one more test per hypothesis, as one more hypothesis
-    would be; the bound of each test is unchanged."""
-    found = _verify_fitted(hyp, x, y, camera, sigma_px, database, config)
+    would be; the bound of each test is unchanged. ``accepted``: ``hyp``'s verification
+    with ``camera`` when the caller already holds it (a refit), which is then not run
+    again."""
+    found = _verify_fitted(hyp, x, y, camera, sigma_px, database, config, accepted)
     if isinstance(found, tuple) or found < BRIGHTEST_MIN_CONFIRMED \
             or len(x) <= BRIGHTEST or np.max(hyp.obs_index) >= BRIGHTEST:
         return found if isinstance(found, tuple) else None
@@ -91,12 +94,13 @@ def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
 
 def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
                    sigma_px: float, database: StarDatabase, config: VerifyConfig,
+                   accepted: Verification | None = None,
                    ) -> tuple[Verification, Camera, Observation] | int:
     """:func:`verify_fitted` on the stars ``x``, ``y``; when it fails, how many stars the
     first verification confirmed."""
     cat = database.vectors
-    obs = Observation.from_pixels(x, y, camera, sigma_px)
-    check = verify(hyp, obs, database, config)
+    check = accepted or verify(hyp, Observation.from_pixels(x, y, camera, sigma_px),
+                               database, config)
     confirmed = check.confirmed
     for _ in range(REFIT_ROUNDS):
         if not check.accepted:

@@ -284,8 +284,11 @@ def refit_fov(result, database: StarDatabase, config: VerifyConfig,
     k = min(REFIT_HYPOTHESIS_STARS, len(sol.obs_index))
     brightest = np.argsort(sol.obs_index)[:k]
     hyp = Hypothesis(sol.obs_index[brightest], sol.cat_index[brightest])
+    # the answer's own matches start the fit: that verification at the nominal camera ran
+    held = Verification(True, None, sol.obs_index, sol.cat_index, sol.false_probability,
+                        len(sol.obs_index) - k)
     found = verify_fitted(hyp, result.obs.x, result.obs.y, result.camera, result.sigma_px,
-                          database, config)
+                          database, config, held)
     # An answer whose final labelling keeps fewer than 3 stars has no fitted attitude
     # to stand on (seen at a nominal FOV 0.7% off): the search decides instead.
     if found is None or len(found[0].obs_index) < 3:
