@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 .PHONY: demo test lint bench clean astrometry astrometry-ci
 
 # The compiled core is built by the install: a changed kernel source reinstalls.
-$(STAMP): pyproject.toml setup.py $(wildcard startrack/_core/*.pyx startrack/_core/*.pxd)
+$(STAMP): pyproject.toml setup.py $(wildcard startrack/_core/*.pyx startrack/_core/*.pxd startrack/_core/*.pxi)
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[dev]'
