@@ -51,6 +51,38 @@ def test_pair_build_equals_brute_force():
                                atol=1e-12)
 
 
+def _sweep_order_reference(vectors: np.ndarray, max_angle: float):
+    """The pairs in the order the z sweep meets them, then stably sorted by angle."""
+    order = np.argsort(vectors[:, 2], kind="stable")
+    x, y, z = vectors[order].T
+    a, b = np.triu_indices(len(vectors), 1)
+    d = x[a] * x[b] + y[a] * y[b] + z[a] * z[b]  # the kernel's sum, in its order
+    keep = d >= math.cos(max_angle)
+    # math.acos is the C library's, as the kernel's; numpy's arccos may round otherwise.
+    angle = np.array([math.acos(v) for v in np.clip(d[keep], -1.0, 1.0)])
+    a, b = a[keep], b[keep]
+    first = np.argsort(angle, kind="stable")
+    i, j = order[a[first]], order[b[first]]
+    return np.minimum(i, j), np.maximum(i, j), angle[first]
+
+
+@pytest.mark.parametrize("copies", [1, 3])
+def test_pair_build_keeps_the_sweep_order_among_equal_angles(copies):
+    # Repeated stars make many pairs of exactly equal angle, and the table's order among
+    # them must not depend on how the build buckets them.
+    sky = np.repeat(random_sky(300, seed=7).vectors, copies, axis=0)
+    arrays = build_pair_arrays(sky, math.radians(25.0))
+    for got, want in zip((arrays["i"], arrays["j"], arrays["angle"]),
+                         _sweep_order_reference(sky, math.radians(25.0)), strict=True):
+        np.testing.assert_array_equal(got, want)
+
+
+def test_pair_build_of_no_pairs_and_of_one_star():
+    for sky in (random_sky(50, seed=1).vectors[:1], np.empty((0, 3))):
+        arrays = build_pair_arrays(sky, 0.1)
+        assert len(arrays["i"]) == len(arrays["j"]) == len(arrays["angle"]) == 0
+
+
 def test_take_applies_the_order():
     rng = np.random.default_rng(2)
     order = rng.permutation(500)

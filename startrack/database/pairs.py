@@ -31,9 +31,7 @@ class PairTable:
 def build_pair_arrays(vectors: np.ndarray, max_angle_rad: float) -> dict[str, np.ndarray]:
     """All pairs within ``max_angle_rad``, as arrays sorted by angle."""
     vectors = np.ascontiguousarray(vectors, dtype=np.float64).reshape(-1, 3)
-    i, j, angle = kernels.close_pairs(vectors, float(max_angle_rad))
-    order = kernels.stable_argsort(angle, 0.0, float(max_angle_rad))
-    i, j, angle = kernels.take_pairs(order, i, j, angle)
+    i, j, angle = kernels.sorted_close_pairs(vectors, float(max_angle_rad))
     return {"i": i, "j": j, "angle": angle}
 
 
