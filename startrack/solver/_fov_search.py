@@ -20,6 +20,7 @@ reason ``"timeout"``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from dataclasses import dataclass
@@ -143,15 +144,16 @@ class Pass:
     strong_only: bool = False
 
 
-def passes(f_lo: float, f_hi: float) -> list[Pass]:
+@functools.lru_cache(maxsize=64)  # a camera's range repeats frame after frame
+def passes(f_lo: float, f_hi: float) -> tuple[Pass, ...]:
     """[f_lo, f_hi]'s windows in search order: first each strong candidate (found without
     ranking) of windows twice as wide, where most frames end, having paid little for the
     wrong ones; then every window's candidates ranked, at its nearest pattern level, then
     one level deeper (fainter pattern stars: a sparse patch of sky holds too few of the
     nearest level's), so a frame an earlier pass solves costs no more."""
     spans = windows(f_lo, f_hi)
-    return ([Pass(lo, hi, 0, True) for lo, hi in windows(f_lo, f_hi, WINDOW_STEP ** 2)]
-            + [Pass(lo, hi, deeper) for deeper in (0, 1) for lo, hi in spans])
+    return tuple([Pass(lo, hi, 0, True) for lo, hi in windows(f_lo, f_hi, WINDOW_STEP ** 2)]
+                 + [Pass(lo, hi, deeper) for deeper in (0, 1) for lo, hi in spans])
 
 
 @dataclass(frozen=True)
