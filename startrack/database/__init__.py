@@ -12,7 +12,6 @@ import time
 from functools import cached_property
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from startrack.camera._model import Camera
 from startrack.database import triangles as tri
@@ -104,10 +103,6 @@ class StarDatabase:
         return tri.triangle_table_from_arrays(arrays)
 
     @cached_property
-    def _tree(self) -> cKDTree:
-        return cKDTree(self.vectors)
-
-    @cached_property
     def cone_index(self) -> ConeIndex:
         """The z-sorted index behind :meth:`cone` (its arrays feed compiled lookups)."""
         return ConeIndex.build(self.vectors)
@@ -115,16 +110,6 @@ class StarDatabase:
     def cone(self, direction: np.ndarray, radius_rad: float) -> np.ndarray:
         """Catalog rows within ``radius_rad`` of a unit vector, brightest first."""
         return self.cone_index.rows(direction, radius_rad)
-
-    def nearest(self, directions: np.ndarray, radius_rad: float, k: int = 1) -> np.ndarray:
-        """The ``k`` catalog rows nearest each unit vector of ``directions`` (..., 3) within
-        ``radius_rad``, nearest first, as an (..., k) array; -1 where there are fewer."""
-        directions = np.asarray(directions, dtype=np.float64)
-        chord = 2.0 * math.sin(min(radius_rad, math.pi) / 2.0)
-        _, rows = self._tree.query(directions.reshape(-1, 3), k=[*range(1, k + 1)],
-                                   distance_upper_bound=chord)
-        rows = np.where(rows < len(self.vectors), rows, -1)
-        return rows.reshape(*directions.shape[:-1], k)
 
     def radial(self, radius_rad: float, ring_width_rad: float):
         """Radial features of every catalog star (rings of ``ring_width_rad`` out to

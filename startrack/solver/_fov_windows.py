@@ -1,0 +1,62 @@
+"""The focal-length windows a nominal or unknown field of view is searched in, and their
+order (:func:`passes`): the geometry of :mod:`startrack.solver._fov_search`."""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from startrack.camera._model import Camera
+
+WINDOW_STEP = 2.0 ** 0.25  # ratio of the focal lengths at a search window's two ends
+MARGIN = 0.02  # searched beyond the tolerance, as a fraction
+
+
+def windows(f_lo: float, f_hi: float, step: float = WINDOW_STEP) -> list[tuple[float, float]]:
+    """[f_lo, f_hi] cut into geometric windows at most ``step`` wide (ratio)."""
+    n = max(1, math.ceil(math.log(f_hi / f_lo) / math.log(step) - 1e-9))
+    edges = f_lo * (f_hi / f_lo) ** (np.arange(n + 1) / n)
+    return [(float(a), float(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+
+
+def focal_range(camera: Camera, tolerance: float) -> tuple[float, float]:
+    """The focal lengths of the FOVs within ``tolerance`` (a fraction) of ``camera``'s,
+    widened by ``MARGIN``: a true FOV at the very edge must still be found."""
+    fov = camera.fov_deg
+    hi_fov = min(fov * (1.0 + tolerance) * (1.0 + MARGIN), 179.0)
+    return (f_of_fov(camera.width, hi_fov),
+            f_of_fov(camera.width, fov * (1.0 - tolerance) / (1.0 + MARGIN)))
+
+
+def f_of_fov(width: int, fov_deg: float) -> float:
+    return (width / 2.0) / math.tan(math.radians(fov_deg) / 2.0)
+
+
+@dataclass(frozen=True)
+class Pass:
+    """One look at one focal-length window: its ends, how many pattern levels below the
+    nearest, and whether only its first strong candidate is tried
+    (:meth:`startrack.matchers.quad.QuadMatcher.strong`) or all of them, ranked."""
+
+    f_lo: float
+    f_hi: float
+    deeper: int = 0
+    strong_only: bool = False
+
+
+@functools.lru_cache(maxsize=64)  # a camera's range repeats frame after frame
+def passes(f_lo: float, f_hi: float) -> tuple[Pass, ...]:
+    """[f_lo, f_hi]'s windows in search order: first each strong candidate (found without
+    ranking) of windows twice as wide, where most frames end, having paid little for the
+    wrong ones; then every window's candidates ranked, at its nearest pattern level, then
+    one level deeper (fainter pattern stars: a sparse patch of sky holds too few of the
+    nearest level's), so a frame an earlier pass solves costs no more."""
+    spans = windows(f_lo, f_hi)
+    return tuple([Pass(lo, hi, 0, True) for lo, hi in windows(f_lo, f_hi, WINDOW_STEP ** 2)]
+                 + [Pass(lo, hi, deeper) for deeper in (0, 1) for lo, hi in spans])
+
+
+__all__ = ["MARGIN", "WINDOW_STEP", "Pass", "f_of_fov", "focal_range", "passes", "windows"]
