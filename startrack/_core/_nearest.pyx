@@ -6,12 +6,13 @@ Inputs the grid cannot take (an infinite radius, infinite catalog positions) tak
 brute-force scan of every pair, which the tests hold the grid to.
 """
 
+cimport cython
 import numpy as np
 
 from libc.math cimport INFINITY, fabs, fmax, fmin, isfinite, isnan, sqrt
 
 cimport numpy as cnp
-from startrack._core._arrays cimport (copy_i64, empty_f64, empty_i64, full_f64, full_i64,
+from startrack._core._arrays cimport (empty_f64, empty_i64, full_f64, full_i64,
                                       zeros_i64)
 
 cnp.import_array()  # the C API the _arrays helpers call
@@ -40,27 +41,33 @@ cdef class _Cells:
     cdef long long[::1] order
 
 
+@cython.cdivision(True)  # grid.size >= 1e-9
+cdef inline Py_ssize_t _cell_of(double x, double y, Grid grid) noexcept:
+    """The cell of a finite position."""
+    cdef Py_ssize_t gx = min(<Py_ssize_t>((x - grid.x0) / grid.size), grid.nx - 1)
+    cdef Py_ssize_t gy = min(<Py_ssize_t>((y - grid.y0) / grid.size), grid.ny - 1)
+    return gy * grid.nx + gx
+
+
 cdef _Cells _bucket(const double[::1] x, const double[::1] y, Grid grid):
-    """A stable counting sort of the finite positions into ``grid``'s cells."""
-    cdef Py_ssize_t m = x.shape[0], j, c, gx, gy, n_cells = grid.nx * grid.ny
+    """A stable counting sort of the finite positions into ``grid``'s cells: each cell's
+    end counted, then the positions placed from the last down (each cell's end moves to
+    its start), so that no per-position cell or fill array is allocated."""
+    cdef Py_ssize_t m = x.shape[0], j, c, n_cells = grid.nx * grid.ny
     cdef _Cells cells = _Cells.__new__(_Cells)
     cells.grid = grid
     cells.start = zeros_i64(n_cells + 1)
-    cdef long long[::1] cell = full_i64(m, -1)
     for j in range(m):
         if isfinite(x[j]) and isfinite(y[j]):
-            gx = min(<Py_ssize_t>((x[j] - grid.x0) / grid.size), grid.nx - 1)
-            gy = min(<Py_ssize_t>((y[j] - grid.y0) / grid.size), grid.ny - 1)
-            cell[j] = gy * grid.nx + gx
-            cells.start[cell[j] + 1] += 1
+            cells.start[_cell_of(x[j], y[j], grid)] += 1
     for c in range(n_cells):
         cells.start[c + 1] += cells.start[c]
-    cdef long long[::1] fill = copy_i64(cells.start, n_cells)
     cells.order = empty_i64(cells.start[n_cells])
-    for j in range(m):
-        if cell[j] >= 0:
-            cells.order[fill[cell[j]]] = j
-            fill[cell[j]] += 1
+    for j in range(m - 1, -1, -1):
+        if isfinite(x[j]) and isfinite(y[j]):
+            c = _cell_of(x[j], y[j], grid)
+            cells.start[c] -= 1
+            cells.order[cells.start[c]] = j
     return cells
 
 
@@ -245,14 +252,15 @@ cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
         j = nearest[i]
         if j >= 0 and (owner[j] < 0 or dist2[i] < dist2[owner[j]]):
             owner[j] = i
-    obs, cat = empty_i64(n), empty_i64(n)
-    cdef long long[::1] obs_v = obs, cat_v = cat
+    cdef Py_ssize_t kept = 0
+    for i in range(n):
+        kept += nearest[i] >= 0 and owner[nearest[i]] == i
+    cdef Nearest out = Nearest.__new__(Nearest)
+    out.obs, out.cat = empty_i64(kept), empty_i64(kept)
     for i in range(n):
         if nearest[i] >= 0 and owner[nearest[i]] == i:
-            obs_v[k], cat_v[k] = i, nearest[i]
+            out.obs[k], out.cat[k] = i, nearest[i]
             k += 1
-    cdef Nearest out = Nearest.__new__(Nearest)
-    out.obs, out.cat = obs[:k], cat[:k]  # slices of the arrays: .base is then the slice
     return out
 
 

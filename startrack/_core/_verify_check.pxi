@@ -111,7 +111,7 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
     cdef Verdict v = _verdict(NOT_ACCEPTED, first, 0 if cone is None else 1)
     cdef Matches m = match(frame, stars.vectors, first, params.radius_px)
     cdef Py_ssize_t k, n = frame.n
-    v.confirmed = _confirmed(m, hyp_obs, n)
+    v.confirmed = _confirmed(m, hyp_obs)
     if v.confirmed > 0:
         v.probability = binomial_tail(
             v.confirmed - 1, n - hyp_obs.shape[0],

@@ -29,7 +29,7 @@ cdef FirstTest first_match(Frame frame, const long long[::1] hyp_obs,
     cdef FirstTest test = _fit_hypothesis(frame, hyp_obs, hyp_sky, cos_radius)
     if test.fits:
         test.matches = match(frame, stars.vectors, test.matrix, radius)
-        test.confirmed = _confirmed(test.matches, hyp_obs, frame.n)
+        test.confirmed = _confirmed(test.matches, hyp_obs)
     return test
 
 
