@@ -52,22 +52,23 @@ cdef inline Py_ssize_t _cell_of(double x, double y, Grid grid) noexcept:
 cdef _Cells _bucket(const double[::1] x, const double[::1] y, Grid grid):
     """A stable counting sort of the finite positions into ``grid``'s cells: each cell's
     end counted, then the positions placed from the last down (each cell's end moves to
-    its start), so that no per-position cell or fill array is allocated."""
+    its start), so that no fill array is allocated."""
     cdef Py_ssize_t m = x.shape[0], j, c, n_cells = grid.nx * grid.ny
     cdef _Cells cells = _Cells.__new__(_Cells)
     cells.grid = grid
     cells.start = zeros_i64(n_cells + 1)
+    cdef long long[::1] cell = full_i64(m, -1)
     for j in range(m):
         if isfinite(x[j]) and isfinite(y[j]):
-            cells.start[_cell_of(x[j], y[j], grid)] += 1
+            cell[j] = _cell_of(x[j], y[j], grid)
+            cells.start[cell[j]] += 1
     for c in range(n_cells):
         cells.start[c + 1] += cells.start[c]
     cells.order = empty_i64(cells.start[n_cells])
     for j in range(m - 1, -1, -1):
-        if isfinite(x[j]) and isfinite(y[j]):
-            c = _cell_of(x[j], y[j], grid)
-            cells.start[c] -= 1
-            cells.order[cells.start[c]] = j
+        if cell[j] >= 0:
+            cells.start[cell[j]] -= 1
+            cells.order[cells.start[cell[j]]] = j
     return cells
 
 

@@ -91,8 +91,10 @@ cdef inline _Bounds _widened(Geometry g, double margin) noexcept:
     return b
 
 
-cdef inline bint _inside(Projection p, Py_ssize_t i, _Bounds b) noexcept:
-    return p.valid[i] and b.lo_x <= p.x[i] <= b.hi_x and b.lo_y <= p.y[i] <= b.hi_y
+cdef inline bint _inside(const double* x, const double* y, const unsigned char* valid,
+                         Py_ssize_t i, _Bounds b) noexcept:
+    # pointers: a memoryview argument costs a reference count per call
+    return valid[i] and b.lo_x <= x[i] <= b.hi_x and b.lo_y <= y[i] <= b.hi_y
 
 
 cdef unsigned char[::1] within(Projection p, Geometry g, double margin):
@@ -101,7 +103,7 @@ cdef unsigned char[::1] within(Projection p, Geometry g, double margin):
     cdef Py_ssize_t i
     cdef unsigned char[::1] inside = zeros_u8(p.x.shape[0])
     for i in range(p.x.shape[0]):
-        inside[i] = _inside(p, i, b)
+        inside[i] = _inside(&p.x[0], &p.y[0], &p.valid[0], i, b)
     return inside
 
 
@@ -115,14 +117,17 @@ cdef class _Selection:
 cdef _Selection _select(Projection p, Geometry g, double margin):
     # within()'s test, twice (count, then fill): cheaper than allocating its flags
     cdef _Bounds b = _widened(g, margin)
-    cdef Py_ssize_t i, k = 0, m = 0
-    for i in range(p.x.shape[0]):
-        m += _inside(p, i, b)
+    cdef const double* x = &p.x[0]
+    cdef const double* y = &p.y[0]
+    cdef const unsigned char* valid = &p.valid[0]
+    cdef Py_ssize_t n = p.x.shape[0], i, k = 0, m = 0
+    for i in range(n):
+        m += _inside(x, y, valid, i, b)
     cdef _Selection s = _Selection.__new__(_Selection)
     s.where, s.x, s.y = empty_i64(m), empty_f64(m), empty_f64(m)
-    for i in range(p.x.shape[0]):
-        if _inside(p, i, b):
-            s.where[k], s.x[k], s.y[k] = i, p.x[i], p.y[i]
+    for i in range(n):
+        if _inside(x, y, valid, i, b):
+            s.where[k], s.x[k], s.y[k] = i, x[i], y[i]
             k += 1
     return s
 
