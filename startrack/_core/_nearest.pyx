@@ -34,6 +34,17 @@ cdef struct Grid:
     Py_ssize_t nx, ny
 
 
+cdef inline double _lesser(double a, double b) noexcept nogil:
+    """fmin of two numbers that are not NaN, inline where libm's is a call (the per-star
+    loops below make several)."""
+    return b if b < a else a
+
+
+cdef inline double _greater(double a, double b) noexcept nogil:
+    """fmax of two numbers that are not NaN, inline."""
+    return b if b > a else a
+
+
 cdef class _Cells:
     """Catalog positions bucketed in square cells: ``start`` offsets, positions by cell."""
     cdef Grid grid
@@ -80,8 +91,8 @@ cdef _Cells _catalog_grid(const double[::1] x, const double[::1] y, double half)
     cdef double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY
     for j in range(m):
         if isfinite(x[j]) and isfinite(y[j]):
-            x0, x1 = fmin(x0, x[j]), fmax(x1, x[j])
-            y0, y1 = fmin(y0, y[j]), fmax(y1, y[j])
+            x0, x1 = _lesser(x0, x[j]), _greater(x1, x[j])
+            y0, y1 = _lesser(y0, y[j]), _greater(y1, y[j])
         elif not (isnan(x[j]) or isnan(y[j])):
             return None  # inf - inf would be NaN in the extents
     if not (0.0 <= x1 - x0 < INFINITY and 0.0 <= y1 - y0 < INFINITY):
@@ -103,8 +114,8 @@ cdef inline void _cell_span(double v, double pad, double v0, double size, Py_ssi
     if not hi >= 0.0 or not lo < cells:
         first[0], last[0] = 0, -1
         return
-    first[0] = <Py_ssize_t>fmax(lo, 0.0)
-    last[0] = <Py_ssize_t>fmin(hi, cells - 1.0)
+    first[0] = <Py_ssize_t>_greater(lo, 0.0)  # neither is NaN past the test above
+    last[0] = <Py_ssize_t>_lesser(hi, cells - 1.0)
 
 
 cdef inline Py_ssize_t _best_in_cells(double x, double y, const double[::1] cx,
@@ -188,7 +199,7 @@ cdef Pairs pairs_within(const double[::1] ox, const double[::1] oy, const double
                 if d2 <= radius2:
                     found.add(start[i], i, j, d2)
             continue
-        pad = half + 1e-12 * fmax(fabs(ox[i]), fabs(oy[i]))
+        pad = half + 1e-12 * _greater(fabs(ox[i]), fabs(oy[i]))
         _cell_span(ox[i], pad, cells.grid.x0, cells.grid.size, cells.grid.nx, &gx0, &gx1)
         _cell_span(oy[i], pad, cells.grid.y0, cells.grid.size, cells.grid.ny, &gy0, &gy1)
         for gy in range(gy0, gy1 + 1):
@@ -232,7 +243,7 @@ cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1]
                 if d < best_d:
                     best, best_d = j, d
         else:
-            pad = half + 1e-12 * fmax(fabs(ox[i]), fabs(oy[i]))
+            pad = half + 1e-12 * _greater(fabs(ox[i]), fabs(oy[i]))
             _cell_span(ox[i], pad, cells.grid.x0, cells.grid.size, cells.grid.nx, &gx0, &gx1)
             _cell_span(oy[i], pad, cells.grid.y0, cells.grid.size, cells.grid.ny, &gy0, &gy1)
             best = _best_in_cells(ox[i], oy[i], cx, cy, cells, gx0, gx1, gy0, gy1, &best_d)
