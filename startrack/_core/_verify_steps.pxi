@@ -10,6 +10,7 @@ cdef class Frame:
         self.vectors, self.x, self.y, self.flux = vectors, x, y, flux
         self.geometry = geometry
         self.n = x.shape[0]
+        self.scratch = NearestScratch.__new__(NearestScratch)
 
 
 cdef class Stars:
@@ -136,7 +137,7 @@ cdef Matches match_projected(Frame frame, Projection projection, double radius):
     """Observed stars paired with the projected stars that fall in the image widened by
     ``radius`` (a star just beyond the edge can still be an observed star's)."""
     cdef _Selection s = _select(projection, frame.geometry, radius)
-    cdef Nearest near = nearest_matches(frame.x, frame.y, s.x, s.y, radius)
+    cdef Nearest near = nearest_matches(frame.x, frame.y, s.x, s.y, radius, frame.scratch)
     cdef Matches m = Matches.__new__(Matches)
     cdef Py_ssize_t k
     m.obs, m.pos, m.n_in = near.obs, empty_i64(near.cat.shape[0]), s.where.shape[0]
