@@ -116,8 +116,8 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
         v.probability = binomial_tail(
             v.confirmed - 1, n - hyp_obs.shape[0],
             fmin(1.0, m.n_in * M_PI * params.label.radius2 / params.label.area))
-    v.obs, v.rows = m.obs, _take(stars.rows, m.pos)
     if not (v.confirmed >= params.min_confirmed and v.probability <= params.max_probability):
+        v.obs, v.rows = m.obs, _take(stars.rows, m.pos)
         return v
     cdef _Refined r = _refine(frame, stars.vectors, params.radius_px, params.capture, m,
                               params.max_rounds)
