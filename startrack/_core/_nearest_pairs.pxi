@@ -37,7 +37,7 @@ cdef class _PairList:
 
 
 cdef Pairs pairs_within(const double[::1] ox, const double[::1] oy, const double[::1] x,
-                        const double[::1] y, double radius2):
+                        const double[::1] y, double radius2, NearestScratch scratch=None):
     """Every pair of an observed star (ox, oy) and a catalog star (x, y) whose squared
     distance is <= ``radius2``, by observed then catalog index. A NaN position pairs with
     nothing. Each observed star scans the cells its radius, a hair widened so that
@@ -50,7 +50,9 @@ cdef Pairs pairs_within(const double[::1] ox, const double[::1] oy, const double
     cdef double pad, dx, dy, d2
     cdef _Cells cells = None
     if radius2 < INFINITY and m > 0 and n > 0:
-        cells = _catalog_grid(x, y, fmax(half, 0.0), NearestScratch.__new__(NearestScratch))
+        if scratch is None:
+            scratch = NearestScratch.__new__(NearestScratch)
+        cells = _catalog_grid(x, y, fmax(half, 0.0), scratch)
     for i in range(n):
         start[i] = found.count
         if half < 0.0 or isnan(ox[i]) or isnan(oy[i]):
