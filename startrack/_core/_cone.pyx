@@ -3,8 +3,6 @@ ascension (:class:`startrack.database.cone.ConeIndex`), searched over the bands 
 RA span the cone covers, then a dot-product test. Verification looks one cone up per
 hypothesis, so the lookup costs microseconds."""
 
-import numpy as np
-
 from libc.math cimport M_PI, asin, atan2, cos, fabs, fmax, fmin, sin
 
 cimport numpy as cnp
@@ -66,7 +64,10 @@ cdef long long[::1] cone_rows(ConeTable table, const double[:] direction, double
     cdef double dx = direction[0], dy = direction[1], dz = direction[2]
     cdef double dec = asin(fmax(-1.0, fmin(1.0, dz))), ra = atan2(dy, dx) % (2.0 * M_PI)
     # At most two windows per band.
-    cdef long long[:, ::1] spans = np.empty((2 * table.band_start.shape[0], 2), np.int64)
+    cdef cnp.npy_intp[2] shape
+    shape[0], shape[1] = 2 * table.band_start.shape[0], 2
+    # numpy's C API: np.empty and ndarray.sort cost a microsecond each through Python
+    cdef long long[:, ::1] spans = cnp.PyArray_EMPTY(2, shape, cnp.NPY_INT64, 0)
     cdef Py_ssize_t n = _windows(table, dec, ra, radius, spans), size = 0, w, s, row, k = 0
     for w in range(n):
         size += spans[w, 1] - spans[w, 0]
@@ -81,7 +82,7 @@ cdef long long[::1] cone_rows(ConeTable table, const double[:] direction, double
                 view[k] = row
                 k += 1
     out = out[:k]
-    out.sort()
+    cnp.PyArray_Sort(out, 0, cnp.NPY_QUICKSORT)
     return out
 
 

@@ -1,6 +1,8 @@
 # The final labelling (implemented in _labelling.pyx): which observed star is reported as
 # which catalog star at an accepted attitude (the rules: startrack.labelling).
 
+from startrack._core._nearest cimport NearestScratch
+
 
 cdef struct LabelParams:
     # The thresholds of startrack.labelling.LabelConfig as the kernel takes them, for one
@@ -32,4 +34,4 @@ cdef class Labels:
 
 cdef Labels label(const double[::1] ox, const double[::1] oy, const double[::1] x,
                   const double[::1] y, const double[::1] mag, const long long[::1] rows,
-                  const double[::1] flux, LabelParams params)
+                  const double[::1] flux, LabelParams params, NearestScratch scratch=*)

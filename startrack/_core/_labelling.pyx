@@ -17,7 +17,7 @@ from libc.math cimport INFINITY, M_PI, NAN, fabs, isfinite, isnan, log, log10, s
 cimport numpy as cnp
 from startrack._core._arrays cimport (copy_i64, empty_f64, empty_i64, full_f64, ones_u8,
                                       zeros_f64, zeros_i64, zeros_u8)
-from startrack._core._nearest cimport Pairs, pairs_within
+from startrack._core._nearest cimport NearestScratch, Pairs, pairs_within
 from startrack._core._stats cimport median_inplace, ptp
 
 cdef double _MAD_TO_SIGMA = 1.4826
@@ -165,11 +165,12 @@ cdef double _log_b_at(Pairs pairs, const double[::1] log_b, Py_ssize_t i, Py_ssi
 
 cdef Labels label(const double[::1] ox, const double[::1] oy, const double[::1] x,
                   const double[::1] y, const double[::1] mag, const long long[::1] rows,
-                  const double[::1] flux, LabelParams p):
+                  const double[::1] flux, LabelParams p, NearestScratch scratch=None):
     """The final labelling of the observed stars (ox, oy; fluxes ``flux``) against the
-    catalog stars projected at (x, y) with magnitudes ``mag`` and catalog ``rows``."""
+    catalog stars projected at (x, y) with magnitudes ``mag`` and catalog ``rows``
+    (``scratch``: the frame's pairing buffers to reuse, or None)."""
     cdef Py_ssize_t n_obs = ox.shape[0], n_cat = x.shape[0], i, k
-    cdef Pairs pairs = pairs_within(ox, oy, x, y, p.radius2)
+    cdef Pairs pairs = pairs_within(ox, oy, x, y, p.radius2, scratch)
     cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_false = n_obs, n_unobserved = n_cat
     cdef long long[::1] per_cat = zeros_i64(n_cat)
     for k in range(n_pairs):

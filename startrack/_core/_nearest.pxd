@@ -18,8 +18,24 @@ cdef class Nearest:
     cdef long long[::1] cat
 
 
+cdef class NearestScratch:
+    """The working buffers of nearest_matches and pairs_within, kept by a frame from one
+    call to the next (each call allocating its own cost more than the pairing of tens of
+    stars): per observed star its nearest catalog star and squared distance, per catalog
+    star the observed star that keeps it, and the catalog grid's cell offsets, cells and
+    order. Their lengths only grow; a call uses the first values it needs."""
+    cdef long long[::1] nearest
+    cdef double[::1] dist2
+    cdef long long[::1] owner
+    cdef long long[::1] start
+    cdef long long[::1] cell
+    cdef long long[::1] order
+
+
 cdef Pairs pairs_within(const double[::1] ox, const double[::1] oy, const double[::1] x,
-                        const double[::1] y, double radius2)
+                        const double[::1] y, double radius2,
+                        NearestScratch scratch=*)
 
 cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
-                             const double[::1] cx, const double[::1] cy, double radius_px)
+                             const double[::1] cx, const double[::1] cy, double radius_px,
+                             NearestScratch scratch=*)

@@ -6,12 +6,13 @@ Inputs the grid cannot take (an infinite radius, infinite catalog positions) tak
 brute-force scan of every pair, which the tests hold the grid to.
 """
 
+cimport cython
 import numpy as np
 
 from libc.math cimport INFINITY, fabs, fmax, fmin, isfinite, isnan, sqrt
 
 cimport numpy as cnp
-from startrack._core._arrays cimport (copy_i64, empty_f64, empty_i64, full_f64, full_i64,
+from startrack._core._arrays cimport (empty_f64, empty_i64, full_f64, full_i64,
                                       zeros_i64)
 
 cnp.import_array()  # the C API the _arrays helpers call
@@ -33,6 +34,31 @@ cdef struct Grid:
     Py_ssize_t nx, ny
 
 
+cdef inline double _lesser(double a, double b) noexcept nogil:
+    """fmin of two numbers that are not NaN, inline where libm's is a call (the per-star
+    loops below make several)."""
+    return b if b < a else a
+
+
+cdef inline double _greater(double a, double b) noexcept nogil:
+    """fmax of two numbers that are not NaN, inline."""
+    return b if b > a else a
+
+
+cdef inline long long[::1] _room_i64(long long[::1] held, Py_ssize_t n):
+    """``held`` when it holds n values, else a new array of twice that (a frame's buffers
+    settle after a few calls); never the unset buffer of a new scratch (no values)."""
+    if held.shape[0] < n or held.shape[0] == 0:
+        return empty_i64(max(2 * n, 16))
+    return held
+
+
+cdef inline double[::1] _room_f64(double[::1] held, Py_ssize_t n):
+    if held.shape[0] < n or held.shape[0] == 0:
+        return empty_f64(max(2 * n, 16))
+    return held
+
+
 cdef class _Cells:
     """Catalog positions bucketed in square cells: ``start`` offsets, positions by cell."""
     cdef Grid grid
@@ -40,40 +66,53 @@ cdef class _Cells:
     cdef long long[::1] order
 
 
-cdef _Cells _bucket(const double[::1] x, const double[::1] y, Grid grid):
-    """A stable counting sort of the finite positions into ``grid``'s cells."""
-    cdef Py_ssize_t m = x.shape[0], j, c, gx, gy, n_cells = grid.nx * grid.ny
+@cython.cdivision(True)  # grid.size >= 1e-9
+cdef inline Py_ssize_t _cell_of(double x, double y, Grid grid) noexcept:
+    """The cell of a finite position."""
+    cdef Py_ssize_t gx = min(<Py_ssize_t>((x - grid.x0) / grid.size), grid.nx - 1)
+    cdef Py_ssize_t gy = min(<Py_ssize_t>((y - grid.y0) / grid.size), grid.ny - 1)
+    return gy * grid.nx + gx
+
+
+cdef _Cells _bucket(const double[::1] x, const double[::1] y, Grid grid,
+                   NearestScratch scratch):
+    """A stable counting sort of the finite positions into ``grid``'s cells, in the
+    scratch's buffers: each cell's end counted, then the positions placed from the last
+    down (each cell's end moves to its start)."""
+    cdef Py_ssize_t m = x.shape[0], j, c, n_cells = grid.nx * grid.ny
     cdef _Cells cells = _Cells.__new__(_Cells)
     cells.grid = grid
-    cells.start = zeros_i64(n_cells + 1)
-    cdef long long[::1] cell = full_i64(m, -1)
+    scratch.start, scratch.cell = _room_i64(scratch.start, n_cells + 1), _room_i64(scratch.cell, m)
+    cells.start = scratch.start[:n_cells + 1]
+    cells.start[:] = 0
+    cdef long long[::1] cell = scratch.cell[:m]
+    cell[:] = -1
     for j in range(m):
         if isfinite(x[j]) and isfinite(y[j]):
-            gx = min(<Py_ssize_t>((x[j] - grid.x0) / grid.size), grid.nx - 1)
-            gy = min(<Py_ssize_t>((y[j] - grid.y0) / grid.size), grid.ny - 1)
-            cell[j] = gy * grid.nx + gx
-            cells.start[cell[j] + 1] += 1
+            cell[j] = _cell_of(x[j], y[j], grid)
+            cells.start[cell[j]] += 1
     for c in range(n_cells):
         cells.start[c + 1] += cells.start[c]
-    cdef long long[::1] fill = copy_i64(cells.start, n_cells)
-    cells.order = empty_i64(cells.start[n_cells])
-    for j in range(m):
+    scratch.order = _room_i64(scratch.order, cells.start[n_cells])
+    cells.order = scratch.order[:cells.start[n_cells]]
+    for j in range(m - 1, -1, -1):
         if cell[j] >= 0:
-            cells.order[fill[cell[j]]] = j
-            fill[cell[j]] += 1
+            cells.start[cell[j]] -= 1
+            cells.order[cells.start[cell[j]]] = j
     return cells
 
 
-cdef _Cells _catalog_grid(const double[::1] x, const double[::1] y, double half):
+cdef _Cells _catalog_grid(const double[::1] x, const double[::1] y, double half,
+                         NearestScratch scratch):
     """The finite catalog positions in a grid of about one per cell, cells no smaller
-    than ``half``; None with an infinite position, or extents that overflow or hold no
-    position."""
+    than ``half`` (in ``scratch``'s buffers); None with an infinite position, or extents
+    that overflow or hold no position."""
     cdef Py_ssize_t m = x.shape[0], j
     cdef double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY
     for j in range(m):
         if isfinite(x[j]) and isfinite(y[j]):
-            x0, x1 = fmin(x0, x[j]), fmax(x1, x[j])
-            y0, y1 = fmin(y0, y[j]), fmax(y1, y[j])
+            x0, x1 = _lesser(x0, x[j]), _greater(x1, x[j])
+            y0, y1 = _lesser(y0, y[j]), _greater(y1, y[j])
         elif not (isnan(x[j]) or isnan(y[j])):
             return None  # inf - inf would be NaN in the extents
     if not (0.0 <= x1 - x0 < INFINITY and 0.0 <= y1 - y0 < INFINITY):
@@ -84,7 +123,7 @@ cdef _Cells _catalog_grid(const double[::1] x, const double[::1] y, double half)
     grid.x0, grid.y0 = x0, y0
     grid.nx = <Py_ssize_t>fmin((x1 - x0) / grid.size, <double>cells) + 1
     grid.ny = <Py_ssize_t>fmin((y1 - y0) / grid.size, <double>cells) + 1
-    return _bucket(x, y, grid)
+    return _bucket(x, y, grid, scratch)
 
 
 cdef inline void _cell_span(double v, double pad, double v0, double size, Py_ssize_t cells,
@@ -95,8 +134,8 @@ cdef inline void _cell_span(double v, double pad, double v0, double size, Py_ssi
     if not hi >= 0.0 or not lo < cells:
         first[0], last[0] = 0, -1
         return
-    first[0] = <Py_ssize_t>fmax(lo, 0.0)
-    last[0] = <Py_ssize_t>fmin(hi, cells - 1.0)
+    first[0] = <Py_ssize_t>_greater(lo, 0.0)  # neither is NaN past the test above
+    last[0] = <Py_ssize_t>_lesser(hi, cells - 1.0)
 
 
 cdef inline Py_ssize_t _best_in_cells(double x, double y, const double[::1] cx,
@@ -120,85 +159,9 @@ cdef inline Py_ssize_t _best_in_cells(double x, double y, const double[::1] cx,
     return best
 
 
-cdef class _PairList:
-    """Pairs appended observed star by observed star, each star's kept sorted by catalog
-    index (insertion: a star has few pairs); the arrays grow by doubling."""
-    cdef long long[::1] obs
-    cdef long long[::1] cat
-    cdef double[::1] d2
-    cdef Py_ssize_t count
-
-    def __cinit__(self, Py_ssize_t cap):
-        self.obs = empty_i64(cap)
-        self.cat = empty_i64(cap)
-        self.d2 = empty_f64(cap)
-        self.count = 0
-
-    cdef void add(self, Py_ssize_t first, Py_ssize_t i, Py_ssize_t j, double d2) except *:
-        cdef Py_ssize_t k = self.count, cap = self.obs.shape[0]
-        if k == cap:
-            self.obs = np.concatenate([self.obs.base[:k], empty_i64(cap)])
-            self.cat = np.concatenate([self.cat.base[:k], empty_i64(cap)])
-            self.d2 = np.concatenate([self.d2.base[:k], empty_f64(cap)])
-        while k > first and self.cat[k - 1] > j:
-            self.obs[k], self.cat[k], self.d2[k] = self.obs[k - 1], self.cat[k - 1], self.d2[k - 1]
-            k -= 1
-        self.obs[k], self.cat[k], self.d2[k] = i, j, d2
-        self.count += 1
-
-    cdef Pairs done(self, long long[::1] start):
-        cdef Pairs out = Pairs.__new__(Pairs)
-        cdef Py_ssize_t n = self.count
-        out.obs, out.cat, out.d2 = self.obs.base[:n], self.cat.base[:n], self.d2.base[:n]
-        out.start = start
-        return out
-
-
-cdef Pairs pairs_within(const double[::1] ox, const double[::1] oy, const double[::1] x,
-                        const double[::1] y, double radius2):
-    """Every pair of an observed star (ox, oy) and a catalog star (x, y) whose squared
-    distance is <= ``radius2``, by observed then catalog index. A NaN position pairs with
-    nothing. Each observed star scans the cells its radius, a hair widened so that
-    rounding cannot drop a pair the exact test keeps, reaches."""
-    cdef Py_ssize_t n = ox.shape[0], m = x.shape[0], i, j, gx, gy, q, c
-    cdef Py_ssize_t gx0 = 0, gx1 = -1, gy0 = 0, gy1 = -1
-    cdef long long[::1] start = zeros_i64(n + 1)
-    cdef _PairList found = _PairList(n + 16)
-    cdef double half = sqrt(radius2) * (1.0 + 1e-9) + 1e-9 if radius2 >= 0.0 else -1.0
-    cdef double pad, dx, dy, d2
-    cdef _Cells cells = None
-    if radius2 < INFINITY and m > 0 and n > 0:
-        cells = _catalog_grid(x, y, fmax(half, 0.0))
-    for i in range(n):
-        start[i] = found.count
-        if half < 0.0 or isnan(ox[i]) or isnan(oy[i]):
-            continue
-        if cells is None:  # every catalog star, in order
-            for j in range(m):
-                dx, dy = ox[i] - x[j], oy[i] - y[j]
-                d2 = dx * dx + dy * dy
-                if d2 <= radius2:
-                    found.add(start[i], i, j, d2)
-            continue
-        pad = half + 1e-12 * fmax(fabs(ox[i]), fabs(oy[i]))
-        _cell_span(ox[i], pad, cells.grid.x0, cells.grid.size, cells.grid.nx, &gx0, &gx1)
-        _cell_span(oy[i], pad, cells.grid.y0, cells.grid.size, cells.grid.ny, &gy0, &gy1)
-        for gy in range(gy0, gy1 + 1):
-            for gx in range(gx0, gx1 + 1):
-                c = gy * cells.grid.nx + gx
-                for q in range(cells.start[c], cells.start[c + 1]):
-                    j = cells.order[q]
-                    dx, dy = ox[i] - x[j], oy[i] - y[j]
-                    d2 = dx * dx + dy * dy
-                    if d2 <= radius2:
-                        found.add(start[i], i, j, d2)
-    start[n] = found.count
-    return found.done(start)
-
-
 cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1] cx,
                    const double[::1] cy, double radius_px, long long[::1] nearest,
-                   double[::1] dist2) except *:
+                   double[::1] dist2, NearestScratch scratch) except *:
     """Per observed star, its nearest catalog star if within ``radius_px`` (else -1; on a
     tie the lower index) and the squared distance, written into the two arrays. A
     negative or NaN radius reaches nothing; an infinite one, or infinite catalog
@@ -212,7 +175,7 @@ cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1]
     if not radius_px >= 0.0 or n == 0:
         return
     if radius_px < INFINITY:
-        cells = _catalog_grid(cx, cy, half)
+        cells = _catalog_grid(cx, cy, half, scratch)
     for i in range(n):
         if isnan(ox[i]) or isnan(oy[i]):
             continue
@@ -224,7 +187,7 @@ cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1]
                 if d < best_d:
                     best, best_d = j, d
         else:
-            pad = half + 1e-12 * fmax(fabs(ox[i]), fabs(oy[i]))
+            pad = half + 1e-12 * _greater(fabs(ox[i]), fabs(oy[i]))
             _cell_span(ox[i], pad, cells.grid.x0, cells.grid.size, cells.grid.nx, &gx0, &gx1)
             _cell_span(oy[i], pad, cells.grid.y0, cells.grid.size, cells.grid.ny, &gy0, &gy1)
             best = _best_in_cells(ox[i], oy[i], cx, cy, cells, gx0, gx1, gy0, gy1, &best_d)
@@ -233,27 +196,39 @@ cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1]
 
 
 cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
-                             const double[::1] cx, const double[::1] cy, double radius_px):
+                             const double[::1] cx, const double[::1] cy, double radius_px,
+                             NearestScratch scratch=None):
     """Pair each observed star with its nearest catalog star within ``radius_px``; a
-    catalog star claimed by several keeps the nearest (on a tie, the first)."""
-    cdef Py_ssize_t n = ox.shape[0], i, j, k = 0
-    cdef long long[::1] nearest = full_i64(n, -1)
-    cdef double[::1] dist2 = full_f64(n, INFINITY)
-    _nearest(ox, oy, cx, cy, radius_px, nearest, dist2)
-    cdef long long[::1] owner = full_i64(cx.shape[0], -1)
+    catalog star claimed by several keeps the nearest (on a tie, the first). ``scratch``:
+    the working buffers of the frame's earlier calls to reuse (None: new ones)."""
+    if scratch is None:
+        scratch = NearestScratch.__new__(NearestScratch)
+    cdef Py_ssize_t n = ox.shape[0], m = cx.shape[0], i, j, k = 0
+    scratch.nearest, scratch.dist2 = _room_i64(scratch.nearest, n), _room_f64(scratch.dist2, n)
+    scratch.owner = _room_i64(scratch.owner, m)
+    cdef long long[::1] nearest = scratch.nearest[:n], owner = scratch.owner[:m]
+    cdef double[::1] dist2 = scratch.dist2[:n]
+    nearest[:] = -1
+    dist2[:] = INFINITY
+    owner[:] = -1
+    _nearest(ox, oy, cx, cy, radius_px, nearest, dist2, scratch)
     for i in range(n):
         j = nearest[i]
         if j >= 0 and (owner[j] < 0 or dist2[i] < dist2[owner[j]]):
             owner[j] = i
-    obs, cat = empty_i64(n), empty_i64(n)
-    cdef long long[::1] obs_v = obs, cat_v = cat
+    cdef Py_ssize_t kept = 0
+    for i in range(n):
+        kept += nearest[i] >= 0 and owner[nearest[i]] == i
+    cdef Nearest out = Nearest.__new__(Nearest)
+    out.obs, out.cat = empty_i64(kept), empty_i64(kept)
     for i in range(n):
         if nearest[i] >= 0 and owner[nearest[i]] == i:
-            obs_v[k], cat_v[k] = i, nearest[i]
+            out.obs[k], out.cat[k] = i, nearest[i]
             k += 1
-    cdef Nearest out = Nearest.__new__(Nearest)
-    out.obs, out.cat = obs[:k], cat[:k]  # slices of the arrays: .base is then the slice
     return out
+
+
+include "_nearest_pairs.pxi"
 
 
 def pairs(ox, oy, x, y, double radius2):
@@ -266,7 +241,7 @@ def nearest(ox, oy, cx, cy, double radius_px):
     its squared distance (inf: none), before the one-to-one rule."""
     n = len(ox)
     found, dist2 = full_i64(n, -1), full_f64(n, np.inf)
-    _nearest(ox, oy, cx, cy, radius_px, found, dist2)
+    _nearest(ox, oy, cx, cy, radius_px, found, dist2, NearestScratch.__new__(NearestScratch))
     return found, dist2
 
 

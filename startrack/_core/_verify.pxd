@@ -26,6 +26,7 @@
 
 from startrack._core._cone cimport ConeTable
 from startrack._core._labelling cimport LabelParams
+from startrack._core._nearest cimport NearestScratch
 
 
 cdef struct Geometry:
@@ -73,6 +74,7 @@ cdef class Frame:
     cdef const double[::1] flux
     cdef Geometry geometry
     cdef readonly Py_ssize_t n
+    cdef NearestScratch scratch  # the matching's buffers, reused from call to call
 
 
 cdef class Stars:

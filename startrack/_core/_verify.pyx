@@ -20,7 +20,7 @@ from startrack._core._arrays cimport (empty_f64, empty_i64, empty_rows, zeros_f6
                                       zeros_u8)
 from startrack._core._cone cimport ConeTable, cone_rows
 from startrack._core._labelling cimport LabelParams, Labels, label
-from startrack._core._nearest cimport Nearest, nearest_matches
+from startrack._core._nearest cimport Nearest, NearestScratch, nearest_matches
 from startrack._core._wahba cimport matrix_to_quaternion, wahba
 
 cnp.import_array()  # the C API the _arrays helpers call

@@ -111,13 +111,13 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
     cdef Verdict v = _verdict(NOT_ACCEPTED, first, 0 if cone is None else 1)
     cdef Matches m = match(frame, stars.vectors, first, params.radius_px)
     cdef Py_ssize_t k, n = frame.n
-    v.confirmed = _confirmed(m, hyp_obs, n)
+    v.confirmed = _confirmed(m, hyp_obs)
     if v.confirmed > 0:
         v.probability = binomial_tail(
             v.confirmed - 1, n - hyp_obs.shape[0],
             fmin(1.0, m.n_in * M_PI * params.label.radius2 / params.label.area))
-    v.obs, v.rows = m.obs, _take(stars.rows, m.pos)
     if not (v.confirmed >= params.min_confirmed and v.probability <= params.max_probability):
+        v.obs, v.rows = m.obs, _take(stars.rows, m.pos)
         return v
     cdef _Refined r = _refine(frame, stars.vectors, params.radius_px, params.capture, m,
                               params.max_rounds)

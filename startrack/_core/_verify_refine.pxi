@@ -29,7 +29,7 @@ cdef FirstTest first_match(Frame frame, const long long[::1] hyp_obs,
     cdef FirstTest test = _fit_hypothesis(frame, hyp_obs, hyp_sky, cos_radius)
     if test.fits:
         test.matches = match(frame, stars.vectors, test.matrix, radius)
-        test.confirmed = _confirmed(test.matches, hyp_obs, frame.n)
+        test.confirmed = _confirmed(test.matches, hyp_obs)
     return test
 
 
@@ -87,7 +87,7 @@ cdef Labelled _label_at(Frame frame, Stars stars, double[:, ::1] matrix,
     for k in range(m):
         mags[k] = stars.mags[s.where[k]]
     cdef Labels labels = label(frame.x, frame.y, s.x, s.y, mags, s.where, frame.flux,
-                               params.label)
+                               params.label, frame.scratch)
     cdef Labelled out = Labelled.__new__(Labelled)
     out.obs, out.pos, out.refined, out.final = labels.obs, labels.cat, matrix, matrix
     if labels.obs.shape[0] >= 3:

@@ -10,6 +10,7 @@ cdef class Frame:
         self.vectors, self.x, self.y, self.flux = vectors, x, y, flux
         self.geometry = geometry
         self.n = x.shape[0]
+        self.scratch = NearestScratch.__new__(NearestScratch)
 
 
 cdef class Stars:
@@ -79,14 +80,31 @@ cdef Projection project(const double[:, ::1] vectors, const double[:, :] matrix,
     return p
 
 
+cdef struct _Bounds:
+    # The image widened by a margin (px), as within() tests a projected star.
+    double lo_x, hi_x, lo_y, hi_y
+
+
+cdef inline _Bounds _widened(Geometry g, double margin) noexcept:
+    cdef _Bounds b
+    b.lo_x, b.hi_x = -0.5 - margin, g.width - 0.5 + margin
+    b.lo_y, b.hi_y = -0.5 - margin, g.height - 0.5 + margin
+    return b
+
+
+cdef inline bint _inside(const double* x, const double* y, const unsigned char* valid,
+                         Py_ssize_t i, _Bounds b) noexcept:
+    # pointers: a memoryview argument costs a reference count per call
+    return valid[i] and b.lo_x <= x[i] <= b.hi_x and b.lo_y <= y[i] <= b.hi_y
+
+
 cdef unsigned char[::1] within(Projection p, Geometry g, double margin):
     """Which projected stars fall in the image widened by ``margin`` pixels."""
-    cdef double lo_x = -0.5 - margin, hi_x = g.width - 0.5 + margin
-    cdef double lo_y = -0.5 - margin, hi_y = g.height - 0.5 + margin
+    cdef _Bounds b = _widened(g, margin)
     cdef Py_ssize_t i
     cdef unsigned char[::1] inside = zeros_u8(p.x.shape[0])
     for i in range(p.x.shape[0]):
-        inside[i] = p.valid[i] and lo_x <= p.x[i] <= hi_x and lo_y <= p.y[i] <= hi_y
+        inside[i] = _inside(&p.x[0], &p.y[0], &p.valid[0], i, b)
     return inside
 
 
@@ -98,15 +116,19 @@ cdef class _Selection:
 
 
 cdef _Selection _select(Projection p, Geometry g, double margin):
-    cdef unsigned char[::1] inside = within(p, g, margin)
-    cdef Py_ssize_t i, k = 0, m = 0
-    for i in range(inside.shape[0]):
-        m += inside[i]
+    # within()'s test, twice (count, then fill): cheaper than allocating its flags
+    cdef _Bounds b = _widened(g, margin)
+    cdef const double* x = &p.x[0]
+    cdef const double* y = &p.y[0]
+    cdef const unsigned char* valid = &p.valid[0]
+    cdef Py_ssize_t n = p.x.shape[0], i, k = 0, m = 0
+    for i in range(n):
+        m += _inside(x, y, valid, i, b)
     cdef _Selection s = _Selection.__new__(_Selection)
     s.where, s.x, s.y = empty_i64(m), empty_f64(m), empty_f64(m)
-    for i in range(inside.shape[0]):
-        if inside[i]:
-            s.where[k], s.x[k], s.y[k] = i, p.x[i], p.y[i]
+    for i in range(n):
+        if _inside(x, y, valid, i, b):
+            s.where[k], s.x[k], s.y[k] = i, x[i], y[i]
             k += 1
     return s
 
@@ -115,7 +137,7 @@ cdef Matches match_projected(Frame frame, Projection projection, double radius):
     """Observed stars paired with the projected stars that fall in the image widened by
     ``radius`` (a star just beyond the edge can still be an observed star's)."""
     cdef _Selection s = _select(projection, frame.geometry, radius)
-    cdef Nearest near = nearest_matches(frame.x, frame.y, s.x, s.y, radius)
+    cdef Nearest near = nearest_matches(frame.x, frame.y, s.x, s.y, radius, frame.scratch)
     cdef Matches m = Matches.__new__(Matches)
     cdef Py_ssize_t k
     m.obs, m.pos, m.n_in = near.obs, empty_i64(near.cat.shape[0]), s.where.shape[0]
@@ -129,14 +151,16 @@ cdef Matches match(Frame frame, const double[:, ::1] vectors, const double[:, :]
     return match_projected(frame, project(vectors, matrix, frame.geometry), radius)
 
 
-cdef Py_ssize_t _confirmed(Matches m, const long long[::1] hyp_obs, Py_ssize_t n_obs):
+cdef Py_ssize_t _confirmed(Matches m, const long long[::1] hyp_obs):
     """How many of the matched observed stars are not among ``hyp_obs``."""
-    cdef unsigned char[::1] chosen = zeros_u8(n_obs)
-    cdef Py_ssize_t k, count = 0
-    for k in range(hyp_obs.shape[0]):
-        chosen[hyp_obs[k]] = True
+    # A hypothesis has a few distinct stars: scanning them beats allocating flags.
+    cdef Py_ssize_t k, h, count = 0
+    cdef bint chosen
     for k in range(m.obs.shape[0]):
-        count += not chosen[m.obs[k]]
+        chosen = False
+        for h in range(hyp_obs.shape[0]):
+            chosen = chosen or hyp_obs[h] == m.obs[k]
+        count += not chosen
     return count
 
 

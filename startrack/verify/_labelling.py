@@ -66,6 +66,10 @@ class LabelConfig:
     min_fit: int = 5  # isolated pairs needed to fit the scatters
 
 
+# Built once: every frame's verification asks for the labelling's thresholds
+_DEFAULT_CONFIG = LabelConfig()
+
+
 @dataclass(frozen=True)
 class Labelling:
     """The reported identities (``obs_index`` ascending, ``cat_index`` catalog rows) and
@@ -101,7 +105,7 @@ def label_stars(obs: Observation, rows: np.ndarray, x: np.ndarray, y: np.ndarray
         One-to-one identities, and the count of withheld stars per reason
         (``brightness``, ``unresolved``, ``ambiguous``, ``coincidence``).
     """
-    config = config or LabelConfig()
+    config = config or _DEFAULT_CONFIG
     x, y, mag = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, mag))
     rows = np.ascontiguousarray(rows, dtype=np.int64)
     flux = obs.kernel_flux()
@@ -121,7 +125,7 @@ def label_params(obs: Observation, radius_px: float, config: LabelConfig | None 
                  ) -> dict:
     """The labelling's thresholds for this frame as the compiled labelling takes them
     (the fields of its ``LabelParams`` structure: logs and squares taken)."""
-    config = config or LabelConfig()
+    config = config or _DEFAULT_CONFIG
     sigma_px = float(obs.sigma_rad * obs.camera.f_px)
     return {
         "has_flux": obs.flux is not None,
