@@ -21,6 +21,29 @@ cdef inline Py_ssize_t _bucket(double value, double lo, double scale,
     return min(<Py_ssize_t>((value - lo) * scale), nb - 1)
 
 
+cdef int _sort_buckets(const long long[::1] start, long long[::1] rows,
+                       double[::1] key) noexcept nogil:
+    """Each bucket ``start[b]:start[b + 1]`` sorted by ``key``, ``rows`` alongside, stably:
+    insertion sort (a strict comparison keeps equal keys in order), or a merge sort for a
+    crowded bucket, as insertion sort is quadratic. -1 when that merge finds no memory."""
+    cdef Py_ssize_t b, p, q
+    cdef long long r
+    cdef double k
+    for b in range(start.shape[0] - 1):
+        if start[b + 1] - start[b] > CROWDED:
+            if merge_sort(&rows[0], &key[0], start[b], start[b + 1]) < 0:
+                return -1
+            continue
+        for p in range(start[b] + 1, start[b + 1]):
+            r, k = rows[p], key[p]
+            q = p - 1
+            while q >= start[b] and key[q] > k:
+                rows[q + 1], key[q + 1] = rows[q], key[q]
+                q -= 1
+            rows[q + 1], key[q + 1] = r, k
+    return 0
+
+
 def stable_argsort(const double[::1] values, double lo, double hi):
     """The stable ascending argsort of ``values`` (all in [lo, hi]) by a bucket sort:
     counting sort into about one bucket per 8 values, then insertion sort inside each (a
@@ -30,15 +53,13 @@ def stable_argsort(const double[::1] values, double lo, double hi):
     The keys travel with the indices, so each bucket is sorted in contiguous memory;
     fewer buckets than values keep the counts in cache while the values are scattered.
     """
-    cdef Py_ssize_t n = values.shape[0], nb = max(n // PER_BUCKET, 1), e, b, p, q
+    cdef Py_ssize_t n = values.shape[0], nb = max(n // PER_BUCKET, 1), e, b
     cdef double scale = nb / (hi - lo) if hi > lo else 0.0
     start_arr, order_arr = np.zeros(nb + 1, np.int64), np.empty(n, np.int64)
     key_arr = np.empty(n, np.float64)
     cdef long long[::1] start = start_arr, order = order_arr
     cdef double[::1] key = key_arr
     cdef long long[::1] fill
-    cdef long long i
-    cdef double x
     with nogil:
         for e in range(n):
             start[_bucket(values[e], lo, scale, nb) + 1] += 1
@@ -50,19 +71,9 @@ def stable_argsort(const double[::1] values, double lo, double hi):
             b = _bucket(values[e], lo, scale, nb)
             order[fill[b]], key[fill[b]] = e, values[e]
             fill[b] += 1
-        for b in range(nb):  # insertion sort; strict comparison keeps equal values in order
-            if start[b + 1] - start[b] > CROWDED:
-                if merge_sort(&order[0], &key[0], start[b], start[b + 1]) < 0:
-                    with gil:
-                        raise MemoryError("stable_argsort: no memory for a bucket's merge")
-                continue
-            for p in range(start[b] + 1, start[b + 1]):
-                i, x = order[p], key[p]
-                q = p - 1
-                while q >= start[b] and key[q] > x:
-                    order[q + 1], key[q + 1] = order[q], key[q]
-                    q -= 1
-                order[q + 1], key[q + 1] = i, x
+        if _sort_buckets(start, order, key) < 0:
+            with gil:
+                raise MemoryError("stable_argsort: no memory for a bucket's merge")
     return order_arr
 
 
@@ -134,28 +145,6 @@ cdef void _sweep(const double[::1] x, const double[::1] y, const double[::1] z,
             rows[slot[k]] = (i << 32) | j
             angle[slot[k]] = acos(min(max(d, -1.0), 1.0))
             slot[k] += 1
-
-
-cdef int _sort_buckets(const long long[::1] start, long long[::1] rows,
-                       double[::1] angle) noexcept nogil:
-    """Each bucket sorted by angle, stably (a pair's place among equal angles is its place
-    in the sweep); -1 when a crowded bucket's merge finds no memory."""
-    cdef Py_ssize_t b, p, q
-    cdef long long r
-    cdef double key
-    for b in range(start.shape[0] - 1):
-        if start[b + 1] - start[b] > CROWDED:
-            if merge_sort(&rows[0], &angle[0], start[b], start[b + 1]) < 0:
-                return -1
-            continue
-        for p in range(start[b] + 1, start[b + 1]):
-            r, key = rows[p], angle[p]
-            q = p - 1
-            while q >= start[b] and angle[q] > key:
-                rows[q + 1], angle[q + 1] = rows[q], angle[q]
-                q -= 1
-            rows[q + 1], angle[q + 1] = r, key
-    return 0
 
 
 def sorted_close_pairs(const double[:, ::1] vectors, double max_angle):
