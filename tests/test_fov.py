@@ -225,3 +225,35 @@ def test_a_scale_free_method_searches_at_once(monkeypatch, method):
         assert _boresight_error_arcsec(result.solution.rotation, rot) < 60.0
         assert result.camera.fov_deg == pytest.approx(CAMERA.fov_deg, abs=0.02)
     assert (len(tries) == 0) if method == "quad" else (len(tries) >= 3)  # pyramid: per frame
+
+
+def test_a_nominal_fov_is_first_looked_at_on_the_brightest_stars(monkeypatch):
+    """A nominal FOV's first try is the configured method on its FIRST_LOOK_STARS
+    brightest stars, no fainter ones: where the FOV is right it answers (as pyramid);
+    where it is 5% off it tries at most that many stars' triples, and the focal-length
+    search answers."""
+    from startrack.matchers.pyramid import PyramidMatcher
+    from startrack.solver._identifier import FIRST_LOOK_STARS, Identifier
+
+    looks = []
+    identify = Identifier.identify
+    monkeypatch.setattr(Identifier, "identify", lambda self, obs, deadline=None,
+                        first_look=False: looks.append(
+                            (first_look, identify(self, obs, deadline, first_look)))
+                        or looks[-1][1])
+    for error, method in ((0.0, "pyramid"), (0.05, "quad")):
+        pipeline = Pipeline(Options(fov_deg=CAMERA.fov_deg * (1 + error), size=(1024, 1024),
+                                    sky="random", fov_tolerance=0.1))
+        looks.clear()
+        for frame, _, rot in _frames(CAMERA, 3, seed=13):
+            result = pipeline.solve(frame)
+            assert result.solution.solved and result.solution.method == method
+            assert _boresight_error_arcsec(result.solution.rotation, rot) < 60.0
+        firsts = [sol for first, sol in looks if first]  # the others: the warm-up's
+        n = FIRST_LOOK_STARS
+        assert len(firsts) == 3 and all(
+            sol.diagnostics.extra["triples"] <= n * (n - 1) * (n - 2) // 6 for sol in firsts)
+        (nominal,) = [i for i in pipeline._identifiers.values() if i.matcher.name == "pyramid"]
+        look = nominal.first_look
+        assert isinstance(look, PyramidMatcher) and look.database is nominal.database
+        assert (look.config.max_stars, look.extra_stars) == (FIRST_LOOK_STARS, 0)

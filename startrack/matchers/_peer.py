@@ -178,6 +178,7 @@ class PeerMatcher(Matcher):
     """
 
     tables = ()
+    brightest_first = False
     #: the peer's own solve settings, built from the constructor's keywords
     settings_type: ClassVar[type[PeerSettings]] = PeerSettings
 

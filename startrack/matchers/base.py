@@ -89,6 +89,11 @@ class Matcher(ABC):
     #: whether the method finds the scale itself: with a nominal FOV the focal-length search
     #: (which such a method serves) then runs at once, without a first try at the nominal
     scale_free: ClassVar[bool] = False
+    #: whether the search runs over the ``config.max_stars`` brightest stars (then
+    #: ``extra_stars`` fainter ones): a nominal FOV's first look
+    #: (:attr:`startrack.solver._identifier.Identifier.first_look`) narrows it to a few; a
+    #: peer solves its own way, with its own settings
+    brightest_first: ClassVar[bool] = True
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None) -> None:
         self.database = database

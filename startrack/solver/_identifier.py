@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import math
 import time
 from collections.abc import Callable, Iterator
@@ -21,7 +22,7 @@ from startrack.camera._model import Camera
 from startrack.centroids._table import DEFAULT_SIGMA_PX, Centroids
 from startrack.database import StarDatabase
 from startrack.errors import InputError
-from startrack.matchers import MatcherConfig, get_matcher
+from startrack.matchers import Matcher, MatcherConfig, get_matcher
 from startrack.simulate._scene import stars_in_view
 from startrack.sky import Catalog, check_pair_budget
 from startrack.solver._deadline import Deadline
@@ -31,6 +32,11 @@ from startrack.types import Observation, Solution, Timing
 from startrack.verify._evidence import refuse_without_evidence
 from startrack.verify._quality import Quality, solution_quality
 from startrack.verify._verification import VerifyConfig
+
+#: the brightest stars a nominal field of view's first look searches
+#: (:attr:`Identifier.first_look`): enough for its patterns when the FOV is right (20
+#: triples of 6 stars), few enough that a FOV that is off costs a fraction of a millisecond
+FIRST_LOOK_STARS = 6
 
 
 @dataclass(frozen=True)
@@ -153,24 +159,45 @@ class Identifier:
 
     def warm_refit(self, refit: Callable) -> None:
         """The first use of ``refit`` (:func:`startrack.solver._fov_search.refit_fov`, a nominal
-        FOV's
-        refit: its kernels) on the throwaway frame of :meth:`warm_up`."""
+        FOV's refit: its kernels) and of :attr:`first_look` on the throwaway frame of
+        :meth:`warm_up`."""
         if self._warm_centroids is not None:
+            obs = self.observation(self._warm_centroids)
+            identify(obs, self.first_look, self.verify_config)
             first = self.solve(FrameInput("warm-up", self._warm_centroids))
             if first.solution.solved:
                 refit(first, self.database, self.verify_config)
 
+    @functools.cached_property
+    def first_look(self) -> Matcher:
+        """This identifier's method on its :data:`FIRST_LOOK_STARS` brightest stars alone,
+        no fainter ones added: a nominal field of view's first try
+        (:mod:`startrack.solver._pipeline`). Where the nominal FOV is right it solves as
+        the full method does; where it is off, no pattern matches, and the full method
+        would try every pattern of up to ``max_stars + extra_stars`` stars (milliseconds)
+        before the focal-length search, which solves such a frame, could start."""
+        if not self.matcher.brightest_first:
+            return self.matcher
+        config = dataclasses.replace(
+            self.matcher.config, max_stars=min(FIRST_LOOK_STARS, self.matcher.config.max_stars),
+            extra_stars=0)
+        matcher = type(self.matcher)(self.database, config)
+        matcher.prepare()
+        return matcher
+
     def observation(self, centroids: Centroids) -> Observation:
         return observation(centroids, self.camera, self.sigma_px)
 
-    def identify(self, obs: Observation, deadline: Deadline | None = None) -> Solution:
+    def identify(self, obs: Observation, deadline: Deadline | None = None,
+                 first_look: bool = False) -> Solution:
         """Identify the stars of an observation made elsewhere (the bench's frames), by
         ``deadline`` (the input's, shared with other stages) if given, else within this
-        identifier's ``timeout_ms``."""
+        identifier's ``timeout_ms``; with ``first_look``, by :attr:`first_look`."""
+        matcher = self.first_look if first_look else self.matcher
         if deadline is not None:
-            sol = identify(obs, self.matcher, self.verify_config, deadline=deadline)
+            sol = identify(obs, matcher, self.verify_config, deadline=deadline)
         else:
-            sol = identify(obs, self.matcher, self.verify_config, timeout_ms=self.timeout_ms)
+            sol = identify(obs, matcher, self.verify_config, timeout_ms=self.timeout_ms)
         # the bench and the command line count "solved" alike (startrack.verify._evidence)
         return refuse_without_evidence(sol, self.camera.f_px, self.verify_config.radius_px(obs))
 

@@ -162,7 +162,8 @@ class Pipeline:
                 with self.setup.counting():
                     nominal.warm_refit(refit_fov)
             deadline = Deadline.after_ms(self.options.timeout_ms)
-            first = nominal.solve(frame, identify=lambda obs: nominal.identify(obs, deadline))
+            first = nominal.solve(frame, identify=lambda obs: nominal.identify(
+                obs, deadline, first_look=True))
             if first.solution.reason in ("too_few_stars", "timeout"):
                 return first
             found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
