@@ -117,8 +117,8 @@ def test_the_deadline_is_shared_by_the_nominal_method_and_the_fov_search(monkeyp
     monkeypatch.setattr(deadline_module, "clock", lambda: now[0])
     original = Identifier.identify
 
-    def slow_identify(self, obs, deadline=None):
-        solution = original(self, obs, deadline)
+    def slow_identify(self, obs, deadline=None, first_look=False):
+        solution = original(self, obs, deadline, first_look)
         now[0] += 2.0
         return solution
 
