@@ -142,11 +142,15 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
     reason "timeout" if ``deadline`` passes first."""
     t0 = time.perf_counter()
     cam, db, config, quad = ident.camera, ident.database, ident.verify_config, ident.matcher
-    obs = Observation.from_pixels(x, y, cam, ident.sigma_px)
     diag, seen = MatchDiagnostics(), set()
-    if len(x) < 3:
+
+    def unsolved(reason: str) -> FovResult:
+        obs = Observation.from_pixels(x, y, cam, ident.sigma_px)
         return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db,
-                       reason="too_few_stars")
+                       reason=reason)
+
+    if len(x) < 3:
+        return unsolved("too_few_stars")
     try:
         for window in passes(*focal_range(cam, tolerance)):
             found = search_window(quad, x, y, cam, window, ident.sigma_px, db, config, diag,
@@ -155,9 +159,8 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
                 found = keep_given(found, cam, ident.sigma_px, db, config)
                 return _result(found, ident.catalog, quad.name, diag, t0, config, db)
     except SearchTimeout:
-        return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db,
-                       reason="timeout")
-    return _result((None, cam, obs), ident.catalog, quad.name, diag, t0, config, db)
+        return unsolved("timeout")
+    return unsolved("no_match")
 
 
 class BlindSolver:
