@@ -146,9 +146,10 @@ class Pipeline:
                            frame.image)
 
     def _approximate(self, frame: FrameInput, camera: Camera, sky: SkySpec):
-        """A nominal FOV: the configured method's first look first (its brightest stars:
-        :attr:`~startrack.solver._identifier.Identifier.first_look`), its FOV refitted and the pointing verified through the fitted camera; else (and at
-        once for a scale-free method) the quad search within the tolerance. A
+        """A nominal FOV: the configured method's first look (its brightest stars,
+        :attr:`~startrack.solver._identifier.Identifier.first_look`), its FOV refitted and
+        the pointing verified through the fitted camera; else (and at once for a
+        scale-free method) the quad search within the tolerance. A
         :class:`FrameResult` when the configured method's answer stands (too few stars, a
         timeout), else the search's ``FovResult``."""
         x, y = frame.centroids.x, frame.centroids.y
