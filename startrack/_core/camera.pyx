@@ -23,6 +23,11 @@ cdef Lens _make_lens(double k1, double k2, double k3, double max_r2):
     return lens
 
 
+cdef inline double _norm(double u, double v) noexcept nogil:
+    """The length of (u, v, 1): the normalised-plane point's ray."""
+    return sqrt(u * u + v * v + 1.0)
+
+
 cdef _flat(values):
     """``values`` as a fresh contiguous float64 vector (the kernels write in place)."""
     return np.array(values, dtype=np.float64).ravel()
@@ -110,9 +115,21 @@ cdef class Optics:
         cdef double norm
         cdef Py_ssize_t i
         for i in range(a.shape[0]):
-            norm = sqrt(a[i] * a[i] + b[i] * b[i] + 1.0)
+            norm = _norm(a[i], b[i])
             vec[i, 0], vec[i, 1], vec[i, 2] = a[i] / norm, b[i] / norm, 1.0 / norm
         return out.reshape(x.shape + (3,))
+
+    def corner_cosines(self):
+        """The cosine of the angle from the boresight to each image corner (the corner
+        pixels' centres: top-left, top-right, bottom-left, bottom-right): the z of
+        :meth:`pixel_to_vector` there, in one call (a camera's cone radius)."""
+        cdef double right = self.geometry.width - 1.0, bottom = self.geometry.height - 1.0
+        u, v = self._normalised((0.0, right, 0.0, right), (0.0, 0.0, bottom, bottom))
+        cdef double[::1] a = u, b = v
+        cdef Py_ssize_t i
+        for i in range(4):
+            a[i] = 1.0 / _norm(a[i], b[i])
+        return u
 
     @cython.cdivision(True)
     def vector_to_pixel(self, vectors):

@@ -4,7 +4,6 @@ behind every answer of :mod:`startrack.solver._fov_search`)."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -58,7 +57,7 @@ def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.nda
     status, f, k1 = fit_focal_kernel(camera.optics, x, y,
                                      np.ascontiguousarray(cat_vectors, dtype=np.float64),
                                      iterations, with_k1, LENS_MIN_R2, LENS_MAX_K1)
-    cam = dataclasses.replace(camera, f_px=f)
+    cam = camera.with_focal(f)
     if status == BAD_FOCAL or not k1:
         return cam
     return cam.with_distortion(RadialDistortion(k1=k1))  # FOLDS: its InputError
