@@ -76,3 +76,14 @@ def test_half_diagonal_with_a_lens_is_numpys_to_the_bit():
                                           np.array([0.0, 0.0, height - 1.0, height - 1.0]))
             np.testing.assert_array_equal(cam.optics.corner_cosines(), corners[:, 2])
             assert cam.half_diagonal_deg == reference_half_diagonal_deg(cam)
+
+
+def test_pixels_of_any_layout_or_type_are_taken_as_float64():
+    cam = Camera.from_fov(1200, 800, 25.0, distortion=LENSES[0])
+    grid = np.arange(40.0).reshape(5, 8) * 25.0
+    for x in (grid[:, ::3], grid.T, grid.astype(np.float32), [0, 600, 1199]):
+        want = reference_pixel_to_vector(cam, np.asarray(x, np.float64),
+                                         np.asarray(x, np.float64)[::-1])
+        got = cam.pixel_to_vector(x, np.asarray(x)[::-1])
+        np.testing.assert_array_equal(got, want)
+        assert got.flags.c_contiguous and got.shape == np.shape(x) + (3,)

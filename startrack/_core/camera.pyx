@@ -12,6 +12,8 @@ from libc.math cimport INFINITY, sqrt
 
 import numpy as np
 
+cimport numpy as cnp
+from startrack._core._arrays cimport empty_rows
 from startrack._core._camera cimport Geometry, Lens, lens_factor, lens_is_identity
 from startrack._core._camera cimport lens_undistort
 
@@ -28,9 +30,17 @@ cdef inline double _norm(double u, double v) noexcept nogil:
     return sqrt(u * u + v * v + 1.0)
 
 
+cnp.import_array()  # the C API the _arrays helpers and _flat call
+
+
 cdef _flat(values):
-    """``values`` as a fresh contiguous float64 vector (the kernels write in place)."""
-    return np.array(values, dtype=np.float64).ravel()
+    """``values`` as a fresh contiguous float64 vector (the kernels write in place):
+    ``np.array(values, dtype=np.float64).ravel()`` through numpy's C API (its Python
+    calls cost more than the arithmetic of a frame's stars)."""
+    cdef cnp.ndarray a = cnp.PyArray_FROM_OTF(
+        values, cnp.NPY_FLOAT64,
+        cnp.NPY_ARRAY_C_CONTIGUOUS | cnp.NPY_ARRAY_ENSURECOPY | cnp.NPY_ARRAY_FORCECAST)
+    return a if cnp.PyArray_NDIM(a) == 1 else a.ravel()
 
 
 cdef class RadialLens:
@@ -110,14 +120,14 @@ cdef class Optics:
         x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
         u, v = self._normalised(x, y)
         cdef double[::1] a = u, b = v
-        out = np.empty((a.shape[0], 3))
+        out = empty_rows(a.shape[0], 3)
         cdef double[:, ::1] vec = out
         cdef double norm
         cdef Py_ssize_t i
         for i in range(a.shape[0]):
             norm = _norm(a[i], b[i])
             vec[i, 0], vec[i, 1], vec[i, 2] = a[i] / norm, b[i] / norm, 1.0 / norm
-        return out.reshape(x.shape + (3,))
+        return out if x.ndim == 1 else out.reshape(x.shape + (3,))
 
     def corner_cosines(self):
         """The cosine of the angle from the boresight to each image corner (the corner
