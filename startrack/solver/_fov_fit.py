@@ -138,8 +138,9 @@ REFIT_HYPOTHESIS_STARS = 4
 
 
 def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
-               sigma_px: float, database: StarDatabase,
-               config: VerifyConfig) -> tuple[Verification, Camera, Observation]:
+               sigma_px: float, database: StarDatabase, config: VerifyConfig,
+               given_obs: Observation | None = None,
+               ) -> tuple[Verification, Camera, Observation]:
     """``found`` (from :func:`verify_fitted`) with the ``given`` camera put back when the
     data do not reject it: a camera given exactly (a simulated frame's sidecar) is reported
     as given, not as a fitted focal length and k1 a few parts in 1e4 off. Rejected means
@@ -147,12 +148,15 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     fitted residuals show, exceeds the chi-square quantile of :data:`GIVEN_REJECT_P` for
     the parameters fitted; the given camera must also pass verification again, with the
     :data:`REFIT_HYPOTHESIS_STARS` brightest matched stars as the hypothesis (the rest of
-    the frame is the independent evidence, as when a FOV is refitted)."""
+    the frame is the independent evidence, as when a FOV is refitted). ``given_obs``: the
+    frame's stars through ``given`` at ``sigma_px`` when the caller holds them (else made
+    here)."""
     check, fitted, obs = found
     if fitted == given:
         return found
     cat = np.ascontiguousarray(database.vectors[check.cat_index], dtype=np.float64)
-    given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
+    if given_obs is None:
+        given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
 
     def squared(o: Observation) -> float:
         # the compiled Wahba fit verification uses (no scipy Rotation in every refit)
