@@ -37,7 +37,7 @@ REFIT_ROUNDS = 3
 def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
               iterations: int = 12) -> float:
     """The focal length (px) of :func:`fit_camera` with the lens left as it is."""
-    return fit_camera(camera, x, y, cat_vectors, iterations, lens=False).f_px
+    return _fit(camera, x, y, cat_vectors, iterations, False)[1]  # no Camera made
 
 
 def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
@@ -51,16 +51,21 @@ def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.nda
     described still has its wide-field stars fitted. A focal length that is not positive
     and finite comes back as it is; a fitted lens that folds back inside the image is an
     :class:`InputError`, as :meth:`Camera.with_distortion` makes it."""
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    y = np.ascontiguousarray(y, dtype=np.float64)
     with_k1 = lens and camera.distortion is None and len(x) >= LENS_MIN_STARS
-    status, f, k1 = fit_focal_kernel(camera.optics, x, y,
-                                     np.ascontiguousarray(cat_vectors, dtype=np.float64),
-                                     iterations, with_k1, LENS_MIN_R2, LENS_MAX_K1)
+    status, f, k1 = _fit(camera, x, y, cat_vectors, iterations, with_k1)
     cam = camera.with_focal(f)
     if status == BAD_FOCAL or not k1:
         return cam
     return cam.with_distortion(RadialDistortion(k1=k1))  # FOLDS: its InputError
+
+
+def _fit(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
+         iterations: int, with_k1: bool) -> tuple[int, float, float]:
+    """The compiled fit's (status, focal length, k1)."""
+    return fit_focal_kernel(camera.optics, np.ascontiguousarray(x, dtype=np.float64),
+                            np.ascontiguousarray(y, dtype=np.float64),
+                            np.ascontiguousarray(cat_vectors, dtype=np.float64),
+                            iterations, with_k1, LENS_MIN_R2, LENS_MAX_K1)
 
 
 def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
