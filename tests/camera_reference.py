@@ -58,8 +58,12 @@ def reference_vector_to_pixel(camera, v):
 
 
 def reference_half_diagonal_deg(camera):
-    """The angle to the farthest corner as Camera.half_diagonal_deg computed it with a
-    lens (numpy over the four corners)."""
+    """The angle to the farthest corner as Camera.half_diagonal_deg computed it: a
+    pinhole's in scalars, a lens's in numpy over the four corners."""
+    if camera.distortion is None:
+        r = max(math.hypot(x - camera.cx, y - camera.cy)
+                for x in (0.0, camera.width - 1.0) for y in (0.0, camera.height - 1.0))
+        return math.degrees(math.atan2(r, camera.f_px))
     corners_x = np.array([0.0, camera.width - 1.0, 0.0, camera.width - 1.0])
     corners_y = np.array([0.0, 0.0, camera.height - 1.0, camera.height - 1.0])
     v = reference_pixel_to_vector(camera, corners_x, corners_y)

@@ -63,9 +63,9 @@ def test_optics_pickles_and_takes_empty_inputs():
     assert optics.pixel_to_vector(np.zeros(0), np.zeros(0)).shape == (0, 3)
 
 
-def test_half_diagonal_with_a_lens_is_numpys_to_the_bit():
+def test_half_diagonal_is_as_it_was_to_the_bit():
     rng = np.random.default_rng(7)
-    for d in LENSES:
+    for d in [None, *LENSES]:
         for _ in range(50):
             width = int(rng.integers(50, 3000))
             height = int(width * rng.uniform(0.5, 1.5))

@@ -13,7 +13,7 @@ from libc.math cimport INFINITY, sqrt
 import numpy as np
 
 cimport numpy as cnp
-from startrack._core._arrays cimport empty_rows
+from startrack._core._arrays cimport empty_f64, empty_rows
 from startrack._core._camera cimport Geometry, Lens, lens_factor, lens_is_identity
 from startrack._core._camera cimport lens_undistort
 
@@ -133,9 +133,12 @@ cdef class Optics:
         """The cosine of the angle from the boresight to each image corner (the corner
         pixels' centres: top-left, top-right, bottom-left, bottom-right): the z of
         :meth:`pixel_to_vector` there, in one call (a camera's cone radius)."""
-        cdef double right = self.geometry.width - 1.0, bottom = self.geometry.height - 1.0
-        u, v = self._normalised((0.0, right, 0.0, right), (0.0, 0.0, bottom, bottom))
+        u, v = empty_f64(4), empty_f64(4)
         cdef double[::1] a = u, b = v
+        a[0], a[1], a[2], a[3] = 0.0, self.geometry.width - 1.0, 0.0, self.geometry.width - 1.0
+        b[0], b[1], b[2] = 0.0, 0.0, self.geometry.height - 1.0
+        b[3] = b[2]
+        self._normalise(u, v)
         cdef Py_ssize_t i
         for i in range(4):
             a[i] = 1.0 / _norm(a[i], b[i])
@@ -174,7 +177,12 @@ cdef class Optics:
     cdef tuple _normalised(self, x, y):
         """The ideal normalised coordinates (fresh vectors) of pixels ``x``, ``y``."""
         u, v = _flat(x), _flat(y)
-        cdef double[::1] a = u, b = v
+        self._normalise(u, v)
+        return u, v
+
+    @cython.cdivision(True)
+    cdef void _normalise(self, double[::1] a, double[::1] b) except *:
+        """Pixels ``a``, ``b`` made their ideal normalised coordinates, in place."""
         cdef Geometry g = self.geometry
         cdef Py_ssize_t i
         for i in range(a.shape[0]):
@@ -183,4 +191,3 @@ cdef class Optics:
         if a.shape[0] and not lens_is_identity(&self._lens) \
                 and lens_undistort(&self._lens, &a[0], &b[0], a.shape[0], 1) < 0:
             raise MemoryError("pixel_to_vector: no memory for the lens inversion")
-        return u, v

@@ -142,8 +142,10 @@ class Camera:
     def half_diagonal_deg(self) -> float:
         """Angle from the boresight to the farthest image corner."""
         if self.distortion is None:  # a pinhole: no array work
-            r = max(math.hypot(x - self.cx, y - self.cy)
-                    for x in (0.0, self.width - 1.0) for y in (0.0, self.height - 1.0))
+            left, right = 0.0 - self.cx, self.width - 1.0 - self.cx
+            top, bottom = 0.0 - self.cy, self.height - 1.0 - self.cy
+            r = max(math.hypot(left, top), math.hypot(left, bottom), math.hypot(right, top),
+                    math.hypot(right, bottom))
             return math.degrees(math.atan2(r, self.f_px))
         # the corners' arccos is numpy's, as ever; their cosines lie in [0, 1] (the z of a
         # unit vector 1 / |(u, v, 1)|): no clip. The largest angle, NaN winning (numpy's
