@@ -55,3 +55,16 @@ def reference_vector_to_pixel(camera, v):
         front = front & (u * u + w * w < camera.distortion.max_r2)
         u, w = reference_distort(camera.distortion, u, w)
     return camera.cx + camera.f_px * u, camera.cy + camera.f_px * w, front
+
+
+def reference_half_diagonal_deg(camera):
+    """The angle to the farthest corner as Camera.half_diagonal_deg computed it: a
+    pinhole's in scalars, a lens's in numpy over the four corners."""
+    if camera.distortion is None:
+        r = max(math.hypot(x - camera.cx, y - camera.cy)
+                for x in (0.0, camera.width - 1.0) for y in (0.0, camera.height - 1.0))
+        return math.degrees(math.atan2(r, camera.f_px))
+    corners_x = np.array([0.0, camera.width - 1.0, 0.0, camera.width - 1.0])
+    corners_y = np.array([0.0, 0.0, camera.height - 1.0, camera.height - 1.0])
+    v = reference_pixel_to_vector(camera, corners_x, corners_y)
+    return float(np.degrees(np.arccos(np.clip(v[:, 2], -1, 1))).max())

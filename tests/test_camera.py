@@ -1,5 +1,6 @@
 """The pinhole camera, camera files and the attitude conventions of interfaces.md."""
 
+import dataclasses
 import json
 import math
 
@@ -7,6 +8,7 @@ import numpy as np
 import pytest
 
 from startrack.attitude import from_radec_roll, to_radec_roll
+from startrack.camera._distortion import RadialDistortion
 from startrack.camera._file import camera_from_dict, load_camera
 from startrack.camera._model import Camera
 from startrack.errors import InputError
@@ -116,3 +118,16 @@ def test_wcs_header_agrees_with_the_camera(ra, dec, roll):
     sep = np.degrees(np.arctan2(np.linalg.norm(np.cross(got, want), axis=1),
                                 (got * want).sum(axis=1))) * 3600.0
     assert sep.max() < 0.1
+
+
+@pytest.mark.parametrize("distortion", [None, RadialDistortion(k1=-0.05, k2=0.01)])
+def test_with_focal_is_the_replaced_camera(distortion):
+    cam = Camera.from_fov(1024, 768, 12.0, cx=500.25, cy=390.5, distortion=distortion)
+    cam.optics, cam.half_diagonal_deg  # noqa: B018 (cached on cam: not to be carried over)
+    for f in (2500.0, np.float64(4321.5)):
+        fast, want = cam.with_focal(f), dataclasses.replace(cam, f_px=f)
+        assert fast == want and type(fast.f_px) is type(f)
+        assert fast.optics.geometry == want.optics.geometry
+        assert fast.optics.geometry["f_px"] == f and fast.distortion is cam.distortion
+        assert fast.half_diagonal_deg == want.half_diagonal_deg != cam.half_diagonal_deg
+    assert cam.pinhole == dataclasses.replace(cam, distortion=None)

@@ -6,6 +6,7 @@ import pickle
 import numpy as np
 from camera_reference import (
     reference_distort,
+    reference_half_diagonal_deg,
     reference_pixel_to_vector,
     reference_undistort,
     reference_vector_to_pixel,
@@ -60,3 +61,29 @@ def test_optics_pickles_and_takes_empty_inputs():
     np.testing.assert_array_equal(again.pixel_to_vector(x, y), optics.pixel_to_vector(x, y))
     assert again.geometry["k1"] == -0.1 and again.geometry["max_r2"] == 10 / 3
     assert optics.pixel_to_vector(np.zeros(0), np.zeros(0)).shape == (0, 3)
+
+
+def test_half_diagonal_is_as_it_was_to_the_bit():
+    rng = np.random.default_rng(7)
+    for d in [None, *LENSES]:
+        for _ in range(50):
+            width = int(rng.integers(50, 3000))
+            height = int(width * rng.uniform(0.5, 1.5))
+            cam = Camera.from_fov(width, height, rng.uniform(2.0, 30.0),
+                                  cx=(width - 1) / 2 + rng.normal(0.0, 20.0),
+                                  cy=(height - 1) / 2 + rng.normal(0.0, 20.0), distortion=d)
+            corners = cam.pixel_to_vector(np.array([0.0, width - 1.0, 0.0, width - 1.0]),
+                                          np.array([0.0, 0.0, height - 1.0, height - 1.0]))
+            np.testing.assert_array_equal(cam.optics.corner_cosines(), corners[:, 2])
+            assert cam.half_diagonal_deg == reference_half_diagonal_deg(cam)
+
+
+def test_pixels_of_any_layout_or_type_are_taken_as_float64():
+    cam = Camera.from_fov(1200, 800, 25.0, distortion=LENSES[0])
+    grid = np.arange(40.0).reshape(5, 8) * 25.0
+    for x in (grid[:, ::3], grid.T, grid.astype(np.float32), [0, 600, 1199]):
+        want = reference_pixel_to_vector(cam, np.asarray(x, np.float64),
+                                         np.asarray(x, np.float64)[::-1])
+        got = cam.pixel_to_vector(x, np.asarray(x)[::-1])
+        np.testing.assert_array_equal(got, want)
+        assert got.flags.c_contiguous and got.shape == np.shape(x) + (3,)

@@ -14,10 +14,11 @@ from synth import synthetic_frame
 from startrack._core import shared
 from startrack.attitude import random_attitudes
 from startrack.camera import Camera
+from startrack.camera._distortion import RadialDistortion
 from startrack.database import StarDatabase
 from startrack.sky import random_sky
 from startrack.types import Hypothesis, Observation
-from startrack.verify._frame import FrameVerifier
+from startrack.verify._frame import FrameVerifier, camera_geometry
 from startrack.verify._verification import VerifyConfig, rotation_of, verify
 
 CONFIG = VerifyConfig()
@@ -151,3 +152,31 @@ def test_angle_table_is_numpys_arccos():
     # near 0 an ulp of the dot product is 1e-8 rad of angle
     np.testing.assert_allclose(angle_table(a, a[:7]), want, rtol=0, atol=1e-7)
     assert np.all(np.isfinite(angle_table(a)))
+
+
+@pytest.mark.parametrize("distortion", [None, RadialDistortion(k1=-0.05, k2=0.01, k3=-0.002)])
+def test_camera_geometry_is_the_cameras_fields(distortion):
+    cam = Camera.from_fov(1001, 640, 15.0, cx=499.75, cy=321.0, distortion=distortion)
+    d = distortion or RadialDistortion()
+    assert camera_geometry(cam) == {
+        "f_px": cam.f_px, "cx": 499.75, "cy": 321.0, "width": 1001.0, "height": 640.0,
+        "k1": d.k1, "k2": d.k2, "k3": d.k3, "max_r2": d.max_r2}
+
+
+def test_frames_sharing_the_threads_buffers_keep_their_answers(random_db):
+    """Checks of several frames interleaved (their matching buffers are the thread's)
+    give each frame's answers, and an answer already given is not written over."""
+    rng = np.random.default_rng(23)
+    cases = list(_cases(random_db, rng, 4, False))
+    alone = [verify(hyp, obs, random_db, CONFIG) for hyp, obs, _ in cases]
+    kept = [(v.obs_index.copy(), v.cat_index.copy()) for v in alone]
+    checkers = {id(obs): FrameVerifier(obs, random_db, CONFIG) for _, obs, _ in cases}
+    for (hyp, obs, _), want in zip(reversed(cases), reversed(alone), strict=True):
+        got = verify(hyp, obs, random_db, CONFIG, checkers[id(obs)])
+        assert got.accepted == want.accepted and got.confirmed == want.confirmed
+        np.testing.assert_array_equal(got.obs_index, want.obs_index)
+        np.testing.assert_array_equal(got.cat_index, want.cat_index)
+    for v, (obs_index, cat_index) in zip(alone, kept, strict=True):
+        np.testing.assert_array_equal(v.obs_index, obs_index)
+        np.testing.assert_array_equal(v.cat_index, cat_index)
+    assert sum(v.accepted for v in alone) >= 4

@@ -7,10 +7,24 @@ import dataclasses
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from startrack._core.shared import wahba
+from synth import synthetic_frame
 
+from startrack.attitude import random_attitudes
 from startrack.camera._distortion import RadialDistortion
 from startrack.camera._model import Camera
-from startrack.solver._fov_fit import LENS_MIN_STARS, fit_camera, fit_focal
+from startrack.database import StarDatabase
+from startrack.sky import random_sky
+from startrack.solver._fov_fit import (
+    LENS_MIN_STARS,
+    fit_camera,
+    fit_focal,
+    keep_given,
+    verify_fitted,
+)
+from startrack.solver._lost_in_space import residuals_arcsec
+from startrack.types import Hypothesis, Observation
+from startrack.verify._verification import VerifyConfig
 
 
 def _stars(camera: Camera, n: int, seed: int):
@@ -106,3 +120,35 @@ def test_the_compiled_fit_is_the_numpy_fit():
             kinds["k1"] += want.distortion != true.distortion
         kinds["bad_f"] += not want.f_px > 0
     assert min(kinds.values()) > 0, kinds
+
+
+def test_a_fitted_verification_holds_the_residuals_keep_given_measures():
+    """keep_given takes the fitted camera's residuals from its verification: they are the
+    Wahba fit of the reported pairs and their angles on the observation returned, to the
+    bit; and the caller's observation through the given camera, when it holds one."""
+    db = StarDatabase(random_sky(3000, seed=3), Camera.from_fov(1024, 1024, 20.0))
+    rng = np.random.default_rng(8)
+    checked = given = 0
+    for rot in random_attitudes(8, rng):
+        frame = synthetic_frame(db.catalog, db.camera, rot, rng, noise_px=0.3)
+        real = np.flatnonzero(frame.truth_rows >= 0)[:4]
+        told = db.camera.with_focal(db.camera.f_px * 1.001)
+        found = verify_fitted(Hypothesis(real, frame.truth_rows[real]), frame.obs.x,
+                              frame.obs.y, told, 0.3, db, VerifyConfig())
+        if found is None:
+            continue
+        check, _, obs = found
+        assert check.obs_vectors is obs.vectors and len(check.obs_index) >= 3
+        cat = np.ascontiguousarray(db.vectors[check.cat_index])
+        rotation = wahba(np.ascontiguousarray(obs.vectors[check.obs_index]), cat)
+        np.testing.assert_array_equal(check.residual_arcsec,
+                                      residuals_arcsec(rotation, obs, check.obs_index, cat))
+        # the caller's observation through the given camera serves as keep_given's own
+        held = Observation.from_pixels(frame.obs.x, frame.obs.y, db.camera, 0.3)
+        made = keep_given(found, db.camera, 0.3, db, VerifyConfig())
+        kept = keep_given(found, db.camera, 0.3, db, VerifyConfig(), held)
+        assert made[1] == kept[1] and (kept[2] is held) == (kept[1] is db.camera)
+        np.testing.assert_array_equal(made[0].cat_index, kept[0].cat_index)
+        given += kept[1] is db.camera
+        checked += 1
+    assert checked >= 6 and given >= 3

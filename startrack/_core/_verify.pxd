@@ -74,7 +74,7 @@ cdef class Frame:
     cdef const double[::1] flux
     cdef Geometry geometry
     cdef readonly Py_ssize_t n
-    cdef NearestScratch scratch  # the matching's buffers, reused from call to call
+    cdef NearestScratch scratch  # the matching's buffers: the thread's, reused by every call
 
 
 cdef class Stars:

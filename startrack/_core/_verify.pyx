@@ -10,6 +10,8 @@ one call here does a whole hypothesis. The projection is
 """
 
 cimport cython
+import threading
+
 import numpy as np
 
 from libc.math cimport M_PI, acos, exp, fmax, fmin, lgamma, log, log1p

@@ -10,7 +10,21 @@ cdef class Frame:
         self.vectors, self.x, self.y, self.flux = vectors, x, y, flux
         self.geometry = geometry
         self.n = x.shape[0]
-        self.scratch = NearestScratch.__new__(NearestScratch)
+        self.scratch = _thread_scratch()
+
+
+# Each thread's matching buffers, shared by the frames it checks: a new frame (one per
+# verified camera in a focal-length search) would otherwise allocate them all again. A
+# call sets every value it reads and returns fresh arrays, so sharing them is safe; per
+# thread, as a call may let another thread run (a finalizer's bytecode).
+_THREAD = threading.local()
+
+
+cdef NearestScratch _thread_scratch():
+    cdef NearestScratch scratch = getattr(_THREAD, "scratch", None)
+    if scratch is None:
+        scratch = _THREAD.scratch = NearestScratch.__new__(NearestScratch)
+    return scratch
 
 
 cdef class Stars:

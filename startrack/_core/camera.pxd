@@ -13,3 +13,4 @@ cdef class Optics:
     cdef readonly RadialLens lens
     cdef Lens _lens
     cdef tuple _normalised(self, x, y)
+    cdef void _normalise(self, double[::1] a, double[::1] b) except *

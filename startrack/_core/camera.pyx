@@ -12,6 +12,8 @@ from libc.math cimport INFINITY, sqrt
 
 import numpy as np
 
+cimport numpy as cnp
+from startrack._core._arrays cimport empty_f64, empty_rows
 from startrack._core._camera cimport Geometry, Lens, lens_factor, lens_is_identity
 from startrack._core._camera cimport lens_undistort
 
@@ -23,9 +25,22 @@ cdef Lens _make_lens(double k1, double k2, double k3, double max_r2):
     return lens
 
 
+cdef inline double _norm(double u, double v) noexcept nogil:
+    """The length of (u, v, 1): the normalised-plane point's ray."""
+    return sqrt(u * u + v * v + 1.0)
+
+
+cnp.import_array()  # the C API the _arrays helpers and _flat call
+
+
 cdef _flat(values):
-    """``values`` as a fresh contiguous float64 vector (the kernels write in place)."""
-    return np.array(values, dtype=np.float64).ravel()
+    """``values`` as a fresh contiguous float64 vector (the kernels write in place):
+    ``np.array(values, dtype=np.float64).ravel()`` through numpy's C API (its Python
+    calls cost more than the arithmetic of a frame's stars)."""
+    cdef cnp.ndarray a = cnp.PyArray_FROM_OTF(
+        values, cnp.NPY_FLOAT64,
+        cnp.NPY_ARRAY_C_CONTIGUOUS | cnp.NPY_ARRAY_ENSURECOPY | cnp.NPY_ARRAY_FORCECAST)
+    return a if cnp.PyArray_NDIM(a) == 1 else a.ravel()
 
 
 cdef class RadialLens:
@@ -105,14 +120,29 @@ cdef class Optics:
         x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
         u, v = self._normalised(x, y)
         cdef double[::1] a = u, b = v
-        out = np.empty((a.shape[0], 3))
+        out = empty_rows(a.shape[0], 3)
         cdef double[:, ::1] vec = out
         cdef double norm
         cdef Py_ssize_t i
         for i in range(a.shape[0]):
-            norm = sqrt(a[i] * a[i] + b[i] * b[i] + 1.0)
+            norm = _norm(a[i], b[i])
             vec[i, 0], vec[i, 1], vec[i, 2] = a[i] / norm, b[i] / norm, 1.0 / norm
-        return out.reshape(x.shape + (3,))
+        return out if x.ndim == 1 else out.reshape(x.shape + (3,))
+
+    def corner_cosines(self):
+        """The cosine of the angle from the boresight to each image corner (the corner
+        pixels' centres: top-left, top-right, bottom-left, bottom-right): the z of
+        :meth:`pixel_to_vector` there, in one call (a camera's cone radius)."""
+        u, v = empty_f64(4), empty_f64(4)
+        cdef double[::1] a = u, b = v
+        a[0], a[1], a[2], a[3] = 0.0, self.geometry.width - 1.0, 0.0, self.geometry.width - 1.0
+        b[0], b[1], b[2] = 0.0, 0.0, self.geometry.height - 1.0
+        b[3] = b[2]
+        self._normalise(u, v)
+        cdef Py_ssize_t i
+        for i in range(4):
+            a[i] = 1.0 / _norm(a[i], b[i])
+        return u
 
     @cython.cdivision(True)
     def vector_to_pixel(self, vectors):
@@ -147,7 +177,12 @@ cdef class Optics:
     cdef tuple _normalised(self, x, y):
         """The ideal normalised coordinates (fresh vectors) of pixels ``x``, ``y``."""
         u, v = _flat(x), _flat(y)
-        cdef double[::1] a = u, b = v
+        self._normalise(u, v)
+        return u, v
+
+    @cython.cdivision(True)
+    cdef void _normalise(self, double[::1] a, double[::1] b) except *:
+        """Pixels ``a``, ``b`` made their ideal normalised coordinates, in place."""
         cdef Geometry g = self.geometry
         cdef Py_ssize_t i
         for i in range(a.shape[0]):
@@ -156,4 +191,3 @@ cdef class Optics:
         if a.shape[0] and not lens_is_identity(&self._lens) \
                 and lens_undistort(&self._lens, &a[0], &b[0], a.shape[0], 1) < 0:
             raise MemoryError("pixel_to_vector: no memory for the lens inversion")
-        return u, v

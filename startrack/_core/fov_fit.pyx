@@ -12,8 +12,9 @@ same minimiser) and the two-column least squares (Gram-Schmidt instead of an SVD
 cimport cython
 from libc.math cimport INFINITY, fabs, isfinite, sqrt
 
-import numpy as np
+cimport numpy as cnp
 
+from startrack._core._arrays cimport empty_f64, empty_rows
 from startrack._core._camera cimport Geometry, Lens, lens_factor, lens_is_identity, lens_of
 from startrack._core._camera cimport lens_undistort
 from startrack._core._wahba cimport wahba
@@ -23,6 +24,8 @@ from startrack._core.camera cimport Optics
 #: iterations), a focal length not positive and finite, a fitted k1 folding back inside
 #: the image.
 SETTLED, BAD_FOCAL, FOLDS = 0, 1, 2
+
+cnp.import_array()  # the C API the _arrays helpers call
 
 
 cdef inline double k1_fold_r2(double k1) noexcept nogil:
@@ -121,11 +124,11 @@ cdef double _tangent(const Geometry* g, const double[:, ::1] cat, const double[:
 
 @cython.cdivision(True)
 cdef (double, double) _lens_step(const double[:, ::1] t, const double[::1] dx,
-                                 const double[::1] dy, double max_k1):
+                                 const double[::1] dy, double max_k1,
+                                 double[:, ::1] cols) noexcept nogil:
     """The focal length and k1 of the two-column least squares, rows interleaved x, y
-    per star (as t.ravel())."""
+    per star (as t.ravel()); ``cols`` (3, 2 m) is its working space."""
     cdef Py_ssize_t i, m = dx.shape[0]
-    cdef double[:, ::1] cols = np.empty((3, 2 * m))
     cdef double f, g
     for i in range(m):
         cols[0, 2 * i], cols[0, 2 * i + 1] = t[i, 0], t[i, 1]
@@ -166,10 +169,13 @@ def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
     length; the fitted k1)."""
     cdef Geometry g = optics.geometry
     cdef Py_ssize_t i, m = x.shape[0]
-    cdef double[::1] dx = np.empty(m), dy = np.empty(m)
+    # the buffers of every round, made once (numpy's Python calls would cost more than
+    # a round's arithmetic)
+    cdef double[::1] dx = empty_f64(m), dy = empty_f64(m)
     for i in range(m):
         dx[i], dy[i] = x[i] - g.cx, y[i] - g.cy
-    cdef double[:, ::1] cam = np.empty((m, 3)), t = np.empty((m, 3)), rot = np.empty((3, 3))
+    cdef double[:, ::1] cam = empty_rows(m, 3), t = empty_rows(m, 3), rot = empty_rows(3, 3)
+    cdef double[:, ::1] cols = empty_rows(3, 2 * m) if with_k1 else None
     cdef double f = g.f_px, k1 = 0.0, f_new, k1_new, top
     cdef bint done
     cdef int _
@@ -178,7 +184,7 @@ def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
         wahba(cam, cat, rot)
         top = _tangent(&g, cat, rot, t)
         if with_k1 and top >= min_r2:
-            f_new, k1_new = _lens_step(t, dx, dy, max_k1)
+            f_new, k1_new = _lens_step(t, dx, dy, max_k1, cols)
         else:
             k1_new = 0.0
             if not _focal_step(t, dx, dy, &f_new):  # no star off the axis: nothing to fit

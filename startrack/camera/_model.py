@@ -7,7 +7,6 @@ it through the compiled model (:class:`startrack._core.camera.Optics`).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from functools import cached_property
@@ -100,7 +99,7 @@ class Camera:
         must stay invertible over the whole image: a lens whose image folds back on
         itself inside the frame is an error."""
         if distortion is None or distortion.is_identity:
-            return dataclasses.replace(self, distortion=None)
+            return self._with(self.f_px, None)
         # in scalars, not arrays: a fitted lens is checked in every FOV refit
         ex = max(abs(-0.5 - self.cx), abs(self.width - 0.5 - self.cx))
         ey = max(abs(-0.5 - self.cy), abs(self.height - 0.5 - self.cy))
@@ -109,12 +108,24 @@ class Camera:
         if math.isfinite(r2) and rd2 >= r2 * distortion.factor(r2) ** 2:
             raise InputError(f"camera: distortion {distortion.to_dict()} folds back inside "
                              "the image (not invertible at the corners)")
-        return dataclasses.replace(self, distortion=distortion)
+        return self._with(self.f_px, distortion)
+
+    def with_focal(self, f_px: float) -> Camera:
+        """This camera with the focal length ``f_px`` (px), the lens kept: what
+        ``dataclasses.replace(camera, f_px=f_px)`` makes, for a fraction of its cost (a
+        focal-length search makes cameras by the dozen per frame). Not checked: the
+        caller's ``f_px`` is a fitted or searched one, positive and finite (a user's goes
+        through :meth:`from_fov` or :meth:`from_optics`)."""
+        return self._with(f_px, self.distortion)
+
+    def _with(self, f_px: float, distortion: RadialDistortion | None) -> Camera:
+        # the constructor itself: dataclasses.replace reads every field by name first
+        return type(self)(self.width, self.height, f_px, self.cx, self.cy, distortion)
 
     @property
     def pinhole(self) -> Camera:
         """The same camera without distortion."""
-        return dataclasses.replace(self, distortion=None)
+        return self._with(self.f_px, None)
 
     @property
     def fov_deg(self) -> float:
@@ -127,17 +138,20 @@ class Camera:
         b = self.pixel_to_vector(np.array([self.width - 1.0]), np.array([self.height - 1.0]))[0]
         return math.degrees(math.acos(float(np.clip(a @ b, -1.0, 1.0))))
 
-    @property
+    @cached_property  # verification asks once per camera it builds a frame for
     def half_diagonal_deg(self) -> float:
         """Angle from the boresight to the farthest image corner."""
-        if self.distortion is None:  # a pinhole: no array work (verification asks per camera)
-            r = max(math.hypot(x - self.cx, y - self.cy)
-                    for x in (0.0, self.width - 1.0) for y in (0.0, self.height - 1.0))
+        if self.distortion is None:  # a pinhole: no array work
+            left, right = 0.0 - self.cx, self.width - 1.0 - self.cx
+            top, bottom = 0.0 - self.cy, self.height - 1.0 - self.cy
+            r = max(math.hypot(left, top), math.hypot(left, bottom), math.hypot(right, top),
+                    math.hypot(right, bottom))
             return math.degrees(math.atan2(r, self.f_px))
-        corners_x = np.array([0.0, self.width - 1.0, 0.0, self.width - 1.0])
-        corners_y = np.array([0.0, 0.0, self.height - 1.0, self.height - 1.0])
-        v = self.pixel_to_vector(corners_x, corners_y)
-        return float(np.degrees(np.arccos(np.clip(v[:, 2], -1, 1))).max())
+        # the corners' arccos is numpy's, as ever; their cosines lie in [0, 1] (the z of a
+        # unit vector 1 / |(u, v, 1)|): no clip. The largest angle, NaN winning (numpy's
+        # max), turned to degrees (math's and numpy's are the same one product).
+        angles = np.arccos(self.optics.corner_cosines())
+        return math.degrees(float(np.maximum.reduce(angles)))
 
     @cached_property
     def optics(self) -> Optics:

@@ -4,7 +4,6 @@ behind every answer of :mod:`startrack.solver._fov_search`)."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -38,7 +37,7 @@ REFIT_ROUNDS = 3
 def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
               iterations: int = 12) -> float:
     """The focal length (px) of :func:`fit_camera` with the lens left as it is."""
-    return fit_camera(camera, x, y, cat_vectors, iterations, lens=False).f_px
+    return _fit(camera, x, y, cat_vectors, iterations, False)[1]  # no Camera made
 
 
 def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
@@ -52,16 +51,21 @@ def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.nda
     described still has its wide-field stars fitted. A focal length that is not positive
     and finite comes back as it is; a fitted lens that folds back inside the image is an
     :class:`InputError`, as :meth:`Camera.with_distortion` makes it."""
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    y = np.ascontiguousarray(y, dtype=np.float64)
     with_k1 = lens and camera.distortion is None and len(x) >= LENS_MIN_STARS
-    status, f, k1 = fit_focal_kernel(camera.optics, x, y,
-                                     np.ascontiguousarray(cat_vectors, dtype=np.float64),
-                                     iterations, with_k1, LENS_MIN_R2, LENS_MAX_K1)
-    cam = dataclasses.replace(camera, f_px=f)
+    status, f, k1 = _fit(camera, x, y, cat_vectors, iterations, with_k1)
+    cam = camera.with_focal(f)
     if status == BAD_FOCAL or not k1:
         return cam
     return cam.with_distortion(RadialDistortion(k1=k1))  # FOLDS: its InputError
+
+
+def _fit(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
+         iterations: int, with_k1: bool) -> tuple[int, float, float]:
+    """The compiled fit's (status, focal length, k1)."""
+    return fit_focal_kernel(camera.optics, np.ascontiguousarray(x, dtype=np.float64),
+                            np.ascontiguousarray(y, dtype=np.float64),
+                            np.ascontiguousarray(cat_vectors, dtype=np.float64),
+                            iterations, with_k1, LENS_MIN_R2, LENS_MAX_K1)
 
 
 def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
@@ -120,8 +124,10 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
 
 
 def _same_stars(a: Verification, b: Verification) -> bool:
-    return np.array_equal(a.obs_index, b.obs_index) and np.array_equal(a.cat_index,
-                                                                        b.cat_index)
+    # np.array_equal's checks and conversions cost more than comparing tens of indices
+    return (a.obs_index.shape == b.obs_index.shape and a.cat_index.shape == b.cat_index.shape
+            and bool((a.obs_index == b.obs_index).all())
+            and bool((a.cat_index == b.cat_index).all()))
 
 
 #: the given camera stands unless the fitted one lowers the matched stars' chi-square
@@ -137,8 +143,9 @@ REFIT_HYPOTHESIS_STARS = 4
 
 
 def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
-               sigma_px: float, database: StarDatabase,
-               config: VerifyConfig) -> tuple[Verification, Camera, Observation]:
+               sigma_px: float, database: StarDatabase, config: VerifyConfig,
+               given_obs: Observation | None = None,
+               ) -> tuple[Verification, Camera, Observation]:
     """``found`` (from :func:`verify_fitted`) with the ``given`` camera put back when the
     data do not reject it: a camera given exactly (a simulated frame's sidecar) is reported
     as given, not as a fitted focal length and k1 a few parts in 1e4 off. Rejected means
@@ -146,12 +153,15 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     fitted residuals show, exceeds the chi-square quantile of :data:`GIVEN_REJECT_P` for
     the parameters fitted; the given camera must also pass verification again, with the
     :data:`REFIT_HYPOTHESIS_STARS` brightest matched stars as the hypothesis (the rest of
-    the frame is the independent evidence, as when a FOV is refitted)."""
+    the frame is the independent evidence, as when a FOV is refitted). ``given_obs``: the
+    frame's stars through ``given`` at ``sigma_px`` when the caller holds them (else made
+    here)."""
     check, fitted, obs = found
     if fitted == given:
         return found
     cat = np.ascontiguousarray(database.vectors[check.cat_index], dtype=np.float64)
-    given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
+    if given_obs is None:
+        given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
 
     def squared(o: Observation) -> float:
         # the compiled Wahba fit verification uses (no scipy Rotation in every refit)
@@ -162,7 +172,10 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     dof = len(check.obs_index) * 2 - 3 - n_params
     if dof <= 0:  # too few matched stars to tell the cameras apart (or to solve Wahba)
         return found
-    fit_sq = squared(obs)
+    # the fitted camera's residuals are its verification's own when it checked ``obs``:
+    # the same Wahba fit of the same pairs (its final attitude), the same angles
+    fit_sq = float(np.sum(check.residual_arcsec ** 2)) if check.obs_vectors is obs.vectors \
+        else squared(obs)
     if fit_sq <= 0.0:
         return found
     drop = (squared(given_obs) - fit_sq) / (fit_sq / dof)

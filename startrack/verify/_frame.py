@@ -5,7 +5,6 @@ asked once per hypothesis (:class:`FrameVerifier`)."""
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -34,21 +33,16 @@ CONE_LOOKUP_MARGIN = 1.01
 CAPTURE = 3.0  # the wider capture of a refinement, in match radii
 
 
-@lru_cache(maxsize=64)
 def cone_radius(camera: Camera) -> float:
     """Radius of the catalog cone that holds every star of an image around its boresight."""
     return math.radians(camera.half_diagonal_deg) * CONE_MARGIN
 
 
-@lru_cache(maxsize=64)
 def camera_geometry(camera: Camera) -> dict:
-    """The camera as the compiled projection takes it (the fields of ``Geometry``)."""
-    d = camera.distortion
-    k1, k2, k3, max_r2 = (0.0, 0.0, 0.0, math.inf) if d is None else (d.k1, d.k2, d.k3,
-                                                                        d.max_r2)
-    return {"f_px": float(camera.f_px), "cx": float(camera.cx), "cy": float(camera.cy),
-            "width": float(camera.width), "height": float(camera.height), "k1": float(k1),
-            "k2": float(k2), "k3": float(k3), "max_r2": float(max_r2)}
+    """The camera as the compiled projection takes it (the fields of ``Geometry``: the
+    pinhole, and the lens's k1, k2, k3 and fold radius, zeros and inf without one), as
+    its compiled optics hold it."""
+    return camera.optics.geometry
 
 
 def _as(array: np.ndarray, dtype: type = np.float64) -> np.ndarray:
@@ -92,6 +86,7 @@ class FrameVerifier:
             rows = _as(rows, np.int64)
             stars = Stars(_as(database.vectors[rows]), _as(mags[rows]), rows)
         self.radius_px = radius
+        self.vectors = obs.vectors  # what an accepted Verification's residuals refer to
         self._verifier = Verifier(frame, params, database.cone_index.table, mags, stars)
 
     def check(self, obs_index: np.ndarray, cat_index: np.ndarray) -> Verdict:

@@ -63,6 +63,9 @@ class Verification:
     #: which is then ascending) and the attitude's quaternion ``[x, y, z, w]``
     residual_arcsec: np.ndarray | None = None
     quaternion: np.ndarray | None = None
+    #: once accepted: the observed stars' unit vectors the residuals were measured with
+    #: (the checked frame's ``Observation.vectors``, the array itself)
+    obs_vectors: np.ndarray | None = None
 
     @cached_property  # a scipy Rotation costs tens of microseconds to make
     def rotation(self) -> Rotation | None:
@@ -116,7 +119,7 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
     if verdict.status == ACCEPTED:
         return Verification(True, verdict.final, verdict.obs, verdict.rows,
                             verdict.probability, verdict.confirmed, verdict.residuals,
-                            verdict.quaternion)
+                            verdict.quaternion, checker.vectors)
     if verdict.status == NOT_ACCEPTED:
         return Verification(False, verdict.first, verdict.obs, verdict.rows,
                             verdict.probability, verdict.confirmed)
