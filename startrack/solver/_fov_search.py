@@ -104,10 +104,10 @@ def search_window(matcher: QuadMatcher, x, y, camera: Camera, window: Pass,
 def _fitted_guess(sh: ScaledHypothesis, x, y, camera: Camera,
                   database: StarDatabase) -> Camera:
     """The camera with the focal length fitted to the hypothesis' own four stars."""
-    cam = dataclasses.replace(camera, f_px=sh.f_px)
+    cam = camera.with_focal(sh.f_px)
     h = sh.hypothesis
     f = fit_focal(cam, x[h.obs_index], y[h.obs_index], database.vectors[h.cat_index])
-    return dataclasses.replace(camera, f_px=f) if f > 0 and math.isfinite(f) else cam
+    return camera.with_focal(f) if f > 0 and math.isfinite(f) else cam
 
 
 @dataclass(frozen=True)
