@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from startrack._core.quad import image_quads
+from startrack._core.quad import image_quads, image_quads_by_faintest
 
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
@@ -70,6 +70,27 @@ def test_the_image_patterns_follow_the_table_builders_rule(sky, seed, level_deg,
     assert len(want[0]) > 0
     for g, w in zip(got, want, strict=True):
         assert np.array_equal(g, w)
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("level_deg, slack", [(16.0, 1.0), (16.0, 1.05), (4.0, 1.3)])
+def test_the_fast_paths_patterns_made_one_faintest_star_at_a_time_are_all_of_them(
+        sky, seed, level_deg, slack):
+    """The fast path makes each faintest star's patterns only when the brighter stars'
+    found nothing: the same patterns and edges, in the order of a stable sort of all of
+    them by their faintest star (the order it looked them up in when it made them all)."""
+    vectors = _frame(sky, Camera.from_fov(1024, 1024, 16.0), seed)
+    size = np.radians(level_deg) * slack
+    bounds = (Q.PATTERN_SIZE * size, Q.MAX_PATTERN_SIZE * size)
+    quads, edges = image_quads(RULES, vectors, *bounds)
+    by = np.argsort(quads[:, 3], kind="stable")
+    got_quads, got_edges = image_quads_by_faintest(RULES, vectors, *bounds)
+    assert len(quads) > 4 and not np.array_equal(by, np.arange(len(quads)))
+    assert np.array_equal(got_quads, quads[by]) and np.array_equal(got_edges, edges[by])
+    apart = np.array([[1.0, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0, 0]])
+    for few in (vectors[:3], apart):  # too few stars; no pair within reach
+        none_quads, none_edges = image_quads_by_faintest(RULES, few, *bounds)
+        assert none_quads.shape == (0, 4) and none_edges.shape == (0, 6)
 
 
 def test_no_patterns_and_an_empty_table_give_no_candidates(sky, levels):

@@ -139,14 +139,15 @@ cdef void _near_rows(QuadTable t, QuadRules rules, const double *r, const long l
                     break
 
 
-cdef void _key_ranges(QuadRules rules, const double[:, ::1] edges, Py_ssize_t m, double *r,
-                      long long *lo, long long *hi) noexcept:
-    """Pattern ``m``'s sorted edge ratios and the key bins within the tolerance of each."""
+cdef void _key_ranges(QuadRules rules, const double *edges, double *r, long long *lo,
+                      long long *hi) noexcept:
+    """A pattern's sorted edge ratios (of its six ``edges``) and the key bins within the
+    tolerance of each."""
     cdef double s[6]
     cdef double v, largest
     cdef int i, j
     for i in range(6):
-        v = edges[m, i]
+        v = edges[i]
         j = i
         while j > 0 and s[j - 1] > v:
             s[j] = s[j - 1]
@@ -169,7 +170,7 @@ cdef void _pairs(QuadTable t, QuadRules rules, const double[:, ::1] edges, _Ints
     cdef long long hi[5]
     cdef Py_ssize_t m, k
     for m in range(edges.shape[0]):
-        _key_ranges(rules, edges, m, r, lo, hi)
+        _key_ranges(rules, &edges[m, 0], r, lo, hi)
         rows.n = 0
         _near_rows(t, rules, r, lo, hi, rows)
         for k in range(rows.n):
@@ -198,28 +199,27 @@ cdef Py_ssize_t _best_orders(QuadRules rules, const double[:, ::1] edges, _Ints 
     cdef double least
     cdef Py_ssize_t p, n = 0
     for p in range(pat.n):
-        least = _best_order(rules, edges, pat.a[p], cat_edges, p, &best[p])
+        least = _best_order(rules, &edges[pat.a[p], 0], &cat_edges[p, 0], &best[p])
         if least <= rules.tolerance:
             good[n], error[n] = p, least
             n += 1
     return n
 
 
-cdef double _best_order(QuadRules rules, const double[:, ::1] edges, Py_ssize_t m,
-                        const double[:, ::1] cat_edges, Py_ssize_t p,
+cdef double _best_order(QuadRules rules, const double *edges, const double *cat_edges,
                         long long *best) noexcept:
-    """The best of the 24 star orders of image pattern ``m`` against catalog pattern ``p``
-    (written to ``best``) and its largest edge-ratio disagreement."""
+    """The best of the 24 star orders of an image pattern (its six ``edges``) against a
+    catalog pattern's (written to ``best``) and its largest edge-ratio disagreement."""
     cdef double img[6]
     cdef double c[6]
-    cdef double largest = edges[m, 0], cmax = cat_edges[p, 0], worst, least = 0.0, d
+    cdef double largest = edges[0], cmax = cat_edges[0], worst, least = 0.0, d
     cdef int k, o
     for k in range(1, 6):
-        largest = max(largest, edges[m, k])
-        cmax = max(cmax, cat_edges[p, k])
+        largest = max(largest, edges[k])
+        cmax = max(cmax, cat_edges[k])
     for k in range(6):
-        img[k] = edges[m, k] / largest
-        c[k] = cat_edges[p, k] / cmax
+        img[k] = edges[k] / largest
+        c[k] = cat_edges[k] / cmax
     for o in range(24):
         worst = 0.0
         for k in range(6):
@@ -231,14 +231,14 @@ cdef double _best_order(QuadRules rules, const double[:, ::1] edges, Py_ssize_t 
     return least
 
 
-cdef inline double _scale(QuadRules rules, const double[:, ::1] edges, Py_ssize_t m,
-                          const double[:, ::1] cat_edges, Py_ssize_t p, long long o) noexcept:
+cdef inline double _scale(QuadRules rules, const double *edges, const double *cat_edges,
+                          long long o) noexcept:
     """Observed over catalog pattern size (sums of the six edges, in matching order)."""
     cdef double num = 0.0, den = 0.0
     cdef int k
     for k in range(6):
-        num += edges[m, k]
-        den += cat_edges[p, rules.perm_edges[o, k]]
+        num += edges[k]
+        den += cat_edges[rules.perm_edges[o, k]]
     return num / den
 
 
@@ -262,7 +262,7 @@ cdef QuadMatches _ranked(QuadTable t, QuadRules rules, const long long[:, ::1] q
         p = good[g]
         o = best[p]
         error[g] = good_error[g]
-        scale[g] = _scale(rules, edges, pat.a[p], cat_edges, p, o)
+        scale[g] = _scale(rules, &edges[pat.a[p], 0], &cat_edges[p, 0], o)
         for k in range(4):
             obs[g, k] = quads[pat.a[p], k]
             cat[g, k] = t.quads[row.a[p], rules.perms[o, k]]
