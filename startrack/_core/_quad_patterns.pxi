@@ -25,7 +25,7 @@ cdef object _edges(QuadRules rules, const double[:, ::1] vec, const long long[:,
 
 
 cdef void _nearest_rows(const double[:, ::1] v, Py_ssize_t n, Py_ssize_t kk, double bound2,
-                        double[::1] kth, long long[:, ::1] near) noexcept:
+                        double *kth, long long[:, ::1] near) noexcept:
     """Each row's distance to its ``kk``-th nearest other row (inf beyond the chord bound,
     whose square is ``bound2``) and those ``kk`` rows (``n`` beyond the bound), nearest
     first."""
@@ -47,37 +47,42 @@ cdef void _nearest_rows(const double[:, ::1] v, Py_ssize_t n, Py_ssize_t kk, dou
             near[a, i] = order[i + 1] if d2[order[i + 1]] < bound2 else n
 
 
-cdef object _pattern_radii(const double[:, ::1] v, Py_ssize_t n, Py_ssize_t kk,
-                           double min_rad, double max_rad, long long[:, ::1] near):
-    """Each row's pattern radius (numpy array), as ``quads.pattern_radii``; ``near`` keeps
-    a row's nearest rows only where its radius exceeds ``min_rad``."""
-    kth = np.empty(n)
-    _nearest_rows(v, n, kk, (2.0 * sin(min(max_rad, M_PI) / 2.0)) ** 2, kth, near)
-    angle = 2.0 * np.arcsin(np.clip(kth / 2.0, 0.0, 1.0))
+cdef void _pattern_radii(const double[:, ::1] v, Py_ssize_t n, Py_ssize_t kk, double min_rad,
+                         double max_rad, long long[:, ::1] near, double *radii):
+    """Each row's pattern radius, as ``quads.pattern_radii`` (numpy's arcsin); ``near``
+    keeps a row's nearest rows only where its radius exceeds ``min_rad``."""
+    angle = np.empty(n)
     cdef double[::1] a = angle
-    cdef const double[::1] k = kth
+    cdef double kth[64]
     cdef Py_ssize_t i, j
+    _nearest_rows(v, n, kk, (2.0 * sin(min(max_rad, M_PI) / 2.0)) ** 2, kth, near)
     for i in range(n):
-        a[i] = min(max(a[i] if isfinite(k[i]) else max_rad, min_rad), max_rad)
-        if not a[i] > min_rad:
+        a[i] = min(max(kth[i] / 2.0, 0.0), 1.0)
+    np.arcsin(angle, out=angle)
+    for i in range(n):
+        radii[i] = min(max(2.0 * a[i] if isfinite(kth[i]) else max_rad, min_rad), max_rad)
+        if not radii[i] > min_rad:
             for j in range(kk):
                 near[i, j] = n
-    return angle
 
 
-cdef void _linked(const double[:, ::1] v, Py_ssize_t n, Py_ssize_t kk, double min_chord2,
+cdef bint _linked(const double[:, ::1] v, Py_ssize_t n, Py_ssize_t kk, double min_chord2,
                   const long long[:, ::1] near, unsigned char[:, ::1] link) noexcept:
     """``link[a, b]`` (a < b): b is within the pattern radius of a (the pairs within
-    ``min_rad``, and a sparse row's nearest rows)."""
+    ``min_rad``, and a sparse row's nearest rows); whether any pair is linked."""
     cdef Py_ssize_t a, b
     cdef double dx, dy, dz
+    cdef bint any_link = False
     for a in range(n):
         for b in range(a + 1, n):
             dx, dy, dz = v[a, 0] - v[b, 0], v[a, 1] - v[b, 1], v[a, 2] - v[b, 2]
             link[a, b] = (dx * dx + dy * dy + dz * dz) <= min_chord2
+            any_link |= link[a, b]
         for b in range(kk):
             if a < near[a, b] < n:
                 link[a, near[a, b]] = 1
+                any_link = True
+    return any_link
 
 
 cdef inline double _dot(const double[:, ::1] v, Py_ssize_t a, Py_ssize_t b) noexcept nogil:
@@ -88,13 +93,14 @@ cdef class _ImageStars:
     """The image's pattern stars (its first ``n`` rows, brightest first) as the patterns
     are made of them: which star each one reaches (``link[a, b]``, a < b), how many of
     those it takes (``cap``), the cosine of its largest edge (``cos_max``) and every
-    pair's edge angle (``angle``, both triangles), so a pattern's edges are six reads."""
+    pair's edge angle (``angle[a * n + b]``, both ways), so a pattern's edges are six
+    reads."""
     cdef Py_ssize_t n
     cdef const double[:, ::1] v
     cdef const unsigned char[:, ::1] link
-    cdef const double[::1] cos_max
-    cdef const long long[::1] cap
-    cdef double[:, ::1] angle
+    cdef double cos_max[64]
+    cdef long long cap[64]
+    cdef double[::1] angle
 
 
 cdef _ImageStars _image_stars(QuadRules rules, const double[:, ::1] vectors, double max_edge,
@@ -102,46 +108,54 @@ cdef _ImageStars _image_stars(QuadRules rules, const double[:, ::1] vectors, dou
     """The pattern stars of ``quads.all_quads``'s rule on the first ``image_stars`` rows
     with ``image_nearest`` nearest rows; None when they make no pattern."""
     cdef Py_ssize_t n = min(vectors.shape[0], rules.image_stars)
-    cdef Py_ssize_t kk = min(rules.image_nearest, n - 1)
+    cdef Py_ssize_t kk = min(rules.image_nearest, n - 1), i
+    cdef double radii[64]
     if n < 4:
         return None
     near_rows = np.full((n, max(kk, 0)), n, np.int64)
     cdef long long[:, ::1] near = near_rows
     if kk <= 0 or sparse_edge <= max_edge:
-        radii, kk = np.full(n, max_edge), 0
+        kk = 0
+        for i in range(n):
+            radii[i] = max_edge
     else:
-        radii = _pattern_radii(vectors, n, kk, max_edge, sparse_edge, near)
+        _pattern_radii(vectors, n, kk, max_edge, sparse_edge, near, radii)
     link = np.zeros((n, n), np.uint8)
-    _linked(vectors, n, kk, (2.0 * sin(min(max_edge, M_PI) / 2.0)) ** 2, near, link)
-    if not link.any():
+    cdef unsigned char[:, ::1] linked = link
+    if not _linked(vectors, n, kk, (2.0 * sin(min(max_edge, M_PI) / 2.0)) ** 2, near, linked):
         return None
-    sparse = radii > max_edge
     stars = _ImageStars()
     stars.n, stars.v, stars.link = n, vectors, link
-    stars.cos_max = np.cos(np.where(sparse, np.minimum(2.0 * radii, max(sparse_edge, max_edge)),
-                                    radii))
-    stars.cap = np.where(sparse, max(rules.image_nearest, rules.image_stars),
-                         rules.image_stars).astype(np.int64)
+    cos_max = np.empty(n)
+    cdef double[::1] c = cos_max
+    for i in range(n):  # a sparse row's patterns reach further, to its nearest rows
+        c[i] = min(2.0 * radii[i], max(sparse_edge, max_edge)) if radii[i] > max_edge else radii[i]
+        stars.cap[i] = (max(rules.image_nearest, rules.image_stars) if radii[i] > max_edge
+                        else rules.image_stars)
+    np.cos(cos_max, out=cos_max)
+    for i in range(n):
+        stars.cos_max[i] = c[i]
     stars.angle = _pair_angles(vectors, n)
     return stars
 
 
 cdef object _pair_angles(const double[:, ::1] vec, Py_ssize_t n):
-    """The edge angle (radians) of every pair of the first ``n`` rows, as :func:`_edges`
-    computes a pattern's (the chord of the lower row minus the higher, numpy's arcsin)."""
-    out = np.zeros((n, n))
-    cdef double[:, ::1] half = out
+    """The edge angle (radians) of every pair of the first ``n`` rows (n x n, flat), as
+    :func:`_edges` computes a pattern's (the chord of the lower row minus the higher,
+    numpy's arcsin)."""
+    out = np.zeros(n * n)
+    cdef double[::1] half = out
     cdef Py_ssize_t a, b
     cdef double d0, d1, d2
     for a in range(n):
         for b in range(a + 1, n):
             d0, d1, d2 = vec[a, 0] - vec[b, 0], vec[a, 1] - vec[b, 1], vec[a, 2] - vec[b, 2]
-            half[a, b] = min(max(sqrt(d0 * d0 + d1 * d1 + d2 * d2) / 2.0, 0.0), 1.0)
+            half[a * n + b] = min(max(sqrt(d0 * d0 + d1 * d1 + d2 * d2) / 2.0, 0.0), 1.0)
     np.arcsin(out, out=out)
-    out *= 2.0
     for a in range(n):
         for b in range(a + 1, n):
-            half[b, a] = half[a, b]
+            half[a * n + b] *= 2.0
+            half[b * n + a] = half[a * n + b]
     return out
 
 
@@ -150,7 +164,7 @@ cdef inline void _quad_edges(QuadRules rules, _ImageStars stars, const long long
     """The six edge angles of the image pattern of stars ``q``."""
     cdef int k
     for k in range(6):
-        e[k] = stars.angle[q[rules.edges[k, 0]], q[rules.edges[k, 1]]]
+        e[k] = stars.angle[q[rules.edges[k, 0]] * stars.n + q[rules.edges[k, 1]]]
 
 
 cdef inline Py_ssize_t _reach(_ImageStars stars, Py_ssize_t a, long long *rows) noexcept:
