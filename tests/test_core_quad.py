@@ -159,3 +159,30 @@ def test_the_first_strong_candidate_is_true_and_one_the_ranking_holds(sky, seed)
     assert same[0].error == pytest.approx(strong.error, rel=1e-9, abs=1e-12)
     junk_x, junk_y = rng.uniform(0, 1024, 40), rng.uniform(0, 1024, 40)
     assert matcher.strong(junk_x, junk_y, camera, lo, hi, MatchDiagnostics()) is None
+
+
+def test_a_matcher_remembering_its_windows_answers_as_a_fresh_one(sky):
+    """The camera and level of each window are remembered per camera object: two cameras
+    of different width asked in turn (and windows of both sizes) get what a fresh matcher
+    gives each."""
+    from startrack.matchers.quad import QuadMatcher
+    from startrack.types import MatchDiagnostics
+
+    narrow, wide = Camera.from_fov(1024, 1024, 16.0), Camera.from_fov(1200, 1024, 16.0)
+    db = StarDatabase(sky, narrow)
+    kept = QuadMatcher(db)
+    rng = np.random.default_rng(3)
+    _, x, y = stars_in_view(sky, narrow, Rotation.from_quat(rng.normal(size=4)))
+    found = []
+    for camera in (narrow, wide, narrow, wide):
+        for scale in (1.0, 1.03):
+            lo, hi = narrow.f_px * scale / 1.03, narrow.f_px * scale * 1.03
+            got = kept.strong(x, y, camera, lo, hi, MatchDiagnostics())
+            want = QuadMatcher(db).strong(x, y, camera, lo, hi, MatchDiagnostics())
+            assert (got is None) == (want is None)
+            if got is not None:
+                found.append(camera is narrow)
+                assert np.array_equal(got.hypothesis.cat_index, want.hypothesis.cat_index)
+                assert (got.f_px, got.error, got.confirmed) == (want.f_px, want.error,
+                                                                want.confirmed)
+    assert any(found) and not all(found)  # both cameras' windows found a candidate
