@@ -27,55 +27,44 @@ cdef inline bint _passes(QuadTable t, QuadRules rules, Py_ssize_t row,
     return worst <= rules.near
 
 
-cdef inline Py_ssize_t _first_at_least(QuadTable t, Py_ssize_t first, Py_ssize_t end,
-                                       long long key) noexcept nogil:
-    """The first row in [first, end) whose key is at least ``key`` (the keys are sorted)."""
-    cdef Py_ssize_t n = end - first, half
-    while n > 0:
-        half = n >> 1
-        if t.keys[first + half] < key:
-            first += half + 1
-            n -= half + 1
-        else:
-            n = half
-    return first
-
-
 cdef void _near_rows(QuadTable t, QuadRules rules, const double *r, const long long *lo,
                      const long long *hi, _Ints out):
     """Append to ``out``, ascending and once each, the table rows of the keys within the
     tolerance of ratios ``r`` (each digit ``lo`` or ``hi``) that pass the first test: the
-    buckets of the three high digits in ascending order, each searched for the span of its
-    rows between the least and the greatest of the two low digits' keys (``low``,
-    ascending), and that span for those keys."""
+    buckets of the three high digits in ascending order, each scanned up to the greatest
+    of the two low digits' keys (``low``, ascending; a bucket's keys are sorted)."""
     cdef long long n1 = rules.nbins, n2 = rules.nbins * rules.nbins
     cdef long long low[4]
-    cdef long long q0, q1, q2, q3, q4, base, key
-    cdef Py_ssize_t row, end, b, nb = t.bucket.shape[0] - 1
-    cdef int p, k, nlow = 0
+    cdef long long base[8]
+    cdef Py_ssize_t start[8]
+    cdef Py_ssize_t end[8]
+    cdef long long q0, q1, q2, q3, q4, key
+    cdef Py_ssize_t row, b, nb = t.bucket.shape[0] - 1
+    cdef int p, k, nlow = 0, nbk = 0
     for p in range(4):
         if _bit(p, 1, lo, hi, 1, &q1) and _bit(p, 0, lo, hi, 0, &q0):
             low[nlow] = q0 + n1 * q1
             nlow += 1
-    for p in range(8):
+    for p in range(8):  # every bucket's span first: their reads overlap
         if not (_bit(p, 2, lo, hi, 4, &q4) and _bit(p, 1, lo, hi, 3, &q3)
                 and _bit(p, 0, lo, hi, 2, &q2)):
             continue
         b = q2 + n1 * q3 + n2 * q4
-        if b >= nb:
-            continue
-        base, end = b * n2, t.bucket[b + 1]
-        row = _first_at_least(t, t.bucket[b], end, base + low[0])
-        while row < end:
-            key = t.keys[row] - base
+        if b < nb:
+            base[nbk], start[nbk], end[nbk] = b * n2, t.bucket[b], t.bucket[b + 1]
+            nbk += 1
+    for p in range(nbk):
+        for row in range(start[p], end[p]):
+            key = t.keys[row] - base[p]
             if key > low[nlow - 1]:
                 break
+            if key < low[0]:
+                continue
             for k in range(nlow):
                 if key == low[k]:
                     if _passes(t, rules, row, r):
                         out.push(row)
                     break
-            row += 1
 
 
 cdef void _key_ranges(QuadRules rules, const double *edges, double *r, long long *lo,
