@@ -67,6 +67,7 @@ cdef void _near_rows(QuadTable t, QuadRules rules, const double *r, const long l
                     break
 
 
+@cython.cdivision(True)  # largest > 0 and QuadRules' bin > 0
 cdef void _key_ranges(QuadRules rules, const double *edges, double *r, long long *lo,
                       long long *hi) noexcept:
     """A pattern's sorted edge ratios (of its six ``edges``) and the key bins within the

@@ -31,13 +31,17 @@ cdef void _nearest_rows(const double[:, ::1] v, Py_ssize_t n, Py_ssize_t kk, dou
     first."""
     cdef double d2[64]
     cdef int order[64]
-    cdef Py_ssize_t a, b, i, j
+    cdef Py_ssize_t a, b, i, j, kept
     cdef double dx, dy, dz
     for a in range(n):
+        kept = 0  # the kk + 1 nearest so far, by a stable insertion (ties by row)
         for b in range(n):
             dx, dy, dz = v[a, 0] - v[b, 0], v[a, 1] - v[b, 1], v[a, 2] - v[b, 2]
             d2[b] = dx * dx + dy * dy + dz * dz
-            j = b
+            if kept == kk + 1 and not d2[order[kk]] > d2[b]:
+                continue
+            j = kept if kept <= kk else kk
+            kept = min(kept + 1, kk + 1)
             while j > 0 and d2[order[j - 1]] > d2[b]:
                 order[j] = order[j - 1]
                 j -= 1

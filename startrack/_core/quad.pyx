@@ -5,6 +5,7 @@ the candidates ranked by edge agreement (see :mod:`startrack.matchers.quad`)."""
 
 import numpy as np
 
+cimport cython
 from libc.math cimport INFINITY, M_PI, asin, fabs, isfinite, sin, sqrt
 
 from startrack._core._stable cimport merge_sort
@@ -47,6 +48,8 @@ cdef class QuadRules:
                  long long image_nearest, edges, perms, perm_edges):
         if not 0 < image_stars <= 64:
             raise ValueError(f"image_stars {image_stars}: must be in 1..64")
+        if not bin > 0:
+            raise ValueError(f"bin {bin}: must be positive")
         self.image_stars, self.image_nearest = image_stars, image_nearest
         self.tolerance, self.bin, self.nbins = tolerance, bin, nbins
         self.near, self.ratio_unit, self.max_candidates = near, ratio_unit, max_candidates
