@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from startrack._core.quad import image_quads, image_quads_by_faintest
+from startrack._core.quad import QuadRules, image_quads, image_quads_by_faintest
 
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
@@ -186,3 +186,13 @@ def test_a_matcher_remembering_its_windows_answers_as_a_fresh_one(sky):
                 assert (got.f_px, got.error, got.confirmed) == (want.f_px, want.error,
                                                                 want.confirmed)
     assert any(found) and not all(found)  # both cameras' windows found a candidate
+
+
+@pytest.mark.parametrize("bin_width", [0.0, -0.025])
+def test_rules_with_no_positive_key_bin_are_refused(bin_width):
+    """The key bins are found by dividing by the bin width, so a zero or negative one is
+    an error when the rules are made, not a wrong lookup later."""
+    with pytest.raises(ValueError, match="bin"):
+        QuadRules(tolerance=0.012, bin=bin_width, nbins=40, near=0.014, ratio_unit=1 / 255,
+                  max_candidates=10, image_stars=16, image_nearest=10, edges=Q.EDGES,
+                  perms=np.zeros((24, 4)), perm_edges=np.zeros((24, 6)))
