@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from startrack._core.quad import image_quads
+from startrack._core.quad import QuadRules, image_quads, image_quads_by_faintest
 
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
@@ -70,6 +70,27 @@ def test_the_image_patterns_follow_the_table_builders_rule(sky, seed, level_deg,
     assert len(want[0]) > 0
     for g, w in zip(got, want, strict=True):
         assert np.array_equal(g, w)
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("level_deg, slack", [(16.0, 1.0), (16.0, 1.05), (4.0, 1.3)])
+def test_the_fast_paths_patterns_made_one_faintest_star_at_a_time_are_all_of_them(
+        sky, seed, level_deg, slack):
+    """The fast path makes each faintest star's patterns only when the brighter stars'
+    found nothing: the same patterns and edges, in the order of a stable sort of all of
+    them by their faintest star (the order it looked them up in when it made them all)."""
+    vectors = _frame(sky, Camera.from_fov(1024, 1024, 16.0), seed)
+    size = np.radians(level_deg) * slack
+    bounds = (Q.PATTERN_SIZE * size, Q.MAX_PATTERN_SIZE * size)
+    quads, edges = image_quads(RULES, vectors, *bounds)
+    by = np.argsort(quads[:, 3], kind="stable")
+    got_quads, got_edges = image_quads_by_faintest(RULES, vectors, *bounds)
+    assert len(quads) > 4 and not np.array_equal(by, np.arange(len(quads)))
+    assert np.array_equal(got_quads, quads[by]) and np.array_equal(got_edges, edges[by])
+    apart = np.array([[1.0, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0, 0]])
+    for few in (vectors[:3], apart):  # too few stars; no pair within reach
+        none_quads, none_edges = image_quads_by_faintest(RULES, few, *bounds)
+        assert none_quads.shape == (0, 4) and none_edges.shape == (0, 6)
 
 
 def test_no_patterns_and_an_empty_table_give_no_candidates(sky, levels):
@@ -138,3 +159,40 @@ def test_the_first_strong_candidate_is_true_and_one_the_ranking_holds(sky, seed)
     assert same[0].error == pytest.approx(strong.error, rel=1e-9, abs=1e-12)
     junk_x, junk_y = rng.uniform(0, 1024, 40), rng.uniform(0, 1024, 40)
     assert matcher.strong(junk_x, junk_y, camera, lo, hi, MatchDiagnostics()) is None
+
+
+def test_a_matcher_remembering_its_windows_answers_as_a_fresh_one(sky):
+    """The camera and level of each window are remembered per camera object: two cameras
+    of different width asked in turn (and windows of both sizes) get what a fresh matcher
+    gives each."""
+    from startrack.matchers.quad import QuadMatcher
+    from startrack.types import MatchDiagnostics
+
+    narrow, wide = Camera.from_fov(1024, 1024, 16.0), Camera.from_fov(1200, 1024, 16.0)
+    db = StarDatabase(sky, narrow)
+    kept = QuadMatcher(db)
+    rng = np.random.default_rng(3)
+    _, x, y = stars_in_view(sky, narrow, Rotation.from_quat(rng.normal(size=4)))
+    found = []
+    for camera in (narrow, wide, narrow, wide):
+        for scale in (1.0, 1.03):
+            lo, hi = narrow.f_px * scale / 1.03, narrow.f_px * scale * 1.03
+            got = kept.strong(x, y, camera, lo, hi, MatchDiagnostics())
+            want = QuadMatcher(db).strong(x, y, camera, lo, hi, MatchDiagnostics())
+            assert (got is None) == (want is None)
+            if got is not None:
+                found.append(camera is narrow)
+                assert np.array_equal(got.hypothesis.cat_index, want.hypothesis.cat_index)
+                assert (got.f_px, got.error, got.confirmed) == (want.f_px, want.error,
+                                                                want.confirmed)
+    assert any(found) and not all(found)  # both cameras' windows found a candidate
+
+
+@pytest.mark.parametrize("bin_width", [0.0, -0.025])
+def test_rules_with_no_positive_key_bin_are_refused(bin_width):
+    """The key bins are found by dividing by the bin width, so a zero or negative one is
+    an error when the rules are made, not a wrong lookup later."""
+    with pytest.raises(ValueError, match="bin"):
+        QuadRules(tolerance=0.012, bin=bin_width, nbins=40, near=0.014, ratio_unit=1 / 255,
+                  max_candidates=10, image_stars=16, image_nearest=10, edges=Q.EDGES,
+                  perms=np.zeros((24, 4)), perm_edges=np.zeros((24, 6)))

@@ -28,20 +28,19 @@ cdef class StrongMatch:
 
 
 cdef void _row_edges(QuadRules rules, QuadTable table, const double[:, ::1] cat,
-                     long long row, double[:, ::1] out) noexcept:
-    """The six edge angles of table row ``row`` into ``out[0]`` (libm's asin: within an
-    ulp of :func:`_edges`, which the ranking uses, and no array per pattern)."""
+                     long long row, double *out) noexcept:
+    """The six edge angles of table row ``row`` into ``out`` (libm's asin: within an ulp
+    of :func:`_edges`, which the ranking uses, and no array per pattern)."""
     cdef long long a, b
     cdef double d0, d1, d2
     cdef int k
     for k in range(6):
         a, b = table.quads[row, rules.edges[k, 0]], table.quads[row, rules.edges[k, 1]]
         d0, d1, d2 = cat[a, 0] - cat[b, 0], cat[a, 1] - cat[b, 1], cat[a, 2] - cat[b, 2]
-        out[0, k] = 2.0 * asin(min(max(sqrt(d0 * d0 + d1 * d1 + d2 * d2) / 2.0, 0.0), 1.0))
+        out[k] = 2.0 * asin(min(max(sqrt(d0 * d0 + d1 * d1 + d2 * d2) / 2.0, 0.0), 1.0))
 
 
-cdef StrongMatch _strong(const long long[:, ::1] quads, Py_ssize_t m, QuadTable table,
-                         QuadRules rules, long long row, long long o, double f,
+cdef StrongMatch _strong(const long long *obs4, const long long *cat4, double f,
                          double error, long long count):
     res = StrongMatch()
     res.obs, res.cat = np.empty(4, np.int64), np.empty(4, np.int64)
@@ -49,9 +48,42 @@ cdef StrongMatch _strong(const long long[:, ::1] quads, Py_ssize_t m, QuadTable 
     cdef long long[::1] cat = res.cat
     cdef int k
     for k in range(4):
-        obs[k], cat[k] = quads[m, k], table.quads[row, rules.perms[o, k]]
+        obs[k], cat[k] = obs4[k], cat4[k]
     res.f_px, res.error, res.confirmed = f, error, count
     return res
+
+
+cdef StrongMatch _pattern_strong(QuadTable table, QuadRules rules, QuadWindow window,
+                                 const double[:, ::1] cat, const long long *obs4,
+                                 const double *edges, Confirmer confirmer, _Ints rows):
+    """The first strong candidate of image pattern ``obs4`` (its six ``edges``), its table
+    rows in order; None if none is (``rows``: scratch)."""
+    cdef double r[5]
+    cdef double cat_edges[6]
+    cdef long long lo[5]
+    cdef long long hi[5]
+    cdef long long cat4[4]
+    cdef long long o, count
+    cdef double least, f
+    cdef Py_ssize_t p
+    cdef int k
+    _key_ranges(rules, edges, r, lo, hi)
+    rows.n = 0
+    _near_rows(table, rules, r, lo, hi, rows)
+    for p in range(rows.n):
+        _row_edges(rules, table, cat, rows.a[p], cat_edges)
+        least = _best_order(rules, edges, cat_edges, &o)
+        if least > rules.tolerance:
+            continue
+        f = window.f_mid * _scale(rules, edges, cat_edges, o)
+        if not window.f_lo <= f <= window.f_hi:
+            continue
+        for k in range(4):
+            cat4[k] = table.quads[rows.a[p], rules.perms[o, k]]
+        count = confirmer.count(obs4, cat4, f)
+        if count >= window.min_count:
+            return _strong(obs4, cat4, f, least, count)
+    return None
 
 
 def first_confirmed(QuadTable table, QuadRules rules, QuadWindow window,
@@ -59,45 +91,26 @@ def first_confirmed(QuadTable table, QuadRules rules, QuadWindow window,
                     Confirmer confirmer):
     """The first candidate of ``window`` with at least ``min_count`` confirmations
     (:class:`Confirmer`), as a :class:`StrongMatch`, or None. Image patterns are taken
-    by their faintest star (those of the 5 brightest stars first), each pattern's table
-    rows in order, with the same key lookup, first test, best star order and tolerance
-    as :func:`match_window`."""
-    quads_array, edges_array = image_quads(rules, vectors, window.max_edge,
-                                           window.sparse_edge)
-    cdef const long long[:, ::1] quads = quads_array
-    cdef const double[:, ::1] edges = edges_array
-    cdef const long long[::1] by = np.argsort(quads_array[:, 3], kind="stable")
-    cdef _Ints rows = _Ints()
-    cdef double[:, ::1] cat_edges = np.empty((1, 6))
-    cdef double r[5]
-    cdef long long lo[5]
-    cdef long long hi[5]
-    cdef long long obs4[4]
-    cdef long long cat4[4]
-    cdef long long o, count
-    cdef double least, f
-    cdef Py_ssize_t i, m, p
-    cdef int k
+    by their faintest star (those of the 5 brightest stars first: each star's patterns
+    made only when the brighter ones' have found nothing, in the order of
+    :func:`image_quads_by_faintest`), each pattern's table rows in order, with the same
+    key lookup, first test, best star order and tolerance as :func:`match_window`."""
     if table.keys.shape[0] == 0:
         return None
-    for i in range(by.shape[0]):
-        m = by[i]
-        _key_ranges(rules, edges, m, r, lo, hi)
-        rows.n = 0
-        _near_rows(table, rules, r, lo, hi, rows)
-        if rows.n == 0:
-            continue
-        for p in range(rows.n):
-            _row_edges(rules, table, cat, rows.a[p], cat_edges)
-            least = _best_order(rules, edges, m, cat_edges, 0, &o)
-            if least > rules.tolerance:
-                continue
-            f = window.f_mid * _scale(rules, edges, m, cat_edges, 0, o)
-            if not window.f_lo <= f <= window.f_hi:
-                continue
-            for k in range(4):
-                obs4[k], cat4[k] = quads[m, k], table.quads[rows.a[p], rules.perms[o, k]]
-            count = confirmer.count(obs4, cat4, f)
-            if count >= window.min_count:
-                return _strong(quads, m, table, rules, rows.a[p], o, f, least, count)
+    stars = _image_stars(rules, vectors, window.max_edge, window.sparse_edge)
+    if stars is None:
+        return None
+    cdef _Ints pats = _Ints(), rows = _Ints()
+    cdef double edges[6]
+    cdef Py_ssize_t d, i
+    cdef StrongMatch found
+    for d in range(3, stars.n):
+        pats.n = 0
+        _enumerate_ending(stars, d, pats)
+        for i in range(0, pats.n, 4):
+            _quad_edges(rules, stars, &pats.a[i], edges)
+            found = _pattern_strong(table, rules, window, cat, &pats.a[i], edges, confirmer,
+                                    rows)
+            if found is not None:
+                return found
     return None

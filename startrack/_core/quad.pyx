@@ -5,6 +5,7 @@ the candidates ranked by edge agreement (see :mod:`startrack.matchers.quad`)."""
 
 import numpy as np
 
+cimport cython
 from libc.math cimport INFINITY, M_PI, asin, fabs, isfinite, sin, sqrt
 
 from startrack._core._stable cimport merge_sort
@@ -47,6 +48,8 @@ cdef class QuadRules:
                  long long image_nearest, edges, perms, perm_edges):
         if not 0 < image_stars <= 64:
             raise ValueError(f"image_stars {image_stars}: must be in 1..64")
+        if not bin > 0:
+            raise ValueError(f"bin {bin}: must be positive")
         self.image_stars, self.image_nearest = image_stars, image_nearest
         self.tolerance, self.bin, self.nbins = tolerance, bin, nbins
         self.near, self.ratio_unit, self.max_candidates = near, ratio_unit, max_candidates
@@ -84,79 +87,7 @@ cdef class _Ints:
         self.n += 1
 
 
-cdef inline bint _bit(int p, int bit, const long long *lo, const long long *hi,
-                      int j, long long *q) noexcept nogil:
-    """Digit ``j`` of pick ``p``: ``hi[j]`` if the pick's ``bit`` is set, else ``lo[j]``;
-    False when that repeats the other choice (lo == hi), so each key is visited once."""
-    if (p >> bit) & 1:
-        q[0] = hi[j]
-        return hi[j] != lo[j]
-    q[0] = lo[j]
-    return True
-
-
-cdef inline bint _passes(QuadTable t, QuadRules rules, Py_ssize_t row,
-                         const double *r) noexcept nogil:
-    """The first test: the table's stored ratios within the tolerance of ``r``."""
-    cdef double d
-    cdef int j
-    cdef double worst = 0.0
-    for j in range(5):
-        d = fabs(t.ratios[row, j] * rules.ratio_unit - r[j])
-        if d > worst:
-            worst = d
-    return worst <= rules.near
-
-
-cdef void _near_rows(QuadTable t, QuadRules rules, const double *r, const long long *lo,
-                     const long long *hi, _Ints out):
-    """Append to ``out``, ascending and once each, the table rows of the keys within the
-    tolerance of ratios ``r`` (each digit ``lo`` or ``hi``) that pass the first test: the
-    buckets of the three high digits in ascending order, each scanned for the two low."""
-    cdef long long n1 = rules.nbins, n2 = rules.nbins * rules.nbins
-    cdef long long low[4]
-    cdef long long q0, q1, q2, q3, q4, base, key
-    cdef Py_ssize_t row, b, nb = t.bucket.shape[0] - 1
-    cdef int p, k, nlow = 0
-    for p in range(4):
-        if _bit(p, 1, lo, hi, 1, &q1) and _bit(p, 0, lo, hi, 0, &q0):
-            low[nlow] = q0 + n1 * q1
-            nlow += 1
-    for p in range(8):
-        if not (_bit(p, 2, lo, hi, 4, &q4) and _bit(p, 1, lo, hi, 3, &q3)
-                and _bit(p, 0, lo, hi, 2, &q2)):
-            continue
-        b = q2 + n1 * q3 + n2 * q4
-        if b >= nb:
-            continue
-        base = b * n2
-        for row in range(t.bucket[b], t.bucket[b + 1]):
-            key = t.keys[row] - base
-            for k in range(nlow):
-                if key == low[k]:
-                    if _passes(t, rules, row, r):
-                        out.push(row)
-                    break
-
-
-cdef void _key_ranges(QuadRules rules, const double[:, ::1] edges, Py_ssize_t m, double *r,
-                      long long *lo, long long *hi) noexcept:
-    """Pattern ``m``'s sorted edge ratios and the key bins within the tolerance of each."""
-    cdef double s[6]
-    cdef double v, largest
-    cdef int i, j
-    for i in range(6):
-        v = edges[m, i]
-        j = i
-        while j > 0 and s[j - 1] > v:
-            s[j] = s[j - 1]
-            j -= 1
-        s[j] = v
-    largest = s[5] if s[5] > 0 else 1.0
-    for j in range(5):
-        r[j] = s[j] / largest
-        lo[j] = min(max(<long long>((r[j] - rules.tolerance) / rules.bin), 0), rules.nbins - 1)
-        hi[j] = min(max(<long long>((r[j] + rules.tolerance) / rules.bin), 0), rules.nbins - 1)
+include "_quad_lookup.pxi"
 
 
 cdef void _pairs(QuadTable t, QuadRules rules, const double[:, ::1] edges, _Ints pat,
@@ -169,7 +100,7 @@ cdef void _pairs(QuadTable t, QuadRules rules, const double[:, ::1] edges, _Ints
     cdef long long hi[5]
     cdef Py_ssize_t m, k
     for m in range(edges.shape[0]):
-        _key_ranges(rules, edges, m, r, lo, hi)
+        _key_ranges(rules, &edges[m, 0], r, lo, hi)
         rows.n = 0
         _near_rows(t, rules, r, lo, hi, rows)
         for k in range(rows.n):
@@ -198,28 +129,27 @@ cdef Py_ssize_t _best_orders(QuadRules rules, const double[:, ::1] edges, _Ints 
     cdef double least
     cdef Py_ssize_t p, n = 0
     for p in range(pat.n):
-        least = _best_order(rules, edges, pat.a[p], cat_edges, p, &best[p])
+        least = _best_order(rules, &edges[pat.a[p], 0], &cat_edges[p, 0], &best[p])
         if least <= rules.tolerance:
             good[n], error[n] = p, least
             n += 1
     return n
 
 
-cdef double _best_order(QuadRules rules, const double[:, ::1] edges, Py_ssize_t m,
-                        const double[:, ::1] cat_edges, Py_ssize_t p,
+cdef double _best_order(QuadRules rules, const double *edges, const double *cat_edges,
                         long long *best) noexcept:
-    """The best of the 24 star orders of image pattern ``m`` against catalog pattern ``p``
-    (written to ``best``) and its largest edge-ratio disagreement."""
+    """The best of the 24 star orders of an image pattern (its six ``edges``) against a
+    catalog pattern's (written to ``best``) and its largest edge-ratio disagreement."""
     cdef double img[6]
     cdef double c[6]
-    cdef double largest = edges[m, 0], cmax = cat_edges[p, 0], worst, least = 0.0, d
+    cdef double largest = edges[0], cmax = cat_edges[0], worst, least = 0.0, d
     cdef int k, o
     for k in range(1, 6):
-        largest = max(largest, edges[m, k])
-        cmax = max(cmax, cat_edges[p, k])
+        largest = max(largest, edges[k])
+        cmax = max(cmax, cat_edges[k])
     for k in range(6):
-        img[k] = edges[m, k] / largest
-        c[k] = cat_edges[p, k] / cmax
+        img[k] = edges[k] / largest
+        c[k] = cat_edges[k] / cmax
     for o in range(24):
         worst = 0.0
         for k in range(6):
@@ -231,14 +161,14 @@ cdef double _best_order(QuadRules rules, const double[:, ::1] edges, Py_ssize_t 
     return least
 
 
-cdef inline double _scale(QuadRules rules, const double[:, ::1] edges, Py_ssize_t m,
-                          const double[:, ::1] cat_edges, Py_ssize_t p, long long o) noexcept:
+cdef inline double _scale(QuadRules rules, const double *edges, const double *cat_edges,
+                          long long o) noexcept:
     """Observed over catalog pattern size (sums of the six edges, in matching order)."""
     cdef double num = 0.0, den = 0.0
     cdef int k
     for k in range(6):
-        num += edges[m, k]
-        den += cat_edges[p, rules.perm_edges[o, k]]
+        num += edges[k]
+        den += cat_edges[rules.perm_edges[o, k]]
     return num / den
 
 
@@ -262,7 +192,7 @@ cdef QuadMatches _ranked(QuadTable t, QuadRules rules, const long long[:, ::1] q
         p = good[g]
         o = best[p]
         error[g] = good_error[g]
-        scale[g] = _scale(rules, edges, pat.a[p], cat_edges, p, o)
+        scale[g] = _scale(rules, &edges[pat.a[p], 0], &cat_edges[p, 0], o)
         for k in range(4):
             obs[g, k] = quads[pat.a[p], k]
             cat[g, k] = t.quads[row.a[p], rules.perms[o, k]]

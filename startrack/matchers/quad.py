@@ -42,6 +42,7 @@ CHECK_STARS = 24  # brightest observed stars counted against the catalog per can
 #: (a false pattern seldom has more than two)
 STRONG_CONFIRMED = 6
 CHECK_RADIUS_PX = 6.0  # generous: the focal length is known only from the pattern
+GUESSES_KEPT = 64  # focal-length windows whose camera and level a matcher remembers
 #: for each of the 24 star orders, the catalog edge that each image edge corresponds to
 _EDGE_INDEX = {tuple(e): k for k, e in enumerate(Q.EDGES.tolist())}
 PERM_EDGES = np.array([[_EDGE_INDEX[tuple(sorted((p[a], p[b])))] for a, b in Q.EDGES]
@@ -141,15 +142,33 @@ class QuadMatcher(Matcher):
         catalog (a deeper level would hold no other star)."""
         return int(Q.level_stars(Q.level_for(fov_deg)) < len(self.database.vectors))
 
+    def _guess(self, camera: Camera, f_mid: float,
+               deeper: int) -> tuple[Camera, Q.QuadLevel | None]:
+        """``camera`` with focal length ``f_mid`` and the level a window searches there
+        (None beyond :meth:`deeper_levels`), remembered for the last few windows: with a
+        nominal field of view every frame asks for the same one."""
+        guesses = self.__dict__.setdefault("_guesses", {})
+        key = (id(camera), f_mid, deeper)
+        known = guesses.get(key)
+        if known is not None and known[0] is camera:  # held, so its id is not reused
+            return known[1], known[2]
+        guess = dataclasses.replace(camera, f_px=f_mid)
+        level = (None if deeper > self.deeper_levels(guess.fov_deg)
+                 else self.level(guess.fov_deg / Q.LEVEL_STEP ** deeper))
+        if len(guesses) >= GUESSES_KEPT:
+            guesses.clear()
+        guesses[key] = (camera, guess, level)
+        return guess, level
+
     def _window(self, x: np.ndarray, y: np.ndarray, camera: Camera, f_lo: float,
                 f_hi: float, deeper: int) -> _Window | None:
         f_mid = math.sqrt(f_lo * f_hi)
-        guess = dataclasses.replace(camera, f_px=f_mid)
-        if deeper > self.deeper_levels(guess.fov_deg):
+        guess, level = self._guess(camera, f_mid, deeper)
+        if level is None:
             return None
-        return _Window(f_mid, guess.pixel_to_vector(x, y),
-                       self.level(guess.fov_deg / Q.LEVEL_STEP ** deeper),
-                       math.sqrt(f_hi / f_lo) * 1.02)
+        # only the brightest IMAGE_STARS make patterns
+        vectors = guess.pixel_to_vector(x[:IMAGE_STARS], y[:IMAGE_STARS])
+        return _Window(f_mid, vectors, level, math.sqrt(f_hi / f_lo) * 1.02)
 
     def scaled(self, x: np.ndarray, y: np.ndarray, camera: Camera, f_lo: float, f_hi: float,
                diag: MatchDiagnostics, check: StarDatabase | None = None, deeper: int = 0,
@@ -220,7 +239,7 @@ class QuadMatcher(Matcher):
             yield h.hypothesis
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)  # not frozen: made per call, and a frozen one is slower to make
 class _Window:
     """One focal-length window as the image sees it: the focal length its vectors were
     made with, those vectors, the pattern level searched, and how much larger than
