@@ -14,7 +14,6 @@ the window over the whole range). Work is bounded: at most ``IMAGE_STARS`` stars
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import math
 from collections.abc import Iterator
@@ -152,7 +151,7 @@ class QuadMatcher(Matcher):
         known = guesses.get(key)
         if known is not None and known[0] is camera:  # held, so its id is not reused
             return known[1], known[2]
-        guess = dataclasses.replace(camera, f_px=f_mid)
+        guess = camera.with_focal(f_mid)
         level = (None if deeper > self.deeper_levels(guess.fov_deg)
                  else self.level(guess.fov_deg / Q.LEVEL_STEP ** deeper))
         if len(guesses) >= GUESSES_KEPT:
