@@ -37,8 +37,8 @@ def frame_hints(pipeline, frame: FrameInput) -> Hints | None:
     the batch, which a cone per frame would rebuild for each. None: no hint."""
     opt = pipeline.options
     user = opt.hints or Hints()
-    if not opt.header_hints or user.scale is not None:
-        return user or None
+    if frame.path is None or not opt.header_hints or user.scale is not None:
+        return user or None  # no header to read (a centroid list in memory)
     header = header_hints(frame.path, opt.size or frame.size)
     if header is None or pipeline.setup_for(frame)[0] is not None:
         return user or None

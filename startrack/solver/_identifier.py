@@ -61,6 +61,13 @@ class FrameResult:
         """Residuals, the attitude's 1-sigma and the catalog used (None: not solved)."""
         return solution_quality(self.solution, self.obs, self.catalog)
 
+    def with_timing(self, timing: Timing) -> FrameResult:
+        """This result with ``timing``: what ``dataclasses.replace`` makes, built directly
+        (every answer passes here, :meth:`~startrack.solver._pipeline.Pipeline.solve`)."""
+        return FrameResult(self.input, self.solution, self.obs, self.centroids, timing,
+                           self.camera, self.catalog, self.sigma_px, self.match_radius_px,
+                           self.image, self.time_utc)
+
 
 def frame_timing(frame: FrameInput, identify_ms: float) -> Timing:
     """An input's stage times: its centroiding, ``identify_ms``, and the total with its

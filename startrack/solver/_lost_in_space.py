@@ -10,7 +10,13 @@ from scipy.spatial.transform import Rotation
 from startrack._core.verify import residual_arcsec
 from startrack.matchers.base import Matcher
 from startrack.solver._deadline import Deadline
-from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
+from startrack.types import (
+    Hypothesis,
+    MatchDiagnostics,
+    Observation,
+    Solution,
+    rotation_from_quat,
+)
 from startrack.verify._frame import FrameVerifier
 from startrack.verify._verification import Verification, VerifyConfig, verify
 
@@ -88,6 +94,9 @@ def _key(hyp: Hypothesis) -> tuple:
 def _solved(result: Verification, obs: Observation, matcher: Matcher, diag: MatchDiagnostics,
             elapsed: float) -> Solution:
     """The Solution of an accepted hypothesis, identities by observed index."""
+    # what result.rotation makes, without its cached_property's lock
+    rotation = result.rotation if result.quaternion is None else rotation_from_quat(
+        result.quaternion)
     if result.residual_arcsec is not None:  # the one-call path: obs_index ascending
         obs_index, cat_index, residuals = (result.obs_index, result.cat_index,
                                            result.residual_arcsec)
@@ -99,7 +108,7 @@ def _solved(result: Verification, obs: Observation, matcher: Matcher, diag: Matc
     return Solution(
         solved=True,
         method=matcher.name,
-        rotation=result.rotation,
+        rotation=rotation,
         obs_index=obs_index,
         cat_index=cat_index,
         residual_arcsec=residuals,

@@ -43,6 +43,7 @@ from startrack.solver._hints import cut_to_cone, header_time
 from startrack.solver._identifier import FrameResult, Identifier, SetupClock, frame_timing
 from startrack.solver._inputs import FrameInput, read_input
 from startrack.solver._options import Options, with_fov
+from startrack.types import Timing
 from startrack.verify._evidence import require_evidence
 
 
@@ -65,17 +66,30 @@ class Pipeline:
         self._cut: dict[SkySpec, Catalog] = {}
         self._blind: dict[tuple[SkySpec, tuple[float, float]], BlindSolver] = {}
         self._notes: set[str] = set()
+        #: :meth:`setup_for`'s decisions by image size for inputs without a sidecar, made
+        #: under the options ``_setups_for`` (the bench sets new options on a pipeline)
+        self._setups: dict[tuple[int, int] | None, tuple[Camera | None, SkySpec]] = {}
+        self._setups_for: Options | None = None
         #: one-time loads not yet reported (shared with the hinted child pipelines)
         self.setup = setup or SetupClock()
 
     def setup_for(self, frame: FrameInput) -> tuple[Camera | None, SkySpec]:
         """The camera and sky for one input: options, else sidecar, else defaults. No
         camera at all (None) means an unknown field of view: a blind search."""
-        opt = self.options
-        side_camera, side_sky = None, None
         sidecar = find_sidecar(frame.path) if frame.path is not None else None
         if sidecar is not None:
-            side_camera, side_sky, _ = read_sidecar(sidecar)
+            return self._decide_setup(frame, *read_sidecar(sidecar)[:2])
+        # without a sidecar the options and the image size decide it: once per size
+        if self._setups_for is not self.options:
+            self._setups_for, self._setups = self.options, {}
+        if frame.size not in self._setups:
+            self._setups[frame.size] = self._decide_setup(frame, None, None)
+        return self._setups[frame.size]
+
+    def _decide_setup(self, frame: FrameInput, side_camera: Camera | None,
+                      side_sky: SkySpec | None) -> tuple[Camera | None, SkySpec]:
+        """:meth:`setup_for` given the sidecar's camera and sky (None: no sidecar)."""
+        opt = self.options
         side_sky = opt.sky_spec or side_sky
         camera = opt.camera or (side_camera if opt.fov_deg is None else None)
         if camera is None and opt.fov_deg is not None:  # --fov overrides the sidecar's
@@ -240,8 +254,9 @@ class Pipeline:
             when = header_time(frame.path)
         if when is not None:
             result = correct_result(result, when)
-        return dataclasses.replace(result, timing=dataclasses.replace(
-            result.timing, setup=self.setup.take() + frame.setup_ms))  # what it waited for
+        t = result.timing  # given what it waited for
+        return result.with_timing(Timing(t.centroid, t.identify, t.total,
+                                         self.setup.take() + frame.setup_ms))
 
     def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
         size = self.options.size or frame.size
