@@ -28,11 +28,7 @@ from startrack.sky import (
     Catalog,
     SkySpec,
     check_pair_budget,
-    deeper_sky_note,
-    default_sky_kind,
     load_sky,
-    resolve_sky,
-    sky_spec,
 )
 from startrack.sky.default import gaia_min_fov, search_sky_kind
 from startrack.solver._aberration import correct_result
@@ -42,7 +38,8 @@ from startrack.solver._hinted import frame_hints, solve_hinted
 from startrack.solver._hints import cut_to_cone, header_time
 from startrack.solver._identifier import FrameResult, Identifier, SetupClock, frame_timing
 from startrack.solver._inputs import FrameInput, read_input
-from startrack.solver._options import Options, with_fov
+from startrack.solver._options import Options
+from startrack.solver._setup import decide_setup
 from startrack.types import Timing
 from startrack.verify._evidence import require_evidence
 
@@ -78,39 +75,15 @@ class Pipeline:
         camera at all (None) means an unknown field of view: a blind search."""
         sidecar = find_sidecar(frame.path) if frame.path is not None else None
         if sidecar is not None:
-            return self._decide_setup(frame, *read_sidecar(sidecar)[:2])
+            return decide_setup(self.options, frame, *read_sidecar(sidecar)[:2],
+                                self._note_once)
         # without a sidecar the options and the image size decide it: once per size
         if self._setups_for is not self.options:
             self._setups_for, self._setups = self.options, {}
         if frame.size not in self._setups:
-            self._setups[frame.size] = self._decide_setup(frame, None, None)
+            self._setups[frame.size] = decide_setup(self.options, frame, None, None,
+                                                   self._note_once)
         return self._setups[frame.size]
-
-    def _decide_setup(self, frame: FrameInput, side_camera: Camera | None,
-                      side_sky: SkySpec | None) -> tuple[Camera | None, SkySpec]:
-        """:meth:`setup_for` given the sidecar's camera and sky (None: no sidecar)."""
-        opt = self.options
-        side_sky = opt.sky_spec or side_sky
-        camera = opt.camera or (side_camera if opt.fov_deg is None else None)
-        if camera is None and opt.fov_deg is not None:  # --fov overrides the sidecar's
-            side_size = (side_camera.width, side_camera.height) if side_camera else None
-            size = opt.size or frame.size or side_size
-            if size is None:
-                raise InputError(f"{frame.name}: a centroid list with --fov needs the image "
-                                 "size (--size WxH) or use --camera FILE")
-            camera = with_fov(size, opt.fov_deg, side_camera)
-        given = sky_spec(opt.sky) if opt.sky else None
-        if given is None and side_sky is None:
-            given = SkySpec(kind=default_sky_kind(camera))
-            self._note_once(deeper_sky_note(camera, given.kind))
-        sky = side_sky if side_sky is not None and (
-            given is None or (side_sky.kind, side_sky.path) == (given.kind, given.path)) \
-            else given
-        if opt.epoch is not None:
-            sky = dataclasses.replace(sky, epoch=opt.epoch)
-        if opt.mag_limit is not None:
-            sky = dataclasses.replace(sky, mag_limit=opt.mag_limit)
-        return camera, resolve_sky(sky, camera)
 
     def identifier(self, camera: Camera, sky: SkySpec, method: str | None = None) -> Identifier:
         opt = self.options
