@@ -39,7 +39,7 @@ def rotation_from_quat(quat: np.ndarray) -> Rotation:
         return Rotation.from_quat(quat)
     rotation = object.__new__(Rotation)
     rotation.__dict__.update(_TEMPLATE.__dict__)
-    rotation._quat = _BACKEND.from_quat(np.reshape(quat, (1, 4)), normalize=True, copy=True,
+    rotation._quat = _BACKEND.from_quat(quat.reshape(1, 4), normalize=True, copy=True,
                                         scalar_first=False)
     return rotation
 

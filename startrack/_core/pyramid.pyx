@@ -9,7 +9,7 @@ a matcher keeps for every frame, :class:`PyramidFrame` one frame's stars and cou
 
 import numpy as np
 
-from libc.math cimport acos, cos, fabs, isnan, sin, sqrt
+from libc.math cimport NAN, acos, cos, fabs, isnan, sin, sqrt
 
 from startrack._core._sort cimport first_above, first_at_least
 from startrack._core.pairs cimport (
@@ -59,7 +59,9 @@ cdef class PyramidFrame:
 
     def __init__(self, vec, double tol, double radius):
         self.vec = np.ascontiguousarray(vec, dtype=np.float64)
-        self.ang = np.full((self.vec.shape[0], self.vec.shape[0]), np.nan)
+        ang = np.empty((self.vec.shape[0], self.vec.shape[0]))
+        ang.fill(NAN)  # what np.full makes, without its Python layer
+        self.ang = ang
         self.tol = tol
         self.radius = radius
 

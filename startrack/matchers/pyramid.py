@@ -28,7 +28,6 @@ search.
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Iterator
 
 from startrack._core import pyramid as core
@@ -70,6 +69,7 @@ class PyramidMatcher(PatternPairMatcher):
         # pattern at all (junk) would pay it on every try.
         self.fallback = bool(fallback)
         self.fallback_triples = int(fallback_triples)
+        self._searches: tuple | None = None  # made by the first search
 
     def _tables(self) -> list:
         tables = [self._table()]
@@ -77,16 +77,16 @@ class PyramidMatcher(PatternPairMatcher):
             tables.append(self.database.pairs)
         return tables
 
-    @functools.cached_property
     def _search_tables(self) -> tuple[core.PyramidSearch, list[tuple[bool, object, int]]]:
         # Looked up once: per frame the lookups cost as much as a search's first triples.
         n_cat = len(self.database.vectors)
         search = core.PyramidSearch(self.database.vectors,
                                     pair_index(self.database.pairs, n_cat).neighbours,
                                     self.max_triangles, self.max_pyramids)
-        return search, [(bool(k), pair_index(table, n_cat).neighbours,
-                         self.fallback_triples if k else self.max_triples)
-                        for k, table in enumerate(self._tables())]
+        self._searches = search, [(bool(k), pair_index(table, n_cat).neighbours,
+                                   self.fallback_triples if k else self.max_triples)
+                                  for k, table in enumerate(self._tables())]
+        return self._searches
 
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
                    screen_rad: float | None = None) -> Iterator[Hypothesis]:
@@ -95,7 +95,7 @@ class PyramidMatcher(PatternPairMatcher):
             return
         tol = self.angle_tolerance(obs)
         first = min(self.config.max_stars, n)
-        search, tables = self._search_tables
+        search, tables = self._searches or self._search_tables()
         frame = core.PyramidFrame(obs.vectors[:n], tol, CONFIRM_RADIUS * tol)
         for fallback, tab, limit in tables:
             diag.extra["fallback"] = fallback
