@@ -32,6 +32,15 @@ def residuals_arcsec(rotation: Rotation | np.ndarray, obs: Observation, obs_inde
                            np.ascontiguousarray(cat_vectors, dtype=np.float64))
 
 
+def accepted_rotation(check: Verification) -> Rotation:
+    """``check.rotation`` (the attitude of an accepted verification) made anew: without
+    its cached_property's lock, and from the quaternion verification computed without
+    scipy's array-API layers (:func:`startrack.types.rotation_from_quat`)."""
+    if check.quaternion is None:
+        return check.rotation
+    return rotation_from_quat(check.quaternion)
+
+
 def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = None,
              timeout_ms: float | None = None, deadline: Deadline | None = None) -> Solution:
     """Try the matcher's hypotheses in order; return the first one verification accepts.
@@ -94,9 +103,7 @@ def _key(hyp: Hypothesis) -> tuple:
 def _solved(result: Verification, obs: Observation, matcher: Matcher, diag: MatchDiagnostics,
             elapsed: float) -> Solution:
     """The Solution of an accepted hypothesis, identities by observed index."""
-    # what result.rotation makes, without its cached_property's lock
-    rotation = result.rotation if result.quaternion is None else rotation_from_quat(
-        result.quaternion)
+    rotation = accepted_rotation(result)
     if result.residual_arcsec is not None:  # the one-call path: obs_index ascending
         obs_index, cat_index, residuals = (result.obs_index, result.cat_index,
                                            result.residual_arcsec)
