@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import functools
 import math
 import time
 from collections.abc import Callable, Iterator
@@ -136,6 +135,7 @@ class Identifier:
         #: True once :meth:`warm_up` has solved its throwaway frame (the bench checks it)
         self.warmed_up = False
         self._warm_centroids: Centroids | None = None
+        self._first_look: Matcher | None = None
         t0 = time.perf_counter()
         self.matcher.prepare()
         self.warm_up()
@@ -175,7 +175,7 @@ class Identifier:
             if first.solution.solved:
                 refit(first, self.database, self.verify_config)
 
-    @functools.cached_property
+    @property
     def first_look(self) -> Matcher:
         """This identifier's method on its :data:`FIRST_LOOK_STARS` brightest stars alone,
         no fainter ones added: a nominal field of view's first try
@@ -183,14 +183,16 @@ class Identifier:
         the full method does; where it is off, no pattern matches, and the full method
         would try every pattern of up to ``max_stars + extra_stars`` stars (milliseconds)
         before the focal-length search, which solves such a frame, could start."""
-        if not self.matcher.brightest_first:
-            return self.matcher
-        config = dataclasses.replace(
-            self.matcher.config, max_stars=min(FIRST_LOOK_STARS, self.matcher.config.max_stars),
-            extra_stars=0)
-        matcher = type(self.matcher)(self.database, config)
-        matcher.prepare()
-        return matcher
+        if self._first_look is None:  # made once (no cached_property lock per frame)
+            matcher = self.matcher
+            if matcher.brightest_first:
+                config = dataclasses.replace(
+                    matcher.config, extra_stars=0,
+                    max_stars=min(FIRST_LOOK_STARS, matcher.config.max_stars))
+                matcher = type(self.matcher)(self.database, config)
+                matcher.prepare()
+            self._first_look = matcher
+        return self._first_look
 
     def observation(self, centroids: Centroids) -> Observation:
         return observation(centroids, self.camera, self.sigma_px)

@@ -164,8 +164,7 @@ class Pipeline:
             spent = first.solution.identify_ms  # the first try is part of the answer
         if found is None:
             found = self._search(x, y, camera, sky, deadline)
-            found = dataclasses.replace(found, solution=dataclasses.replace(
-                found.solution, identify_ms=found.solution.identify_ms + spent))
+            found = found.plus_ms(spent)
         return found
 
     def _search(self, x, y, camera: Camera, sky: SkySpec, deadline: Deadline):
@@ -185,8 +184,7 @@ class Pipeline:
             x, y, (camera.width, camera.height), deadline, camera, tol)
         if found is None:
             return again
-        return dataclasses.replace(again, solution=dataclasses.replace(
-            again.solution, identify_ms=again.solution.identify_ms + found.solution.identify_ms))
+        return again.plus_ms(found.solution.identify_ms)
 
     def _tables_fit(self, camera: Camera, sky: SkySpec) -> bool:
         """Whether the configured method's pair table for ``camera`` fits the pair budget
@@ -271,9 +269,7 @@ class Pipeline:
         if wide.solution.solved or wide.solution.reason != "no_match":
             return wide
         narrow = self.blind_solver(sky, (lo, split)).solve(x, y, size, deadline)
-        return dataclasses.replace(narrow, solution=dataclasses.replace(
-            narrow.solution, identify_ms=narrow.solution.identify_ms
-            + wide.solution.identify_ms))
+        return narrow.plus_ms(wide.solution.identify_ms)
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` (image or centroid CSV) once and identify its stars."""
