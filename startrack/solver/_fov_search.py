@@ -82,10 +82,10 @@ def search_window(matcher: QuadMatcher, x, y, camera: Camera, window: Pass,
     else:
         candidates = matcher.scaled(x, y, camera, f_lo, f_hi, diag, database, window.deeper)
     for sh in candidates:
-        hyp = sh.hypothesis
-        key = tuple(sorted(zip(hyp.obs_index.tolist(), hyp.cat_index.tolist(), strict=True)))
         if sh.confirmed < MIN_CONFIRMED:
             break  # best first: no later candidate has more support
+        hyp = sh.hypothesis
+        key = tuple(sorted(zip(hyp.obs_index.tolist(), hyp.cat_index.tolist(), strict=True)))
         if key in seen or hyp.cat_index.max() >= n_cat:
             continue
         _check(deadline)

@@ -164,7 +164,8 @@ class Pipeline:
             spent = first.solution.identify_ms  # the first try is part of the answer
         if found is None:
             found = self._search(x, y, camera, sky, deadline)
-            found = found.plus_ms(spent)
+            if spent:  # the first look's time (none for a scale-free method)
+                found = found.plus_ms(spent)
         return found
 
     def _search(self, x, y, camera: Camera, sky: SkySpec, deadline: Deadline):
