@@ -67,7 +67,7 @@ class Pipeline:
         #: under the options ``_setups_for`` (the bench sets new options on a pipeline)
         self._setups: dict[tuple[int, int] | None, tuple[Camera | None, SkySpec]] = {}
         self._setups_for: Options | None = None
-        self._held: tuple = (None, None, None, None)  # (camera, sky, method, Identifier)
+        self._held: dict[str, tuple[Camera, SkySpec, Identifier]] = {}
         #: one-time loads not yet reported (shared with the hinted child pipelines)
         self.setup = setup or SetupClock()
 
@@ -89,16 +89,17 @@ class Pipeline:
     def identifier(self, camera: Camera, sky: SkySpec, method: str | None = None) -> Identifier:
         opt = self.options
         method = method or opt.method
-        held = self._held  # the one asked for last: a batch asks for it again and again
-        if held[0] is camera and held[1] is sky and held[2] == method:
-            return held[3]
+        # the one of ``method`` asked for last: a batch asks for it again and again
+        held = self._held.get(method)
+        if held is not None and held[0] is camera and held[1] is sky:
+            return held[2]
         key = (camera, sky, method)
         if key not in self._identifiers:
             with self.setup.counting():
                 self._identifiers[key] = Identifier(
                     camera, self.catalog(sky, camera), method, max_stars=opt.max_stars,
                     sigma_px=opt.sigma_px, timeout_ms=opt.timeout_ms)
-        self._held = (camera, sky, method, self._identifiers[key])
+        self._held[method] = (camera, sky, self._identifiers[key])
         return self._identifiers[key]
 
     def solve(self, frame: FrameInput) -> FrameResult:
