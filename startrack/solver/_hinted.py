@@ -36,9 +36,11 @@ def frame_hints(pipeline, frame: FrameInput) -> Hints | None:
     scale range): a known one is solved in milliseconds from the tables loaded once for
     the batch, which a cone per frame would rebuild for each. None: no hint."""
     opt = pipeline.options
+    if opt.hints is None and (frame.path is None or not opt.header_hints):
+        return None  # no hint given, no header to read (a centroid list in memory)
     user = opt.hints or Hints()
     if frame.path is None or not opt.header_hints or user.scale is not None:
-        return user or None  # no header to read (a centroid list in memory)
+        return user or None
     header = header_hints(frame.path, opt.size or frame.size)
     if header is None or pipeline.setup_for(frame)[0] is not None:
         return user or None
