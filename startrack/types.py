@@ -15,35 +15,6 @@ from scipy.spatial.transform import Rotation
 from startrack.camera._model import Camera
 
 
-def _rotation_template() -> tuple[Rotation | None, object]:
-    """A Rotation made the public way and the backend that normalizes its quaternion, where
-    scipy (1.15 on) builds one quaternion in Python layers over a compiled backend; (None,
-    None) where it does not (scipy 1.14's Rotation is compiled through)."""
-    template = Rotation.from_quat(np.array([0.0, 0.0, 0.0, 1.0]))
-    backend = getattr(template, "_backend", None)
-    state = getattr(template, "__dict__", {})
-    if getattr(backend, "from_quat", None) is None or getattr(
-            state.get("_quat"), "shape", None) != (1, 4) or state.get("_single") is not True:
-        return None, None
-    return template, backend
-
-
-_TEMPLATE, _BACKEND = _rotation_template()
-
-
-def rotation_from_quat(quat: np.ndarray) -> Rotation:
-    """``Rotation.from_quat(quat)`` for one quaternion ``[x, y, z, w]`` (float64, 4): the
-    same object, its quaternion normalized by scipy's own backend, without the array-API
-    layers (7 us of a solve, tens with cold caches: scripts/bench_cold_cache.py)."""
-    if _TEMPLATE is None:
-        return Rotation.from_quat(quat)
-    rotation = object.__new__(Rotation)
-    rotation.__dict__.update(_TEMPLATE.__dict__)
-    rotation._quat = _BACKEND.from_quat(quat.reshape(1, 4), normalize=True, copy=True,
-                                        scalar_first=False)
-    return rotation
-
-
 @dataclass(frozen=True)
 class Observation:
     """Observed stars of one frame, brightest first.
@@ -147,4 +118,4 @@ class Timing:
                 "total": round(self.total, 3), "setup": round(self.setup, 3)}
 
 __all__ = ["Hypothesis", "MatchDiagnostics", "Observation", "Solution", "Timing",
-           "rotation_from_quat"]
+]

@@ -16,9 +16,9 @@ from startrack.sky import SkySpec, load_sky
 from startrack.solver._fov_search import FovResult
 from startrack.solver._identifier import FrameResult, Identifier
 from startrack.solver._pipeline import FrameInput, Options, Pipeline
-from startrack.types import Observation, Solution, Timing, rotation_from_quat
+from startrack.types import Observation, Solution, Timing
 from startrack.verify import _evidence
-from startrack.verify._evidence import MIN_MATCHED, refuse_without_evidence
+from startrack.verify._evidence import MIN_MATCHED
 
 CAMERA = Camera.from_fov(1024, 1024, 20.0)
 
@@ -26,19 +26,6 @@ CAMERA = Camera.from_fov(1024, 1024, 20.0)
 def _centroids(n: int = 5) -> Centroids:
     return Centroids(np.linspace(10.0, 900.0, n), np.linspace(20.0, 800.0, n),
                      np.arange(n, 0, -1, dtype=float))
-
-
-def test_rotation_from_quat_is_scipys_from_quat():
-    rng = np.random.default_rng(3)
-    for quat in rng.normal(size=(200, 4)):
-        fast, slow = rotation_from_quat(quat), Rotation.from_quat(quat)
-        assert fast.as_quat().tobytes() == slow.as_quat().tobytes()
-        assert fast.as_matrix().tobytes() == slow.as_matrix().tobytes()
-        assert fast.single and (fast * slow).as_quat().tobytes() == (slow * slow).as_quat(
-        ).tobytes()
-    quat = np.array([0.0, 0.0, 0.6, 0.8])
-    rotation_from_quat(quat).as_quat()[0] = 9.0  # a copy, as scipy's: the input is kept
-    assert quat.tolist() == [0.0, 0.0, 0.6, 0.8]
 
 
 def test_with_timing_changes_the_timing_alone():
@@ -92,22 +79,6 @@ def _solved(residuals: np.ndarray) -> Solution:
     n = len(residuals)
     return Solution(True, "pyramid", Rotation.identity(), np.arange(n), np.arange(n),
                     residuals)
-
-
-def test_evidence_is_checked_again_for_another_camera_or_radius(monkeypatch):
-    sol = _solved(np.full(MIN_MATCHED, 10.0))  # 10 arcsec: 0.14 px at 20 deg, 1024 px
-    assert refuse_without_evidence(sol, CAMERA.f_px, 2.0) is sol
-    calls = []
-    problem = _evidence.evidence_problem
-    monkeypatch.setattr(_evidence, "evidence_problem",
-                        lambda *a: calls.append(a) or problem(*a))
-    assert refuse_without_evidence(sol, CAMERA.f_px, 2.0) is sol  # the same question
-    assert calls == []
-    refused = refuse_without_evidence(sol, CAMERA.f_px, 0.1)  # a tighter radius
-    assert not refused.solved and refused.reason == "unverified"
-    assert not refuse_without_evidence(sol, CAMERA.f_px * 20, 2.0).solved
-    assert len(calls) == 2  # each refused: the pass is still the one remembered
-    assert refuse_without_evidence(sol, CAMERA.f_px, 2.0) is sol and len(calls) == 2
 
 
 @pytest.mark.filterwarnings("ignore:overflow encountered")

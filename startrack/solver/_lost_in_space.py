@@ -15,7 +15,6 @@ from startrack.types import (
     MatchDiagnostics,
     Observation,
     Solution,
-    rotation_from_quat,
 )
 from startrack.verify._frame import FrameVerifier
 from startrack.verify._verification import Verification, VerifyConfig, verify
@@ -33,12 +32,11 @@ def residuals_arcsec(rotation: Rotation | np.ndarray, obs: Observation, obs_inde
 
 
 def accepted_rotation(check: Verification) -> Rotation:
-    """``check.rotation`` (the attitude of an accepted verification) made anew: without
-    its cached_property's lock, and from the quaternion verification computed without
-    scipy's array-API layers (:func:`startrack.types.rotation_from_quat`)."""
+    """``check.rotation`` (the attitude of an accepted verification) made anew, from the
+    quaternion verification computed, without its cached_property's lock."""
     if check.quaternion is None:
         return check.rotation
-    return rotation_from_quat(check.quaternion)
+    return Rotation.from_quat(check.quaternion)
 
 
 def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = None,

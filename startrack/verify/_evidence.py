@@ -48,26 +48,11 @@ def evidence_problem(solution: Solution, f_px: float, match_radius_px: float) ->
     return None
 
 
-class _LastPassed:
-    """The solved answer that last passed :func:`evidence_problem`, with the focal length
-    and match radius it passed for. An answer is checked where it is made (an identifier's
-    identify, which the bench calls alone) and again where the pipeline reports it
-    (:func:`require_evidence`): the second question, about the same object, is answered
-    without checking it again."""
-
-    passed: tuple = (None, None, None)
-
-
 def refuse_without_evidence(solution: Solution, f_px: float,
                             match_radius_px: float) -> Solution:
     """``solution`` unchanged, or not solved with reason ``unverified`` when
     :func:`evidence_problem` finds a problem."""
-    last, last_f, last_radius = _LastPassed.passed
-    if solution is last and f_px == last_f and match_radius_px == last_radius:
-        return solution
     if evidence_problem(solution, f_px, match_radius_px) is None:
-        if solution.solved:
-            _LastPassed.passed = (solution, f_px, match_radius_px)
         return solution
     return Solution(False, solution.method, diagnostics=solution.diagnostics,
                     identify_ms=solution.identify_ms, reason="unverified", mode=solution.mode,
