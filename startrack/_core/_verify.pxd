@@ -64,6 +64,20 @@ cpdef enum Status:
     ACCEPTED = 3
 
 
+cdef class VerifyScratch:
+    """A check's short-lived buffers, kept from one call to the next as NearestScratch
+    keeps the matching's (a check would otherwise allocate tens of small arrays): the
+    observed and catalog vectors of a Wahba fit, the projected stars a match or the
+    labelling selects (positions, pixel positions, magnitudes). Their lengths only grow;
+    a call uses the first rows it needs and copies out whatever it returns."""
+    cdef double[:, ::1] cam
+    cdef double[:, ::1] sky
+    cdef long long[::1] where
+    cdef double[::1] x
+    cdef double[::1] y
+    cdef double[::1] mags
+
+
 cdef class Frame:
     """One frame's observed stars as verification takes them: unit vectors (n, 3) in the
     camera frame, pixel positions, fluxes (any values when there are none; LabelParams
@@ -75,6 +89,7 @@ cdef class Frame:
     cdef Geometry geometry
     cdef readonly Py_ssize_t n
     cdef NearestScratch scratch  # the matching's buffers: the thread's, reused by every call
+    cdef VerifyScratch work  # the check's own buffers: the thread's too
 
 
 cdef class Stars:

@@ -96,7 +96,7 @@ cdef FirstTest _first(Frame frame, const long long[::1] hyp_obs,
                       CheckParams params):
     """The hypothesis's attitude and whether each of its pairs fits (no match yet)."""
     cdef Py_ssize_t k
-    cdef double[:, ::1] sky = empty_rows(hyp_rows.shape[0], 3)
+    cdef double[:, ::1] sky = _sky_rows(frame, hyp_rows.shape[0])
     for k in range(hyp_rows.shape[0]):
         sky[k, 0], sky[k, 1], sky[k, 2] = (catalog[hyp_rows[k], 0], catalog[hyp_rows[k], 1],
                                            catalog[hyp_rows[k], 2])
@@ -125,7 +125,7 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
         r, stars = _refine_on_fresh_cone(frame, r.matrix, params, cone, v)
     cdef Labelled done = _label_at(frame, stars, r.matrix, r.projection, params)
     v.status, v.final, v.obs, v.rows = ACCEPTED, done.final, done.obs, _take(stars.rows, done.pos)
-    cdef double[:, ::1] cat = empty_rows(done.pos.shape[0], 3)
+    cdef double[:, ::1] cat = _sky_rows(frame, done.pos.shape[0])
     for k in range(done.pos.shape[0]):
         cat[k, 0], cat[k, 1], cat[k, 2] = (stars.vectors[done.pos[k], 0],
                                            stars.vectors[done.pos[k], 1],
@@ -160,7 +160,7 @@ cdef class _Cone:
 
     cdef Stars around(self, const double[:, ::1] matrix):
         """The Stars within the radius of ``matrix``'s boresight."""
-        rows = cone_rows(self.table, matrix[:, 2], self.radius).base
+        cdef long long[::1] rows = cone_rows(self.table, matrix[:, 2], self.radius)
         return _gather(self.table.vectors, self.mags, rows)
 
 

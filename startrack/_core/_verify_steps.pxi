@@ -11,6 +11,7 @@ cdef class Frame:
         self.geometry = geometry
         self.n = x.shape[0]
         self.scratch = _thread_scratch()
+        self.work = _thread_work()
 
 
 # Each thread's matching buffers, shared by the frames it checks: a new frame (one per
@@ -27,6 +28,25 @@ cdef NearestScratch _thread_scratch():
     return scratch
 
 
+cdef VerifyScratch _thread_work():
+    cdef VerifyScratch work = getattr(_THREAD, "work", None)
+    if work is None:
+        work = _THREAD.work = VerifyScratch.__new__(VerifyScratch)
+    return work
+
+
+cdef double[:, ::1] _cam_rows(Frame frame, Py_ssize_t m):
+    """The first ``m`` rows of the frame's scratch for observed vectors (unset values)."""
+    frame.work.cam = room_rows(frame.work.cam, m)
+    return frame.work.cam[:m]
+
+
+cdef double[:, ::1] _sky_rows(Frame frame, Py_ssize_t m):
+    """The first ``m`` rows of the frame's scratch for catalog vectors (unset values)."""
+    frame.work.sky = room_rows(frame.work.sky, m)
+    return frame.work.sky[:m]
+
+
 cdef class Stars:
     def __init__(self, const double[:, ::1] vectors, const double[::1] mags,
                  const long long[::1] rows):
@@ -35,9 +55,9 @@ cdef class Stars:
         self.vectors, self.mags, self.rows = vectors, mags, rows
 
 
-cdef Stars _gather(const double[:, ::1] catalog, const double[::1] mags, rows):
-    """The catalog stars of ``rows`` (an int64 array) as Stars."""
-    cdef const long long[::1] r = rows
+cdef Stars _gather(const double[:, ::1] catalog, const double[::1] mags,
+                  const long long[::1] r):
+    """The catalog stars of rows ``r`` as Stars."""
     cdef Py_ssize_t m = r.shape[0], i
     cdef Stars out = Stars.__new__(Stars)
     cdef double[:, ::1] vectors = empty_rows(m, 3)
@@ -129,8 +149,9 @@ cdef class _Selection:
     cdef double[::1] y
 
 
-cdef _Selection _select(Projection p, Geometry g, double margin):
-    # within()'s test, twice (count, then fill): cheaper than allocating its flags
+cdef _Selection _select(Projection p, Geometry g, double margin, VerifyScratch work):
+    # within()'s test, twice (count, then fill): cheaper than allocating its flags; the
+    # selection lives in ``work`` (its reader copies what it keeps)
     cdef _Bounds b = _widened(g, margin)
     cdef const double* x = &p.x[0]
     cdef const double* y = &p.y[0]
@@ -139,7 +160,9 @@ cdef _Selection _select(Projection p, Geometry g, double margin):
     for i in range(n):
         m += _inside(x, y, valid, i, b)
     cdef _Selection s = _Selection.__new__(_Selection)
-    s.where, s.x, s.y = empty_i64(m), empty_f64(m), empty_f64(m)
+    work.where, work.x, work.y = (room_i64(work.where, m), room_f64(work.x, m),
+                                  room_f64(work.y, m))
+    s.where, s.x, s.y = work.where[:m], work.x[:m], work.y[:m]
     for i in range(n):
         if _inside(x, y, valid, i, b):
             s.where[k], s.x[k], s.y[k] = i, x[i], y[i]
@@ -150,7 +173,7 @@ cdef _Selection _select(Projection p, Geometry g, double margin):
 cdef Matches match_projected(Frame frame, Projection projection, double radius):
     """Observed stars paired with the projected stars that fall in the image widened by
     ``radius`` (a star just beyond the edge can still be an observed star's)."""
-    cdef _Selection s = _select(projection, frame.geometry, radius)
+    cdef _Selection s = _select(projection, frame.geometry, radius, frame.work)
     cdef Nearest near = nearest_matches(frame.x, frame.y, s.x, s.y, radius, frame.scratch)
     cdef Matches m = Matches.__new__(Matches)
     cdef Py_ssize_t k
@@ -194,11 +217,13 @@ cdef bint fits_within(const double[:, :] cam, const double[:, :] sky,
     return True
 
 
-cdef double[:, ::1] _fit(const double[:, ::1] obs_vectors, const long long[::1] obs,
+cdef double[:, ::1] _fit(Frame frame, const long long[::1] obs,
                          const double[:, ::1] vectors, const long long[::1] pos):
-    """The Wahba attitude of observed ``obs[k]`` on catalog vector ``pos[k]``."""
+    """The Wahba attitude of the frame's observed ``obs[k]`` on catalog vector
+    ``pos[k]``."""
     cdef Py_ssize_t m = obs.shape[0], k
-    cdef double[:, ::1] cam = empty_rows(m, 3), sky = empty_rows(m, 3)
+    cdef const double[:, ::1] obs_vectors = frame.vectors
+    cdef double[:, ::1] cam = _cam_rows(frame, m), sky = _sky_rows(frame, m)
     cdef double[:, ::1] r = empty_rows(3, 3)
     for k in range(m):
         cam[k, 0], cam[k, 1], cam[k, 2] = (obs_vectors[obs[k], 0], obs_vectors[obs[k], 1],
