@@ -142,15 +142,15 @@ cdef class Verdict:
     matrix_to_quaternion: what ``Rotation.from_quat`` takes); ``cones``: how many catalog
     cones were looked up (a refinement beyond the first cone's margin looks more up)."""
     cdef readonly int status
-    cdef double[:, ::1] first
+    cdef readonly object first  # the arrays as Python reads them (numpy, made once)
     cdef Stars cone
-    cdef long long[::1] obs
-    cdef long long[::1] rows
+    cdef readonly object obs
+    cdef readonly object rows
     cdef readonly double probability
     cdef readonly Py_ssize_t confirmed
-    cdef double[:, ::1] final
-    cdef double[::1] residuals
-    cdef double[::1] quaternion
+    cdef readonly object final
+    cdef readonly object residuals  # None unless ACCEPTED
+    cdef readonly object quaternion  # None unless ACCEPTED
     cdef readonly int cones
 
 

@@ -110,6 +110,14 @@ cdef double[::1] residual_arcsec(const double[:, ::1] obs_vectors, const long lo
     """Angle (arcseconds) between each observed star ``obs[k]`` rotated to the sky by
     ``matrix`` (camera to sky) and its catalog vector ``cat_vectors[k]``."""
     cdef double[::1] out = empty_f64(obs.shape[0])
+    _residuals_into(obs_vectors, obs, matrix, cat_vectors, out)
+    return out
+
+
+cdef void _residuals_into(const double[:, ::1] obs_vectors, const long long[::1] obs,
+                          const double[:, :] matrix, const double[:, :] cat_vectors,
+                          double[::1] out) noexcept:
+    """residual_arcsec written into ``out``."""
     cdef Py_ssize_t k
     cdef int i
     cdef double dot
@@ -120,4 +128,3 @@ cdef double[::1] residual_arcsec(const double[:, ::1] obs_vectors, const long lo
                     + matrix[i, 1] * obs_vectors[obs[k], 1]
                     + matrix[i, 2] * obs_vectors[obs[k], 2]) * cat_vectors[k, i]
         out[k] = acos(fmax(-1.0, fmin(1.0, dot))) * _ARCSEC
-    return out
