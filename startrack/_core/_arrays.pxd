@@ -90,6 +90,12 @@ cdef inline double[::1] room_f64(double[::1] held, Py_ssize_t n):
     return held
 
 
+cdef inline unsigned char[::1] room_u8(unsigned char[::1] held, Py_ssize_t n):
+    if held.shape[0] < n or held.shape[0] == 0:
+        return zeros_u8(max(2 * n, 16))
+    return held
+
+
 cdef inline double[:, ::1] room_rows(double[:, ::1] held, Py_ssize_t n):
     """As room_f64, for (n, 3) rows."""
     if held.shape[0] < n or held.shape[0] == 0:

@@ -64,11 +64,28 @@ cpdef enum Status:
     ACCEPTED = 3
 
 
+cdef class Projection:
+    """Catalog stars projected at an attitude: pixel positions (0 where there is none) and
+    which have one (in front of the camera, inside the lens model's fold radius)."""
+    cdef double[::1] x
+    cdef double[::1] y
+    cdef unsigned char[::1] valid
+
+
+cdef class ProjectionBuffer:
+    """A projection's reusable arrays (lengths only grow) and the Projection of the
+    first values the last call set."""
+    cdef double[::1] x
+    cdef double[::1] y
+    cdef unsigned char[::1] valid
+    cdef Projection view
+
+
 cdef class VerifyScratch:
     """A check's short-lived buffers, kept from one call to the next as NearestScratch
     keeps the matching's (a check would otherwise allocate tens of small arrays): the
     observed and catalog vectors of a Wahba fit, the projected stars a match or the
-    labelling selects (positions, pixel positions, magnitudes). Their lengths only grow;
+    labelling selects (positions, pixel positions, magnitudes), two projections. Their lengths only grow;
     a call uses the first rows it needs and copies out whatever it returns."""
     cdef double[:, ::1] cam
     cdef double[:, ::1] sky
@@ -76,6 +93,8 @@ cdef class VerifyScratch:
     cdef double[::1] x
     cdef double[::1] y
     cdef double[::1] mags
+    cdef ProjectionBuffer kept  # the refinement's last projection, which the labelling reads
+    cdef ProjectionBuffer passing  # a projection matched at once and dropped
 
 
 cdef class Frame:
@@ -97,14 +116,6 @@ cdef class Stars:
     cdef const double[:, ::1] vectors
     cdef const double[::1] mags
     cdef const long long[::1] rows
-
-
-cdef class Projection:
-    """Catalog stars projected at an attitude: pixel positions (0 where there is none) and
-    which have one (in front of the camera, inside the lens model's fold radius)."""
-    cdef double[::1] x
-    cdef double[::1] y
-    cdef unsigned char[::1] valid
 
 
 cdef class Matches:

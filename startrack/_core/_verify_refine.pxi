@@ -55,7 +55,7 @@ cdef _Refined _refine(Frame frame, const double[:, ::1] vectors, double radius,
     cdef Py_ssize_t rounds
     cdef double[:, ::1] matrix = _fit(frame, cur.obs, vectors, cur.pos)
     for rounds in range(max_rounds):
-        p = project(vectors, matrix, frame.geometry)
+        p = _project_into(frame.work.kept, vectors, matrix, frame.geometry)
         projected = True
         new = match_projected(frame, p, radius)
         changed = new.obs.shape[0] > cur.obs.shape[0] or (
@@ -80,7 +80,7 @@ cdef Labelled _label_at(Frame frame, Stars stars, double[:, ::1] matrix,
     """The final labelling at ``matrix`` (the Stars' ``projection`` there, or None) and
     the attitude refitted to the labels when there are three or more."""
     if projection is None:
-        projection = project(stars.vectors, matrix, frame.geometry)
+        projection = _project_into(frame.work.kept, stars.vectors, matrix, frame.geometry)
     cdef _Selection s = _select(projection, frame.geometry, params.radius_px, frame.work)
     cdef Py_ssize_t m = s.where.shape[0], k
     frame.work.mags = room_f64(frame.work.mags, m)

@@ -32,7 +32,14 @@ cdef VerifyScratch _thread_work():
     cdef VerifyScratch work = getattr(_THREAD, "work", None)
     if work is None:
         work = _THREAD.work = VerifyScratch.__new__(VerifyScratch)
+        work.kept, work.passing = _projection_buffer(), _projection_buffer()
     return work
+
+
+cdef ProjectionBuffer _projection_buffer():
+    cdef ProjectionBuffer b = ProjectionBuffer.__new__(ProjectionBuffer)
+    b.view = Projection.__new__(Projection)
+    return b
 
 
 cdef double[:, ::1] _cam_rows(Frame frame, Py_ssize_t m):
@@ -87,17 +94,36 @@ cdef bint _same(Matches a, Matches b) noexcept:
     return True
 
 
-@cython.cdivision(True)  # vz > 1e-12 where it divides
 cdef Projection project(const double[:, ::1] vectors, const double[:, :] matrix,
                         Geometry g):
     """Pixel positions of catalog vectors (n, 3) at the attitude ``matrix`` (camera to
     sky); a star behind the camera, or beyond the radius where the lens folds back, has
     none."""
-    cdef Py_ssize_t n = vectors.shape[0], i
+    cdef Py_ssize_t n = vectors.shape[0]
     cdef Projection p = Projection.__new__(Projection)
-    p.x, p.y, p.valid = zeros_f64(n), zeros_f64(n), zeros_u8(n)
+    p.x, p.y, p.valid = empty_f64(n), empty_f64(n), zeros_u8(n)
+    _fill(vectors, matrix, g, p)
+    return p
+
+
+cdef Projection _project_into(ProjectionBuffer buf, const double[:, ::1] vectors,
+                              const double[:, :] matrix, Geometry g):
+    """project() in ``buf``'s arrays: valid until the buffer's next call."""
+    cdef Py_ssize_t n = vectors.shape[0]
+    buf.x, buf.y, buf.valid = room_f64(buf.x, n), room_f64(buf.y, n), room_u8(buf.valid, n)
+    buf.view.x, buf.view.y, buf.view.valid = buf.x[:n], buf.y[:n], buf.valid[:n]
+    _fill(vectors, matrix, g, buf.view)
+    return buf.view
+
+
+@cython.cdivision(True)  # vz > 1e-12 where it divides
+cdef void _fill(const double[:, ::1] vectors, const double[:, :] matrix, Geometry g,
+                Projection p) noexcept:
+    """Every value of ``p``: the projection, 0 and not valid where there is none."""
+    cdef Py_ssize_t n = vectors.shape[0], i
     cdef double a, b, c, vx, vy, vz, u, w, r2, s
     for i in range(n):
+        p.x[i], p.y[i], p.valid[i] = 0.0, 0.0, False
         a, b, c = vectors[i, 0], vectors[i, 1], vectors[i, 2]  # R^T v: in the camera frame
         vx = a * matrix[0, 0] + b * matrix[1, 0] + c * matrix[2, 0]
         vy = a * matrix[0, 1] + b * matrix[1, 1] + c * matrix[2, 1]
@@ -111,7 +137,6 @@ cdef Projection project(const double[:, ::1] vectors, const double[:, :] matrix,
         s = 1.0 + r2 * (g.k1 + r2 * (g.k2 + r2 * g.k3))
         p.x[i], p.y[i] = g.cx + g.f_px * (u * s), g.cy + g.f_px * (w * s)
         p.valid[i] = True
-    return p
 
 
 cdef struct _Bounds:
@@ -185,7 +210,8 @@ cdef Matches match_projected(Frame frame, Projection projection, double radius):
 
 cdef Matches match(Frame frame, const double[:, ::1] vectors, const double[:, :] matrix,
                    double radius):
-    return match_projected(frame, project(vectors, matrix, frame.geometry), radius)
+    return match_projected(frame, _project_into(frame.work.passing, vectors, matrix,
+                                                frame.geometry), radius)
 
 
 cdef Py_ssize_t _confirmed(Matches m, const long long[::1] hyp_obs):
