@@ -35,12 +35,9 @@ cdef class Labels:
 
 
 cdef class _Work:
-    """The labelling's working arrays, kept from one call to the next (a call allocating
-    its own cost more than labelling tens of stars); lengths only grow, and a call sets
-    every value it reads: per catalog star its pair count, the rival offsets and fill
-    positions, whether it is crowded; per observed star its instrumental magnitude, best
-    pair and score, and clearness; per pair the brightness verdict, log-likelihoods and
-    rival scores; the isolated pairs and the values a median sorts."""
+    """The labelling's working arrays (per catalog star, observed star or pair), kept
+    from one call to the next: allocating them costs more than labelling tens of stars.
+    Lengths only grow; a call sets every value it reads."""
     cdef long long[::1] per_cat, cat_start, fill, iso, best, by_cat
     cdef double[::1] inst, top, log_b, log_g, rival, offset, d2
     cdef unsigned char[::1] clear_o, clear, ok, crowded
@@ -184,9 +181,12 @@ cdef unsigned char[::1] _crowded(const double[::1] x, const double[::1] y, doubl
     cdef unsigned char[::1] crowded = _set_u8(w.crowded, m, 0)
     if not resolve2 > 0.0:
         return crowded  # no squared distance is below it
-    xs = x.base  # the array itself when it is one, with no copy
-    if not (isinstance(xs, np.ndarray) and xs.ndim == 1 and xs.shape[0] == m):
+    xs = x.base  # the array itself, or the start of one (a scratch buffer), with no copy
+    if not (isinstance(xs, np.ndarray) and xs.ndim == 1 and xs.shape[0] >= m
+            and cnp.PyArray_DATA(xs) == <void*>&x[0] and cnp.PyArray_ISCARRAY_RO(xs)):
         xs = np.asarray(x)
+    elif xs.shape[0] > m:
+        xs = xs[:m]
     cdef long long[::1] order = cnp.PyArray_ArgSort(xs, 0, cnp.NPY_QUICKSORT)
     cdef double gap, dx, dy
     for a in range(m):
