@@ -202,9 +202,9 @@ cdef Matches match_projected(Frame frame, Projection projection, double radius):
     cdef Nearest near = nearest_matches(frame.x, frame.y, s.x, s.y, radius, frame.scratch)
     cdef Matches m = Matches.__new__(Matches)
     cdef Py_ssize_t k
-    m.obs, m.pos, m.n_in = near.obs, empty_i64(near.cat.shape[0]), s.where.shape[0]
-    for k in range(near.cat.shape[0]):
-        m.pos[k] = s.where[near.cat[k]]
+    for k in range(near.cat.shape[0]):  # the selection's index to the Stars': in place,
+        near.cat[k] = s.where[near.cat[k]]  # the pairing's arrays are this call's own
+    m.obs, m.pos, m.n_in = near.obs, near.cat, s.where.shape[0]
     return m
 
 
