@@ -85,7 +85,8 @@ cdef class VerifyScratch:
     """A check's short-lived buffers, kept from one call to the next as NearestScratch
     keeps the matching's (a check would otherwise allocate tens of small arrays): the
     observed and catalog vectors of a Wahba fit, the projected stars a match or the
-    labelling selects (positions, pixel positions, magnitudes), two projections. Their lengths only grow;
+    labelling selects (positions, pixel positions, magnitudes), the catalog cone's stars,
+    two projections. Their lengths only grow;
     a call uses the first rows it needs and copies out whatever it returns."""
     cdef double[:, ::1] cam
     cdef double[:, ::1] sky
@@ -93,6 +94,8 @@ cdef class VerifyScratch:
     cdef double[::1] x
     cdef double[::1] y
     cdef double[::1] mags
+    cdef double[:, ::1] cone_vectors  # the Stars of the catalog cone a check looked up
+    cdef double[::1] cone_mags
     cdef ProjectionBuffer kept  # the refinement's last projection, which the labelling reads
     cdef ProjectionBuffer passing  # a projection matched at once and dropped
 
@@ -146,15 +149,13 @@ cdef class Labelled:
 
 
 cdef class Verdict:
-    """One hypothesis checked: the status, the first attitude, the cone's stars (None with
-    fixed rows), the pairs (the first test's unless ACCEPTED; catalog rows), the bound, the
+    """One hypothesis checked: the status, the first attitude, the pairs (the first test's unless ACCEPTED; catalog rows), the bound, the
     confirmed count, the final attitude and, once ACCEPTED, the residuals in arcseconds
     and the quaternion ``[x, y, z, w]`` of the final attitude (_wahba's
     matrix_to_quaternion: what ``Rotation.from_quat`` takes); ``cones``: how many catalog
     cones were looked up (a refinement beyond the first cone's margin looks more up)."""
     cdef readonly int status
     cdef readonly object first  # the arrays as Python reads them (numpy, made once)
-    cdef Stars cone
     cdef readonly object obs
     cdef readonly object rows
     cdef readonly double probability

@@ -149,10 +149,11 @@ cdef class _Cone:
     cdef const double[::1] mags
     cdef double radius
 
-    cdef Stars around(self, const double[:, ::1] matrix):
-        """The Stars within the radius of ``matrix``'s boresight."""
+    cdef Stars around(self, const double[:, ::1] matrix, VerifyScratch work):
+        """The Stars within the radius of ``matrix``'s boresight, in ``work``'s cone
+        buffers (until its next call)."""
         cdef long long[::1] rows = cone_rows(self.table, matrix[:, 2], self.radius)
-        return _gather(self.table.vectors, self.mags, rows)
+        return _gather(self.table.vectors, self.mags, rows, work)
 
 
 cdef tuple _refine_on_fresh_cone(Frame frame, double[:, ::1] refined, CheckParams params,
@@ -161,13 +162,13 @@ cdef tuple _refine_on_fresh_cone(Frame frame, double[:, ::1] refined, CheckParam
     arcseconds): match and refine again on a cone around the refined attitude, and label
     on one around the final attitude if that moved beyond its margin too. Returns the
     refinement and the Stars to label."""
-    cdef Stars stars = cone.around(refined)
+    cdef Stars stars = cone.around(refined, frame.work)
     cdef Matches m = match(frame, stars.vectors, refined, params.radius_px)
     cdef _Refined r = _refine(frame, stars.vectors, params.radius_px, params.capture, m,
                               params.max_rounds)
     v.cones += 1
     if _drift(r.matrix, refined) < params.margin_cos:
-        stars = cone.around(r.matrix)
+        stars = cone.around(r.matrix, frame.work)
         r.projection = None
         v.cones += 1
     return r, stars
@@ -200,7 +201,5 @@ cdef Verdict check_cone(Frame frame, const long long[::1] hyp_obs,
         return _verdict(REJECTED, _matrix_array(test.matrix), 0)
     cdef _Cone cone = _Cone.__new__(_Cone)
     cone.table, cone.mags, cone.radius = table, mags, params.cone_radius
-    cdef Stars stars = cone.around(test.matrix)
-    cdef Verdict v = _judge(frame, hyp_obs, test.matrix, stars, params, cone)
-    v.cone = stars
-    return v
+    cdef Stars stars = cone.around(test.matrix, frame.work)
+    return _judge(frame, hyp_obs, test.matrix, stars, params, cone)

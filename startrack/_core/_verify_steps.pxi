@@ -63,12 +63,14 @@ cdef class Stars:
 
 
 cdef Stars _gather(const double[:, ::1] catalog, const double[::1] mags,
-                  const long long[::1] r):
-    """The catalog stars of rows ``r`` as Stars."""
+                  const long long[::1] r, VerifyScratch work):
+    """The catalog stars of rows ``r`` as Stars, in ``work``'s cone buffers."""
     cdef Py_ssize_t m = r.shape[0], i
     cdef Stars out = Stars.__new__(Stars)
-    cdef double[:, ::1] vectors = empty_rows(m, 3)
-    cdef double[::1] row_mags = empty_f64(m)
+    work.cone_vectors = room_rows(work.cone_vectors, m)
+    work.cone_mags = room_f64(work.cone_mags, m)
+    cdef double[:, ::1] vectors = work.cone_vectors[:m]
+    cdef double[::1] row_mags = work.cone_mags[:m]
     for i in range(m):
         vectors[i, 0], vectors[i, 1], vectors[i, 2] = (catalog[r[i], 0], catalog[r[i], 1],
                                                        catalog[r[i], 2])
