@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 import pytest
+from startrack._core.verify import ACCEPTED
 from synth import synthetic_frame
 
 from startrack.attitude import (
@@ -20,6 +23,7 @@ from startrack.matchers import available_methods, get_matcher
 from startrack.sky import SkySpec, load_sky, random_sky
 from startrack.solver._lost_in_space import identify
 from startrack.types import Hypothesis, Observation
+from startrack.verify._frame import FrameVerifier
 from startrack.verify._verification import VerifyConfig, false_match_probability, verify
 
 CONFIG = VerifyConfig()
@@ -197,3 +201,29 @@ def test_refinement_beyond_the_cone_margin_gives_the_same_answer(random_db, monk
         np.testing.assert_array_equal(a.cat_index, b.cat_index)
         if a.accepted:
             np.testing.assert_allclose(a.matrix, b.matrix, atol=1e-9)
+
+
+def test_verdicts_keep_their_arrays_while_later_checks_reuse_the_buffers(random_db):
+    """A check works in the thread's reused buffers; what it returns must stay its own."""
+    def fields(v):
+        return [np.array(getattr(v, k), copy=True) for k in
+                ("first", "obs", "rows", "final", "residuals", "quaternion")]
+
+    frames = [f for f, _ in _frames(random_db, 6, seed=7, noise_px=0.3)][:3]
+    checkers = [FrameVerifier(f.obs, random_db, CONFIG) for f in frames]
+    hyps = [(np.arange(3, dtype=np.int64), f.truth_rows[:3].astype(np.int64)) for f in frames]
+    first = [c.check(*h) for c, h in zip(checkers, hyps, strict=True)]
+    assert all(v.status == ACCEPTED for v in first)
+    kept = [fields(v) for v in first]
+    wrong = np.array([0, 1, 2], np.int64), np.array([5, 900, 1700], np.int64)
+    for c, h in zip(reversed(checkers), reversed(hyps), strict=True):  # other frame sizes
+        c.check(*wrong)
+        again = c.check(*h)
+    for v, before, c, h in zip(first, kept, checkers, hyps, strict=True):
+        for a, b, c_ in zip(fields(v), before, fields(c.check(*h)), strict=True):
+            np.testing.assert_array_equal(a, b)
+            np.testing.assert_array_equal(a, c_)
+    assert again.status == ACCEPTED
+    result = verify(Hypothesis(*hyps[0]), frames[0].obs, random_db, CONFIG)
+    assert result == replace(result)  # the fast-made Verification is a plain dataclass one
+    np.testing.assert_array_equal(result.quaternion, first[0].quaternion)

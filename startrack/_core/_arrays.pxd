@@ -73,3 +73,31 @@ cdef inline cnp.ndarray copy_i64(const long long[::1] values, Py_ssize_t n):
     for i in range(n):
         p[i] = values[i]
     return out
+
+
+# A scratch buffer that grows: ``held`` when it holds n values, else a new array of twice
+# that (a kernel's buffers settle after a few calls); never the unset buffer of a new
+# scratch (no values).
+cdef inline long long[::1] room_i64(long long[::1] held, Py_ssize_t n):
+    if held.shape[0] < n or held.shape[0] == 0:
+        return empty_i64(max(2 * n, 16))
+    return held
+
+
+cdef inline double[::1] room_f64(double[::1] held, Py_ssize_t n):
+    if held.shape[0] < n or held.shape[0] == 0:
+        return empty_f64(max(2 * n, 16))
+    return held
+
+
+cdef inline unsigned char[::1] room_u8(unsigned char[::1] held, Py_ssize_t n):
+    if held.shape[0] < n or held.shape[0] == 0:
+        return zeros_u8(max(2 * n, 16))
+    return held
+
+
+cdef inline double[:, ::1] room_rows(double[:, ::1] held, Py_ssize_t n):
+    """As room_f64, for (n, 3) rows."""
+    if held.shape[0] < n or held.shape[0] == 0:
+        return empty_rows(max(2 * n, 16), 3)
+    return held

@@ -10,13 +10,14 @@ with NaN counted as the maximum, a comparison with NaN is False), and the same
 """
 
 cimport cython
+import threading
+
 import numpy as np
 
 from libc.math cimport INFINITY, M_PI, NAN, fabs, isfinite, isnan, log, log10, sqrt
 
 cimport numpy as cnp
-from startrack._core._arrays cimport (copy_i64, empty_f64, empty_i64, full_f64, ones_u8,
-                                      zeros_f64, zeros_i64, zeros_u8)
+from startrack._core._arrays cimport (empty_i64, room_f64, room_i64, room_u8)
 from startrack._core._nearest cimport NearestScratch, Pairs, pairs_within
 from startrack._core._stats cimport median_inplace, ptp
 
@@ -31,6 +32,46 @@ cdef class Labels:
         """(obs, cat, withheld, sigma_px, mag_sigma, used), as the Python callers take it."""
         return iter((self.obs.base, self.cat.base, np.array(self.withheld, np.int64),
                      self.sigma_px, self.mag_sigma, self.used))
+
+
+cdef class _Work:
+    """The labelling's working arrays (per catalog star, observed star or pair), kept
+    from one call to the next: allocating them costs more than labelling tens of stars.
+    Lengths only grow; a call sets every value it reads."""
+    cdef long long[::1] per_cat, cat_start, fill, iso, best, by_cat
+    cdef double[::1] inst, top, log_b, log_g, rival, offset, d2
+    cdef unsigned char[::1] clear_o, clear, ok, crowded
+
+
+# Per thread, as a call may let another thread run (a finalizer's bytecode).
+_THREAD = threading.local()
+
+
+cdef _Work _thread_work():
+    cdef _Work work = getattr(_THREAD, "work", None)
+    if work is None:
+        work = _THREAD.work = _Work.__new__(_Work)
+    return work
+
+
+cdef inline long long[::1] _set_i64(long long[::1] held, Py_ssize_t n, long long value):
+    """The first ``n`` values of a held buffer (room_i64 made room), each set to ``value``."""
+    cdef long long[::1] out = held[:n]
+    out[:] = value
+    return out
+
+
+cdef inline double[::1] _set_f64(double[::1] held, Py_ssize_t n, double value):
+    cdef double[::1] out = held[:n]
+    out[:] = value
+    return out
+
+
+cdef inline unsigned char[::1] _set_u8(unsigned char[::1] held, Py_ssize_t n,
+                                       unsigned char value):
+    cdef unsigned char[::1] out = held[:n]
+    out[:] = value
+    return out
 
 
 cdef double _log(double value) except? -1.0:  # log, raising where Python's math.log does
@@ -87,18 +128,21 @@ cdef inline bint _clear(Best b, double gap) noexcept:
 
 cdef unsigned char[::1] _rivals(Pairs pairs, const unsigned char[::1] cand,
                                 const double[::1] log_g, double gap, Py_ssize_t n_cat,
-                                long long[::1] best_pair, double[::1] top):
+                                long long[::1] best_pair, double[::1] top, _Work w):
     """Each observed star's best candidate pair (-1: none) and its score, written into
     ``best_pair`` and ``top``; returns whether that pair has no rival on either side
     within the likelihood ``gap``."""
     cdef Py_ssize_t n_obs = pairs.start.shape[0] - 1, n_pairs = pairs.obs.shape[0]
     cdef Py_ssize_t i, j, k
-    cdef unsigned char[::1] clear_o = zeros_u8(n_obs)
+    w.clear_o, w.clear = room_u8(w.clear_o, n_obs), room_u8(w.clear, n_obs)
+    w.rival, w.by_cat = room_f64(w.rival, n_pairs), room_i64(w.by_cat, n_pairs)
+    w.cat_start, w.fill = room_i64(w.cat_start, n_cat + 1), room_i64(w.fill, n_cat)
+    cdef unsigned char[::1] clear_o = _set_u8(w.clear_o, n_obs, 0)
     cdef Best b
     for i in range(n_obs):
         b = _best_two(log_g, pairs.start[i], pairs.start[i + 1], NULL)
         best_pair[i], top[i], clear_o[i] = b.index, b.top, _clear(b, gap)
-    cdef double[::1] rival = full_f64(n_pairs, -INFINITY)  # per catalog star: its rivals
+    cdef double[::1] rival = _set_f64(w.rival, n_pairs, -INFINITY)  # per catalog star: its rivals
     for k in range(n_pairs):
         i = pairs.obs[k]
         # An observed star clearly matched to another catalog star is no rival here.
@@ -106,17 +150,18 @@ cdef unsigned char[::1] _rivals(Pairs pairs, const unsigned char[::1] cand,
             rival[k] = log_g[k]
     # By catalog then observed index: a counting sort of the pairs, which come by
     # observed index, is that order.
-    cdef long long[::1] cat_start = zeros_i64(n_cat + 1)
+    cdef long long[::1] cat_start = _set_i64(w.cat_start, n_cat + 1, 0)
     for k in range(n_pairs):
         cat_start[pairs.cat[k] + 1] += 1
     for j in range(n_cat):
         cat_start[j + 1] += cat_start[j]
-    cdef long long[::1] by_cat = empty_i64(n_pairs)
-    cdef long long[::1] fill = copy_i64(cat_start, n_cat)
+    cdef long long[::1] by_cat = w.by_cat[:n_pairs]
+    cdef long long[::1] fill = w.fill[:n_cat]
+    fill[:] = cat_start[:n_cat]
     for k in range(n_pairs):
         by_cat[fill[pairs.cat[k]]] = k
         fill[pairs.cat[k]] += 1
-    cdef unsigned char[::1] clear = zeros_u8(n_obs)
+    cdef unsigned char[::1] clear = _set_u8(w.clear, n_obs, 0)
     for i in range(n_obs):
         k = best_pair[i]
         if k >= 0 and clear_o[i]:
@@ -126,17 +171,22 @@ cdef unsigned char[::1] _rivals(Pairs pairs, const unsigned char[::1] cand,
     return clear
 
 
-cdef unsigned char[::1] _crowded(const double[::1] x, const double[::1] y, double resolve2):
+cdef unsigned char[::1] _crowded(const double[::1] x, const double[::1] y, double resolve2,
+                                 _Work w):
     """Per catalog star, whether another lies closer than ``sqrt(resolve2)`` (NaN is no
     neighbour): a sweep along x, in x order, that stops where the x gap alone reaches the
     limit, so a frame costs O(m log m) and not O(n m)."""
     cdef Py_ssize_t m = x.shape[0], a, b, i, j
-    cdef unsigned char[::1] crowded = zeros_u8(m)
+    w.crowded = room_u8(w.crowded, m)
+    cdef unsigned char[::1] crowded = _set_u8(w.crowded, m, 0)
     if not resolve2 > 0.0:
         return crowded  # no squared distance is below it
-    xs = x.base  # the array itself when it is one, with no copy
-    if not (isinstance(xs, np.ndarray) and xs.ndim == 1 and xs.shape[0] == m):
+    xs = x.base  # the array itself, or the start of one (a scratch buffer), with no copy
+    if not (isinstance(xs, np.ndarray) and xs.ndim == 1 and xs.shape[0] >= m
+            and cnp.PyArray_DATA(xs) == <void*>&x[0] and cnp.PyArray_ISCARRAY_RO(xs)):
         xs = np.asarray(x)
+    elif xs.shape[0] > m:
+        xs = xs[:m]
     cdef long long[::1] order = cnp.PyArray_ArgSort(xs, 0, cnp.NPY_QUICKSORT)
     cdef double gap, dx, dy
     for a in range(m):
@@ -172,12 +222,14 @@ cdef Labels label(const double[::1] ox, const double[::1] oy, const double[::1] 
     cdef Py_ssize_t n_obs = ox.shape[0], n_cat = x.shape[0], i, k
     cdef Pairs pairs = pairs_within(ox, oy, x, y, p.radius2, scratch)
     cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_false = n_obs, n_unobserved = n_cat
-    cdef long long[::1] per_cat = zeros_i64(n_cat)
+    cdef _Work w = _thread_work()
+    w.per_cat = room_i64(w.per_cat, n_cat)
+    cdef long long[::1] per_cat = _set_i64(w.per_cat, n_cat, 0)
     for k in range(n_pairs):
         per_cat[pairs.cat[k]] += 1
-    cdef long long[::1] iso_pair = _isolated(pairs, per_cat)
-    cdef double sigma = _residual_sigma(pairs, iso_pair, p)
-    cdef _Fit fit = _brightness(pairs, flux, mag, iso_pair, p)
+    cdef long long[::1] iso_pair = _isolated(pairs, per_cat, w)
+    cdef double sigma = _residual_sigma(pairs, iso_pair, p, w)
+    cdef _Fit fit = _brightness(pairs, flux, mag, iso_pair, p, w)
     # Log density (per px^2) of a false star on an unobserved catalog star, and the log
     # probability that a catalog star is observed, from this frame's own counts (plus
     # one, so that a clean frame still allows for one).
@@ -189,14 +241,16 @@ cdef Labels label(const double[::1] ox, const double[::1] oy, const double[::1] 
     cdef double log_false = _log((n_false + 1.0) / p.area * unobserved)
     cdef double log_seen = _log(1.0 - unobserved)
     cdef double log_norm = _log(2.0 * M_PI * (sigma * sigma))  # before dividing by it
-    cdef double[::1] log_g = full_f64(n_pairs, -INFINITY)  # residual log-likelihoods
+    w.log_g = room_f64(w.log_g, n_pairs)
+    cdef double[::1] log_g = _set_f64(w.log_g, n_pairs, -INFINITY)  # residual log-likelihoods
     for k in range(n_pairs):
         if fit.ok[k]:
             log_g[k] = -pairs.d2[k] / (2.0 * (sigma * sigma))
-    cdef long long[::1] best = empty_i64(n_obs)
-    cdef double[::1] top = empty_f64(n_obs)
-    cdef unsigned char[::1] clear = _rivals(pairs, fit.ok, log_g, p.log_gap, n_cat, best, top)
-    cdef unsigned char[::1] crowded = _crowded(x, y, p.resolve2)
+    w.best, w.top = room_i64(w.best, n_obs), room_f64(w.top, n_obs)
+    cdef long long[::1] best = w.best[:n_obs]
+    cdef double[::1] top = w.top[:n_obs]
+    cdef unsigned char[::1] clear = _rivals(pairs, fit.ok, log_g, p.log_gap, n_cat, best, top, w)
+    cdef unsigned char[::1] crowded = _crowded(x, y, p.resolve2, w)
     cdef _Logs logs = _Logs(log_false, log_seen, log_norm, p.log_false_odds, sigma)
     return _decide(pairs, fit, best, top, clear, crowded, rows, logs)
 

@@ -13,18 +13,21 @@ cdef class _Fit:
 
 @cython.cdivision(True)  # x / 0 is inf or NaN, as numpy's
 cdef _Fit _brightness(Pairs pairs, const double[::1] flux, const double[::1] mag,
-                      const long long[::1] iso_pair, LabelParams p):
+                      const long long[::1] iso_pair, LabelParams p, _Work w):
     cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_obs = flux.shape[0], i, k, n_fit = 0
     cdef _Fit fit = _Fit.__new__(_Fit)
-    fit.ok, fit.log_b = ones_u8(n_pairs), zeros_f64(n_pairs)
+    w.ok, w.log_b = room_u8(w.ok, n_pairs), room_f64(w.log_b, n_pairs)
+    fit.ok, fit.log_b = _set_u8(w.ok, n_pairs, 1), _set_f64(w.log_b, n_pairs, 0.0)
     fit.sigma, fit.used = NAN, False
     if not p.has_flux:
         return fit
-    cdef double[::1] inst = full_f64(n_obs, NAN)
+    w.inst = room_f64(w.inst, n_obs)
+    cdef double[::1] inst = _set_f64(w.inst, n_obs, NAN)
     for i in range(n_obs):
         if isfinite(flux[i]) and flux[i] > 0.0:
             inst[i] = -2.5 * log10(flux[i])
-    cdef double[::1] offset = empty_f64(iso_pair.shape[0])
+    w.offset = room_f64(w.offset, iso_pair.shape[0])
+    cdef double[::1] offset = w.offset[:iso_pair.shape[0]]
     for k in range(iso_pair.shape[0]):
         i = pairs.obs[iso_pair[k]]
         if not isnan(inst[i]):
@@ -59,26 +62,28 @@ cdef _Fit _brightness(Pairs pairs, const double[::1] flux, const double[::1] mag
     return fit
 
 
-cdef long long[::1] _isolated(Pairs pairs, const long long[::1] per_cat):
+cdef long long[::1] _isolated(Pairs pairs, const long long[::1] per_cat, _Work w):
     """The pairs that are each other's only candidate, by observed index."""
     cdef Py_ssize_t n = pairs.start.shape[0] - 1, i, k = 0
-    out = empty_i64(n)
-    cdef long long[::1] view = out
+    w.iso = room_i64(w.iso, n)
+    cdef long long[::1] view = w.iso
     for i in range(n):
         if pairs.start[i + 1] - pairs.start[i] == 1 and per_cat[pairs.cat[pairs.start[i]]] == 1:
             view[k] = pairs.start[i]
             k += 1
-    return out[:k]
+    return view[:k]
 
 
-cdef double _residual_sigma(Pairs pairs, const long long[::1] iso_pair, LabelParams p):
+cdef double _residual_sigma(Pairs pairs, const long long[::1] iso_pair, LabelParams p,
+                            _Work w):
     """The residual scatter per axis: fitted over the isolated pairs when there are enough
     (the stated noise otherwise), floored at ``min_sigma_px``."""
     cdef double sigma = p.sigma0
     cdef Py_ssize_t k
     cdef double[::1] d2
     if iso_pair.shape[0] >= p.min_fit:
-        d2 = empty_f64(iso_pair.shape[0])
+        w.d2 = room_f64(w.d2, iso_pair.shape[0])
+        d2 = w.d2[:iso_pair.shape[0]]
         for k in range(iso_pair.shape[0]):
             d2[k] = pairs.d2[iso_pair[k]]
         sigma = sqrt(median_inplace(d2) * _MEDIAN_R2_TO_SIGMA2)

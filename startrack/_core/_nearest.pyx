@@ -14,6 +14,7 @@ from libc.math cimport INFINITY, fabs, fmax, fmin, isfinite, isnan, sqrt
 cimport numpy as cnp
 from startrack._core._arrays cimport (empty_f64, empty_i64, full_f64, full_i64,
                                       zeros_i64)
+from startrack._core._arrays cimport room_f64 as _room_f64, room_i64 as _room_i64
 
 cnp.import_array()  # the C API the _arrays helpers call
 
@@ -43,20 +44,6 @@ cdef inline double _lesser(double a, double b) noexcept nogil:
 cdef inline double _greater(double a, double b) noexcept nogil:
     """fmax of two numbers that are not NaN, inline."""
     return b if b > a else a
-
-
-cdef inline long long[::1] _room_i64(long long[::1] held, Py_ssize_t n):
-    """``held`` when it holds n values, else a new array of twice that (a frame's buffers
-    settle after a few calls); never the unset buffer of a new scratch (no values)."""
-    if held.shape[0] < n or held.shape[0] == 0:
-        return empty_i64(max(2 * n, 16))
-    return held
-
-
-cdef inline double[::1] _room_f64(double[::1] held, Py_ssize_t n):
-    if held.shape[0] < n or held.shape[0] == 0:
-        return empty_f64(max(2 * n, 16))
-    return held
 
 
 cdef class _Cells:

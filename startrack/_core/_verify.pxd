@@ -64,6 +64,42 @@ cpdef enum Status:
     ACCEPTED = 3
 
 
+cdef class Projection:
+    """Catalog stars projected at an attitude: pixel positions (0 where there is none) and
+    which have one (in front of the camera, inside the lens model's fold radius)."""
+    cdef double[::1] x
+    cdef double[::1] y
+    cdef unsigned char[::1] valid
+
+
+cdef class ProjectionBuffer:
+    """A projection's reusable arrays (lengths only grow) and the Projection of the
+    first values the last call set."""
+    cdef double[::1] x
+    cdef double[::1] y
+    cdef unsigned char[::1] valid
+    cdef Projection view
+
+
+cdef class VerifyScratch:
+    """A check's short-lived buffers, kept from one call to the next as NearestScratch
+    keeps the matching's (a check would otherwise allocate tens of small arrays): the
+    observed and catalog vectors of a Wahba fit, the projected stars a match or the
+    labelling selects (positions, pixel positions, magnitudes), the catalog cone's stars,
+    two projections. Their lengths only grow;
+    a call uses the first rows it needs and copies out whatever it returns."""
+    cdef double[:, ::1] cam
+    cdef double[:, ::1] sky
+    cdef long long[::1] where
+    cdef double[::1] x
+    cdef double[::1] y
+    cdef double[::1] mags
+    cdef double[:, ::1] cone_vectors  # the Stars of the catalog cone a check looked up
+    cdef double[::1] cone_mags
+    cdef ProjectionBuffer kept  # the refinement's last projection, which the labelling reads
+    cdef ProjectionBuffer passing  # a projection matched at once and dropped
+
+
 cdef class Frame:
     """One frame's observed stars as verification takes them: unit vectors (n, 3) in the
     camera frame, pixel positions, fluxes (any values when there are none; LabelParams
@@ -75,6 +111,7 @@ cdef class Frame:
     cdef Geometry geometry
     cdef readonly Py_ssize_t n
     cdef NearestScratch scratch  # the matching's buffers: the thread's, reused by every call
+    cdef VerifyScratch work  # the check's own buffers: the thread's too
 
 
 cdef class Stars:
@@ -82,14 +119,6 @@ cdef class Stars:
     cdef const double[:, ::1] vectors
     cdef const double[::1] mags
     cdef const long long[::1] rows
-
-
-cdef class Projection:
-    """Catalog stars projected at an attitude: pixel positions (0 where there is none) and
-    which have one (in front of the camera, inside the lens model's fold radius)."""
-    cdef double[::1] x
-    cdef double[::1] y
-    cdef unsigned char[::1] valid
 
 
 cdef class Matches:
@@ -120,22 +149,20 @@ cdef class Labelled:
 
 
 cdef class Verdict:
-    """One hypothesis checked: the status, the first attitude, the cone's stars (None with
-    fixed rows), the pairs (the first test's unless ACCEPTED; catalog rows), the bound, the
+    """One hypothesis checked: the status, the first attitude, the pairs (the first test's unless ACCEPTED; catalog rows), the bound, the
     confirmed count, the final attitude and, once ACCEPTED, the residuals in arcseconds
     and the quaternion ``[x, y, z, w]`` of the final attitude (_wahba's
     matrix_to_quaternion: what ``Rotation.from_quat`` takes); ``cones``: how many catalog
     cones were looked up (a refinement beyond the first cone's margin looks more up)."""
     cdef readonly int status
-    cdef double[:, ::1] first
-    cdef Stars cone
-    cdef long long[::1] obs
-    cdef long long[::1] rows
+    cdef readonly object first  # the arrays as Python reads them (numpy, made once)
+    cdef readonly object obs
+    cdef readonly object rows
     cdef readonly double probability
     cdef readonly Py_ssize_t confirmed
-    cdef double[:, ::1] final
-    cdef double[::1] residuals
-    cdef double[::1] quaternion
+    cdef readonly object final
+    cdef readonly object residuals  # None unless ACCEPTED
+    cdef readonly object quaternion  # None unless ACCEPTED
     cdef readonly int cones
 
 

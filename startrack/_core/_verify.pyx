@@ -18,7 +18,8 @@ from libc.math cimport M_PI, acos, exp, fmax, fmin, lgamma, log, log1p
 
 cimport numpy as cnp
 
-from startrack._core._arrays cimport (empty_f64, empty_i64, empty_rows, zeros_f64, zeros_i64,
+from startrack._core._arrays cimport (copy_i64, empty_f64, empty_i64, empty_rows, room_f64,
+                                      room_i64, room_rows, room_u8, zeros_f64, zeros_i64,
                                       zeros_u8)
 from startrack._core._cone cimport ConeTable, cone_rows
 from startrack._core._labelling cimport LabelParams, Labels, label

@@ -51,41 +51,30 @@ cdef bint _valid(const long long[::1] index, Py_ssize_t size) noexcept:
 
 
 cdef class Verdict:
-    @property
-    def first(self):
-        """The hypothesis's own attitude (camera to sky)."""
-        return np.asarray(self.first)
-
-    @property
-    def obs(self):
-        """Observed index: the reported stars once ACCEPTED, else the first matches."""
-        return np.asarray(self.obs)
-
-    @property
-    def rows(self):
-        """The catalog rows of ``obs``."""
-        return np.asarray(self.rows)
-
-    @property
-    def final(self):
-        """The attitude refitted to the reported stars (the first one unless ACCEPTED)."""
-        return np.asarray(self.final)
-
-    @property
-    def residuals(self):
-        """Each reported star's residual in arcseconds (None unless ACCEPTED)."""
-        return None if self.residuals is None else np.asarray(self.residuals)
-
-    @property
-    def quaternion(self):
-        """The final attitude's ``[x, y, z, w]`` (None unless ACCEPTED)."""
-        return None if self.quaternion is None else np.asarray(self.quaternion)
+    """One hypothesis checked (fields: ``_verify.pxd``); its arrays are numpy arrays, made
+    once by the check."""
 
 
-cdef Verdict _verdict(int status, double[:, ::1] first, Py_ssize_t cones):
+# A refused verdict's pairs: empty, so one array serves them all.
+cdef object _NO_PAIRS = zeros_i64(0)
+
+
+cdef cnp.ndarray _matrix_array(const double[:, ::1] matrix):
+    """A (3, 3) attitude as a new numpy array (what a Verdict hands Python)."""
+    cdef cnp.ndarray out = empty_rows(3, 3)
+    cdef double* p = <double*>cnp.PyArray_DATA(out)
+    cdef int i, j
+    for i in range(3):
+        for j in range(3):
+            p[3 * i + j] = matrix[i, j]
+    return out
+
+
+cdef Verdict _verdict(int status, first, Py_ssize_t cones):
+    """A verdict with nothing matched; ``first``: the hypothesis's attitude (an array)."""
     cdef Verdict v = Verdict.__new__(Verdict)
     v.status, v.first, v.final, v.cones = status, first, first, cones
-    v.obs = v.rows = zeros_i64(0)
+    v.obs = v.rows = _NO_PAIRS
     v.probability, v.confirmed = 1.0, 0
     v.residuals = v.quaternion = None
     return v
@@ -96,7 +85,7 @@ cdef FirstTest _first(Frame frame, const long long[::1] hyp_obs,
                       CheckParams params):
     """The hypothesis's attitude and whether each of its pairs fits (no match yet)."""
     cdef Py_ssize_t k
-    cdef double[:, ::1] sky = empty_rows(hyp_rows.shape[0], 3)
+    cdef double[:, ::1] sky = _sky_rows(frame, hyp_rows.shape[0])
     for k in range(hyp_rows.shape[0]):
         sky[k, 0], sky[k, 1], sky[k, 2] = (catalog[hyp_rows[k], 0], catalog[hyp_rows[k], 1],
                                            catalog[hyp_rows[k], 2])
@@ -108,7 +97,7 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
     """Everything after the first attitude: the frame matched at it, the bound, the
     acceptance, then refinement, labelling, residuals and quaternion. ``cone``: where to
     look a fresh cone up when the refinement leaves this one's margin (None: fixed)."""
-    cdef Verdict v = _verdict(NOT_ACCEPTED, first, 0 if cone is None else 1)
+    cdef Verdict v = _verdict(NOT_ACCEPTED, _matrix_array(first), 0 if cone is None else 1)
     cdef Matches m = match(frame, stars.vectors, first, params.radius_px)
     cdef Py_ssize_t k, n = frame.n
     v.confirmed = _confirmed(m, hyp_obs)
@@ -117,20 +106,22 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
             v.confirmed - 1, n - hyp_obs.shape[0],
             fmin(1.0, m.n_in * M_PI * params.label.radius2 / params.label.area))
     if not (v.confirmed >= params.min_confirmed and v.probability <= params.max_probability):
-        v.obs, v.rows = m.obs, _take(stars.rows, m.pos)
+        v.obs, v.rows = copy_i64(m.obs, m.obs.shape[0]), _take(stars.rows, m.pos)
         return v
     cdef _Refined r = _refine(frame, stars.vectors, params.radius_px, params.capture, m,
                               params.max_rounds)
     if cone is not None and _drift(r.matrix, first) < params.margin_cos:
         r, stars = _refine_on_fresh_cone(frame, r.matrix, params, cone, v)
     cdef Labelled done = _label_at(frame, stars, r.matrix, r.projection, params)
-    v.status, v.final, v.obs, v.rows = ACCEPTED, done.final, done.obs, _take(stars.rows, done.pos)
-    cdef double[:, ::1] cat = empty_rows(done.pos.shape[0], 3)
+    v.status, v.final = ACCEPTED, _matrix_array(done.final)
+    v.obs, v.rows = copy_i64(done.obs, done.obs.shape[0]), _take(stars.rows, done.pos)
+    cdef double[:, ::1] cat = _sky_rows(frame, done.pos.shape[0])
     for k in range(done.pos.shape[0]):
         cat[k, 0], cat[k, 1], cat[k, 2] = (stars.vectors[done.pos[k], 0],
                                            stars.vectors[done.pos[k], 1],
                                            stars.vectors[done.pos[k], 2])
-    v.residuals = residual_arcsec(frame.vectors, done.obs, done.final, cat)
+    v.residuals = empty_f64(done.obs.shape[0])
+    _residuals_into(frame.vectors, done.obs, done.final, cat, v.residuals)
     v.quaternion = empty_f64(4)
     matrix_to_quaternion(done.final, v.quaternion)
     return v
@@ -141,7 +132,7 @@ cdef inline double _drift(const double[:, ::1] a, const double[:, ::1] b) noexce
     return a[0, 2] * b[0, 2] + a[1, 2] * b[1, 2] + a[2, 2] * b[2, 2]
 
 
-cdef _take(const long long[::1] rows, const long long[::1] pos):
+cdef cnp.ndarray _take(const long long[::1] rows, const long long[::1] pos):
     """``rows[pos]`` as an int64 array."""
     out = empty_i64(pos.shape[0])
     cdef long long[::1] view = out
@@ -158,10 +149,11 @@ cdef class _Cone:
     cdef const double[::1] mags
     cdef double radius
 
-    cdef Stars around(self, const double[:, ::1] matrix):
-        """The Stars within the radius of ``matrix``'s boresight."""
-        rows = cone_rows(self.table, matrix[:, 2], self.radius).base
-        return _gather(self.table.vectors, self.mags, rows)
+    cdef Stars around(self, const double[:, ::1] matrix, VerifyScratch work):
+        """The Stars within the radius of ``matrix``'s boresight, in ``work``'s cone
+        buffers (until its next call)."""
+        cdef long long[::1] rows = cone_rows(self.table, matrix[:, 2], self.radius)
+        return _gather(self.table.vectors, self.mags, rows, work)
 
 
 cdef tuple _refine_on_fresh_cone(Frame frame, double[:, ::1] refined, CheckParams params,
@@ -170,13 +162,13 @@ cdef tuple _refine_on_fresh_cone(Frame frame, double[:, ::1] refined, CheckParam
     arcseconds): match and refine again on a cone around the refined attitude, and label
     on one around the final attitude if that moved beyond its margin too. Returns the
     refinement and the Stars to label."""
-    cdef Stars stars = cone.around(refined)
+    cdef Stars stars = cone.around(refined, frame.work)
     cdef Matches m = match(frame, stars.vectors, refined, params.radius_px)
     cdef _Refined r = _refine(frame, stars.vectors, params.radius_px, params.capture, m,
                               params.max_rounds)
     v.cones += 1
     if _drift(r.matrix, refined) < params.margin_cos:
-        stars = cone.around(r.matrix)
+        stars = cone.around(r.matrix, frame.work)
         r.projection = None
         v.cones += 1
     return r, stars
@@ -192,7 +184,7 @@ cdef Verdict check_fixed(Frame frame, const long long[::1] hyp_obs,
         return _verdict(BAD_INDEX, np.eye(3), 0)
     cdef FirstTest test = _first(frame, hyp_obs, hyp_rows, catalog, params)
     if not test.fits:
-        return _verdict(REJECTED, test.matrix, 0)
+        return _verdict(REJECTED, _matrix_array(test.matrix), 0)
     return _judge(frame, hyp_obs, test.matrix, stars, params, None)
 
 
@@ -206,10 +198,8 @@ cdef Verdict check_cone(Frame frame, const long long[::1] hyp_obs,
         return _verdict(BAD_INDEX, np.eye(3), 0)
     cdef FirstTest test = _first(frame, hyp_obs, hyp_rows, table.vectors, params)
     if not test.fits:
-        return _verdict(REJECTED, test.matrix, 0)
+        return _verdict(REJECTED, _matrix_array(test.matrix), 0)
     cdef _Cone cone = _Cone.__new__(_Cone)
     cone.table, cone.mags, cone.radius = table, mags, params.cone_radius
-    cdef Stars stars = cone.around(test.matrix)
-    cdef Verdict v = _judge(frame, hyp_obs, test.matrix, stars, params, cone)
-    v.cone = stars
-    return v
+    cdef Stars stars = cone.around(test.matrix, frame.work)
+    return _judge(frame, hyp_obs, test.matrix, stars, params, cone)

@@ -8,7 +8,7 @@ cdef FirstTest _fit_hypothesis(Frame frame, const long long[::1] hyp_obs,
     Wahba attitude, and whether each of its pairs lies within the match radius
     (``cos_radius``) of the other there."""
     cdef Py_ssize_t m = hyp_obs.shape[0], k
-    cdef double[:, ::1] cam = empty_rows(m, 3)
+    cdef double[:, ::1] cam = _cam_rows(frame, m)
     for k in range(m):
         cam[k, 0], cam[k, 1], cam[k, 2] = (frame.vectors[hyp_obs[k], 0],
                                            frame.vectors[hyp_obs[k], 1],
@@ -53,9 +53,9 @@ cdef _Refined _refine(Frame frame, const double[:, ::1] vectors, double radius,
     cdef Projection p = None
     cdef bint projected = False, changed
     cdef Py_ssize_t rounds
-    cdef double[:, ::1] matrix = _fit(frame.vectors, cur.obs, vectors, cur.pos)
+    cdef double[:, ::1] matrix = _fit(frame, cur.obs, vectors, cur.pos)
     for rounds in range(max_rounds):
-        p = project(vectors, matrix, frame.geometry)
+        p = _project_into(frame.work.kept, vectors, matrix, frame.geometry)
         projected = True
         new = match_projected(frame, p, radius)
         changed = new.obs.shape[0] > cur.obs.shape[0] or (
@@ -64,12 +64,12 @@ cdef _Refined _refine(Frame frame, const double[:, ::1] vectors, double radius,
             wide = match_projected(frame, p, capture * radius)
             if wide.obs.shape[0] < 2 or _same(wide, cur):
                 break  # the same pairs refit to the same attitude: nothing would change
-            new = match(frame, vectors, _fit(frame.vectors, wide.obs, vectors, wide.pos),
+            new = match(frame, vectors, _fit(frame, wide.obs, vectors, wide.pos),
                         radius)
             if new.obs.shape[0] <= cur.obs.shape[0]:
                 break
         cur = new
-        matrix = _fit(frame.vectors, cur.obs, vectors, cur.pos)
+        matrix = _fit(frame, cur.obs, vectors, cur.pos)
         projected = False
     out.matches, out.matrix, out.projection = cur, matrix, p if projected else None
     return out
@@ -80,10 +80,11 @@ cdef Labelled _label_at(Frame frame, Stars stars, double[:, ::1] matrix,
     """The final labelling at ``matrix`` (the Stars' ``projection`` there, or None) and
     the attitude refitted to the labels when there are three or more."""
     if projection is None:
-        projection = project(stars.vectors, matrix, frame.geometry)
-    cdef _Selection s = _select(projection, frame.geometry, params.radius_px)
+        projection = _project_into(frame.work.kept, stars.vectors, matrix, frame.geometry)
+    cdef _Selection s = _select(projection, frame.geometry, params.radius_px, frame.work)
     cdef Py_ssize_t m = s.where.shape[0], k
-    cdef double[::1] mags = empty_f64(m)
+    frame.work.mags = room_f64(frame.work.mags, m)
+    cdef double[::1] mags = frame.work.mags[:m]
     for k in range(m):
         mags[k] = stars.mags[s.where[k]]
     cdef Labels labels = label(frame.x, frame.y, s.x, s.y, mags, s.where, frame.flux,
@@ -91,7 +92,7 @@ cdef Labelled _label_at(Frame frame, Stars stars, double[:, ::1] matrix,
     cdef Labelled out = Labelled.__new__(Labelled)
     out.obs, out.pos, out.refined, out.final = labels.obs, labels.cat, matrix, matrix
     if labels.obs.shape[0] >= 3:
-        out.final = _fit(frame.vectors, labels.obs, stars.vectors, labels.cat)
+        out.final = _fit(frame, labels.obs, stars.vectors, labels.cat)
     return out
 
 
@@ -109,6 +110,14 @@ cdef double[::1] residual_arcsec(const double[:, ::1] obs_vectors, const long lo
     """Angle (arcseconds) between each observed star ``obs[k]`` rotated to the sky by
     ``matrix`` (camera to sky) and its catalog vector ``cat_vectors[k]``."""
     cdef double[::1] out = empty_f64(obs.shape[0])
+    _residuals_into(obs_vectors, obs, matrix, cat_vectors, out)
+    return out
+
+
+cdef void _residuals_into(const double[:, ::1] obs_vectors, const long long[::1] obs,
+                          const double[:, :] matrix, const double[:, :] cat_vectors,
+                          double[::1] out) noexcept:
+    """residual_arcsec written into ``out``."""
     cdef Py_ssize_t k
     cdef int i
     cdef double dot
@@ -119,4 +128,3 @@ cdef double[::1] residual_arcsec(const double[:, ::1] obs_vectors, const long lo
                     + matrix[i, 1] * obs_vectors[obs[k], 1]
                     + matrix[i, 2] * obs_vectors[obs[k], 2]) * cat_vectors[k, i]
         out[k] = acos(fmax(-1.0, fmin(1.0, dot))) * _ARCSEC
-    return out

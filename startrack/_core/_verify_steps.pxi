@@ -11,6 +11,7 @@ cdef class Frame:
         self.geometry = geometry
         self.n = x.shape[0]
         self.scratch = _thread_scratch()
+        self.work = _thread_work()
 
 
 # Each thread's matching buffers, shared by the frames it checks: a new frame (one per
@@ -27,6 +28,32 @@ cdef NearestScratch _thread_scratch():
     return scratch
 
 
+cdef VerifyScratch _thread_work():
+    cdef VerifyScratch work = getattr(_THREAD, "work", None)
+    if work is None:
+        work = _THREAD.work = VerifyScratch.__new__(VerifyScratch)
+        work.kept, work.passing = _projection_buffer(), _projection_buffer()
+    return work
+
+
+cdef ProjectionBuffer _projection_buffer():
+    cdef ProjectionBuffer b = ProjectionBuffer.__new__(ProjectionBuffer)
+    b.view = Projection.__new__(Projection)
+    return b
+
+
+cdef double[:, ::1] _cam_rows(Frame frame, Py_ssize_t m):
+    """The first ``m`` rows of the frame's scratch for observed vectors (unset values)."""
+    frame.work.cam = room_rows(frame.work.cam, m)
+    return frame.work.cam[:m]
+
+
+cdef double[:, ::1] _sky_rows(Frame frame, Py_ssize_t m):
+    """The first ``m`` rows of the frame's scratch for catalog vectors (unset values)."""
+    frame.work.sky = room_rows(frame.work.sky, m)
+    return frame.work.sky[:m]
+
+
 cdef class Stars:
     def __init__(self, const double[:, ::1] vectors, const double[::1] mags,
                  const long long[::1] rows):
@@ -35,13 +62,15 @@ cdef class Stars:
         self.vectors, self.mags, self.rows = vectors, mags, rows
 
 
-cdef Stars _gather(const double[:, ::1] catalog, const double[::1] mags, rows):
-    """The catalog stars of ``rows`` (an int64 array) as Stars."""
-    cdef const long long[::1] r = rows
+cdef Stars _gather(const double[:, ::1] catalog, const double[::1] mags,
+                  const long long[::1] r, VerifyScratch work):
+    """The catalog stars of rows ``r`` as Stars, in ``work``'s cone buffers."""
     cdef Py_ssize_t m = r.shape[0], i
     cdef Stars out = Stars.__new__(Stars)
-    cdef double[:, ::1] vectors = empty_rows(m, 3)
-    cdef double[::1] row_mags = empty_f64(m)
+    work.cone_vectors = room_rows(work.cone_vectors, m)
+    work.cone_mags = room_f64(work.cone_mags, m)
+    cdef double[:, ::1] vectors = work.cone_vectors[:m]
+    cdef double[::1] row_mags = work.cone_mags[:m]
     for i in range(m):
         vectors[i, 0], vectors[i, 1], vectors[i, 2] = (catalog[r[i], 0], catalog[r[i], 1],
                                                        catalog[r[i], 2])
@@ -67,17 +96,36 @@ cdef bint _same(Matches a, Matches b) noexcept:
     return True
 
 
-@cython.cdivision(True)  # vz > 1e-12 where it divides
 cdef Projection project(const double[:, ::1] vectors, const double[:, :] matrix,
                         Geometry g):
     """Pixel positions of catalog vectors (n, 3) at the attitude ``matrix`` (camera to
     sky); a star behind the camera, or beyond the radius where the lens folds back, has
     none."""
-    cdef Py_ssize_t n = vectors.shape[0], i
+    cdef Py_ssize_t n = vectors.shape[0]
     cdef Projection p = Projection.__new__(Projection)
-    p.x, p.y, p.valid = zeros_f64(n), zeros_f64(n), zeros_u8(n)
+    p.x, p.y, p.valid = empty_f64(n), empty_f64(n), zeros_u8(n)
+    _fill(vectors, matrix, g, p)
+    return p
+
+
+cdef Projection _project_into(ProjectionBuffer buf, const double[:, ::1] vectors,
+                              const double[:, :] matrix, Geometry g):
+    """project() in ``buf``'s arrays: valid until the buffer's next call."""
+    cdef Py_ssize_t n = vectors.shape[0]
+    buf.x, buf.y, buf.valid = room_f64(buf.x, n), room_f64(buf.y, n), room_u8(buf.valid, n)
+    buf.view.x, buf.view.y, buf.view.valid = buf.x[:n], buf.y[:n], buf.valid[:n]
+    _fill(vectors, matrix, g, buf.view)
+    return buf.view
+
+
+@cython.cdivision(True)  # vz > 1e-12 where it divides
+cdef void _fill(const double[:, ::1] vectors, const double[:, :] matrix, Geometry g,
+                Projection p) noexcept:
+    """Every value of ``p``: the projection, 0 and not valid where there is none."""
+    cdef Py_ssize_t n = vectors.shape[0], i
     cdef double a, b, c, vx, vy, vz, u, w, r2, s
     for i in range(n):
+        p.x[i], p.y[i], p.valid[i] = 0.0, 0.0, False
         a, b, c = vectors[i, 0], vectors[i, 1], vectors[i, 2]  # R^T v: in the camera frame
         vx = a * matrix[0, 0] + b * matrix[1, 0] + c * matrix[2, 0]
         vy = a * matrix[0, 1] + b * matrix[1, 1] + c * matrix[2, 1]
@@ -91,7 +139,6 @@ cdef Projection project(const double[:, ::1] vectors, const double[:, :] matrix,
         s = 1.0 + r2 * (g.k1 + r2 * (g.k2 + r2 * g.k3))
         p.x[i], p.y[i] = g.cx + g.f_px * (u * s), g.cy + g.f_px * (w * s)
         p.valid[i] = True
-    return p
 
 
 cdef struct _Bounds:
@@ -129,8 +176,9 @@ cdef class _Selection:
     cdef double[::1] y
 
 
-cdef _Selection _select(Projection p, Geometry g, double margin):
-    # within()'s test, twice (count, then fill): cheaper than allocating its flags
+cdef _Selection _select(Projection p, Geometry g, double margin, VerifyScratch work):
+    # within()'s test, twice (count, then fill): cheaper than allocating its flags; the
+    # selection lives in ``work`` (its reader copies what it keeps)
     cdef _Bounds b = _widened(g, margin)
     cdef const double* x = &p.x[0]
     cdef const double* y = &p.y[0]
@@ -139,7 +187,9 @@ cdef _Selection _select(Projection p, Geometry g, double margin):
     for i in range(n):
         m += _inside(x, y, valid, i, b)
     cdef _Selection s = _Selection.__new__(_Selection)
-    s.where, s.x, s.y = empty_i64(m), empty_f64(m), empty_f64(m)
+    work.where, work.x, work.y = (room_i64(work.where, m), room_f64(work.x, m),
+                                  room_f64(work.y, m))
+    s.where, s.x, s.y = work.where[:m], work.x[:m], work.y[:m]
     for i in range(n):
         if _inside(x, y, valid, i, b):
             s.where[k], s.x[k], s.y[k] = i, x[i], y[i]
@@ -150,19 +200,20 @@ cdef _Selection _select(Projection p, Geometry g, double margin):
 cdef Matches match_projected(Frame frame, Projection projection, double radius):
     """Observed stars paired with the projected stars that fall in the image widened by
     ``radius`` (a star just beyond the edge can still be an observed star's)."""
-    cdef _Selection s = _select(projection, frame.geometry, radius)
+    cdef _Selection s = _select(projection, frame.geometry, radius, frame.work)
     cdef Nearest near = nearest_matches(frame.x, frame.y, s.x, s.y, radius, frame.scratch)
     cdef Matches m = Matches.__new__(Matches)
     cdef Py_ssize_t k
-    m.obs, m.pos, m.n_in = near.obs, empty_i64(near.cat.shape[0]), s.where.shape[0]
-    for k in range(near.cat.shape[0]):
-        m.pos[k] = s.where[near.cat[k]]
+    for k in range(near.cat.shape[0]):  # the selection's index to the Stars': in place,
+        near.cat[k] = s.where[near.cat[k]]  # the pairing's arrays are this call's own
+    m.obs, m.pos, m.n_in = near.obs, near.cat, s.where.shape[0]
     return m
 
 
 cdef Matches match(Frame frame, const double[:, ::1] vectors, const double[:, :] matrix,
                    double radius):
-    return match_projected(frame, project(vectors, matrix, frame.geometry), radius)
+    return match_projected(frame, _project_into(frame.work.passing, vectors, matrix,
+                                                frame.geometry), radius)
 
 
 cdef Py_ssize_t _confirmed(Matches m, const long long[::1] hyp_obs):
@@ -194,11 +245,13 @@ cdef bint fits_within(const double[:, :] cam, const double[:, :] sky,
     return True
 
 
-cdef double[:, ::1] _fit(const double[:, ::1] obs_vectors, const long long[::1] obs,
+cdef double[:, ::1] _fit(Frame frame, const long long[::1] obs,
                          const double[:, ::1] vectors, const long long[::1] pos):
-    """The Wahba attitude of observed ``obs[k]`` on catalog vector ``pos[k]``."""
+    """The Wahba attitude of the frame's observed ``obs[k]`` on catalog vector
+    ``pos[k]``."""
     cdef Py_ssize_t m = obs.shape[0], k
-    cdef double[:, ::1] cam = empty_rows(m, 3), sky = empty_rows(m, 3)
+    cdef const double[:, ::1] obs_vectors = frame.vectors
+    cdef double[:, ::1] cam = _cam_rows(frame, m), sky = _sky_rows(frame, m)
     cdef double[:, ::1] r = empty_rows(3, 3)
     for k in range(m):
         cam[k, 0], cam[k, 1], cam[k, 2] = (obs_vectors[obs[k], 0], obs_vectors[obs[k], 1],

@@ -67,6 +67,20 @@ class Verification:
     #: (the checked frame's ``Observation.vectors``, the array itself)
     obs_vectors: np.ndarray | None = None
 
+    @classmethod
+    def _of(cls, accepted: bool, matrix: np.ndarray, obs_index: np.ndarray,
+            cat_index: np.ndarray, false_probability: float, confirmed: int,
+            residual_arcsec: np.ndarray | None = None, quaternion: np.ndarray | None = None,
+            obs_vectors: np.ndarray | None = None) -> Verification:
+        """The Verification of these fields, made without the frozen dataclass's
+        ``__init__`` (one ``object.__setattr__`` per field: a tenth of a verification)."""
+        made = object.__new__(cls)
+        made.__dict__.update(accepted=accepted, matrix=matrix, obs_index=obs_index,
+                             cat_index=cat_index, false_probability=false_probability,
+                             confirmed=confirmed, residual_arcsec=residual_arcsec,
+                             quaternion=quaternion, obs_vectors=obs_vectors)
+        return made
+
     @cached_property  # a scipy Rotation costs tens of microseconds to make
     def rotation(self) -> Rotation | None:
         if self.matrix is None:
@@ -117,12 +131,12 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
         verdict = checker.check(_wrapped(obs_h, len(obs)),
                                 _wrapped(cat_h, len(database.vectors)))
     if verdict.status == ACCEPTED:
-        return Verification(True, verdict.final, verdict.obs, verdict.rows,
-                            verdict.probability, verdict.confirmed, verdict.residuals,
-                            verdict.quaternion, checker.vectors)
+        return Verification._of(True, verdict.final, verdict.obs, verdict.rows,
+                                verdict.probability, verdict.confirmed, verdict.residuals,
+                                verdict.quaternion, checker.vectors)
     if verdict.status == NOT_ACCEPTED:
-        return Verification(False, verdict.first, verdict.obs, verdict.rows,
-                            verdict.probability, verdict.confirmed)
+        return Verification._of(False, verdict.first, verdict.obs, verdict.rows,
+                                verdict.probability, verdict.confirmed)
     return _REJECTED
 
 
