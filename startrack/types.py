@@ -117,5 +117,4 @@ class Timing:
         return {"centroid": round(self.centroid, 3), "identify": round(self.identify, 3),
                 "total": round(self.total, 3), "setup": round(self.setup, 3)}
 
-__all__ = ["Hypothesis", "MatchDiagnostics", "Observation", "Solution", "Timing",
-]
+__all__ = ["Hypothesis", "MatchDiagnostics", "Observation", "Solution", "Timing"]

@@ -125,7 +125,7 @@ def test_the_compiled_fit_is_the_numpy_fit():
 def test_a_fitted_verification_holds_the_residuals_keep_given_measures():
     """keep_given takes the fitted camera's residuals from its verification: they are the
     Wahba fit of the reported pairs and their angles on the observation returned, to the
-    bit; and the caller's observation through the given camera, when it holds one."""
+    bit; a given camera it keeps comes back with the frame's stars through that camera."""
     db = StarDatabase(random_sky(3000, seed=3), Camera.from_fov(1024, 1024, 20.0))
     rng = np.random.default_rng(8)
     checked = given = 0
@@ -143,12 +143,27 @@ def test_a_fitted_verification_holds_the_residuals_keep_given_measures():
         rotation = wahba(np.ascontiguousarray(obs.vectors[check.obs_index]), cat)
         np.testing.assert_array_equal(check.residual_arcsec,
                                       residuals_arcsec(rotation, obs, check.obs_index, cat))
-        # the caller's observation through the given camera serves as keep_given's own
-        held = Observation.from_pixels(frame.obs.x, frame.obs.y, db.camera, 0.3)
-        made = keep_given(found, db.camera, 0.3, db, VerifyConfig())
-        kept = keep_given(found, db.camera, 0.3, db, VerifyConfig(), held)
-        assert made[1] == kept[1] and (kept[2] is held) == (kept[1] is db.camera)
-        np.testing.assert_array_equal(made[0].cat_index, kept[0].cat_index)
+        kept = keep_given(found, db.camera, 0.3, db, VerifyConfig())
+        if kept[1] is db.camera:
+            through = Observation.from_pixels(frame.obs.x, frame.obs.y, db.camera, 0.3)
+            np.testing.assert_array_equal(kept[2].vectors, through.vectors)
+            assert kept[0].obs_vectors is kept[2].vectors
+        else:
+            assert kept is found
         given += kept[1] is db.camera
         checked += 1
     assert checked >= 6 and given >= 3
+
+
+def test_the_given_cameras_rejection_thresholds_are_scipys_quantiles():
+    """The closed forms keep_given uses agree with scipy.stats, which the solver no
+    longer imports: the two-sided 3-sigma tail and its chi-square quantiles."""
+    from scipy.stats import chi2, norm
+
+    from startrack.solver import _fov_fit
+
+    p = 2.0 * float(norm.sf(3.0))
+    assert _fov_fit.GIVEN_REJECT_P == pytest.approx(p, rel=1e-12)
+    for n in (1, 2):
+        assert _fov_fit._GIVEN_REJECT_CHI2[n] == pytest.approx(float(chi2.isf(p, n)),
+                                                                rel=1e-12)

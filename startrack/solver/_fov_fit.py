@@ -7,7 +7,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.stats import chi2, norm
 
 from startrack._core.fov_fit import BAD_FOCAL
 from startrack._core.fov_fit import fit_focal as fit_focal_kernel
@@ -131,11 +130,14 @@ def _same_stars(a: Verification, b: Verification) -> bool:
 
 
 #: the given camera stands unless the fitted one lowers the matched stars' chi-square
-#: by more than a 3-sigma chance would (the calibrate rule, startrack.solver._calibrate_sigma)
-GIVEN_REJECT_P = 2.0 * float(norm.sf(SIGNIFICANCE))
+#: by more than a 3-sigma chance would (the calibrate rule, startrack.solver._calibrate_sigma):
+#: the two-sided normal tail, erfc(3 / sqrt(2))
+GIVEN_REJECT_P = math.erfc(SIGNIFICANCE / math.sqrt(2.0))
 #: the chi-square quantile of GIVEN_REJECT_P for the 1 or 2 parameters fitted (the focal
-#: length, and k1): computed once, not in every refit
-_GIVEN_REJECT_CHI2 = {n: float(chi2.isf(GIVEN_REJECT_P, n)) for n in (1, 2)}
+#: length, and k1), in closed form (not scipy.stats, whose import costs a few tenths of a
+#: second in every identify process): one degree of freedom is a squared normal, so its
+#: quantile is SIGNIFICANCE squared; two are an exponential of mean 2
+_GIVEN_REJECT_CHI2 = {1: SIGNIFICANCE**2, 2: -2.0 * math.log(GIVEN_REJECT_P)}
 #: stars of an accepted answer used as the hypothesis when its FOV is refitted or its
 #: given camera verified again: the rest of the frame is the independent evidence
 #: verification counts
@@ -144,7 +146,6 @@ REFIT_HYPOTHESIS_STARS = 4
 
 def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
                sigma_px: float, database: StarDatabase, config: VerifyConfig,
-               given_obs: Observation | None = None,
                ) -> tuple[Verification, Camera, Observation]:
     """``found`` (from :func:`verify_fitted`) with the ``given`` camera put back when the
     data do not reject it: a camera given exactly (a simulated frame's sidecar) is reported
@@ -153,15 +154,12 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     fitted residuals show, exceeds the chi-square quantile of :data:`GIVEN_REJECT_P` for
     the parameters fitted; the given camera must also pass verification again, with the
     :data:`REFIT_HYPOTHESIS_STARS` brightest matched stars as the hypothesis (the rest of
-    the frame is the independent evidence, as when a FOV is refitted). ``given_obs``: the
-    frame's stars through ``given`` at ``sigma_px`` when the caller holds them (else made
-    here)."""
+    the frame is the independent evidence, as when a FOV is refitted)."""
     check, fitted, obs = found
     if fitted == given:
         return found
     cat = np.ascontiguousarray(database.vectors[check.cat_index], dtype=np.float64)
-    if given_obs is None:
-        given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
+    given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
 
     def squared(o: Observation) -> float:
         # the compiled Wahba fit verification uses (no scipy Rotation in every refit)

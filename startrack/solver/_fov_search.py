@@ -34,7 +34,7 @@ from startrack.sky import Catalog, resolve_sky
 from startrack.solver._deadline import NO_DEADLINE, Deadline
 from startrack.solver._fov_fit import REFIT_HYPOTHESIS_STARS, fit_focal, keep_given, verify_fitted
 from startrack.solver._fov_windows import MARGIN, Pass, f_of_fov, focal_range, passes
-from startrack.solver._lost_in_space import accepted_rotation, residuals_arcsec
+from startrack.solver._lost_in_space import residuals_arcsec
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
 from startrack.verify._verification import Verification, VerifyConfig
 
@@ -59,7 +59,7 @@ def _solution(check: Verification, obs: Observation, database: StarDatabase, met
               diag: MatchDiagnostics, t0: float) -> Solution:
     order = np.argsort(check.obs_index)
     obs_index, cat_index = check.obs_index[order], check.cat_index[order]
-    rotation = accepted_rotation(check)
+    rotation = check.rotation
     return Solution(True, method, rotation, obs_index, cat_index,
                     residuals_arcsec(rotation, obs, obs_index, database.vectors[cat_index]),
                     check.false_probability, diag, (time.perf_counter() - t0) * 1000.0)

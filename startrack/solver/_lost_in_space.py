@@ -10,12 +10,7 @@ from scipy.spatial.transform import Rotation
 from startrack._core.verify import residual_arcsec
 from startrack.matchers.base import Matcher
 from startrack.solver._deadline import Deadline
-from startrack.types import (
-    Hypothesis,
-    MatchDiagnostics,
-    Observation,
-    Solution,
-)
+from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
 from startrack.verify._frame import FrameVerifier
 from startrack.verify._verification import Verification, VerifyConfig, verify
 
@@ -29,14 +24,6 @@ def residuals_arcsec(rotation: Rotation | np.ndarray, obs: Observation, obs_inde
                            np.ascontiguousarray(obs_index, dtype=np.int64),
                            np.ascontiguousarray(matrix, dtype=np.float64),
                            np.ascontiguousarray(cat_vectors, dtype=np.float64))
-
-
-def accepted_rotation(check: Verification) -> Rotation:
-    """``check.rotation`` (the attitude of an accepted verification) made anew, from the
-    quaternion verification computed, without its cached_property's lock."""
-    if check.quaternion is None:
-        return check.rotation
-    return Rotation.from_quat(check.quaternion)
 
 
 def identify(obs: Observation, matcher: Matcher, config: VerifyConfig | None = None,
@@ -101,7 +88,7 @@ def _key(hyp: Hypothesis) -> tuple:
 def _solved(result: Verification, obs: Observation, matcher: Matcher, diag: MatchDiagnostics,
             elapsed: float) -> Solution:
     """The Solution of an accepted hypothesis, identities by observed index."""
-    rotation = accepted_rotation(result)
+    rotation = result.rotation
     if result.residual_arcsec is not None:  # the one-call path: obs_index ascending
         obs_index, cat_index, residuals = (result.obs_index, result.cat_index,
                                            result.residual_arcsec)
