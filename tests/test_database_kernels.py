@@ -6,11 +6,12 @@ import math
 
 import numpy as np
 import pytest
+from startrack._core.pairs import PairNeighbours
 
+from startrack._core import close_pairs, parse
 from startrack._core import database as kernels
-from startrack._core import parse
 from startrack.database.kvector import KVector
-from startrack.database.pairs import build_pair_arrays
+from startrack.database.pairs import THREADED_PAIRS, build_pair_arrays, build_threads
 from startrack.sky import random_sky
 
 
@@ -75,6 +76,37 @@ def test_pair_build_keeps_the_sweep_order_among_equal_angles(copies):
     for got, want in zip((arrays["i"], arrays["j"], arrays["angle"]),
                          _sweep_order_reference(sky, math.radians(25.0)), strict=True):
         np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("threads", [2, 3, 7])
+def test_a_pair_build_split_among_threads_is_the_same_table(threads):
+    # each thread sweeps its own first stars and writes after the threads before it in
+    # every bucket: the same order, ties included, as one sweep
+    sky = np.repeat(random_sky(300, seed=7).vectors, 3, axis=0)
+    got = close_pairs.sorted_close_pairs(sky, math.radians(25.0), threads)
+    for a, b in zip(got, _sweep_order_reference(sky, math.radians(25.0)), strict=True):
+        np.testing.assert_array_equal(a, b)
+    few = close_pairs.sorted_close_pairs(sky[:2], math.radians(25.0), threads)
+    assert [len(a) for a in few] == [1, 1, 1]
+
+
+def test_neighbour_lists_built_in_two_threads_are_the_same():
+    sky = random_sky(800, seed=3)
+    arrays = build_pair_arrays(sky.vectors, math.radians(12.0))
+    one, two = (PairNeighbours(arrays["i"], arrays["j"], arrays["angle"], len(sky), w)
+                for w in (1, 2))
+    for a, b in zip(one.lists, two.lists, strict=True):
+        assert a.dtype == b.dtype
+        np.testing.assert_array_equal(a, b)
+    start_lo, nbr_lo = one.lists[:2]
+    star = int(arrays["i"][0])  # its partners as first star, in table order
+    np.testing.assert_array_equal(nbr_lo[start_lo[star]:start_lo[star + 1]],
+                                  arrays["j"][arrays["i"] == star])
+
+
+def test_only_a_large_table_is_built_in_threads():
+    assert build_threads(THREADED_PAIRS - 1) == 1
+    assert 1 <= build_threads(THREADED_PAIRS) <= 8
 
 
 def test_pair_build_of_no_pairs_and_of_one_star():

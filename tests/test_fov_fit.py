@@ -163,7 +163,7 @@ def test_the_given_cameras_rejection_thresholds_are_scipys_quantiles():
     from startrack.solver import _fov_fit
 
     p = 2.0 * float(norm.sf(3.0))
-    assert _fov_fit.GIVEN_REJECT_P == pytest.approx(p, rel=1e-12)
+    assert pytest.approx(p, rel=1e-12) == _fov_fit.GIVEN_REJECT_P
     for n in (1, 2):
         assert _fov_fit._GIVEN_REJECT_CHI2[n] == pytest.approx(float(chi2.isf(p, n)),
                                                                 rel=1e-12)

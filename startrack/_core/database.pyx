@@ -1,47 +1,16 @@
-"""The database builds' loops: the close pairs of a catalog, the triangles of a pair
-graph with their canonical vertex order, area and polar moment, the stable bucket
-argsort and gathers that put them in order, and the k-vector's merge; each one pass
-over up to millions of entries."""
+"""The database builds' loops: the triangles of a pair graph with their canonical vertex
+order, area and polar moment, the stable bucket argsort and gathers that put them in
+order, and the k-vector's merge; each one pass over up to millions of entries (the close
+pairs of a catalog: :mod:`startrack._core.close_pairs`)."""
 
 import numpy as np
 
-from libc.math cimport acos, cos, sin
 from libc.stdlib cimport qsort
 
 from startrack._core._stable cimport merge_sort
 from startrack._core._triangle cimport Shape, chord, shape
 
-cdef Py_ssize_t PER_BUCKET = 8  # values per bucket on average
-cdef Py_ssize_t CROWDED = 32  # more in one bucket: merge sort, as insertion sort is quadratic
-cdef long long LOW_32 = 0xFFFFFFFF  # the low row of a packed pair
-
-
-cdef inline Py_ssize_t _bucket(double value, double lo, double scale,
-                               Py_ssize_t nb) noexcept nogil:
-    return min(<Py_ssize_t>((value - lo) * scale), nb - 1)
-
-
-cdef int _sort_buckets(const long long[::1] start, long long[::1] rows,
-                       double[::1] key) noexcept nogil:
-    """Each bucket ``start[b]:start[b + 1]`` sorted by ``key``, ``rows`` alongside, stably:
-    insertion sort (a strict comparison keeps equal keys in order), or a merge sort for a
-    crowded bucket, as insertion sort is quadratic. -1 when that merge finds no memory."""
-    cdef Py_ssize_t b, p, q
-    cdef long long r
-    cdef double k
-    for b in range(start.shape[0] - 1):
-        if start[b + 1] - start[b] > CROWDED:
-            if merge_sort(&rows[0], &key[0], start[b], start[b + 1]) < 0:
-                return -1
-            continue
-        for p in range(start[b] + 1, start[b + 1]):
-            r, k = rows[p], key[p]
-            q = p - 1
-            while q >= start[b] and key[q] > k:
-                rows[q + 1], key[q + 1] = rows[q], key[q]
-                q -= 1
-            rows[q + 1], key[q + 1] = r, k
-    return 0
+include "_buckets.pxi"
 
 
 def stable_argsort(const double[::1] values, double lo, double hi):
@@ -117,77 +86,6 @@ def count_at_most(const double[::1] values, double m, double q):
                 p += 1
             k[e] = p
     return k_arr
-
-
-cdef void _sweep(const double[::1] x, const double[::1] y, const double[::1] z,
-                 const long long[::1] order, double band, double cos_max, double scale,
-                 long long[::1] slot, long long[::1] rows, double[::1] angle,
-                 bint fill) noexcept nogil:
-    """The z-band sweep over the close pairs. Each pair's bucket is its cosine's (pairs of
-    a uniform sky spread evenly in cosine, and acos is monotone, so cosine buckets are
-    angle buckets in reverse). Counting, it adds one to ``slot[bucket + 1]``; filling, it
-    writes the pair (rows packed as i << 32 | j, i < j) at ``slot[bucket]`` and moves on."""
-    cdef Py_ssize_t n = x.shape[0], nb = slot.shape[0] - (0 if fill else 1), a, b, k
-    cdef double d
-    cdef long long i, j
-    for a in range(n):
-        for b in range(a + 1, n):
-            if z[b] - z[a] > band:
-                break
-            d = x[a] * x[b] + y[a] * y[b] + z[a] * z[b]
-            if d < cos_max:
-                continue
-            k = _bucket(1.0 - d, 0.0, scale, nb) if 1.0 - d > 0.0 else 0
-            if not fill:
-                slot[k + 1] += 1
-                continue
-            i, j = min(order[a], order[b]), max(order[a], order[b])
-            rows[slot[k]] = (i << 32) | j
-            angle[slot[k]] = acos(min(max(d, -1.0), 1.0))
-            slot[k] += 1
-
-
-def sorted_close_pairs(const double[:, ::1] vectors, double max_angle):
-    """Every pair (i < j) of unit vectors closer than ``max_angle``: (i, j, angle), rows as
-    int32, ascending in angle, equal angles in the order of the sweep (stars sorted by z,
-    each compared only with those in the z band the angle allows).
-
-    One sweep counts the pairs per bucket and a second writes each straight into its
-    bucket of the final arrays, which are then sorted bucket by bucket: no array of
-    millions is grown, sorted by index or gathered, as fresh pages cost more here than
-    a second sweep."""
-    cdef Py_ssize_t n = vectors.shape[0], p, m
-    order_arr = np.argsort(np.asarray(vectors)[:, 2], kind="stable")
-    # The sweep reads the stars in z order: copied so, the inner loop runs along memory.
-    xyz = np.asarray(vectors)[order_arr].T.copy()
-    cdef const double[::1] x = xyz[0], y = xyz[1], z = xyz[2]
-    cdef const long long[::1] order = order_arr
-    cdef double band = 2.0 * sin(max_angle / 2.0)  # |dz| <= chord
-    cdef double cos_max = cos(max_angle), span = 1.0 - cos(max_angle)
-    cdef Py_ssize_t nb = max(<Py_ssize_t>(n * (n - 1.0) / 4.0 * span / PER_BUCKET), 1)
-    cdef double scale = nb / span if span > 0.0 else 0.0
-    start_arr = np.zeros(nb + 1, np.int64)
-    cdef long long[::1] start = start_arr, rows = np.empty(0, np.int64)
-    cdef double[::1] angle = np.empty(0)
-    with nogil:
-        _sweep(x, y, z, order, band, cos_max, scale, start, rows, angle, False)
-        for p in range(nb):
-            start[p + 1] += start[p]
-    m = start[nb]
-    rows_arr, angle_arr = np.empty(m, np.int64), np.empty(m)
-    rows, angle = rows_arr, angle_arr
-    cdef long long[::1] fill = start_arr[:nb].copy()
-    with nogil:
-        _sweep(x, y, z, order, band, cos_max, scale, fill, rows, angle, True)
-        if _sort_buckets(start, rows, angle) < 0:
-            with gil:
-                raise MemoryError("sorted_close_pairs: no memory for a bucket's merge")
-    i_arr, j_arr = np.empty(m, np.int32), np.empty(m, np.int32)
-    cdef int[::1] pi = i_arr, pj = j_arr
-    with nogil:
-        for p in range(m):
-            pi[p], pj[p] = <int>(rows[p] >> 32), <int>(rows[p] & LOW_32)
-    return i_arr, j_arr, angle_arr
 
 
 cdef int _compare_ids(const void* a, const void* b) noexcept nogil:

@@ -14,6 +14,8 @@ import numpy as np
 
 cimport numpy as cnp
 
+from startrack._core._threads import in_threads
+
 cnp.import_array()
 
 
@@ -25,36 +27,48 @@ cdef class PairNeighbours:
     star: a window search then reads a few cache lines, not the table. ``lists`` holds
     the six arrays (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi)."""
 
-    def __init__(self, pi, pj, angle, Py_ssize_t n_catalog):
+    def __init__(self, pi, pj, angle, Py_ssize_t n_catalog, Py_ssize_t workers=1):
         self.pi = np.ascontiguousarray(pi, dtype=np.int32)
         self.pj = np.ascontiguousarray(pj, dtype=np.int32)
         self.angle = np.ascontiguousarray(angle, dtype=np.float64)
         self.n_catalog = n_catalog
-        cdef Py_ssize_t m = self.pi.shape[0], e, s
+        cdef Py_ssize_t m = self.pi.shape[0]
         start_lo, start_hi = np.zeros(n_catalog + 1, np.int64), np.zeros(n_catalog + 1, np.int64)
         nbr_lo, nbr_hi = np.empty(m, np.int32), np.empty(m, np.int32)
         ang_lo, ang_hi = np.empty(m, np.float64), np.empty(m, np.float64)
-        cdef long long[::1] slo = start_lo, shi = start_hi
-        cdef int[::1] nlo = nbr_lo, nhi = nbr_hi
-        cdef double[::1] alo = ang_lo, ahi = ang_hi
-        for e in range(m):
-            slo[self.pi[e] + 1] += 1
-            shi[self.pj[e] + 1] += 1
-        for s in range(n_catalog):
-            slo[s + 1] += slo[s]
-            shi[s + 1] += shi[s]
-        cdef long long[::1] fill_lo = start_lo[:n_catalog].copy()
-        cdef long long[::1] fill_hi = start_hi[:n_catalog].copy()
-        cdef int a, b
-        for e in range(m):
-            a, b = self.pi[e], self.pj[e]
-            nlo[fill_lo[a]], alo[fill_lo[a]] = b, self.angle[e]
-            fill_lo[a] += 1
-            nhi[fill_hi[b]], ahi[fill_hi[b]] = a, self.angle[e]
-            fill_hi[b] += 1
-        self.start_lo, self.nbr_lo, self.ang_lo = slo, nlo, alo
-        self.start_hi, self.nbr_hi, self.ang_hi = shi, nhi, ahi
+        # the two runs read the same table and write apart: a thread each, with workers
+        runs = ((self.pi, self.pj, start_lo, nbr_lo, ang_lo),
+                (self.pj, self.pi, start_hi, nbr_hi, ang_hi))
+        if workers > 1:
+            in_threads(lambda t: _lists(*runs[t][:2], self.angle, *runs[t][2:]), 2)
+        else:
+            for run in runs:
+                _lists(*run[:2], self.angle, *run[2:])
+        self.start_lo, self.nbr_lo, self.ang_lo = start_lo, nbr_lo, ang_lo
+        self.start_hi, self.nbr_hi, self.ang_hi = start_hi, nbr_hi, ang_hi
         self.lists = (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi)
+
+
+def _lists(const int[::1] own, const int[::1] other, const double[::1] angle,
+           long long[::1] start, int[::1] nbr, double[::1] ang):
+    """One run of the neighbour lists: the partners ``other[e]`` (and angles) of each
+    star as ``own[e]``, grouped by star in table order (a stable counting sort);
+    ``start`` holds n_catalog + 1 zeros, ``nbr`` and ``ang`` one entry per pair."""
+    cdef Py_ssize_t m = own.shape[0], n = start.shape[0] - 1, e, s
+    fill_arr = np.empty(n, np.int64)
+    cdef long long[::1] fill = fill_arr
+    cdef int a
+    with nogil:
+        for e in range(m):
+            start[own[e] + 1] += 1
+        for s in range(n):
+            start[s + 1] += start[s]
+        for s in range(n):
+            fill[s] = start[s]
+        for e in range(m):
+            a = own[e]
+            nbr[fill[a]], ang[fill[a]] = other[e], angle[e]
+            fill[a] += 1
 
 
 cdef Py_ssize_t _join_fill(const long long[:, :] hyps, Py_ssize_t col, const int[::1] head,

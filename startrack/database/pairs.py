@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
-from startrack._core import database as kernels
+from startrack._core import close_pairs
 from startrack.database.kvector import KVector
 
 
@@ -28,10 +30,29 @@ class PairTable:
         return self.i[start:stop], self.j[start:stop], self.angle[start:stop]
 
 
+#: a table of fewer pairs than this is built on one thread (threads cost more than it)
+THREADED_PAIRS = 200_000
+#: threads a table build uses at most
+MAX_BUILD_THREADS = 8
+
+
+def build_threads(pairs: float) -> int:
+    """Threads for building a table of about ``pairs`` pairs: one for a small table, else
+    one per core this process may use (a first run's table of millions of pairs takes a
+    second or more on one; the threaded builds give the same arrays, bit for bit)."""
+    if pairs < THREADED_PAIRS:
+        return 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(cores or 1, MAX_BUILD_THREADS))
+
+
 def build_pair_arrays(vectors: np.ndarray, max_angle_rad: float) -> dict[str, np.ndarray]:
     """All pairs within ``max_angle_rad``, as arrays sorted by angle."""
     vectors = np.ascontiguousarray(vectors, dtype=np.float64).reshape(-1, 3)
-    i, j, angle = kernels.sorted_close_pairs(vectors, float(max_angle_rad))
+    n = len(vectors)
+    expected = n * (n - 1) / 4.0 * (1.0 - math.cos(max_angle_rad))  # a uniform sky's
+    i, j, angle = close_pairs.sorted_close_pairs(vectors, float(max_angle_rad),
+                                             build_threads(expected))
     return {"i": i, "j": j, "angle": angle}
 
 
@@ -45,4 +66,5 @@ def select_pair_arrays(arrays: dict[str, np.ndarray], keep: np.ndarray) -> dict[
     sel = keep[arrays["i"]] & keep[arrays["j"]]
     return {"i": arrays["i"][sel], "j": arrays["j"][sel], "angle": arrays["angle"][sel]}
 
-__all__ = ["PairTable", "build_pair_arrays", "pair_table_from_arrays", "select_pair_arrays"]
+__all__ = ["PairTable", "build_pair_arrays", "build_threads", "pair_table_from_arrays",
+           "select_pair_arrays"]

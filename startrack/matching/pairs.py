@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from startrack._core import pairs as core
-from startrack.database.pairs import PairTable
+from startrack.database.pairs import PairTable, build_threads
 from startrack.matching.geometry import angle_table
 from startrack.types import MatchDiagnostics
 
@@ -26,7 +26,8 @@ class PairIndex:
         self.pj = np.ascontiguousarray(table.j, dtype=np.int32)
         self.angle = np.ascontiguousarray(table.angle, dtype=np.float64)
         #: the table and its neighbour lists, as the compiled searches take them
-        self.neighbours = core.PairNeighbours(self.pi, self.pj, self.angle, self.n_catalog)
+        self.neighbours = core.PairNeighbours(self.pi, self.pj, self.angle, self.n_catalog,
+                                              build_threads(len(self.pi)))
         #: (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi): the lists as arrays
         self.lists = self.neighbours.lists
 

@@ -1,0 +1,29 @@
+"""Run one piece of work per thread, for the compiled builds that split a table among
+threads (their loops release the GIL)."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+
+
+def in_threads(work: Callable[[int], None], workers: int) -> None:
+    """``work(t)`` for t in 0 .. workers - 1, each in its own thread but the last, which
+    runs in the calling one; the first exception raised is raised here."""
+    threads, errors = [], []
+
+    def run(t):
+        try:
+            work(t)
+        except BaseException as exc:  # handed to the caller below
+            errors.append(exc)
+
+    for t in range(workers - 1):
+        thread = threading.Thread(target=run, args=(t,))
+        thread.start()
+        threads.append(thread)
+    run(workers - 1)
+    for thread in threads:
+        thread.join()
+    if errors:
+        raise errors[0]
