@@ -86,7 +86,7 @@ def test_shortlisted_triangles_match_brute_force():
         frame = kernels.HybridFrame([[a, b, c]], [feats], [want_hand],
                                     np.zeros((len(short), len(short))), 0.0, 2.0)
         search = kernels.HybridSearch(frame, pairs, short, sky,
-                                      kernels.PairNeighbours(*index.lists), heads, 5, 0)
+                                      index.neighbours, heads, 5, 0)
         rows, err = search.triangles(0)
         tested = search.tested
         ok = (np.abs(area - feats[0]) <= 2 * feats[2]) & (np.abs(polar - feats[1])
@@ -140,7 +140,7 @@ def test_next_confirmed_finds_the_true_triangle(random_db):
     constants = kernels.HybridFrame(tri, feats, hands, ang, tol, 4.0)
     search = kernels.HybridSearch(constants, kernels.ShortPairs(index.pi, index.pj, windows,
                                                                 short),
-                                  short, random_db.vectors, kernels.PairNeighbours(*index.lists),
+                                  short, random_db.vectors, index.neighbours,
                                   heads, 5, 4)
     t, d, rows = search.next_confirmed(0)
     assert t == 0 and d == 3  # the brightest triple, the next star confirms it

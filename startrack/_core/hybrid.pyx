@@ -9,7 +9,7 @@ import numpy as np
 
 from libc.math cimport hypot
 
-from startrack._core._partners cimport run_partners
+from startrack._core.pairs cimport PairNeighbours, partners
 from startrack._core._stable cimport merge_sort
 from startrack._core._triangle cimport Features, Shape, features, shape, triple_product
 

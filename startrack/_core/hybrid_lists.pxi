@@ -1,34 +1,6 @@
-# The hybrid search's pair lists (included by hybrid.pyx): a pair table's neighbour
-# lists, the angle votes, and each observed pair's catalog pairs among the shortlisted
-# stars.
-
-
-cdef class PairNeighbours:
-    """A pair table's neighbour lists (startrack.matching.pairs.PairIndex.lists): the
-    partners of star s as first star of a pair are ``nbr_lo[start_lo[s]:start_lo[s + 1]]``
-    with the pair angles in ``ang_lo``, as second star ``nbr_hi`` and ``ang_hi``."""
-
-    cdef const long long[::1] start_lo, start_hi
-    cdef const int[::1] nbr_lo, nbr_hi
-    cdef const double[::1] ang_lo, ang_hi
-
-    def __init__(self, start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi):
-        self.start_lo, self.nbr_lo, self.ang_lo = start_lo, nbr_lo, ang_lo
-        self.start_hi, self.nbr_hi, self.ang_hi = start_hi, nbr_hi, ang_hi
-
-    cdef Py_ssize_t partners(self, Py_ssize_t star, double lo, double hi, bint hi_first,
-                             long long[::1] out) noexcept nogil:
-        """Write the partners of ``star`` whose pair angle lies in [lo, hi] into ``out``
-        (at most len(out)); return how many there are. The lo run comes first unless
-        ``hi_first``: the order of a stable sort of the pairs seen one way round or the
-        other."""
-        if hi_first:
-            return run_partners(self.start_lo, self.nbr_lo, self.ang_lo, star, lo, hi, out,
-                                run_partners(self.start_hi, self.nbr_hi, self.ang_hi, star,
-                                             lo, hi, out, 0))
-        return run_partners(self.start_hi, self.nbr_hi, self.ang_hi, star, lo, hi, out,
-                            run_partners(self.start_lo, self.nbr_lo, self.ang_lo, star, lo,
-                                         hi, out, 0))
+# The hybrid search's pair lists (included by hybrid.pyx): the angle votes, and each
+# observed pair's catalog pairs among the shortlisted stars (the table's neighbour lists
+# are startrack._core.pairs.PairNeighbours).
 
 
 def angle_votes(const int[::1] pi, const int[::1] pj, const long long[:, :, ::1] windows,

@@ -104,7 +104,7 @@ cdef class HybridSearch:
 
     cdef bint _has_partner(self, long long star, long long other, double lo,
                            double hi) noexcept nogil:
-        cdef Py_ssize_t n = self.neighbours.partners(star, lo, hi, False, self.buf), q
+        cdef Py_ssize_t n = partners(self.neighbours, star, lo, hi, False, self.buf), q
         for q in range(min(n, self.buf.shape[0])):
             if self.buf[q] == other:
                 return True
@@ -121,8 +121,8 @@ cdef class HybridSearch:
         cdef Py_ssize_t k, q, n_w
         hits = []
         for k in range(trip.shape[0]):
-            n_w = self.neighbours.partners(trip[k, 0], ang[a, d] - tol, ang[a, d] + tol,
-                                           a > d, self.side)
+            n_w = partners(self.neighbours, trip[k, 0], ang[a, d] - tol, ang[a, d] + tol,
+                           a > d, self.side)
             for q in range(min(n_w, self.side.shape[0])):
                 w = self.side[q]
                 if not self.short[d, w]:

@@ -1,7 +1,8 @@
 # A pair table with its neighbour lists, and the inline walks over them that the Pyramid,
-# angle and (later) hybrid searches share: windowed partner search and per-star grouping
-# of a table window, with its membership test.
+# angle and hybrid searches share: windowed partner search and per-star grouping of a
+# table window, with its membership test.
 
+from startrack._core._partners cimport run_partners
 from startrack._core._sort cimport first_at_least
 
 
@@ -26,27 +27,18 @@ cdef object join_close_rows(object hyps, Py_ssize_t col_p, Py_ssize_t col_q,
 
 
 cdef inline Py_ssize_t partners(PairNeighbours tab, Py_ssize_t star, double lo, double hi,
-                                bint hi_first, long long[::1] out) noexcept:
+                                bint hi_first, long long[::1] out) noexcept nogil:
     """Write the partners of ``star`` whose pair angle lies in [lo, hi] into ``out``;
     return how many (all of them: at most len(out) are written). The ``lo`` run (star
     first in the pair) comes first unless ``hi_first``: the order of a stable sort of the
     pairs seen one way round or the other."""
-    cdef Py_ssize_t count = 0, p, a, b, cap = out.shape[0]
-    cdef int run
-    cdef const int[::1] nbr
-    cdef const double[::1] ang
-    for run in range(2):
-        if (run == 0) == hi_first:
-            nbr, ang, a, b = tab.nbr_hi, tab.ang_hi, tab.start_hi[star], tab.start_hi[star + 1]
-        else:
-            nbr, ang, a, b = tab.nbr_lo, tab.ang_lo, tab.start_lo[star], tab.start_lo[star + 1]
-        p = first_at_least(ang, a, b, lo)
-        while p < b and ang[p] <= hi:
-            if count < cap:
-                out[count] = nbr[p]
-            count += 1
-            p += 1
-    return count
+    if hi_first:
+        return run_partners(tab.start_lo, tab.nbr_lo, tab.ang_lo, star, lo, hi, out,
+                            run_partners(tab.start_hi, tab.nbr_hi, tab.ang_hi, star, lo, hi,
+                                         out, 0))
+    return run_partners(tab.start_hi, tab.nbr_hi, tab.ang_hi, star, lo, hi, out,
+                        run_partners(tab.start_lo, tab.nbr_lo, tab.ang_lo, star, lo, hi,
+                                     out, 0))
 
 
 cdef inline void group_window(const int[::1] pi, const int[::1] pj, Py_ssize_t s0,

@@ -46,7 +46,7 @@ from startrack.matchers._pattern import PatternPairMatcher
 from startrack.matchers.base import MatcherConfig, register, register_variant
 from startrack.matching.features import feature_sigma
 from startrack.matching.geometry import angle_table, handedness
-from startrack.matching.pairs import PairIndex, pair_index
+from startrack.matching.pairs import pair_index
 from startrack.matching.triples import brightness_triples
 from startrack.types import Hypothesis, MatchDiagnostics, Observation
 
@@ -132,7 +132,7 @@ class HybridMatcher(PatternPairMatcher):
         index = pair_index(self._table(), len(self.database.vectors))
         search = kernels.HybridSearch(
             frame, kernels.ShortPairs(index.pi, index.pj, windows, shortlist), shortlist,
-            self.database.vectors, self._neighbours(index), self._heads,
+            self.database.vectors, index.neighbours, self._heads,
             self.max_per_triangle, self.max_unconfirmed)
         if self.fourth_star:
             yield from self._confirmed(search, tri, diag)
@@ -167,13 +167,6 @@ class HybridMatcher(PatternPairMatcher):
             t += 1
         for r in range(search.best_kept):
             yield Hypothesis(search.best_rows[r, :3].copy(), search.best_rows[r, 3:].copy())
-
-    @staticmethod
-    def _neighbours(index: PairIndex) -> kernels.PairNeighbours:
-        # Kept on the pair index, which lives and dies with its table.
-        if "_neighbours" not in index.__dict__:
-            index.__dict__["_neighbours"] = kernels.PairNeighbours(*index.lists)
-        return index.__dict__["_neighbours"]
 
     @functools.cached_property
     def _heads(self) -> np.ndarray:
