@@ -112,7 +112,7 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
                               params.max_rounds)
     if cone is not None and _drift(r.matrix, first) < params.margin_cos:
         r, stars = _refine_on_fresh_cone(frame, r.matrix, params, cone, v)
-    cdef Labelled done = _label_at(frame, stars, r.matrix, r.projection, params)
+    cdef Labelled done = _label_at(frame, stars, r.matrix, r.projection, r.matches, params)
     v.status, v.final = ACCEPTED, _matrix_array(done.final)
     v.obs, v.rows = copy_i64(done.obs, done.obs.shape[0]), _take(stars.rows, done.pos)
     cdef double[:, ::1] cat = _sky_rows(frame, done.pos.shape[0])
@@ -169,7 +169,7 @@ cdef tuple _refine_on_fresh_cone(Frame frame, double[:, ::1] refined, CheckParam
     v.cones += 1
     if _drift(r.matrix, refined) < params.margin_cos:
         stars = cone.around(r.matrix, frame.work)
-        r.projection = None
+        r.projection, r.matches = None, None  # positions in the Stars replaced
         v.cones += 1
     return r, stars
 

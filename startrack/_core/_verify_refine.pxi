@@ -76,9 +76,11 @@ cdef _Refined _refine(Frame frame, const double[:, ::1] vectors, double radius,
 
 
 cdef Labelled _label_at(Frame frame, Stars stars, double[:, ::1] matrix,
-                        Projection projection, CheckParams params):
+                        Projection projection, Matches fitted, CheckParams params):
     """The final labelling at ``matrix`` (the Stars' ``projection`` there, or None) and
-    the attitude refitted to the labels when there are three or more."""
+    the attitude refitted to the labels when there are three or more. ``fitted``: the
+    pairs whose fit ``matrix`` is (None: unknown); labels that are those pairs refit to
+    it bit for bit, so the fit is not repeated."""
     if projection is None:
         projection = _project_into(frame.work.kept, stars.vectors, matrix, frame.geometry)
     cdef _Selection s = _select(projection, frame.geometry, params.radius_px, frame.work)
@@ -91,7 +93,7 @@ cdef Labelled _label_at(Frame frame, Stars stars, double[:, ::1] matrix,
                                params.label, frame.scratch)
     cdef Labelled out = Labelled.__new__(Labelled)
     out.obs, out.pos, out.refined, out.final = labels.obs, labels.cat, matrix, matrix
-    if labels.obs.shape[0] >= 3:
+    if labels.obs.shape[0] >= 3 and not _same_pairs(labels.obs, labels.cat, fitted):
         out.final = _fit(frame, labels.obs, stars.vectors, labels.cat)
     return out
 
@@ -102,7 +104,7 @@ cdef Labelled refine_and_label(Frame frame, Stars stars, Matches start, CheckPar
     stars labelled at the refined attitude and the attitude refitted to the labels."""
     cdef _Refined r = _refine(frame, stars.vectors, params.radius_px, params.capture, start,
                               max_rounds)
-    return _label_at(frame, stars, r.matrix, r.projection, params)
+    return _label_at(frame, stars, r.matrix, r.projection, r.matches, params)
 
 
 cdef double[::1] residual_arcsec(const double[:, ::1] obs_vectors, const long long[::1] obs,

@@ -87,11 +87,18 @@ cdef class Matches:
 
 cdef bint _same(Matches a, Matches b) noexcept:
     """Whether two match lists are the same pairs in the same order."""
+    return _same_pairs(a.obs, a.pos, b)
+
+
+cdef bint _same_pairs(const long long[::1] obs, const long long[::1] pos,
+                      Matches b) noexcept:
+    """Whether the pairs (``obs[k]``, ``pos[k]``) are those of ``b`` (False: None), in
+    the same order."""
     cdef Py_ssize_t k
-    if a.obs.shape[0] != b.obs.shape[0]:
+    if b is None or obs.shape[0] != b.obs.shape[0]:
         return False
-    for k in range(a.obs.shape[0]):
-        if a.obs[k] != b.obs[k] or a.pos[k] != b.pos[k]:
+    for k in range(obs.shape[0]):
+        if obs[k] != b.obs[k] or pos[k] != b.pos[k]:
             return False
     return True
 
