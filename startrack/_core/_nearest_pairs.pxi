@@ -48,7 +48,8 @@ cdef Pairs pairs_within(const double[::1] ox, const double[::1] oy, const double
     cdef _PairList found = _PairList(n + 16)
     cdef double half = sqrt(radius2) * (1.0 + 1e-9) + 1e-9 if radius2 >= 0.0 else -1.0
     cdef double pad, dx, dy, d2
-    cdef _Cells cells = None
+    cdef _Cells cells
+    cells.ok = False
     if radius2 < INFINITY and m > 0 and n > 0:
         if scratch is None:
             scratch = NearestScratch.__new__(NearestScratch)
@@ -57,7 +58,7 @@ cdef Pairs pairs_within(const double[::1] ox, const double[::1] oy, const double
         start[i] = found.count
         if half < 0.0 or isnan(ox[i]) or isnan(oy[i]):
             continue
-        if cells is None:  # every catalog star, in order
+        if not cells.ok:  # every catalog star, in order
             for j in range(m):
                 dx, dy = ox[i] - x[j], oy[i] - y[j]
                 d2 = dx * dx + dy * dy
