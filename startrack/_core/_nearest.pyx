@@ -10,7 +10,7 @@ cimport cython
 import numpy as np
 
 from libc.math cimport INFINITY, fabs, fmax, fmin, isfinite, isnan, sqrt
-from libc.string cimport memset
+from libc.string cimport memcpy, memset
 
 cimport numpy as cnp
 from startrack._core._arrays cimport (empty_f64, empty_i64, full_f64, full_i64,
@@ -66,6 +66,13 @@ cdef inline Py_ssize_t _cell_of(double x, double y, Grid grid) noexcept:
     return gy * grid.nx + gx
 
 
+cdef inline _Cells _no_cells() noexcept nogil:
+    """No grid (every field set: ``ok`` False)."""
+    cdef _Cells cells
+    memset(&cells, 0, sizeof(_Cells))
+    return cells
+
+
 cdef _Cells _bucket(const double[::1] x, const double[::1] y, Grid grid,
                    NearestScratch scratch) except *:
     """A stable counting sort of the finite positions into ``grid``'s cells, in the
@@ -101,17 +108,15 @@ cdef _Cells _catalog_grid(const double[::1] x, const double[::1] y, double half,
     than ``half`` (in ``scratch``'s buffers); not ``ok`` with an infinite position, or
     extents that overflow or hold no position."""
     cdef Py_ssize_t m = x.shape[0], j
-    cdef _Cells none
-    none.ok = False
     cdef double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY
     for j in range(m):
         if isfinite(x[j]) and isfinite(y[j]):
             x0, x1 = _lesser(x0, x[j]), _greater(x1, x[j])
             y0, y1 = _lesser(y0, y[j]), _greater(y1, y[j])
         elif not (isnan(x[j]) or isnan(y[j])):
-            return none  # inf - inf would be NaN in the extents
+            return _no_cells()  # inf - inf would be NaN in the extents
     if not (0.0 <= x1 - x0 < INFINITY and 0.0 <= y1 - y0 < INFINITY):
-        return none
+        return _no_cells()
     cdef Py_ssize_t cells = max(1, <Py_ssize_t>sqrt(<double>m))
     cdef Grid grid
     grid.size = fmax(fmax(half, (x1 - x0) / cells), fmax((y1 - y0) / cells, 1e-9))
@@ -166,8 +171,7 @@ cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1]
     cdef double r2 = radius_px * radius_px, half = radius_px * (1.0 + 1e-9) + 1e-9
     cdef double pad, best_d, d, dx, dy
     cdef Py_ssize_t best
-    cdef _Cells cells
-    cells.ok = False
+    cdef _Cells cells = _no_cells()
     if not radius_px >= 0.0 or n == 0:
         return
     if radius_px < INFINITY:
