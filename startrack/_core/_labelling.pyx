@@ -18,7 +18,7 @@ from libc.math cimport INFINITY, M_PI, NAN, fabs, isfinite, isnan, log, log10, s
 
 cimport numpy as cnp
 from startrack._core._arrays cimport (empty_i64, room_f64, room_i64, room_u8)
-from startrack._core._nearest cimport NearestScratch, Pairs, crowded_within, pairs_in
+from startrack._core._nearest cimport NearestScratch, Pairs, pairs_and_crowded
 from startrack._core._stats cimport median_inplace, ptp
 
 cdef double _MAD_TO_SIGMA = 1.4826
@@ -172,17 +172,6 @@ cdef unsigned char[::1] _rivals(Pairs pairs, const unsigned char[::1] cand,
     return clear
 
 
-cdef unsigned char[::1] _crowded(const double[::1] x, const double[::1] y, double resolve2,
-                                 NearestScratch scratch, _Work w):
-    """Per catalog star, whether another lies closer than ``sqrt(resolve2)`` (NaN is no
-    neighbour): on the pairing's grid, so that a frame costs O(m) and not O(m^2)."""
-    cdef Py_ssize_t m = x.shape[0]
-    w.crowded = room_u8(w.crowded, m)
-    cdef unsigned char[::1] crowded = w.crowded[:m]
-    crowded_within(x, y, resolve2, scratch, crowded)
-    return crowded
-
-
 cdef double _log_b_at(Pairs pairs, const double[::1] log_b, Py_ssize_t i, Py_ssize_t j):
     """The brightness term of observed star i's pair with catalog star ``j``, 0 if there
     is none (the dense table's value)."""
@@ -202,9 +191,13 @@ cdef Labels label(const double[::1] ox, const double[::1] oy, const double[::1] 
     cdef Py_ssize_t n_obs = ox.shape[0], n_cat = x.shape[0], i, k
     if scratch is None:
         scratch = NearestScratch.__new__(NearestScratch)
-    cdef Pairs pairs = pairs_in(ox, oy, x, y, p.radius2, scratch)
-    cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_false = n_obs, n_unobserved = n_cat
     cdef _Work w = _thread_work()
+    w.crowded = room_u8(w.crowded, n_cat)
+    # per catalog star, whether another lies closer than sqrt(resolve2) (NaN: none)
+    cdef unsigned char[::1] crowded = w.crowded[:n_cat]
+    cdef Pairs pairs = pairs_and_crowded(ox, oy, x, y, p.radius2, p.resolve2, scratch,
+                                         crowded)
+    cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_false = n_obs, n_unobserved = n_cat
     w.per_cat = room_i64(w.per_cat, n_cat)
     cdef long long[::1] per_cat = _set_i64(w.per_cat, n_cat, 0)
     for k in range(n_pairs):
@@ -232,7 +225,6 @@ cdef Labels label(const double[::1] ox, const double[::1] oy, const double[::1] 
     cdef long long[::1] best = w.best[:n_obs]
     cdef double[::1] top = w.top[:n_obs]
     cdef unsigned char[::1] clear = _rivals(pairs, fit.ok, log_g, p.log_gap, n_cat, best, top, w)
-    cdef unsigned char[::1] crowded = _crowded(x, y, p.resolve2, scratch, w)
     cdef _Logs logs = _Logs(log_false, log_seen, log_norm, p.log_false_odds, sigma)
     return _decide(pairs, fit, best, top, clear, crowded, rows, logs, w)
 

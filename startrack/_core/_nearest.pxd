@@ -19,7 +19,7 @@ cdef class Nearest:
 
 
 cdef class NearestScratch:
-    """The working buffers of nearest_matches, pairs_within and crowded_within, kept by a
+    """The working buffers of nearest_matches and the pairings, kept by a
     frame from one call to the next (each call allocating its own cost more than the
     pairing of tens of stars): per observed star its nearest catalog star and squared
     distance, per catalog star the observed star that keeps it, the catalog grid's cell
@@ -40,12 +40,14 @@ cdef class NearestScratch:
 cdef Pairs pairs_in(const double[::1] ox, const double[::1] oy, const double[::1] x,
                     const double[::1] y, double radius2, NearestScratch scratch)
 
+cdef Pairs pairs_and_crowded(const double[::1] ox, const double[::1] oy,
+                             const double[::1] x, const double[::1] y, double radius2,
+                             double resolve2, NearestScratch scratch,
+                             unsigned char[::1] crowded)
+
 cdef Pairs pairs_within(const double[::1] ox, const double[::1] oy, const double[::1] x,
                         const double[::1] y, double radius2,
                         NearestScratch scratch=*)
-
-cdef void crowded_within(const double[::1] x, const double[::1] y, double radius2,
-                         NearestScratch scratch, unsigned char[::1] out) except *
 
 cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
                              const double[::1] cx, const double[::1] cy, double radius_px,

@@ -41,6 +41,37 @@ cdef inline void _pairs_add(_PairBuf* b, NearestScratch s, Py_ssize_t first, Py_
 cdef Pairs pairs_in(const double[::1] ox, const double[::1] oy, const double[::1] x,
                     const double[::1] y, double radius2, NearestScratch scratch):
     """:func:`pairs_within` in ``scratch``'s buffers: valid until its next pairing."""
+    cdef _Cells cells = _no_cells()
+    if radius2 < INFINITY and x.shape[0] > 0 and ox.shape[0] > 0:
+        cells = _catalog_grid(x, y, fmax(_pair_half(radius2), 0.0), scratch)
+    return _pairs_on(ox, oy, x, y, radius2, &cells, scratch)
+
+
+cdef Pairs pairs_and_crowded(const double[::1] ox, const double[::1] oy,
+                             const double[::1] x, const double[::1] y, double radius2,
+                             double resolve2, NearestScratch scratch,
+                             unsigned char[::1] crowded):
+    """:func:`pairs_in`, and per catalog star whether another lies closer than
+    sqrt(``resolve2``) written into ``crowded``, on one grid of the catalog positions."""
+    cdef _Cells cells = _no_cells(), none = _no_cells()
+    cdef bint pair_grid = radius2 < INFINITY and x.shape[0] > 0 and ox.shape[0] > 0
+    if pair_grid or resolve2 < INFINITY:
+        cells = _catalog_grid(x, y, fmax(_pair_half(radius2), 0.0), scratch)
+    _crowded_on(x, y, resolve2, &cells if resolve2 < INFINITY else &none, crowded)
+    return _pairs_on(ox, oy, x, y, radius2, &cells if pair_grid else &none, scratch)
+
+
+cdef inline double _pair_half(double radius2) noexcept nogil:
+    """The cells' least size for pairs within sqrt(``radius2``): the radius, a hair
+    widened (-1: none is within)."""
+    return sqrt(radius2) * (1.0 + 1e-9) + 1e-9 if radius2 >= 0.0 else -1.0
+
+
+cdef Pairs _pairs_on(const double[::1] ox, const double[::1] oy, const double[::1] x,
+                     const double[::1] y, double radius2, const _Cells* cells,
+                     NearestScratch scratch):
+    """The pairs within sqrt(``radius2``), on the catalog grid ``cells`` (not ok: every
+    pair), in ``scratch``'s buffers."""
     cdef Py_ssize_t n = ox.shape[0], m = x.shape[0], i, j, gx, gy, q, c
     cdef Py_ssize_t gx0 = 0, gx1 = -1, gy0 = 0, gy1 = -1
     scratch.pair_start = _room_i64(scratch.pair_start, n + 1)
@@ -54,11 +85,8 @@ cdef Pairs pairs_in(const double[::1] ox, const double[::1] oy, const double[::1
     found.count = 0
     found.cap = min(scratch.pair_obs.shape[0], scratch.pair_cat.shape[0],
                     scratch.pair_d2.shape[0])
-    cdef double half = sqrt(radius2) * (1.0 + 1e-9) + 1e-9 if radius2 >= 0.0 else -1.0
+    cdef double half = _pair_half(radius2)
     cdef double pad, dx, dy, d2
-    cdef _Cells cells = _no_cells()
-    if radius2 < INFINITY and m > 0 and n > 0:
-        cells = _catalog_grid(x, y, fmax(half, 0.0), scratch)
     for i in range(n):
         start[i] = found.count
         if half < 0.0 or isnan(ox[i]) or isnan(oy[i]):
@@ -118,21 +146,18 @@ cdef double[::1] _copy_f64(const double[::1] values):
     return out
 
 
-cdef void crowded_within(const double[::1] x, const double[::1] y, double radius2,
-                         NearestScratch scratch, unsigned char[::1] out) except *:
+cdef void _crowded_on(const double[::1] x, const double[::1] y, double radius2,
+                      const _Cells* cells, unsigned char[::1] out) noexcept:
     """Whether each position has another at a squared distance below ``radius2`` (NaN is
-    no neighbour), written into ``out``: the grid's cells each star's radius reaches (as
-    :func:`pairs_within` scans them), or every pair when the grid cannot take them."""
+    no neighbour), written into ``out``: on the grid ``cells`` of the positions, the cells
+    each star's radius reaches (as the pairs scan them), or every pair when not ok."""
     cdef Py_ssize_t m = x.shape[0], i, j, gx, gy, q, c
     cdef Py_ssize_t gx0 = 0, gx1 = -1, gy0 = 0, gy1 = -1
-    cdef double half = sqrt(radius2) * (1.0 + 1e-9) + 1e-9, pad, dx, dy
-    cdef _Cells cells = _no_cells()
+    cdef double half = _pair_half(radius2), pad, dx, dy
     for i in range(m):
         out[i] = False
     if not radius2 > 0.0:
         return  # no squared distance is below it
-    if radius2 < INFINITY:
-        cells = _catalog_grid(x, y, half, scratch)
     for i in range(m):
         if not cells.ok:
             for j in range(m):
