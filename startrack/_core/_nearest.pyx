@@ -32,11 +32,6 @@ cdef class Nearest:
         return iter((np.asarray(self.obs), np.asarray(self.cat)))
 
 
-cdef struct Grid:
-    double x0, y0, size
-    Py_ssize_t nx, ny
-
-
 cdef inline double _lesser(double a, double b) noexcept nogil:
     """fmin of two numbers that are not NaN, inline where libm's is a call (the per-star
     loops below make several)."""
@@ -48,16 +43,6 @@ cdef inline double _greater(double a, double b) noexcept nogil:
     return b if b > a else a
 
 
-cdef struct _Cells:
-    # Catalog positions bucketed in square cells: ``start`` offsets, positions by cell (in
-    # a NearestScratch's buffers: a struct of pointers costs no object per call); ``ok``:
-    # False where the grid cannot take the positions.
-    Grid grid
-    long long* start
-    long long* order
-    bint ok
-
-
 @cython.cdivision(True)  # grid.size >= 1e-9
 cdef inline Py_ssize_t _cell_of(double x, double y, Grid grid) noexcept:
     """The cell of a finite position."""
@@ -66,20 +51,20 @@ cdef inline Py_ssize_t _cell_of(double x, double y, Grid grid) noexcept:
     return gy * grid.nx + gx
 
 
-cdef inline _Cells _no_cells() noexcept nogil:
+cdef inline Cells _no_cells() noexcept nogil:
     """No grid (every field set: ``ok`` False)."""
-    cdef _Cells cells
-    memset(&cells, 0, sizeof(_Cells))
+    cdef Cells cells
+    memset(&cells, 0, sizeof(Cells))
     return cells
 
 
-cdef _Cells _bucket(const double[::1] x, const double[::1] y, Grid grid,
+cdef Cells _bucket(const double[::1] x, const double[::1] y, Grid grid,
                    NearestScratch scratch) except *:
     """A stable counting sort of the finite positions into ``grid``'s cells, in the
     scratch's buffers: each cell's end counted, then the positions placed from the last
     down (each cell's end moves to its start)."""
     cdef Py_ssize_t m = x.shape[0], j, c, n_cells = grid.nx * grid.ny
-    cdef _Cells cells
+    cdef Cells cells
     cells.grid, cells.ok = grid, True
     scratch.start, scratch.cell = _room_i64(scratch.start, n_cells + 1), _room_i64(scratch.cell, m)
     cdef long long* start = &scratch.start[0]
@@ -102,7 +87,7 @@ cdef _Cells _bucket(const double[::1] x, const double[::1] y, Grid grid,
     return cells
 
 
-cdef _Cells _catalog_grid(const double[::1] x, const double[::1] y, double half,
+cdef Cells _catalog_grid(const double[::1] x, const double[::1] y, double half,
                          NearestScratch scratch) except *:
     """The finite catalog positions in a grid of about one per cell, cells no smaller
     than ``half`` (in ``scratch``'s buffers); not ``ok`` with an infinite position, or
@@ -139,7 +124,7 @@ cdef inline void _cell_span(double v, double pad, double v0, double size, Py_ssi
 
 
 cdef inline Py_ssize_t _best_in_cells(double x, double y, const double* cx,
-                                      const double* cy, const _Cells* cells, Py_ssize_t gx0,
+                                      const double* cy, const Cells* cells, Py_ssize_t gx0,
                                       Py_ssize_t gx1, Py_ssize_t gy0, Py_ssize_t gy1,
                                       double* best_d) noexcept nogil:
     """The catalog star nearest (x, y) among cells gx0..gx1 x gy0..gy1 (on a tie the lower
@@ -171,7 +156,7 @@ cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1]
     cdef double r2 = radius_px * radius_px, half = radius_px * (1.0 + 1e-9) + 1e-9
     cdef double pad, best_d, d, dx, dy
     cdef Py_ssize_t best
-    cdef _Cells cells = _no_cells()
+    cdef Cells cells = _no_cells()
     if not radius_px >= 0.0 or n == 0:
         return
     if radius_px < INFINITY:
@@ -204,7 +189,7 @@ cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
     the working buffers of the frame's earlier calls to reuse (None: new ones)."""
     if scratch is None:
         scratch = NearestScratch.__new__(NearestScratch)
-    cdef Py_ssize_t n = ox.shape[0], m = cx.shape[0], i, j, k = 0
+    cdef Py_ssize_t n = ox.shape[0], m = cx.shape[0]
     scratch.nearest, scratch.dist2 = _room_i64(scratch.nearest, n), _room_f64(scratch.dist2, n)
     scratch.owner = _room_i64(scratch.owner, m)
     cdef long long[::1] nearest = scratch.nearest[:n], owner = scratch.owner[:m]
@@ -213,11 +198,19 @@ cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
     dist2[:] = INFINITY
     owner[:] = -1
     _nearest(ox, oy, cx, cy, radius_px, nearest, dist2, scratch)
+    return one_to_one(nearest, dist2, owner)
+
+
+cdef Nearest one_to_one(const long long[::1] nearest, const double[::1] dist2,
+                        long long[::1] owner):
+    """The pairs of each observed star i with its nearest catalog star ``nearest[i]``
+    (-1: none) at squared distance ``dist2[i]``, a catalog star claimed by several kept by
+    the nearest (on a tie, the first); ``owner``: a buffer per catalog star, -1 each."""
+    cdef Py_ssize_t n = nearest.shape[0], i, j, k = 0, kept = 0
     for i in range(n):
         j = nearest[i]
         if j >= 0 and (owner[j] < 0 or dist2[i] < dist2[owner[j]]):
             owner[j] = i
-    cdef Py_ssize_t kept = 0
     for i in range(n):
         kept += nearest[i] >= 0 and owner[nearest[i]] == i
     cdef Nearest out = Nearest.__new__(Nearest)
@@ -231,6 +224,7 @@ cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
 
 
 include "_nearest_pairs.pxi"
+include "_nearest_claims.pxi"
 
 
 def pairs(ox, oy, x, y, double radius2):

@@ -41,7 +41,7 @@ cdef inline void _pairs_add(_PairBuf* b, NearestScratch s, Py_ssize_t first, Py_
 cdef Pairs pairs_in(const double[::1] ox, const double[::1] oy, const double[::1] x,
                     const double[::1] y, double radius2, NearestScratch scratch):
     """:func:`pairs_within` in ``scratch``'s buffers: valid until its next pairing."""
-    cdef _Cells cells = _no_cells()
+    cdef Cells cells = _no_cells()
     if radius2 < INFINITY and x.shape[0] > 0 and ox.shape[0] > 0:
         cells = _catalog_grid(x, y, fmax(_pair_half(radius2), 0.0), scratch)
     return _pairs_on(ox, oy, x, y, radius2, &cells, scratch)
@@ -53,7 +53,7 @@ cdef Pairs pairs_and_crowded(const double[::1] ox, const double[::1] oy,
                              unsigned char[::1] crowded):
     """:func:`pairs_in`, and per catalog star whether another lies closer than
     sqrt(``resolve2``) written into ``crowded``, on one grid of the catalog positions."""
-    cdef _Cells cells = _no_cells(), none = _no_cells()
+    cdef Cells cells = _no_cells(), none = _no_cells()
     cdef bint pair_grid = radius2 < INFINITY and x.shape[0] > 0 and ox.shape[0] > 0
     if pair_grid or resolve2 < INFINITY:
         cells = _catalog_grid(x, y, fmax(_pair_half(radius2), 0.0), scratch)
@@ -68,7 +68,7 @@ cdef inline double _pair_half(double radius2) noexcept nogil:
 
 
 cdef Pairs _pairs_on(const double[::1] ox, const double[::1] oy, const double[::1] x,
-                     const double[::1] y, double radius2, const _Cells* cells,
+                     const double[::1] y, double radius2, const Cells* cells,
                      NearestScratch scratch):
     """The pairs within sqrt(``radius2``), on the catalog grid ``cells`` (not ok: every
     pair), in ``scratch``'s buffers."""
@@ -147,7 +147,7 @@ cdef double[::1] _copy_f64(const double[::1] values):
 
 
 cdef void _crowded_on(const double[::1] x, const double[::1] y, double radius2,
-                      const _Cells* cells, unsigned char[::1] out) noexcept:
+                      const Cells* cells, unsigned char[::1] out) noexcept:
     """Whether each position has another at a squared distance below ``radius2`` (NaN is
     no neighbour), written into ``out``: on the grid ``cells`` of the positions, the cells
     each star's radius reaches (as the pairs scan them), or every pair when not ok."""

@@ -57,11 +57,11 @@ cdef _Refined _refine(Frame frame, const double[:, ::1] vectors, double radius,
     for rounds in range(max_rounds):
         p = _project_into(frame.work.kept, vectors, matrix, frame.geometry)
         projected = True
-        new = match_projected(frame, p, radius)
+        new = _match_pair(frame, p, radius, capture * radius)
         changed = new.obs.shape[0] > cur.obs.shape[0] or (
             new.obs.shape[0] == cur.obs.shape[0] and not _same(new, cur))
         if not changed:
-            wide = match_projected(frame, p, capture * radius)
+            wide = _wide_claimed(frame, p, capture * radius)
             if wide.obs.shape[0] < 2 or _same(wide, cur):
                 break  # the same pairs refit to the same attitude: nothing would change
             new = match(frame, vectors, _fit(frame, wide.obs, vectors, wide.pos),
