@@ -130,14 +130,25 @@ cdef Projection _project_into(ProjectionBuffer buf, const double[:, ::1] vectors
 cdef void _fill(const double[:, ::1] vectors, const double[:, :] matrix, Geometry g,
                 Projection p) noexcept:
     """Every value of ``p``: the projection, 0 and not valid where there is none."""
-    cdef Py_ssize_t n = vectors.shape[0], i
+    cdef Py_ssize_t n = vectors.shape[0], row = vectors.shape[1], i
     cdef double a, b, c, vx, vy, vz, u, w, r2, s
+    if n == 0:
+        return
+    # the attitude's values and the outputs' pointers in locals: the loop's stores could
+    # otherwise alias them, and each would be loaded again per star
+    cdef double m00 = matrix[0, 0], m01 = matrix[0, 1], m02 = matrix[0, 2]
+    cdef double m10 = matrix[1, 0], m11 = matrix[1, 1], m12 = matrix[1, 2]
+    cdef double m20 = matrix[2, 0], m21 = matrix[2, 1], m22 = matrix[2, 2]
+    cdef const double* v = &vectors[0, 0]
+    cdef double* x = &p.x[0]
+    cdef double* y = &p.y[0]
+    cdef unsigned char* valid = &p.valid[0]
     for i in range(n):
-        p.x[i], p.y[i], p.valid[i] = 0.0, 0.0, False
-        a, b, c = vectors[i, 0], vectors[i, 1], vectors[i, 2]  # R^T v: in the camera frame
-        vx = a * matrix[0, 0] + b * matrix[1, 0] + c * matrix[2, 0]
-        vy = a * matrix[0, 1] + b * matrix[1, 1] + c * matrix[2, 1]
-        vz = a * matrix[0, 2] + b * matrix[1, 2] + c * matrix[2, 2]
+        x[i], y[i], valid[i] = 0.0, 0.0, False
+        a, b, c = v[row * i], v[row * i + 1], v[row * i + 2]  # R^T v: in the camera frame
+        vx = a * m00 + b * m10 + c * m20
+        vy = a * m01 + b * m11 + c * m21
+        vz = a * m02 + b * m12 + c * m22
         if vz <= 1e-12:
             continue
         u, w = vx / vz, vy / vz
@@ -145,8 +156,8 @@ cdef void _fill(const double[:, ::1] vectors, const double[:, :] matrix, Geometr
         if not r2 < g.max_r2:
             continue
         s = 1.0 + r2 * (g.k1 + r2 * (g.k2 + r2 * g.k3))
-        p.x[i], p.y[i] = g.cx + g.f_px * (u * s), g.cy + g.f_px * (w * s)
-        p.valid[i] = True
+        x[i], y[i] = g.cx + g.f_px * (u * s), g.cy + g.f_px * (w * s)
+        valid[i] = True
 
 
 cdef bint fits_within(const double[:, :] cam, const double[:, :] sky,
