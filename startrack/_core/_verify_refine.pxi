@@ -111,15 +111,16 @@ cdef double[::1] residual_arcsec(const double[:, ::1] obs_vectors, const long lo
                                  const double[:, :] matrix, const double[:, :] cat_vectors):
     """Angle (arcseconds) between each observed star ``obs[k]`` rotated to the sky by
     ``matrix`` (camera to sky) and its catalog vector ``cat_vectors[k]``."""
-    cdef double[::1] out = empty_f64(obs.shape[0])
-    _residuals_into(obs_vectors, obs, matrix, cat_vectors, out)
+    out = empty_f64(obs.shape[0])
+    _residuals_into(obs_vectors, obs, matrix, cat_vectors, <double*>cnp.PyArray_DATA(out))
     return out
 
 
 cdef void _residuals_into(const double[:, ::1] obs_vectors, const long long[::1] obs,
                           const double[:, :] matrix, const double[:, :] cat_vectors,
-                          double[::1] out) noexcept:
-    """residual_arcsec written into ``out``."""
+                          double* out) noexcept:
+    """residual_arcsec written into ``out`` (a pointer: the numpy array's typed view would
+    cost more than a frame's arithmetic)."""
     cdef Py_ssize_t k
     cdef int i
     cdef double dot
