@@ -1,6 +1,7 @@
 """The final labelling (:func:`startrack.labelling.label_stars`, whose rules it
 implements): one call per accepted attitude, over the observed-catalog pairs within the
-match radius only (:func:`startrack._core._nearest.pairs_within`).
+match radius only, found on one grid with the catalog stars too close to resolve
+(:func:`startrack._core._nearest.pairs_and_crowded`).
 
 Its results are those of the dense observed x catalog formulation, which the tests keep
 as the reference (``tests/labelling_dense_reference.py``): numpy's semantics decide where

@@ -4,8 +4,8 @@
 
 
 cdef struct Grid:
-    # Square cells of side ``size`` from (x0, y0), nx by ny.
-    double x0, y0, size
+    # Square cells of side ``size`` (``inv``: 1 / size) from (x0, y0), nx by ny.
+    double x0, y0, size, inv
     Py_ssize_t nx, ny
 
 
@@ -35,8 +35,8 @@ cdef class Nearest:
 
 
 cdef class NearestScratch:
-    """The working buffers of nearest_matches and the pairings, kept by a
-    frame from one call to the next (each call allocating its own cost more than the
+    """The working buffers of nearest_matches and the pairings, kept by a frame from one
+    call to the next (each call allocating its own cost more than the
     pairing of tens of stars): per observed star its nearest catalog star and squared
     distance, per catalog star the observed star that keeps it, the catalog grid's cell
     offsets, cells and order, and the pairs found. Their lengths only grow; a call uses

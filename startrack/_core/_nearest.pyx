@@ -3,7 +3,10 @@ observed star, and every pair within a radius, on a grid of about one catalog st
 cell, cells no smaller than the radius, so that a frame costs O(n + m) and not O(n m).
 
 Inputs the grid cannot take (an infinite radius, infinite catalog positions) take the
-brute-force scan of every pair, which the tests hold the grid to.
+brute-force scan of every pair, which the tests hold the grid to. A frame matched at many
+attitudes buckets its observed stars once instead (:class:`PointGrid`,
+``_nearest_claims.pxi``): each projected star claims the observed stars near it, which
+gives the same pairs.
 """
 
 cimport cython
@@ -43,11 +46,11 @@ cdef inline double _greater(double a, double b) noexcept nogil:
     return b if b > a else a
 
 
-@cython.cdivision(True)  # grid.size >= 1e-9
 cdef inline Py_ssize_t _cell_of(double x, double y, Grid grid) noexcept:
-    """The cell of a finite position."""
-    cdef Py_ssize_t gx = min(<Py_ssize_t>((x - grid.x0) / grid.size), grid.nx - 1)
-    cdef Py_ssize_t gy = min(<Py_ssize_t>((y - grid.y0) / grid.size), grid.ny - 1)
+    """The cell of a finite position (scaled by ``inv`` as _cell_span scales: the same
+    operations, so a position inside a span's reach is in its cells)."""
+    cdef Py_ssize_t gx = min(<Py_ssize_t>((x - grid.x0) * grid.inv), grid.nx - 1)
+    cdef Py_ssize_t gy = min(<Py_ssize_t>((y - grid.y0) * grid.inv), grid.ny - 1)
     return gy * grid.nx + gx
 
 
@@ -105,17 +108,19 @@ cdef Cells _catalog_grid(const double[::1] x, const double[::1] y, double half,
     cdef Py_ssize_t cells = max(1, <Py_ssize_t>sqrt(<double>m))
     cdef Grid grid
     grid.size = fmax(fmax(half, (x1 - x0) / cells), fmax((y1 - y0) / cells, 1e-9))
+    grid.inv = 1.0 / grid.size
     grid.x0, grid.y0 = x0, y0
     grid.nx = <Py_ssize_t>fmin((x1 - x0) / grid.size, <double>cells) + 1
     grid.ny = <Py_ssize_t>fmin((y1 - y0) / grid.size, <double>cells) + 1
     return _bucket(x, y, grid, scratch)
 
 
-cdef inline void _cell_span(double v, double pad, double v0, double size, Py_ssize_t cells,
+cdef inline void _cell_span(double v, double pad, double v0, double inv, Py_ssize_t cells,
                             Py_ssize_t* first, Py_ssize_t* last) noexcept nogil:
     """The first and last cell along one axis that [v - pad, v + pad] reaches (clipped to
-    the grid; last < first when it misses it)."""
-    cdef double lo = (v - pad - v0) / size, hi = (v + pad - v0) / size
+    the grid; last < first when it misses it); ``inv``: 1 / the cells' size (a product,
+    where a quotient per star costs more)."""
+    cdef double lo = (v - pad - v0) * inv, hi = (v + pad - v0) * inv
     if not hi >= 0.0 or not lo < cells:
         first[0], last[0] = 0, -1
         return
@@ -173,8 +178,8 @@ cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1]
                     best, best_d = j, d
         else:
             pad = half + 1e-12 * _greater(fabs(ox[i]), fabs(oy[i]))
-            _cell_span(ox[i], pad, cells.grid.x0, cells.grid.size, cells.grid.nx, &gx0, &gx1)
-            _cell_span(oy[i], pad, cells.grid.y0, cells.grid.size, cells.grid.ny, &gy0, &gy1)
+            _cell_span(ox[i], pad, cells.grid.x0, cells.grid.inv, cells.grid.nx, &gx0, &gx1)
+            _cell_span(oy[i], pad, cells.grid.y0, cells.grid.inv, cells.grid.ny, &gy0, &gy1)
             best = _best_in_cells(ox[i], oy[i], &cx[0], &cy[0], &cells, gx0, gx1, gy0, gy1,
                                   &best_d)
         if best >= 0 and best_d <= r2:

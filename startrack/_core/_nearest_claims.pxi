@@ -26,6 +26,7 @@ cdef PointGrid point_grid(const double[::1] x, const double[::1] y):
     cdef Py_ssize_t cells = max(1, <Py_ssize_t>sqrt(<double>count))
     cdef Grid grid
     grid.size = fmax(fmax((x1 - x0) / cells, (y1 - y0) / cells), 1e-9)
+    grid.inv = 1.0 / grid.size
     grid.x0, grid.y0 = x0, y0
     grid.nx = <Py_ssize_t>fmin((x1 - x0) / grid.size, <double>cells) + 1
     grid.ny = <Py_ssize_t>fmin((y1 - y0) / grid.size, <double>cells) + 1
@@ -72,8 +73,8 @@ cdef Py_ssize_t claim_nearest(PointGrid grid, const double[::1] ox, const double
             continue
         pad = _greater(half if near else 0.0, wide_half if far else 0.0)
         pad = pad + 1e-12 * _greater(fabs(x[j]), fabs(y[j]))
-        _cell_span(x[j], pad, cells.grid.x0, cells.grid.size, cells.grid.nx, &gx0, &gx1)
-        _cell_span(y[j], pad, cells.grid.y0, cells.grid.size, cells.grid.ny, &gy0, &gy1)
+        _cell_span(x[j], pad, cells.grid.x0, cells.grid.inv, cells.grid.nx, &gx0, &gx1)
+        _cell_span(y[j], pad, cells.grid.y0, cells.grid.inv, cells.grid.ny, &gy0, &gy1)
         for gy in range(gy0, gy1 + 1):
             for gx in range(gx0, gx1 + 1):
                 c = gy * cells.grid.nx + gx

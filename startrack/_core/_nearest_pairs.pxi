@@ -99,8 +99,8 @@ cdef Pairs _pairs_on(const double[::1] ox, const double[::1] oy, const double[::
                     _pairs_add(&found, scratch, start[i], i, j, d2)
             continue
         pad = half + 1e-12 * _greater(fabs(ox[i]), fabs(oy[i]))
-        _cell_span(ox[i], pad, cells.grid.x0, cells.grid.size, cells.grid.nx, &gx0, &gx1)
-        _cell_span(oy[i], pad, cells.grid.y0, cells.grid.size, cells.grid.ny, &gy0, &gy1)
+        _cell_span(ox[i], pad, cells.grid.x0, cells.grid.inv, cells.grid.nx, &gx0, &gx1)
+        _cell_span(oy[i], pad, cells.grid.y0, cells.grid.inv, cells.grid.ny, &gy0, &gy1)
         for gy in range(gy0, gy1 + 1):
             for gx in range(gx0, gx1 + 1):
                 c = gy * cells.grid.nx + gx
@@ -168,8 +168,8 @@ cdef void _crowded_on(const double[::1] x, const double[::1] y, double radius2,
         if isnan(x[i]) or isnan(y[i]):
             continue
         pad = half + 1e-12 * _greater(fabs(x[i]), fabs(y[i]))
-        _cell_span(x[i], pad, cells.grid.x0, cells.grid.size, cells.grid.nx, &gx0, &gx1)
-        _cell_span(y[i], pad, cells.grid.y0, cells.grid.size, cells.grid.ny, &gy0, &gy1)
+        _cell_span(x[i], pad, cells.grid.x0, cells.grid.inv, cells.grid.nx, &gx0, &gx1)
+        _cell_span(y[i], pad, cells.grid.y0, cells.grid.inv, cells.grid.ny, &gy0, &gy1)
         for gy in range(gy0, gy1 + 1):
             for gx in range(gx0, gx1 + 1):
                 c = gy * cells.grid.nx + gx
