@@ -180,3 +180,36 @@ def test_frames_sharing_the_threads_buffers_keep_their_answers(random_db):
         np.testing.assert_array_equal(v.obs_index, obs_index)
         np.testing.assert_array_equal(v.cat_index, cat_index)
     assert sum(v.accepted for v in alone) >= 4
+
+
+@pytest.mark.parametrize("radius", [0.0, 2.0, 7.5, 40.0, np.inf])
+def test_matching_on_the_frames_grid_is_the_nearest_pairing(radius):
+    """A frame's matching (its observed stars bucketed once, each projected star claiming
+    the observed stars near it) pairs exactly as the nearest pairing of the projected
+    stars in the widened image: ties, repeated stars, stars outside the image and NaN
+    positions included."""
+    from startrack._core._nearest import matches as nearest_matches
+    from startrack._core.verify import Frame, match, project
+
+    camera = Camera.from_fov(640, 480, 20.0)
+    geometry = camera_geometry(camera)
+    rng = np.random.default_rng(int(min(radius, 99.0) * 10) + 5)
+    vectors = rng.normal(size=(300, 3)) * [0.12, 0.09, 1.0]
+    vectors[3], vectors[11] = vectors[2], vectors[10]  # catalog stars twice: ties
+    vectors /= np.linalg.norm(vectors, axis=1)[:, None]
+    matrix = Rotation.from_rotvec([0.01, -0.02, 0.3]).as_matrix()
+    sky = np.ascontiguousarray(vectors @ matrix.T)
+    x, y, seen = project(sky, matrix, geometry, 0.0)
+    x, y = x[seen][:60], y[seen][:60]
+    ox = np.concatenate([x + rng.normal(0, 2.0, 60), rng.uniform(-30, 670, 30)])
+    oy = np.concatenate([y + rng.normal(0, 2.0, 60), rng.uniform(-30, 510, 30)])
+    ox[61], oy[61] = ox[60], oy[60]  # an observed star twice
+    ox[5], oy[7] = np.nan, np.nan
+    frame = Frame(np.zeros((len(ox), 3)), ox, oy, np.ones(len(ox)), geometry)
+    obs, pos, n_in = match(frame, sky, matrix, radius)
+    x, y, inside = project(sky, matrix, geometry, radius)
+    where = np.flatnonzero(inside)
+    want_obs, want_at = nearest_matches(ox, oy, x[where], y[where], radius)
+    np.testing.assert_array_equal(obs, want_obs)
+    np.testing.assert_array_equal(pos, where[want_at])
+    assert n_in == len(where) and (len(obs) > 15 or radius == 0.0)

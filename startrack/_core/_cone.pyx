@@ -3,7 +3,9 @@ ascension (:class:`startrack.database.cone.ConeIndex`), searched over the bands 
 RA span the cone covers, then a dot-product test. Verification looks one cone up per
 hypothesis, so the lookup costs microseconds."""
 
+from cpython.mem cimport PyMem_Free, PyMem_Malloc
 from libc.math cimport M_PI, asin, atan2, cos, fabs, fmax, fmin, sin
+from libc.string cimport memcpy
 
 cimport numpy as cnp
 from startrack._core._arrays cimport empty_i64
@@ -25,10 +27,10 @@ cdef class ConeTable:
 
 
 cdef Py_ssize_t _windows(ConeTable t, double dec, double ra, double radius,
-                         long long[:, ::1] spans):
+                         long long* spans):
     """The (start, stop) positions of ``order`` that can hold the cone's stars, written
-    into ``spans``: per band the RA window of the cone (two pieces where it wraps through
-    RA 0). Returns how many."""
+    into ``spans`` (a pair per window: at most two per band): per band the RA window of
+    the cone (two pieces where it wraps through RA 0). Returns how many."""
     cdef Py_ssize_t n_bands = t.band_start.shape[0] - 1, b, n = 0, lo, hi, s0
     cdef Py_ssize_t b0 = max(<Py_ssize_t>((dec - radius + M_PI / 2.0) / BAND_RAD - EDGE), 0)
     cdef Py_ssize_t b1 = min(<Py_ssize_t>((dec + radius + M_PI / 2.0) / BAND_RAD + EDGE),
@@ -43,17 +45,17 @@ cdef Py_ssize_t _windows(ConeTable t, double dec, double ra, double radius,
         if half >= M_PI:
             a, z = 0.0, 2.0 * M_PI
         elif a < 0.0:  # the window wraps through RA 0: two pieces
-            spans[n, 0] = first_at_least(t.ra_sorted, lo, hi, a + 2.0 * M_PI)
-            spans[n, 1] = hi
+            spans[2 * n] = first_at_least(t.ra_sorted, lo, hi, a + 2.0 * M_PI)
+            spans[2 * n + 1] = hi
             n += 1
             a = 0.0
         elif z >= 2.0 * M_PI:
-            spans[n, 0] = lo
-            spans[n, 1] = first_at_least(t.ra_sorted, lo, hi, z - 2.0 * M_PI + EDGE)
+            spans[2 * n] = lo
+            spans[2 * n + 1] = first_at_least(t.ra_sorted, lo, hi, z - 2.0 * M_PI + EDGE)
             n += 1
             z = 2.0 * M_PI
         s0 = first_at_least(t.ra_sorted, lo, hi, a)
-        spans[n, 0], spans[n, 1] = s0, first_at_least(t.ra_sorted, s0, hi, z + EDGE)
+        spans[2 * n], spans[2 * n + 1] = s0, first_at_least(t.ra_sorted, s0, hi, z + EDGE)
         n += 1
     return n
 
@@ -63,25 +65,35 @@ cdef long long[::1] cone_rows(ConeTable table, const double[:] direction, double
     ascending."""
     cdef double dx = direction[0], dy = direction[1], dz = direction[2]
     cdef double dec = asin(fmax(-1.0, fmin(1.0, dz))), ra = atan2(dy, dx) % (2.0 * M_PI)
-    # At most two windows per band.
-    cdef cnp.npy_intp[2] shape
-    shape[0], shape[1] = 2 * table.band_start.shape[0], 2
-    # numpy's C API: np.empty and ndarray.sort cost a microsecond each through Python
-    cdef long long[:, ::1] spans = cnp.PyArray_EMPTY(2, shape, cnp.NPY_INT64, 0)
-    cdef Py_ssize_t n = _windows(table, dec, ra, radius, spans), size = 0, w, s, row, k = 0
-    for w in range(n):
-        size += spans[w, 1] - spans[w, 0]
+    # At most two windows per band. C buffers, and numpy's C API for the one array
+    # returned: a numpy array (or a slice of one) costs a microsecond through Python, and
+    # its typed view a fraction of one.
+    cdef Py_ssize_t n_spans = 2 * table.band_start.shape[0]
+    cdef long long* held = <long long*>PyMem_Malloc(2 * n_spans * sizeof(long long))
+    if held == NULL:
+        raise MemoryError()
+    cdef Py_ssize_t n, size = 0, w, s, row, k = 0
+    cdef long long* found = NULL
     cdef double cos_radius = cos(radius)
-    out = empty_i64(size)
-    cdef long long[::1] view = out
     cdef const double[:, ::1] v = table.vectors
-    for w in range(n):
-        for s in range(spans[w, 0], spans[w, 1]):
-            row = table.order[s]
-            if v[row, 0] * dx + v[row, 1] * dy + v[row, 2] * dz >= cos_radius:
-                view[k] = row
-                k += 1
-    out = out[:k]
+    try:
+        n = _windows(table, dec, ra, radius, held)
+        for w in range(n):
+            size += held[2 * w + 1] - held[2 * w]
+        found = <long long*>PyMem_Malloc(max(size, 1) * sizeof(long long))
+        if found == NULL:
+            raise MemoryError()
+        for w in range(n):
+            for s in range(held[2 * w], held[2 * w + 1]):
+                row = table.order[s]
+                if v[row, 0] * dx + v[row, 1] * dy + v[row, 2] * dz >= cos_radius:
+                    found[k] = row
+                    k += 1
+        out = empty_i64(k)
+        memcpy(cnp.PyArray_DATA(out), found, k * sizeof(long long))
+    finally:
+        PyMem_Free(held)
+        PyMem_Free(found)
     cnp.PyArray_Sort(out, 0, cnp.NPY_QUICKSORT)
     return out
 
@@ -92,7 +104,7 @@ cdef bint any_within(ConeTable table, double dx, double dy, double dz, double ra
     :func:`cone_rows` with no array built, for lookups a few pixels wide. ``spans``:
     scratch of two rows per declination band."""
     cdef double dec = asin(fmax(-1.0, fmin(1.0, dz))), ra = atan2(dy, dx) % (2.0 * M_PI)
-    cdef Py_ssize_t n = _windows(table, dec, ra, radius, spans), w, s, row
+    cdef Py_ssize_t n = _windows(table, dec, ra, radius, &spans[0, 0]), w, s, row
     cdef double cos_radius = cos(radius)
     cdef const double[:, ::1] v = table.vectors
     for w in range(n):

@@ -1,6 +1,7 @@
 """The final labelling (:func:`startrack.labelling.label_stars`, whose rules it
 implements): one call per accepted attitude, over the observed-catalog pairs within the
-match radius only (:func:`startrack._core._nearest.pairs_within`).
+match radius only, found on one grid with the catalog stars too close to resolve
+(:func:`startrack._core._nearest.pairs_and_crowded`).
 
 Its results are those of the dense observed x catalog formulation, which the tests keep
 as the reference (``tests/labelling_dense_reference.py``): numpy's semantics decide where
@@ -18,7 +19,7 @@ from libc.math cimport INFINITY, M_PI, NAN, fabs, isfinite, isnan, log, log10, s
 
 cimport numpy as cnp
 from startrack._core._arrays cimport (empty_i64, room_f64, room_i64, room_u8)
-from startrack._core._nearest cimport NearestScratch, Pairs, pairs_within
+from startrack._core._nearest cimport NearestScratch, Pairs, pairs_and_crowded
 from startrack._core._stats cimport median_inplace, ptp
 
 cdef double _MAD_TO_SIGMA = 1.4826
@@ -30,7 +31,8 @@ cnp.import_array()  # the C API the _arrays helpers call
 cdef class Labels:
     def __iter__(self):
         """(obs, cat, withheld, sigma_px, mag_sigma, used), as the Python callers take it."""
-        return iter((self.obs.base, self.cat.base, np.array(self.withheld, np.int64),
+        return iter((np.asarray(self.obs), np.asarray(self.cat),
+                     np.array(self.withheld, np.int64),
                      self.sigma_px, self.mag_sigma, self.used))
 
 
@@ -38,7 +40,7 @@ cdef class _Work:
     """The labelling's working arrays (per catalog star, observed star or pair), kept
     from one call to the next: allocating them costs more than labelling tens of stars.
     Lengths only grow; a call sets every value it reads."""
-    cdef long long[::1] per_cat, cat_start, fill, iso, best, by_cat
+    cdef long long[::1] per_cat, cat_start, fill, iso, best, by_cat, lab_obs, lab_cat
     cdef double[::1] inst, top, log_b, log_g, rival, offset, d2
     cdef unsigned char[::1] clear_o, clear, ok, crowded
 
@@ -171,38 +173,6 @@ cdef unsigned char[::1] _rivals(Pairs pairs, const unsigned char[::1] cand,
     return clear
 
 
-cdef unsigned char[::1] _crowded(const double[::1] x, const double[::1] y, double resolve2,
-                                 _Work w):
-    """Per catalog star, whether another lies closer than ``sqrt(resolve2)`` (NaN is no
-    neighbour): a sweep along x, in x order, that stops where the x gap alone reaches the
-    limit, so a frame costs O(m log m) and not O(n m)."""
-    cdef Py_ssize_t m = x.shape[0], a, b, i, j
-    w.crowded = room_u8(w.crowded, m)
-    cdef unsigned char[::1] crowded = _set_u8(w.crowded, m, 0)
-    if not resolve2 > 0.0:
-        return crowded  # no squared distance is below it
-    xs = x.base  # the array itself, or the start of one (a scratch buffer), with no copy
-    if not (isinstance(xs, np.ndarray) and xs.ndim == 1 and xs.shape[0] >= m
-            and cnp.PyArray_DATA(xs) == <void*>&x[0] and cnp.PyArray_ISCARRAY_RO(xs)):
-        xs = np.asarray(x)
-    elif xs.shape[0] > m:
-        xs = xs[:m]
-    cdef long long[::1] order = cnp.PyArray_ArgSort(xs, 0, cnp.NPY_QUICKSORT)
-    cdef double gap, dx, dy
-    for a in range(m):
-        i = order[a]
-        for b in range(a + 1, m):
-            j = order[b]
-            gap = x[j] - x[i]
-            # Later stars are farther along x, and dy^2 only adds: none is closer.
-            if gap * gap >= resolve2:
-                break
-            dx, dy = x[i] - x[j], y[i] - y[j]
-            if dx * dx + dy * dy < resolve2:
-                crowded[i] = crowded[j] = True
-    return crowded
-
-
 cdef double _log_b_at(Pairs pairs, const double[::1] log_b, Py_ssize_t i, Py_ssize_t j):
     """The brightness term of observed star i's pair with catalog star ``j``, 0 if there
     is none (the dense table's value)."""
@@ -220,9 +190,15 @@ cdef Labels label(const double[::1] ox, const double[::1] oy, const double[::1] 
     catalog stars projected at (x, y) with magnitudes ``mag`` and catalog ``rows``
     (``scratch``: the frame's pairing buffers to reuse, or None)."""
     cdef Py_ssize_t n_obs = ox.shape[0], n_cat = x.shape[0], i, k
-    cdef Pairs pairs = pairs_within(ox, oy, x, y, p.radius2, scratch)
-    cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_false = n_obs, n_unobserved = n_cat
+    if scratch is None:
+        scratch = NearestScratch.__new__(NearestScratch)
     cdef _Work w = _thread_work()
+    w.crowded = room_u8(w.crowded, n_cat)
+    # per catalog star, whether another lies closer than sqrt(resolve2) (NaN: none)
+    cdef unsigned char[::1] crowded = w.crowded[:n_cat]
+    cdef Pairs pairs = pairs_and_crowded(ox, oy, x, y, p.radius2, p.resolve2, scratch,
+                                         crowded)
+    cdef Py_ssize_t n_pairs = pairs.obs.shape[0], n_false = n_obs, n_unobserved = n_cat
     w.per_cat = room_i64(w.per_cat, n_cat)
     cdef long long[::1] per_cat = _set_i64(w.per_cat, n_cat, 0)
     for k in range(n_pairs):
@@ -250,22 +226,24 @@ cdef Labels label(const double[::1] ox, const double[::1] oy, const double[::1] 
     cdef long long[::1] best = w.best[:n_obs]
     cdef double[::1] top = w.top[:n_obs]
     cdef unsigned char[::1] clear = _rivals(pairs, fit.ok, log_g, p.log_gap, n_cat, best, top, w)
-    cdef unsigned char[::1] crowded = _crowded(x, y, p.resolve2, w)
     cdef _Logs logs = _Logs(log_false, log_seen, log_norm, p.log_false_odds, sigma)
-    return _decide(pairs, fit, best, top, clear, crowded, rows, logs)
+    return _decide(pairs, fit, best, top, clear, crowded, rows, logs, w)
 
 
 
 cdef Labels _decide(Pairs pairs, _Fit fit, const long long[::1] best,
                     const double[::1] top, const unsigned char[::1] clear,
-                    const unsigned char[::1] crowded, const long long[::1] rows, _Logs logs):
+                    const unsigned char[::1] crowded, const long long[::1] rows, _Logs logs,
+                    _Work w):
     """Each observed star with a candidate reported or withheld (the first rule it
     fails, in the order of startrack.labelling.REASONS)."""
     cdef Py_ssize_t n_obs = best.shape[0], i, k, c, n_ok = 0
     cdef Labels out = Labels.__new__(Labels)
     out.withheld[:] = [0, 0, 0, 0]
-    obs, cat = empty_i64(n_obs), empty_i64(n_obs)
-    cdef long long[::1] obs_v = obs, cat_v = cat
+    # The pairs in the scratch first, then one new array for both (a numpy array and its
+    # typed view cost more than the labelling of a star)
+    w.lab_obs, w.lab_cat = room_i64(w.lab_obs, n_obs), room_i64(w.lab_cat, n_obs)
+    cdef long long[::1] obs_v = w.lab_obs, cat_v = w.lab_cat
     cdef long long best_cat
     cdef double log_true
     cdef bint any_cand
@@ -294,6 +272,9 @@ cdef Labels _decide(Pairs pairs, _Fit fit, const long long[::1] best,
         else:
             obs_v[n_ok], cat_v[n_ok] = i, rows[best_cat]
             n_ok += 1
-    out.obs, out.cat = obs[:n_ok], cat[:n_ok]
+    cdef long long[::1] both = empty_i64(2 * n_ok)
+    for k in range(n_ok):
+        both[k], both[n_ok + k] = obs_v[k], cat_v[k]
+    out.obs, out.cat = both[:n_ok], both[n_ok:]
     out.sigma_px, out.mag_sigma, out.used = logs.sigma, fit.sigma, fit.used
     return out

@@ -3,13 +3,17 @@ observed star, and every pair within a radius, on a grid of about one catalog st
 cell, cells no smaller than the radius, so that a frame costs O(n + m) and not O(n m).
 
 Inputs the grid cannot take (an infinite radius, infinite catalog positions) take the
-brute-force scan of every pair, which the tests hold the grid to.
+brute-force scan of every pair, which the tests hold the grid to. A frame matched at many
+attitudes buckets its observed stars once instead (:class:`PointGrid`,
+``_nearest_claims.pxi``): each projected star claims the observed stars near it, which
+gives the same pairs.
 """
 
 cimport cython
 import numpy as np
 
 from libc.math cimport INFINITY, fabs, fmax, fmin, isfinite, isnan, sqrt
+from libc.string cimport memcpy, memset
 
 cimport numpy as cnp
 from startrack._core._arrays cimport (empty_f64, empty_i64, full_f64, full_i64,
@@ -27,12 +31,8 @@ cdef class Pairs:
 
 cdef class Nearest:
     def __iter__(self):
-        return iter((self.obs.base, self.cat.base))
-
-
-cdef struct Grid:
-    double x0, y0, size
-    Py_ssize_t nx, ny
+        """(observed, catalog), as arrays."""
+        return iter((np.asarray(self.obs), np.asarray(self.cat)))
 
 
 cdef inline double _lesser(double a, double b) noexcept nogil:
@@ -46,54 +46,55 @@ cdef inline double _greater(double a, double b) noexcept nogil:
     return b if b > a else a
 
 
-cdef class _Cells:
-    """Catalog positions bucketed in square cells: ``start`` offsets, positions by cell."""
-    cdef Grid grid
-    cdef long long[::1] start
-    cdef long long[::1] order
-
-
-@cython.cdivision(True)  # grid.size >= 1e-9
 cdef inline Py_ssize_t _cell_of(double x, double y, Grid grid) noexcept:
-    """The cell of a finite position."""
-    cdef Py_ssize_t gx = min(<Py_ssize_t>((x - grid.x0) / grid.size), grid.nx - 1)
-    cdef Py_ssize_t gy = min(<Py_ssize_t>((y - grid.y0) / grid.size), grid.ny - 1)
+    """The cell of a finite position (scaled by ``inv`` as _cell_span scales: the same
+    operations, so a position inside a span's reach is in its cells)."""
+    cdef Py_ssize_t gx = min(<Py_ssize_t>((x - grid.x0) * grid.inv), grid.nx - 1)
+    cdef Py_ssize_t gy = min(<Py_ssize_t>((y - grid.y0) * grid.inv), grid.ny - 1)
     return gy * grid.nx + gx
 
 
-cdef _Cells _bucket(const double[::1] x, const double[::1] y, Grid grid,
-                   NearestScratch scratch):
+cdef inline Cells _no_cells() noexcept nogil:
+    """No grid (every field set: ``ok`` False)."""
+    cdef Cells cells
+    memset(&cells, 0, sizeof(Cells))
+    return cells
+
+
+cdef Cells _bucket(const double[::1] x, const double[::1] y, Grid grid,
+                   NearestScratch scratch) except *:
     """A stable counting sort of the finite positions into ``grid``'s cells, in the
     scratch's buffers: each cell's end counted, then the positions placed from the last
     down (each cell's end moves to its start)."""
     cdef Py_ssize_t m = x.shape[0], j, c, n_cells = grid.nx * grid.ny
-    cdef _Cells cells = _Cells.__new__(_Cells)
-    cells.grid = grid
+    cdef Cells cells
+    cells.grid, cells.ok = grid, True
     scratch.start, scratch.cell = _room_i64(scratch.start, n_cells + 1), _room_i64(scratch.cell, m)
-    cells.start = scratch.start[:n_cells + 1]
-    cells.start[:] = 0
-    cdef long long[::1] cell = scratch.cell[:m]
-    cell[:] = -1
+    cdef long long* start = &scratch.start[0]
+    cdef long long* cell = &scratch.cell[0]
+    memset(start, 0, (n_cells + 1) * sizeof(long long))
     for j in range(m):
+        cell[j] = -1
         if isfinite(x[j]) and isfinite(y[j]):
             cell[j] = _cell_of(x[j], y[j], grid)
-            cells.start[cell[j]] += 1
+            start[cell[j]] += 1
     for c in range(n_cells):
-        cells.start[c + 1] += cells.start[c]
-    scratch.order = _room_i64(scratch.order, cells.start[n_cells])
-    cells.order = scratch.order[:cells.start[n_cells]]
+        start[c + 1] += start[c]
+    scratch.order = _room_i64(scratch.order, start[n_cells])
+    cdef long long* order = &scratch.order[0]
     for j in range(m - 1, -1, -1):
         if cell[j] >= 0:
-            cells.start[cell[j]] -= 1
-            cells.order[cells.start[cell[j]]] = j
+            start[cell[j]] -= 1
+            order[start[cell[j]]] = j
+    cells.start, cells.order = start, order
     return cells
 
 
-cdef _Cells _catalog_grid(const double[::1] x, const double[::1] y, double half,
-                         NearestScratch scratch):
+cdef Cells _catalog_grid(const double[::1] x, const double[::1] y, double half,
+                         NearestScratch scratch) except *:
     """The finite catalog positions in a grid of about one per cell, cells no smaller
-    than ``half`` (in ``scratch``'s buffers); None with an infinite position, or extents
-    that overflow or hold no position."""
+    than ``half`` (in ``scratch``'s buffers); not ``ok`` with an infinite position, or
+    extents that overflow or hold no position."""
     cdef Py_ssize_t m = x.shape[0], j
     cdef double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY
     for j in range(m):
@@ -101,23 +102,25 @@ cdef _Cells _catalog_grid(const double[::1] x, const double[::1] y, double half,
             x0, x1 = _lesser(x0, x[j]), _greater(x1, x[j])
             y0, y1 = _lesser(y0, y[j]), _greater(y1, y[j])
         elif not (isnan(x[j]) or isnan(y[j])):
-            return None  # inf - inf would be NaN in the extents
+            return _no_cells()  # inf - inf would be NaN in the extents
     if not (0.0 <= x1 - x0 < INFINITY and 0.0 <= y1 - y0 < INFINITY):
-        return None
+        return _no_cells()
     cdef Py_ssize_t cells = max(1, <Py_ssize_t>sqrt(<double>m))
     cdef Grid grid
     grid.size = fmax(fmax(half, (x1 - x0) / cells), fmax((y1 - y0) / cells, 1e-9))
+    grid.inv = 1.0 / grid.size
     grid.x0, grid.y0 = x0, y0
     grid.nx = <Py_ssize_t>fmin((x1 - x0) / grid.size, <double>cells) + 1
     grid.ny = <Py_ssize_t>fmin((y1 - y0) / grid.size, <double>cells) + 1
     return _bucket(x, y, grid, scratch)
 
 
-cdef inline void _cell_span(double v, double pad, double v0, double size, Py_ssize_t cells,
+cdef inline void _cell_span(double v, double pad, double v0, double inv, Py_ssize_t cells,
                             Py_ssize_t* first, Py_ssize_t* last) noexcept nogil:
     """The first and last cell along one axis that [v - pad, v + pad] reaches (clipped to
-    the grid; last < first when it misses it)."""
-    cdef double lo = (v - pad - v0) / size, hi = (v + pad - v0) / size
+    the grid; last < first when it misses it); ``inv``: 1 / the cells' size (a product,
+    where a quotient per star costs more)."""
+    cdef double lo = (v - pad - v0) * inv, hi = (v + pad - v0) * inv
     if not hi >= 0.0 or not lo < cells:
         first[0], last[0] = 0, -1
         return
@@ -125,15 +128,14 @@ cdef inline void _cell_span(double v, double pad, double v0, double size, Py_ssi
     last[0] = <Py_ssize_t>_lesser(hi, cells - 1.0)
 
 
-cdef inline Py_ssize_t _best_in_cells(double x, double y, const double[::1] cx,
-                                      const double[::1] cy, _Cells cells, Py_ssize_t gx0,
+cdef inline Py_ssize_t _best_in_cells(double x, double y, const double* cx,
+                                      const double* cy, const Cells* cells, Py_ssize_t gx0,
                                       Py_ssize_t gx1, Py_ssize_t gy0, Py_ssize_t gy1,
-                                      double* best_d):
+                                      double* best_d) noexcept nogil:
     """The catalog star nearest (x, y) among cells gx0..gx1 x gy0..gy1 (on a tie the lower
     index; -1 if none), its squared distance in ``best_d``."""
     cdef Py_ssize_t best = -1, xx, yy, c, q, j
-    cdef double d, dx, dy
-    best_d[0] = INFINITY
+    cdef double d, dx, dy, top = INFINITY
     for yy in range(gy0, gy1 + 1):
         for xx in range(gx0, gx1 + 1):
             c = yy * cells.grid.nx + xx
@@ -141,8 +143,9 @@ cdef inline Py_ssize_t _best_in_cells(double x, double y, const double[::1] cx,
                 j = cells.order[q]
                 dx, dy = x - cx[j], y - cy[j]
                 d = dx * dx + dy * dy
-                if d < best_d[0] or (d == best_d[0] and j < best):
-                    best, best_d[0] = j, d
+                if d < top or (d == top and j < best):
+                    best, top = j, d
+    best_d[0] = top
     return best
 
 
@@ -158,7 +161,7 @@ cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1]
     cdef double r2 = radius_px * radius_px, half = radius_px * (1.0 + 1e-9) + 1e-9
     cdef double pad, best_d, d, dx, dy
     cdef Py_ssize_t best
-    cdef _Cells cells = None
+    cdef Cells cells = _no_cells()
     if not radius_px >= 0.0 or n == 0:
         return
     if radius_px < INFINITY:
@@ -166,7 +169,7 @@ cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1]
     for i in range(n):
         if isnan(ox[i]) or isnan(oy[i]):
             continue
-        if cells is None:
+        if not cells.ok:
             best, best_d = -1, INFINITY
             for j in range(m):
                 dx, dy = ox[i] - cx[j], oy[i] - cy[j]
@@ -175,9 +178,10 @@ cdef void _nearest(const double[::1] ox, const double[::1] oy, const double[::1]
                     best, best_d = j, d
         else:
             pad = half + 1e-12 * _greater(fabs(ox[i]), fabs(oy[i]))
-            _cell_span(ox[i], pad, cells.grid.x0, cells.grid.size, cells.grid.nx, &gx0, &gx1)
-            _cell_span(oy[i], pad, cells.grid.y0, cells.grid.size, cells.grid.ny, &gy0, &gy1)
-            best = _best_in_cells(ox[i], oy[i], cx, cy, cells, gx0, gx1, gy0, gy1, &best_d)
+            _cell_span(ox[i], pad, cells.grid.x0, cells.grid.inv, cells.grid.nx, &gx0, &gx1)
+            _cell_span(oy[i], pad, cells.grid.y0, cells.grid.inv, cells.grid.ny, &gy0, &gy1)
+            best = _best_in_cells(ox[i], oy[i], &cx[0], &cy[0], &cells, gx0, gx1, gy0, gy1,
+                                  &best_d)
         if best >= 0 and best_d <= r2:
             nearest[i], dist2[i] = best, best_d
 
@@ -190,7 +194,7 @@ cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
     the working buffers of the frame's earlier calls to reuse (None: new ones)."""
     if scratch is None:
         scratch = NearestScratch.__new__(NearestScratch)
-    cdef Py_ssize_t n = ox.shape[0], m = cx.shape[0], i, j, k = 0
+    cdef Py_ssize_t n = ox.shape[0], m = cx.shape[0]
     scratch.nearest, scratch.dist2 = _room_i64(scratch.nearest, n), _room_f64(scratch.dist2, n)
     scratch.owner = _room_i64(scratch.owner, m)
     cdef long long[::1] nearest = scratch.nearest[:n], owner = scratch.owner[:m]
@@ -199,15 +203,24 @@ cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
     dist2[:] = INFINITY
     owner[:] = -1
     _nearest(ox, oy, cx, cy, radius_px, nearest, dist2, scratch)
+    return one_to_one(nearest, dist2, owner)
+
+
+cdef Nearest one_to_one(const long long[::1] nearest, const double[::1] dist2,
+                        long long[::1] owner):
+    """The pairs of each observed star i with its nearest catalog star ``nearest[i]``
+    (-1: none) at squared distance ``dist2[i]``, a catalog star claimed by several kept by
+    the nearest (on a tie, the first); ``owner``: a buffer per catalog star, -1 each."""
+    cdef Py_ssize_t n = nearest.shape[0], i, j, k = 0, kept = 0
     for i in range(n):
         j = nearest[i]
         if j >= 0 and (owner[j] < 0 or dist2[i] < dist2[owner[j]]):
             owner[j] = i
-    cdef Py_ssize_t kept = 0
     for i in range(n):
         kept += nearest[i] >= 0 and owner[nearest[i]] == i
     cdef Nearest out = Nearest.__new__(Nearest)
-    out.obs, out.cat = empty_i64(kept), empty_i64(kept)
+    cdef long long[::1] both = empty_i64(2 * kept)  # one array (and typed view) for both
+    out.obs, out.cat = both[:kept], both[kept:]
     for i in range(n):
         if nearest[i] >= 0 and owner[nearest[i]] == i:
             out.obs[k], out.cat[k] = i, nearest[i]
@@ -216,6 +229,7 @@ cdef Nearest nearest_matches(const double[::1] ox, const double[::1] oy,
 
 
 include "_nearest_pairs.pxi"
+include "_nearest_claims.pxi"
 
 
 def pairs(ox, oy, x, y, double radius2):

@@ -26,7 +26,7 @@
 
 from startrack._core._cone cimport ConeTable
 from startrack._core._labelling cimport LabelParams
-from startrack._core._nearest cimport NearestScratch
+from startrack._core._nearest cimport NearestScratch, PointGrid
 
 
 cdef struct Geometry:
@@ -98,6 +98,10 @@ cdef class VerifyScratch:
     cdef double[::1] cone_mags
     cdef ProjectionBuffer kept  # the refinement's last projection, which the labelling reads
     cdef ProjectionBuffer passing  # a projection matched at once and dropped
+    cdef long long[::1] wide_nearest  # the last matching's claims at the wider capture
+    cdef double[::1] wide_dist2
+    cdef Py_ssize_t wide_stars  # how many stars they index (-1: none made)
+    cdef Py_ssize_t wide_in
 
 
 cdef class Frame:
@@ -111,6 +115,7 @@ cdef class Frame:
     cdef Geometry geometry
     cdef readonly Py_ssize_t n
     cdef NearestScratch scratch  # the matching's buffers: the thread's, reused by every call
+    cdef PointGrid grid  # the observed stars bucketed, for every matching of the frame
     cdef VerifyScratch work  # the check's own buffers: the thread's too
 
 

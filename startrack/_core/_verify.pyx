@@ -14,7 +14,7 @@ import threading
 
 import numpy as np
 
-from libc.math cimport M_PI, acos, exp, fmax, fmin, lgamma, log, log1p
+from libc.math cimport INFINITY, M_PI, acos, exp, fmax, fmin, lgamma, log, log1p
 
 cimport numpy as cnp
 
@@ -23,7 +23,8 @@ from startrack._core._arrays cimport (copy_i64, empty_f64, empty_i64, empty_rows
                                       zeros_u8)
 from startrack._core._cone cimport ConeTable, cone_rows
 from startrack._core._labelling cimport LabelParams, Labels, label
-from startrack._core._nearest cimport Nearest, NearestScratch, nearest_matches
+from startrack._core._nearest cimport (Nearest, NearestScratch, Reach, claim_nearest,
+                                       nearest_matches, one_to_one, point_grid)
 from startrack._core._wahba cimport matrix_to_quaternion, wahba
 
 cnp.import_array()  # the C API the _arrays helpers call
@@ -33,5 +34,6 @@ cdef double _ARCSEC = 180.0 / M_PI * 3600.0
 cdef double _MIN_LOG = -7.08396418532264106224e2
 
 include "_verify_steps.pxi"
+include "_verify_match.pxi"
 include "_verify_refine.pxi"
 include "_verify_check.pxi"

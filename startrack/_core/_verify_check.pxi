@@ -112,7 +112,7 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
                               params.max_rounds)
     if cone is not None and _drift(r.matrix, first) < params.margin_cos:
         r, stars = _refine_on_fresh_cone(frame, r.matrix, params, cone, v)
-    cdef Labelled done = _label_at(frame, stars, r.matrix, r.projection, params)
+    cdef Labelled done = _label_at(frame, stars, r.matrix, r.projection, r.matches, params)
     v.status, v.final = ACCEPTED, _matrix_array(done.final)
     v.obs, v.rows = copy_i64(done.obs, done.obs.shape[0]), _take(stars.rows, done.pos)
     cdef double[:, ::1] cat = _sky_rows(frame, done.pos.shape[0])
@@ -121,7 +121,8 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
                                            stars.vectors[done.pos[k], 1],
                                            stars.vectors[done.pos[k], 2])
     v.residuals = empty_f64(done.obs.shape[0])
-    _residuals_into(frame.vectors, done.obs, done.final, cat, v.residuals)
+    _residuals_into(frame.vectors, done.obs, done.final, cat,
+                    <double*>cnp.PyArray_DATA(v.residuals))
     v.quaternion = empty_f64(4)
     matrix_to_quaternion(done.final, v.quaternion)
     return v
@@ -134,8 +135,8 @@ cdef inline double _drift(const double[:, ::1] a, const double[:, ::1] b) noexce
 
 cdef cnp.ndarray _take(const long long[::1] rows, const long long[::1] pos):
     """``rows[pos]`` as an int64 array."""
-    out = empty_i64(pos.shape[0])
-    cdef long long[::1] view = out
+    cdef cnp.ndarray out = empty_i64(pos.shape[0])
+    cdef long long* view = <long long*>cnp.PyArray_DATA(out)
     cdef Py_ssize_t k
     for k in range(pos.shape[0]):
         view[k] = rows[pos[k]]
@@ -169,7 +170,7 @@ cdef tuple _refine_on_fresh_cone(Frame frame, double[:, ::1] refined, CheckParam
     v.cones += 1
     if _drift(r.matrix, refined) < params.margin_cos:
         stars = cone.around(r.matrix, frame.work)
-        r.projection = None
+        r.projection, r.matches = None, None  # positions in the Stars replaced
         v.cones += 1
     return r, stars
 

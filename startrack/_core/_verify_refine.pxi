@@ -57,11 +57,11 @@ cdef _Refined _refine(Frame frame, const double[:, ::1] vectors, double radius,
     for rounds in range(max_rounds):
         p = _project_into(frame.work.kept, vectors, matrix, frame.geometry)
         projected = True
-        new = match_projected(frame, p, radius)
+        new = _match_pair(frame, p, radius, capture * radius)
         changed = new.obs.shape[0] > cur.obs.shape[0] or (
             new.obs.shape[0] == cur.obs.shape[0] and not _same(new, cur))
         if not changed:
-            wide = match_projected(frame, p, capture * radius)
+            wide = _wide_claimed(frame, p, capture * radius)
             if wide.obs.shape[0] < 2 or _same(wide, cur):
                 break  # the same pairs refit to the same attitude: nothing would change
             new = match(frame, vectors, _fit(frame, wide.obs, vectors, wide.pos),
@@ -76,9 +76,11 @@ cdef _Refined _refine(Frame frame, const double[:, ::1] vectors, double radius,
 
 
 cdef Labelled _label_at(Frame frame, Stars stars, double[:, ::1] matrix,
-                        Projection projection, CheckParams params):
+                        Projection projection, Matches fitted, CheckParams params):
     """The final labelling at ``matrix`` (the Stars' ``projection`` there, or None) and
-    the attitude refitted to the labels when there are three or more."""
+    the attitude refitted to the labels when there are three or more. ``fitted``: the
+    pairs whose fit ``matrix`` is (None: unknown); labels that are those pairs refit to
+    it bit for bit, so the fit is not repeated."""
     if projection is None:
         projection = _project_into(frame.work.kept, stars.vectors, matrix, frame.geometry)
     cdef _Selection s = _select(projection, frame.geometry, params.radius_px, frame.work)
@@ -91,7 +93,7 @@ cdef Labelled _label_at(Frame frame, Stars stars, double[:, ::1] matrix,
                                params.label, frame.scratch)
     cdef Labelled out = Labelled.__new__(Labelled)
     out.obs, out.pos, out.refined, out.final = labels.obs, labels.cat, matrix, matrix
-    if labels.obs.shape[0] >= 3:
+    if labels.obs.shape[0] >= 3 and not _same_pairs(labels.obs, labels.cat, fitted):
         out.final = _fit(frame, labels.obs, stars.vectors, labels.cat)
     return out
 
@@ -102,22 +104,23 @@ cdef Labelled refine_and_label(Frame frame, Stars stars, Matches start, CheckPar
     stars labelled at the refined attitude and the attitude refitted to the labels."""
     cdef _Refined r = _refine(frame, stars.vectors, params.radius_px, params.capture, start,
                               max_rounds)
-    return _label_at(frame, stars, r.matrix, r.projection, params)
+    return _label_at(frame, stars, r.matrix, r.projection, r.matches, params)
 
 
 cdef double[::1] residual_arcsec(const double[:, ::1] obs_vectors, const long long[::1] obs,
                                  const double[:, :] matrix, const double[:, :] cat_vectors):
     """Angle (arcseconds) between each observed star ``obs[k]`` rotated to the sky by
     ``matrix`` (camera to sky) and its catalog vector ``cat_vectors[k]``."""
-    cdef double[::1] out = empty_f64(obs.shape[0])
-    _residuals_into(obs_vectors, obs, matrix, cat_vectors, out)
+    out = empty_f64(obs.shape[0])
+    _residuals_into(obs_vectors, obs, matrix, cat_vectors, <double*>cnp.PyArray_DATA(out))
     return out
 
 
 cdef void _residuals_into(const double[:, ::1] obs_vectors, const long long[::1] obs,
                           const double[:, :] matrix, const double[:, :] cat_vectors,
-                          double[::1] out) noexcept:
-    """residual_arcsec written into ``out``."""
+                          double* out) noexcept:
+    """residual_arcsec written into ``out`` (a pointer: the numpy array's typed view would
+    cost more than a frame's arithmetic)."""
     cdef Py_ssize_t k
     cdef int i
     cdef double dot

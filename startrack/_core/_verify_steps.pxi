@@ -1,5 +1,5 @@
 # The steps of verification (included in _verify.pyx): the frame and catalog records, the
-# projection, the pairing, the first test, the refinement and the labelling.
+# projection and the Wahba fit (the pairing: _verify_match.pxi).
 
 
 cdef class Frame:
@@ -12,6 +12,7 @@ cdef class Frame:
         self.n = x.shape[0]
         self.scratch = _thread_scratch()
         self.work = _thread_work()
+        self.grid = point_grid(x, y)
 
 
 # Each thread's matching buffers, shared by the frames it checks: a new frame (one per
@@ -87,11 +88,18 @@ cdef class Matches:
 
 cdef bint _same(Matches a, Matches b) noexcept:
     """Whether two match lists are the same pairs in the same order."""
+    return _same_pairs(a.obs, a.pos, b)
+
+
+cdef bint _same_pairs(const long long[::1] obs, const long long[::1] pos,
+                      Matches b) noexcept:
+    """Whether the pairs (``obs[k]``, ``pos[k]``) are those of ``b`` (False: None), in
+    the same order."""
     cdef Py_ssize_t k
-    if a.obs.shape[0] != b.obs.shape[0]:
+    if b is None or obs.shape[0] != b.obs.shape[0]:
         return False
-    for k in range(a.obs.shape[0]):
-        if a.obs[k] != b.obs[k] or a.pos[k] != b.pos[k]:
+    for k in range(obs.shape[0]):
+        if obs[k] != b.obs[k] or pos[k] != b.pos[k]:
             return False
     return True
 
@@ -122,14 +130,25 @@ cdef Projection _project_into(ProjectionBuffer buf, const double[:, ::1] vectors
 cdef void _fill(const double[:, ::1] vectors, const double[:, :] matrix, Geometry g,
                 Projection p) noexcept:
     """Every value of ``p``: the projection, 0 and not valid where there is none."""
-    cdef Py_ssize_t n = vectors.shape[0], i
+    cdef Py_ssize_t n = vectors.shape[0], row = vectors.shape[1], i
     cdef double a, b, c, vx, vy, vz, u, w, r2, s
+    if n == 0:
+        return
+    # the attitude's values and the outputs' pointers in locals: the loop's stores could
+    # otherwise alias them, and each would be loaded again per star
+    cdef double m00 = matrix[0, 0], m01 = matrix[0, 1], m02 = matrix[0, 2]
+    cdef double m10 = matrix[1, 0], m11 = matrix[1, 1], m12 = matrix[1, 2]
+    cdef double m20 = matrix[2, 0], m21 = matrix[2, 1], m22 = matrix[2, 2]
+    cdef const double* v = &vectors[0, 0]
+    cdef double* x = &p.x[0]
+    cdef double* y = &p.y[0]
+    cdef unsigned char* valid = &p.valid[0]
     for i in range(n):
-        p.x[i], p.y[i], p.valid[i] = 0.0, 0.0, False
-        a, b, c = vectors[i, 0], vectors[i, 1], vectors[i, 2]  # R^T v: in the camera frame
-        vx = a * matrix[0, 0] + b * matrix[1, 0] + c * matrix[2, 0]
-        vy = a * matrix[0, 1] + b * matrix[1, 1] + c * matrix[2, 1]
-        vz = a * matrix[0, 2] + b * matrix[1, 2] + c * matrix[2, 2]
+        x[i], y[i], valid[i] = 0.0, 0.0, False
+        a, b, c = v[row * i], v[row * i + 1], v[row * i + 2]  # R^T v: in the camera frame
+        vx = a * m00 + b * m10 + c * m20
+        vy = a * m01 + b * m11 + c * m21
+        vz = a * m02 + b * m12 + c * m22
         if vz <= 1e-12:
             continue
         u, w = vx / vz, vy / vz
@@ -137,96 +156,8 @@ cdef void _fill(const double[:, ::1] vectors, const double[:, :] matrix, Geometr
         if not r2 < g.max_r2:
             continue
         s = 1.0 + r2 * (g.k1 + r2 * (g.k2 + r2 * g.k3))
-        p.x[i], p.y[i] = g.cx + g.f_px * (u * s), g.cy + g.f_px * (w * s)
-        p.valid[i] = True
-
-
-cdef struct _Bounds:
-    # The image widened by a margin (px), as within() tests a projected star.
-    double lo_x, hi_x, lo_y, hi_y
-
-
-cdef inline _Bounds _widened(Geometry g, double margin) noexcept:
-    cdef _Bounds b
-    b.lo_x, b.hi_x = -0.5 - margin, g.width - 0.5 + margin
-    b.lo_y, b.hi_y = -0.5 - margin, g.height - 0.5 + margin
-    return b
-
-
-cdef inline bint _inside(const double* x, const double* y, const unsigned char* valid,
-                         Py_ssize_t i, _Bounds b) noexcept:
-    # pointers: a memoryview argument costs a reference count per call
-    return valid[i] and b.lo_x <= x[i] <= b.hi_x and b.lo_y <= y[i] <= b.hi_y
-
-
-cdef unsigned char[::1] within(Projection p, Geometry g, double margin):
-    """Which projected stars fall in the image widened by ``margin`` pixels."""
-    cdef _Bounds b = _widened(g, margin)
-    cdef Py_ssize_t i
-    cdef unsigned char[::1] inside = zeros_u8(p.x.shape[0])
-    for i in range(p.x.shape[0]):
-        inside[i] = _inside(&p.x[0], &p.y[0], &p.valid[0], i, b)
-    return inside
-
-
-cdef class _Selection:
-    """The projected stars inside a margin: their positions and pixel positions."""
-    cdef long long[::1] where
-    cdef double[::1] x
-    cdef double[::1] y
-
-
-cdef _Selection _select(Projection p, Geometry g, double margin, VerifyScratch work):
-    # within()'s test, twice (count, then fill): cheaper than allocating its flags; the
-    # selection lives in ``work`` (its reader copies what it keeps)
-    cdef _Bounds b = _widened(g, margin)
-    cdef const double* x = &p.x[0]
-    cdef const double* y = &p.y[0]
-    cdef const unsigned char* valid = &p.valid[0]
-    cdef Py_ssize_t n = p.x.shape[0], i, k = 0, m = 0
-    for i in range(n):
-        m += _inside(x, y, valid, i, b)
-    cdef _Selection s = _Selection.__new__(_Selection)
-    work.where, work.x, work.y = (room_i64(work.where, m), room_f64(work.x, m),
-                                  room_f64(work.y, m))
-    s.where, s.x, s.y = work.where[:m], work.x[:m], work.y[:m]
-    for i in range(n):
-        if _inside(x, y, valid, i, b):
-            s.where[k], s.x[k], s.y[k] = i, x[i], y[i]
-            k += 1
-    return s
-
-
-cdef Matches match_projected(Frame frame, Projection projection, double radius):
-    """Observed stars paired with the projected stars that fall in the image widened by
-    ``radius`` (a star just beyond the edge can still be an observed star's)."""
-    cdef _Selection s = _select(projection, frame.geometry, radius, frame.work)
-    cdef Nearest near = nearest_matches(frame.x, frame.y, s.x, s.y, radius, frame.scratch)
-    cdef Matches m = Matches.__new__(Matches)
-    cdef Py_ssize_t k
-    for k in range(near.cat.shape[0]):  # the selection's index to the Stars': in place,
-        near.cat[k] = s.where[near.cat[k]]  # the pairing's arrays are this call's own
-    m.obs, m.pos, m.n_in = near.obs, near.cat, s.where.shape[0]
-    return m
-
-
-cdef Matches match(Frame frame, const double[:, ::1] vectors, const double[:, :] matrix,
-                   double radius):
-    return match_projected(frame, _project_into(frame.work.passing, vectors, matrix,
-                                                frame.geometry), radius)
-
-
-cdef Py_ssize_t _confirmed(Matches m, const long long[::1] hyp_obs):
-    """How many of the matched observed stars are not among ``hyp_obs``."""
-    # A hypothesis has a few distinct stars: scanning them beats allocating flags.
-    cdef Py_ssize_t k, h, count = 0
-    cdef bint chosen
-    for k in range(m.obs.shape[0]):
-        chosen = False
-        for h in range(hyp_obs.shape[0]):
-            chosen = chosen or hyp_obs[h] == m.obs[k]
-        count += not chosen
-    return count
+        x[i], y[i] = g.cx + g.f_px * (u * s), g.cy + g.f_px * (w * s)
+        valid[i] = True
 
 
 cdef bint fits_within(const double[:, :] cam, const double[:, :] sky,
