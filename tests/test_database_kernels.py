@@ -93,8 +93,8 @@ def test_a_pair_build_split_among_threads_is_the_same_table(threads):
 def test_neighbour_lists_built_in_two_threads_are_the_same():
     sky = random_sky(800, seed=3)
     arrays = build_pair_arrays(sky.vectors, math.radians(12.0))
-    one, two = (PairNeighbours(arrays["i"], arrays["j"], arrays["angle"], len(sky), w)
-                for w in (1, 2))
+    one, two = (PairNeighbours(arrays["i"], arrays["j"], arrays["angle"], len(sky),
+                               threaded=threaded) for threaded in (False, True))
     for a, b in zip(one.lists, two.lists, strict=True):
         assert a.dtype == b.dtype
         np.testing.assert_array_equal(a, b)

@@ -25,9 +25,10 @@ cdef class PairNeighbours:
     pair are ``nbr_lo[start_lo[s]:start_lo[s + 1]]`` with the pair angles in ``ang_lo``,
     as second star in ``nbr_hi`` and ``ang_hi``. Partners and angles sit side by side per
     star: a window search then reads a few cache lines, not the table. ``lists`` holds
-    the six arrays (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi)."""
+    the six arrays (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi). ``threaded``:
+    the two runs built in two threads at once (the same arrays)."""
 
-    def __init__(self, pi, pj, angle, Py_ssize_t n_catalog, Py_ssize_t workers=1):
+    def __init__(self, pi, pj, angle, Py_ssize_t n_catalog, bint threaded=False):
         self.pi = np.ascontiguousarray(pi, dtype=np.int32)
         self.pj = np.ascontiguousarray(pj, dtype=np.int32)
         self.angle = np.ascontiguousarray(angle, dtype=np.float64)
@@ -36,14 +37,14 @@ cdef class PairNeighbours:
         start_lo, start_hi = np.zeros(n_catalog + 1, np.int64), np.zeros(n_catalog + 1, np.int64)
         nbr_lo, nbr_hi = np.empty(m, np.int32), np.empty(m, np.int32)
         ang_lo, ang_hi = np.empty(m, np.float64), np.empty(m, np.float64)
-        # the two runs read the same table and write apart: a thread each, with workers
-        runs = ((self.pi, self.pj, start_lo, nbr_lo, ang_lo),
-                (self.pj, self.pi, start_hi, nbr_hi, ang_hi))
-        if workers > 1:
-            in_threads(lambda t: _lists(*runs[t][:2], self.angle, *runs[t][2:]), 2)
+        # the two runs read the same table and write apart: a thread each when threaded
+        runs = ((self.pi, self.pj, self.angle, start_lo, nbr_lo, ang_lo),
+                (self.pj, self.pi, self.angle, start_hi, nbr_hi, ang_hi))
+        if threaded:
+            in_threads(lambda t: _lists(*runs[t]), 2)
         else:
             for run in runs:
-                _lists(*run[:2], self.angle, *run[2:])
+                _lists(*run)
         self.start_lo, self.nbr_lo, self.ang_lo = start_lo, nbr_lo, ang_lo
         self.start_hi, self.nbr_hi, self.ang_hi = start_hi, nbr_hi, ang_hi
         self.lists = (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi)

@@ -27,7 +27,7 @@ class PairIndex:
         self.angle = np.ascontiguousarray(table.angle, dtype=np.float64)
         #: the table and its neighbour lists, as the compiled searches take them
         self.neighbours = core.PairNeighbours(self.pi, self.pj, self.angle, self.n_catalog,
-                                              build_threads(len(self.pi)))
+                                              threaded=build_threads(len(self.pi)) > 1)
         #: (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi): the lists as arrays
         self.lists = self.neighbours.lists
 
