@@ -43,6 +43,14 @@ cdef void _sweep(const double[::1] x, const double[::1] y, const double[::1] z,
             slot[k] += 1
 
 
+cpdef double expected_pairs(Py_ssize_t n, double max_angle) noexcept:
+    """How many pairs lie closer than ``max_angle`` among ``n`` stars spread evenly over
+    the sky: of the n (n - 1) / 2 pairs, the share (1 - cos a) / 2 of the sphere that a
+    cap of radius a covers. The one estimate behind the build's bucket count and its
+    caller's thread count."""
+    return n * (n - 1.0) / 4.0 * (1.0 - cos(max_angle))
+
+
 def sorted_close_pairs(const double[:, ::1] vectors, double max_angle,
                        Py_ssize_t workers=1):
     """Every pair (i < j) of unit vectors closer than ``max_angle``: (i, j, angle), rows as
@@ -63,7 +71,7 @@ def sorted_close_pairs(const double[:, ::1] vectors, double max_angle,
     cdef const long long[::1] order = order_arr
     cdef double band = 2.0 * sin(max_angle / 2.0)  # |dz| <= chord
     cdef double cos_max = cos(max_angle), span = 1.0 - cos(max_angle)
-    cdef Py_ssize_t nb = max(<Py_ssize_t>(n * (n - 1.0) / 4.0 * span / PER_BUCKET), 1)
+    cdef Py_ssize_t nb = max(<Py_ssize_t>(expected_pairs(n, max_angle) / PER_BUCKET), 1)
     cdef double scale = nb / span if span > 0.0 else 0.0
     workers = max(1, min(workers, n))
     firsts = [n * t // workers for t in range(workers + 1)]

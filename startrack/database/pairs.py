@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass
 
@@ -49,10 +48,8 @@ def build_threads(pairs: float) -> int:
 def build_pair_arrays(vectors: np.ndarray, max_angle_rad: float) -> dict[str, np.ndarray]:
     """All pairs within ``max_angle_rad``, as arrays sorted by angle."""
     vectors = np.ascontiguousarray(vectors, dtype=np.float64).reshape(-1, 3)
-    n = len(vectors)
-    expected = n * (n - 1) / 4.0 * (1.0 - math.cos(max_angle_rad))  # a uniform sky's
-    i, j, angle = close_pairs.sorted_close_pairs(vectors, float(max_angle_rad),
-                                             build_threads(expected))
+    threads = build_threads(close_pairs.expected_pairs(len(vectors), max_angle_rad))
+    i, j, angle = close_pairs.sorted_close_pairs(vectors, float(max_angle_rad), threads)
     return {"i": i, "j": j, "angle": angle}
 
 
