@@ -12,7 +12,10 @@ cdef struct Grid:
 cdef struct Cells:
     # Positions bucketed in a Grid's cells: ``start`` offsets, positions by cell (in a
     # NearestScratch's or a PointGrid's buffers: a struct of pointers costs no object per
-    # call); ``ok``: False where the grid cannot take the positions.
+    # call); ``ok``: False where the grid cannot take the positions. The pointers hold no
+    # reference: they stay valid while those arrays do, a PointGrid's for its lifetime
+    # (it keeps them), a scratch's only until its next bucketing (which may regrow them),
+    # so a scratch's Cells lives within the one pairing call that bucketed it.
     Grid grid
     long long* start
     long long* order

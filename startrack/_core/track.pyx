@@ -17,7 +17,7 @@ from libc.math cimport M_PI, cos, isfinite
 import numpy as np
 
 from startrack._core._camera cimport Geometry as CameraGeometry
-from startrack._core._nearest cimport Pairs, pairs_within
+from startrack._core._nearest cimport Pairs, pairs_within  # the vote's (_track_vote.pxi)
 from startrack._core._verify cimport CheckParams, FirstTest, Frame, Geometry, Labelled
 from startrack._core._verify cimport Matches, Projection, Stars, binomial_tail
 from startrack._core._verify cimport first_match, match, project, refine_and_label
