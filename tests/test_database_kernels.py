@@ -10,6 +10,7 @@ from startrack._core.pairs import PairNeighbours
 
 from startrack._core import close_pairs, parse
 from startrack._core import database as kernels
+from startrack.database import pairs as database_pairs
 from startrack.database.kvector import KVector
 from startrack.database.pairs import THREADED_PAIRS, build_pair_arrays, build_threads
 from startrack.sky import random_sky
@@ -104,9 +105,12 @@ def test_neighbour_lists_built_in_two_threads_are_the_same():
                                   arrays["j"][arrays["i"] == star])
 
 
-def test_only_a_large_table_is_built_in_threads():
+@pytest.mark.parametrize(("cores", "threads"), [(1, 1), (4, 4), (16, 8)])
+def test_only_a_large_table_is_built_in_threads(monkeypatch, cores, threads):
+    # the machine's cores faked: one thread below the threshold, else one a core, at most 8
+    monkeypatch.setattr(database_pairs, "usable_cores", lambda: cores)
     assert build_threads(THREADED_PAIRS - 1) == 1
-    assert 1 <= build_threads(THREADED_PAIRS) <= 8
+    assert build_threads(THREADED_PAIRS) == threads
 
 
 def test_pair_build_of_no_pairs_and_of_one_star():

@@ -35,14 +35,19 @@ THREADED_PAIRS = 200_000
 MAX_BUILD_THREADS = 8
 
 
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity), at least 1."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, cores or 1)
+
+
 def build_threads(pairs: float) -> int:
     """Threads for building a table of about ``pairs`` pairs: one for a small table, else
     one per core this process may use (a first run's table of millions of pairs takes a
     second or more on one; the threaded builds give the same arrays, bit for bit)."""
     if pairs < THREADED_PAIRS:
         return 1
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return max(1, min(cores or 1, MAX_BUILD_THREADS))
+    return min(usable_cores(), MAX_BUILD_THREADS)
 
 
 def build_pair_arrays(vectors: np.ndarray, max_angle_rad: float) -> dict[str, np.ndarray]:
