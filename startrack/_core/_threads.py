@@ -3,8 +3,17 @@ threads (their loops release the GIL)."""
 
 from __future__ import annotations
 
+import os
 import threading
 from collections.abc import Callable
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity), at least 1."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # no affinity on this system
+        return os.cpu_count() or 1
 
 
 def in_threads(work: Callable[[int], None], workers: int) -> None:

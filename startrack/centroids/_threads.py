@@ -18,19 +18,13 @@ import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 
+from startrack._core._threads import usable_cores
+
 MIN_BAND_PX = 65536  # px; a smaller piece of work is not worth a thread's wake-up
 PIECES_PER_THREAD = 2  # a late helper then costs the caller at most a few pieces' time
 
 _LOCK = threading.Lock()
 _POOL: dict = {}  # "pool": the executor, "pid": the process that made it, "size"
-
-
-def usable_cores() -> int:
-    """The cores this process may run on (its CPU affinity), at least 1."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # no affinity on this system
-        return os.cpu_count() or 1
 
 
 def thread_count(threads: int | None) -> int:

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from startrack._core import close_pairs
+from startrack._core._threads import usable_cores
 from startrack.database.kvector import KVector
 
 
@@ -33,12 +33,6 @@ class PairTable:
 THREADED_PAIRS = 200_000
 #: threads a table build uses at most
 MAX_BUILD_THREADS = 8
-
-
-def usable_cores() -> int:
-    """The cores this process may run on (its CPU affinity), at least 1."""
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return max(1, cores or 1)
 
 
 def build_threads(pairs: float) -> int:
