@@ -3,13 +3,11 @@
 verify, fit the camera to the matched stars, turn the pixels into directions through the
 fitted camera, verify again, until a round matches the stars of the one before.
 
-Each round in Python made an Observation, a FrameVerifier (its parameter dicts, a Frame, a
-Verifier), a verification and a Camera: several times the compiled work of a round. Here
-every number a round derives from the focal length (the match radius, the labelling's
-scales, the catalog cone) is computed by the same operations, in the same order, as
-:meth:`startrack.verify.VerifyConfig.radius_px`, :func:`startrack.verify._labelling.label_params`,
-:class:`startrack.verify._frame.FrameVerifier` and the Camera compute it, so every answer
-is theirs to the last bit.
+In Python each round made an Observation, a FrameVerifier, a verification and a Camera,
+costing more than its compiled work. Every number a round derives from the focal length
+(match radius, the labelling's scales, the catalog cone) is computed here by the same
+operations, in the same order, as VerifyConfig.radius_px, label_params, FrameVerifier and
+the Camera compute it, so every answer is theirs to the last bit.
 """
 
 cimport cython
@@ -31,68 +29,82 @@ from startrack._core.fov_fit cimport _BAD_FOCAL, fit_geometry
 cnp.import_array()  # the C API the _arrays helpers call
 
 
+cdef struct FitFrame:
+    # One frame's values: the camera's principal point and image size (px), the
+    # distance from the principal point to the farthest corner (math.hypot's), the stated
+    # centroid noise (px) and VerifyConfig's match radius rule (a fixed radius, else
+    # radius_sigma sigmas, at least min_radius).
+    double cx
+    double cy
+    double width
+    double height
+    double corner_r
+    double sigma_px
+    bint fixed_radius
+    double match_radius
+    double radius_sigma
+    double min_radius
+
+
+cdef struct FitConstants:
+    # The solver's constants: the labelling's resolve_px and resolve_sigmas; the cone's
+    # CONE_MARGIN, CONE_LOOKUP_MARGIN and CONE_REUSE_FRACTION; fit_camera's
+    # LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1 and iterations; REFIT_ROUNDS; and
+    # math.radians(1.0), math.degrees(1.0) and 2.0 (the exponent of Python's ``x ** 2``,
+    # a runtime value so the compiler keeps ``pow``).
+    double resolve_px
+    double resolve_sigmas
+    double cone_margin
+    double lookup_margin
+    double reuse_fraction
+    Py_ssize_t lens_min_stars
+    double lens_min_r2
+    double lens_max_k1
+    int iterations
+    int rounds
+    double rad
+    double deg
+    double two
+
+
 cdef class FittedRounds:
     """One frame's fit-and-verify rounds: its pixels ``x``, ``y`` (float64, contiguous),
-    the camera's principal point ``cx``, ``cy``, image size and lens (``lens``: its
-    distortion's RadialLens, None for a pinhole; the focal length is each call's),
-    ``corner_r`` (px: the farthest corner from the principal point, ``math.hypot``'s),
-    the stated centroid noise ``sigma_px``, the match radius rule (``fixed_radius``:
-    ``match_radius``; else ``radius_sigma`` sigmas, at least ``min_radius``), ``params``
-    (a CheckParams dict whose per-camera fields are set here), the labelling's
-    ``resolve_px`` and ``resolve_sigmas``, the catalog (``table``, ``mags``, ``catalog``
-    vectors), the cone's ``margins`` (CONE_MARGIN, CONE_LOOKUP_MARGIN,
-    CONE_REUSE_FRACTION), ``lens_fit`` (LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1, the
-    fit's iterations), ``rounds`` (REFIT_ROUNDS) and ``units`` (``math.radians(1.0)``,
-    ``math.degrees(1.0)``, 2.0: the exponent of Python's ``x ** 2``, a runtime value so
-    the compiler keeps ``pow``)."""
+    its camera's lens (``lens``: the distortion's RadialLens, None for a pinhole; the
+    focal length is each call's), its values (``frame``, a FitFrame), the solver's
+    ``constants`` (a FitConstants), ``params`` (a CheckParams whose per-camera fields
+    are set here) and the catalog (``table``, every star's ``mags``, its ``catalog``
+    vectors)."""
     cdef object x_array, y_array
     cdef const double[::1] x
     cdef const double[::1] y
     cdef Camera base
     cdef bint described
-    cdef RadialLens lens
-    cdef bint fixed_radius
-    cdef double corner_r, sigma_px, match_radius, radius_sigma, min_radius
-    cdef double resolve_px, resolve_sigmas
+    cdef FitFrame values
+    cdef FitConstants c
     cdef CheckParams params
     cdef ConeTable table
     cdef object mags_array
     cdef const double[::1] mags
     cdef const double[:, ::1] catalog
-    cdef double cone_margin, lookup_margin, reuse_fraction
-    cdef Py_ssize_t lens_min_stars
-    cdef double lens_min_r2, lens_max_k1
-    cdef int iterations, rounds
-    cdef double rad, deg, two
 
-    def __init__(self, x, y, double cx, double cy, double width, double height,
-                 RadialLens lens, double corner_r, double sigma_px, bint fixed_radius,
-                 double match_radius, double radius_sigma, double min_radius, CheckParams params,
-                 double resolve_px, double resolve_sigmas, ConeTable table, mags,
-                 const double[:, ::1] catalog, tuple margins, tuple lens_fit, int rounds,
-                 tuple units):
+    def __init__(self, x, y, RadialLens lens, FitFrame frame, FitConstants constants,
+                 CheckParams params, ConeTable table, mags, const double[:, ::1] catalog):
         self.x_array, self.y_array, self.x, self.y = x, y, x, y
         if self.x.shape[0] != self.y.shape[0]:
             raise ValueError("FittedRounds: x and y of unequal lengths")
         # Optics.geometry of the camera (its focal length is each call's): the lens's
         # fields, or a pinhole's (RadialLens's defaults)
-        self.base.cx, self.base.cy, self.base.width, self.base.height = cx, cy, width, height
-        self.described, self.lens = lens is not None, lens
+        self.base.cx, self.base.cy = frame.cx, frame.cy
+        self.base.width, self.base.height = frame.width, frame.height
+        self.described = lens is not None
         self.base.k1, self.base.k2, self.base.k3, self.base.max_r2 = 0.0, 0.0, 0.0, INFINITY
         if lens is not None:
             self.base.k1, self.base.k2, self.base.k3 = lens.lens.k1, lens.lens.k2, lens.lens.k3
             self.base.max_r2 = lens.lens.max_r2
-        self.corner_r, self.sigma_px, self.fixed_radius = corner_r, sigma_px, fixed_radius
-        self.match_radius, self.radius_sigma, self.min_radius = (match_radius, radius_sigma,
-                                                                 min_radius)
-        self.params, self.resolve_px, self.resolve_sigmas = params, resolve_px, resolve_sigmas
+        self.values, self.c, self.params = frame, constants, params
         self.table, self.mags_array, self.mags, self.catalog = table, mags, mags, catalog
         if self.mags.shape[0] != table.vectors.shape[0]:
             raise ValueError("FittedRounds: one magnitude per catalog star")
-        self.cone_margin, self.lookup_margin, self.reuse_fraction = margins
-        self.lens_min_stars, self.lens_min_r2, self.lens_max_k1, self.iterations = lens_fit
-        self.rounds = rounds
-        self.rad, self.deg, self.two = units
 
     def run(self, const long long[::1] hyp_obs, const long long[::1] hyp_rows, double f,
             held_obs=None, held_rows=None, Py_ssize_t held_confirmed=0):
@@ -105,7 +117,6 @@ cdef class FittedRounds:
         answer (an index to wrap or refuse, as ``verify`` and numpy's indexing do)."""
         cdef Camera g = self.base
         g.f_px = f
-        cdef RadialLens lens = self.lens
         cdef bint described = self.described, accepted
         cdef double k1_fitted = 0.0, f_new, k1_new
         cdef Frame frame = None
@@ -116,7 +127,7 @@ cdef class FittedRounds:
         if held_obs is None:
             vectors = self._vectors(&g)
             frame = self._frame(frame, vectors, &g)
-            self._set_params(&g, described, lens)
+            self._set_params(&g, described)
             v = check_cone(frame, hyp_obs, hyp_rows, self.table, self.mags, self.params)
             if v.status == BAD_INDEX:
                 return None
@@ -129,7 +140,7 @@ cdef class FittedRounds:
         cdef const long long[::1] o, r
         cdef double[::1] fx, fy
         cdef double[:, ::1] fcat
-        for round_ in range(self.rounds):
+        for round_ in range(self.c.rounds):
             if not accepted:
                 return confirmed
             o, r = obs, rows
@@ -140,22 +151,21 @@ cdef class FittedRounds:
                 fcat[k, 0], fcat[k, 1], fcat[k, 2] = (self.catalog[r[k], 0],
                                                       self.catalog[r[k], 1],
                                                       self.catalog[r[k], 2])
-            status = fit_geometry(&g, fx, fy, fcat, self.iterations,
-                                  not described and m >= self.lens_min_stars,
-                                  self.lens_min_r2, self.lens_max_k1, &f_new, &k1_new)
+            status = fit_geometry(&g, fx, fy, fcat, self.c.iterations,
+                                  not described and m >= self.c.lens_min_stars,
+                                  self.c.lens_min_r2, self.c.lens_max_k1, &f_new, &k1_new)
             g.f_px = f_new  # Camera.with_focal
             if not (status == _BAD_FOCAL or k1_new == 0.0):  # Camera.with_distortion
                 if self._folds(f_new, k1_new):
                     return 0
                 g.k1, g.k2, g.k3 = k1_new, 0.0, 0.0
                 g.max_r2 = -1.0 / (3.0 * k1_new) if k1_new < 0.0 else INFINITY
-                lens = RadialLens(k1_new, 0.0, 0.0, g.max_r2)
                 described, k1_fitted = True, k1_new
             if not (g.f_px > 0.0 and isfinite(g.f_px)):
                 return 0
             vectors = self._vectors(&g)
             frame = self._frame(frame, vectors, &g)
-            self._set_params(&g, described, lens)
+            self._set_params(&g, described)
             v = check_cone(frame, hyp_obs, hyp_rows, self.table, self.mags, self.params)
             if v.status == BAD_INDEX:
                 return None
@@ -169,14 +179,15 @@ cdef class FittedRounds:
         """Whether the k1-only lens folds back inside the image at focal length ``f``, in
         :meth:`startrack.camera.Camera.with_distortion`'s arithmetic (Python's ``x ** 2``
         is ``pow``; ``max`` keeps the first of equals)."""
-        cdef double a = fabs(-0.5 - self.base.cx), b = fabs(self.base.width - 0.5 - self.base.cx)
+        cdef double a = fabs(-0.5 - self.base.cx)
+        cdef double b = fabs(self.base.width - 0.5 - self.base.cx)
         cdef double ex = b if b > a else a
         a, b = fabs(-0.5 - self.base.cy), fabs(self.base.height - 0.5 - self.base.cy)
         cdef double ey = b if b > a else a
-        cdef double rd2 = (pow(ex, self.two) + pow(ey, self.two)) / pow(f, self.two)
+        cdef double rd2 = (pow(ex, self.c.two) + pow(ey, self.c.two)) / pow(f, self.c.two)
         cdef double r2 = -1.0 / (3.0 * k1) if k1 < 0.0 else INFINITY  # RadialDistortion.max_r2
         cdef double factor = 1.0 + r2 * (k1 + r2 * (0.0 + r2 * 0.0))
-        return isfinite(r2) and rd2 >= r2 * pow(factor, self.two)
+        return isfinite(r2) and rd2 >= r2 * pow(factor, self.c.two)
 
     @cython.cdivision(True)
     cdef object _vectors(self, const Camera* g):
@@ -210,28 +221,29 @@ cdef class FittedRounds:
         return frame
 
     @cython.cdivision(True)
-    cdef void _set_params(self, const Camera* g, bint described, RadialLens lens) except *:
+    cdef void _set_params(self, const Camera* g, bint described) except *:
         """The CheckParams and LabelParams fields of camera ``g``, as FrameVerifier,
         VerifyConfig.radius_px and label_params compute them."""
-        cdef double f = g.f_px, sigma = self.sigma_px / f * f  # obs.sigma_rad * f_px
-        cdef double radius = self.match_radius, scaled, half, cone
-        if not self.fixed_radius:  # max(radius_sigma * sigma, min_radius)
-            scaled = self.radius_sigma * sigma
-            radius = self.min_radius if self.min_radius > scaled else scaled
+        cdef double f = g.f_px, sigma = self.values.sigma_px / f * f  # obs.sigma_rad * f_px
+        cdef double radius = self.values.match_radius, scaled, half, cone
+        if not self.values.fixed_radius:  # max(radius_sigma * sigma, min_radius)
+            scaled = self.values.radius_sigma * sigma
+            radius = self.values.min_radius if self.values.min_radius > scaled else scaled
         self.params.radius_px = radius
         self.params.cos_radius = cos(radius / f)
         if not described:  # Camera.half_diagonal_deg of a pinhole
-            half = atan2(self.corner_r, f) * self.deg
+            half = atan2(self.values.corner_r, f) * self.c.deg
         else:  # with a lens, numpy's arccos (the Camera's; it need not be C's acos)
-            half = _largest(np.arccos(_corner_cosines(g))) * self.deg
-        cone = half * self.rad * self.cone_margin
-        self.params.cone_radius = cone * self.lookup_margin
-        self.params.margin_cos = cos(self.reuse_fraction * cone)
-        self.params.label.radius2 = pow(radius, self.two)
+            half = _largest(np.arccos(_corner_cosines(g))) * self.c.deg
+        cone = half * self.c.rad * self.c.cone_margin
+        self.params.cone_radius = cone * self.c.lookup_margin
+        self.params.margin_cos = cos(self.c.reuse_fraction * cone)
+        self.params.label.radius2 = pow(radius, self.c.two)
         self.params.label.sigma0 = sigma
-        scaled = self.resolve_sigmas * sigma
-        self.params.label.resolve2 = pow(scaled if scaled > self.resolve_px else self.resolve_px,
-                                         self.two)
+        scaled = self.c.resolve_sigmas * sigma
+        if not scaled > self.c.resolve_px:
+            scaled = self.c.resolve_px
+        self.params.label.resolve2 = pow(scaled, self.c.two)
 
 
 cdef bint _within(const long long[::1] index, Py_ssize_t size) noexcept:

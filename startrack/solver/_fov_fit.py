@@ -164,14 +164,15 @@ def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
               "capture": CAPTURE, "max_rounds": MAX_REFINEMENTS,
               "min_confirmed": config.min_confirmed,
               "max_probability": config.max_false_probability, "label": label}
-    rounds = FittedRounds(
-        _as(x), _as(y), camera.cx, camera.cy, camera.width, camera.height,
-        None if camera.distortion is None else camera.distortion.compiled,
-        camera.corner_radius_px, float(sigma_px), fixed,
-        float(config.match_radius_px) if fixed else 0.0, config.radius_sigma,
-        config.min_radius_px, params, float(_LABEL.resolve_px), _LABEL.resolve_sigmas,
-        database.cone_index.table, _as(database.catalog.mag), _as(database.vectors),
-        _CONE_MARGINS, _LENS_FIT, REFIT_ROUNDS, _UNITS)
+    frame = {"cx": camera.cx, "cy": camera.cy, "width": camera.width,
+             "height": camera.height, "corner_r": camera.corner_radius_px,
+             "sigma_px": float(sigma_px), "fixed_radius": fixed,
+             "match_radius": float(config.match_radius_px) if fixed else 0.0,
+             "radius_sigma": config.radius_sigma, "min_radius": config.min_radius_px}
+    rounds = FittedRounds(_as(x), _as(y),
+                          None if camera.distortion is None else camera.distortion.compiled,
+                          frame, _CONSTANTS, params, database.cone_index.table,
+                          _as(database.catalog.mag), _as(database.vectors))
     held = (None, None, 0) if accepted is None else (
         _as(accepted.obs_index, np.int64), _as(accepted.cat_index, np.int64),
         accepted.confirmed)
@@ -198,12 +199,16 @@ _NO_VECTORS = np.zeros((0, 3))
 #: label_params of a frame without fluxes, by image size (the rounds' stars carry none;
 #: the rounds set the fields that depend on the camera's focal length)
 _LABELS: dict[tuple[int, int], dict] = {}
-#: the labelling's thresholds verification uses (label_params' default)
-_LABEL = LabelConfig()
-_CONE_MARGINS = (CONE_MARGIN, CONE_LOOKUP_MARGIN, CONE_REUSE_FRACTION)
-_LENS_FIT = (LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1, 12)  # 12: fit_camera's iterations
+#: the solver's constants as the compiled rounds take them (a FitConstants): the
+#: labelling's (label_params' defaults), the catalog cone's, fit_camera's, and
 #: math.radians and math.degrees as the one product each is, and Python's ``** 2``
-_UNITS = (math.radians(1.0), math.degrees(1.0), 2.0)
+_CONSTANTS = {"resolve_px": float(LabelConfig().resolve_px),
+              "resolve_sigmas": LabelConfig().resolve_sigmas, "cone_margin": CONE_MARGIN,
+              "lookup_margin": CONE_LOOKUP_MARGIN, "reuse_fraction": CONE_REUSE_FRACTION,
+              "lens_min_stars": LENS_MIN_STARS, "lens_min_r2": LENS_MIN_R2,
+              "lens_max_k1": LENS_MAX_K1, "iterations": 12,  # fit_camera's default
+              "rounds": REFIT_ROUNDS, "rad": math.radians(1.0), "deg": math.degrees(1.0),
+              "two": 2.0}
 
 
 def _same_stars(a: Verification, b: Verification) -> bool:
