@@ -23,7 +23,7 @@ from startrack._core.camera cimport Optics
 #: What :func:`fit_focal` ended on (its first return value): settled (or out of
 #: iterations), a focal length not positive and finite, a fitted k1 folding back inside
 #: the image.
-SETTLED, BAD_FOCAL, FOLDS = 0, 1, 2
+SETTLED, BAD_FOCAL, FOLDS = _SETTLED, _BAD_FOCAL, _FOLDS
 
 cnp.import_array()  # the C API the _arrays helpers call
 
@@ -157,7 +157,6 @@ cdef bint _focal_step(const double[:, ::1] t, const double[::1] dx, const double
     return True
 
 
-@cython.cdivision(True)
 def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
               const double[:, ::1] cat, int iterations, bint with_k1, double min_r2,
               double max_k1):
@@ -168,6 +167,19 @@ def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
     ``min_r2``, within +-``max_k1``. Returns (SETTLED, BAD_FOCAL or FOLDS; the focal
     length; the fitted k1)."""
     cdef Geometry g = optics.geometry
+    cdef double f, k1
+    cdef int status = fit_geometry(&g, x, y, cat, iterations, with_k1, min_r2, max_k1,
+                                   &f, &k1)
+    return status, f, k1
+
+
+@cython.cdivision(True)
+cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] y,
+                      const double[:, ::1] cat, int iterations, bint with_k1,
+                      double min_r2, double max_k1, double* f_out, double* k1_out):
+    """:func:`fit_focal` of the camera ``g`` (C callers: the fitted rounds of
+    ``startrack._core.fitted_rounds``): the status, the focal length and k1 into
+    ``f_out`` and ``k1_out``."""
     cdef Py_ssize_t i, m = x.shape[0]
     # the buffers of every round, made once (numpy's Python calls would cost more than
     # a round's arithmetic)
@@ -178,11 +190,11 @@ def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
     cdef double[:, ::1] cols = empty_rows(3, 2 * m) if with_k1 else None
     cdef double f = g.f_px, k1 = 0.0, f_new, k1_new, top
     cdef bint done
-    cdef int _
+    cdef int _, status = SETTLED
     for _ in range(iterations):
-        _directions(&g, f, k1, dx, dy, cam)
+        _directions(g, f, k1, dx, dy, cam)
         wahba(cam, cat, rot)
-        top = _tangent(&g, cat, rot, t)
+        top = _tangent(g, cat, rot, t)
         if with_k1 and top >= min_r2:
             f_new, k1_new = _lens_step(t, dx, dy, max_k1, cols)
         else:
@@ -192,9 +204,12 @@ def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
         done = fabs(f_new - f) <= 1e-10 * fabs(f) and fabs(k1_new - k1) <= 1e-12
         f, k1 = f_new, k1_new
         if not (f > 0.0 and isfinite(f)):
-            return BAD_FOCAL, f, k1
-        if k1 != 0.0 and _folds(&g, f, k1):
-            return FOLDS, f, k1
+            status = BAD_FOCAL
+            break
+        if k1 != 0.0 and _folds(g, f, k1):
+            status = FOLDS
+            break
         if done:
             break
-    return SETTLED, f, k1
+    f_out[0], k1_out[0] = f, k1
+    return status

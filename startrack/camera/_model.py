@@ -142,16 +142,21 @@ class Camera:
     def half_diagonal_deg(self) -> float:
         """Angle from the boresight to the farthest image corner."""
         if self.distortion is None:  # a pinhole: no array work
-            left, right = 0.0 - self.cx, self.width - 1.0 - self.cx
-            top, bottom = 0.0 - self.cy, self.height - 1.0 - self.cy
-            r = max(math.hypot(left, top), math.hypot(left, bottom), math.hypot(right, top),
-                    math.hypot(right, bottom))
-            return math.degrees(math.atan2(r, self.f_px))
+            return math.degrees(math.atan2(self.corner_radius_px, self.f_px))
         # the corners' arccos is numpy's, as ever; their cosines lie in [0, 1] (the z of a
         # unit vector 1 / |(u, v, 1)|): no clip. The largest angle, NaN winning (numpy's
         # max), turned to degrees (math's and numpy's are the same one product).
         angles = np.arccos(self.optics.corner_cosines())
         return math.degrees(float(np.maximum.reduce(angles)))
+
+    @property
+    def corner_radius_px(self) -> float:
+        """Distance (px) from the principal point to the farthest image corner (the
+        corner pixels' centres)."""
+        left, right = 0.0 - self.cx, self.width - 1.0 - self.cx
+        top, bottom = 0.0 - self.cy, self.height - 1.0 - self.cy
+        return max(math.hypot(left, top), math.hypot(left, bottom), math.hypot(right, top),
+                   math.hypot(right, bottom))
 
     @cached_property
     def optics(self) -> Optics:

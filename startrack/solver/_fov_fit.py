@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from startrack._core.fitted_rounds import FittedRounds
 from startrack._core.fov_fit import BAD_FOCAL
 from startrack._core.fov_fit import fit_focal as fit_focal_kernel
 from startrack._core.shared import wahba
@@ -18,6 +19,14 @@ from startrack.errors import InputError
 from startrack.solver._calibrate_sigma import SIGNIFICANCE
 from startrack.solver._lost_in_space import residuals_arcsec
 from startrack.types import Hypothesis, Observation
+from startrack.verify._frame import (
+    CAPTURE,
+    CONE_LOOKUP_MARGIN,
+    CONE_MARGIN,
+    CONE_REUSE_FRACTION,
+    MAX_REFINEMENTS,
+)
+from startrack.verify._labelling import LabelConfig, label_params
 from startrack.verify._verification import Verification, VerifyConfig, verify
 
 #: an undescribed lens's k1 is fitted to this many stars reaching this far (r^2 of the
@@ -100,7 +109,23 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
                    accepted: Verification | None = None,
                    ) -> tuple[Verification, Camera, Observation] | int:
     """:func:`verify_fitted` on the stars ``x``, ``y``; when it fails, how many stars the
-    first verification confirmed."""
+    first verification confirmed. The rounds run in one compiled call
+    (:func:`_compiled_rounds`); :func:`_python_rounds` answers the hypotheses it leaves."""
+    if accepted is not None and not accepted.accepted:
+        return accepted.confirmed
+    found = _compiled_rounds(hyp, x, y, camera, sigma_px, database, config, accepted)
+    if found is None:  # an index verify wraps or refuses
+        return _python_rounds(hyp, x, y, camera, sigma_px, database, config, accepted)
+    return found
+
+
+def _python_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
+                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
+                   accepted: Verification | None = None,
+                   ) -> tuple[Verification, Camera, Observation] | int:
+    """:func:`_verify_fitted`'s rounds in Python: verify, fit, verify again through the
+    fitted camera, until a round matches the stars of the one before (what the compiled
+    rounds compute, operation for operation)."""
     cat = database.vectors
     check = accepted or verify(hyp, Observation.from_pixels(x, y, camera, sigma_px),
                                database, config)
@@ -120,6 +145,70 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
         if check.accepted and _same_stars(last, check):
             break  # a fit to the same stars again would return this camera
     return (check, camera, obs) if check.accepted else 0
+
+
+def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
+                     sigma_px: float, database: StarDatabase, config: VerifyConfig,
+                     accepted: Verification | None,
+                     ) -> tuple[Verification, Camera, Observation] | int | None:
+    """:func:`_python_rounds`'s answer from one compiled call
+    (:class:`startrack._core.fitted_rounds.FittedRounds`); None where a hypothesis index
+    is one :func:`startrack.verify.verify` wraps or refuses (Python answers)."""
+    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)  # from_pixels's
+    fixed = config.match_radius_px is not None
+    label = _LABELS.get((camera.width, camera.height))
+    if label is None:  # the thresholds of this image size; the rounds set the scales
+        label = _LABELS[camera.width, camera.height] = label_params(
+            Observation(_NO_VECTORS, x[:0], y[:0], camera, 1.0), 1.0)
+    params = {"radius_px": 0.0, "cos_radius": 0.0, "cone_radius": 0.0, "margin_cos": 0.0,
+              "capture": CAPTURE, "max_rounds": MAX_REFINEMENTS,
+              "min_confirmed": config.min_confirmed,
+              "max_probability": config.max_false_probability, "label": label}
+    frame = {"cx": camera.cx, "cy": camera.cy, "width": camera.width,
+             "height": camera.height, "corner_r": camera.corner_radius_px,
+             "sigma_px": float(sigma_px), "fixed_radius": fixed,
+             "match_radius": float(config.match_radius_px) if fixed else 0.0,
+             "radius_sigma": config.radius_sigma, "min_radius": config.min_radius_px}
+    rounds = FittedRounds(_as(x), _as(y),
+                          None if camera.distortion is None else camera.distortion.compiled,
+                          frame, _CONSTANTS, params, database.cone_index.table,
+                          _as(database.catalog.mag), _as(database.vectors))
+    held = (None, None, 0) if accepted is None else (
+        _as(accepted.obs_index, np.int64), _as(accepted.cat_index, np.int64),
+        accepted.confirmed)
+    found = rounds.run(_as(hyp.obs_index, np.int64), _as(hyp.cat_index, np.int64),
+                       camera.f_px, *held)
+    if not isinstance(found, tuple):
+        return found
+    verdict, f, k1, vectors = found
+    # fit_camera's camera: the focal length replaced, and a k1 once one was fitted
+    fitted = camera.with_focal(f) if not k1 else Camera(
+        camera.width, camera.height, f, camera.cx, camera.cy, RadialDistortion(k1=k1))
+    obs = Observation(vectors, x, y, fitted, float(sigma_px) / fitted.f_px)
+    check = Verification._of(True, verdict.final, verdict.obs, verdict.rows,
+                             verdict.probability, verdict.confirmed, verdict.residuals,
+                             verdict.quaternion, vectors)
+    return check, fitted, obs
+
+
+def _as(array: np.ndarray, dtype: type = np.float64) -> np.ndarray:
+    return np.ascontiguousarray(array, dtype=dtype)
+
+
+_NO_VECTORS = np.zeros((0, 3))
+#: label_params of a frame without fluxes, by image size (the rounds' stars carry none;
+#: the rounds set the fields that depend on the camera's focal length)
+_LABELS: dict[tuple[int, int], dict] = {}
+#: the solver's constants as the compiled rounds take them (a FitConstants): the
+#: labelling's (label_params' defaults), the catalog cone's, fit_camera's, and
+#: math.radians and math.degrees as the one product each is, and Python's ``** 2``
+_CONSTANTS = {"resolve_px": float(LabelConfig().resolve_px),
+              "resolve_sigmas": LabelConfig().resolve_sigmas, "cone_margin": CONE_MARGIN,
+              "lookup_margin": CONE_LOOKUP_MARGIN, "reuse_fraction": CONE_REUSE_FRACTION,
+              "lens_min_stars": LENS_MIN_STARS, "lens_min_r2": LENS_MIN_R2,
+              "lens_max_k1": LENS_MAX_K1, "iterations": 12,  # fit_camera's default
+              "rounds": REFIT_ROUNDS, "rad": math.radians(1.0), "deg": math.degrees(1.0),
+              "two": 2.0}
 
 
 def _same_stars(a: Verification, b: Verification) -> bool:

@@ -1,0 +1,133 @@
+"""The compiled fit-and-verify rounds (startrack._core.fitted_rounds) give the Python
+rounds' answer to the bit: the same verification arrays, focal length, k1 and vectors."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from synth import synthetic_frame
+
+from startrack.attitude import random_attitudes
+from startrack.camera._distortion import RadialDistortion
+from startrack.camera._model import Camera
+from startrack.database import StarDatabase
+from startrack.sky import random_sky
+from startrack.solver import _fov_fit
+from startrack.types import Hypothesis, Observation
+from startrack.verify._verification import VerifyConfig, verify
+
+_FIELDS = ("matrix", "obs_index", "cat_index", "residual_arcsec", "quaternion")
+
+
+def _bits(value) -> bytes | None:
+    return None if value is None else np.asarray(value).tobytes()
+
+
+def _assert_same(got, want) -> None:
+    """The two answers, bit for bit (a count, or verification, camera, observation)."""
+    assert type(got) is type(want)
+    if not isinstance(want, tuple):
+        assert got == want
+        return
+    (check, camera, obs), (check0, camera0, obs0) = got, want
+    assert (check.accepted, check.confirmed) == (check0.accepted, check0.confirmed)
+    assert _bits(check.false_probability) == _bits(check0.false_probability)
+    for name in _FIELDS:
+        assert _bits(getattr(check, name)) == _bits(getattr(check0, name)), name
+    assert camera == camera0 and _bits(camera.f_px) == _bits(camera0.f_px)
+    if camera.distortion is not None:
+        assert _bits(camera.distortion.k1) == _bits(camera0.distortion.k1)
+    for name in ("vectors", "x", "y", "sigma_rad"):
+        assert _bits(getattr(obs, name)) == _bits(getattr(obs0, name)), name
+    assert obs.flux is None and obs0.flux is None
+    assert check.obs_vectors is obs.vectors  # what keep_given reads the residuals from
+
+
+def _both(hyp, x, y, camera, db, config, accepted=None, sigma_px=0.3):
+    args = (hyp, x, y, camera, sigma_px, db, config, accepted)
+    return _fov_fit._compiled_rounds(*args), _fov_fit._python_rounds(*args)
+
+
+def _cases(true: Camera, told: Camera, seed: int, configs, frames: int = 10,
+           sigma_px: float = 0.3):
+    """Every answer of true hypotheses, wrong ones and held verifications on simulated
+    frames of ``true`` seen through ``told``; counts by outcome."""
+    db = StarDatabase(random_sky(4000, seed=seed), true.pinhole)
+    rng = np.random.default_rng(seed)
+    seen = {"accepted": 0, "failed": 0, "confirmed": 0, "k1": 0}
+    for rot in random_attitudes(frames, rng):
+        frame = synthetic_frame(db.catalog, true, rot, rng, noise_px=0.3, false_stars=2)
+        x, y = frame.obs.x, frame.obs.y
+        real = np.flatnonzero(frame.truth_rows >= 0)[:4]
+        if len(real) < 4:
+            continue
+        good = Hypothesis(real, frame.truth_rows[real])
+        wrong = Hypothesis(real, rng.choice(len(db.vectors), 4, replace=False))
+        shifted = Hypothesis(real, np.roll(frame.truth_rows[real], 1))
+        for config in configs:
+            for hyp in (good, wrong, shifted):
+                for n in (len(x), 16):  # the whole frame and verify_fitted's brightest
+                    if hyp.obs_index.max() >= n:
+                        continue
+                    got, want = _both(hyp, x[:n], y[:n], told, db, config,
+                                      sigma_px=sigma_px)
+                    _assert_same(got, want)
+                    seen["accepted" if isinstance(want, tuple) else "failed"] += 1
+                    seen["confirmed"] += not isinstance(want, tuple) and want > 0
+                    if isinstance(want, tuple) and want[1].distortion != told.distortion:
+                        seen["k1"] += 1
+            # a refit: the first verification held by the caller
+            held = verify(good, Observation.from_pixels(x, y, told, sigma_px), db, config)
+            got, want = _both(good, x, y, told, db, config, held, sigma_px)
+            _assert_same(got, want)
+    return seen
+
+
+def test_the_compiled_rounds_are_the_python_rounds_through_a_pinhole():
+    true = Camera.from_fov(1024, 768, 20.0)
+    told = true.with_focal(true.f_px * 1.0005)
+    configs = (VerifyConfig(), VerifyConfig(match_radius_px=2.0),
+               VerifyConfig(radius_sigma=3, min_radius_px=1.5, max_false_probability=1e-6),
+               VerifyConfig(min_confirmed=1000))  # fails, with stars confirmed
+    seen = _cases(true, told, 5, configs)
+    assert seen["accepted"] >= 10 and seen["confirmed"] >= 5 and seen["k1"] >= 3, seen
+
+
+def test_the_compiled_rounds_fit_an_undescribed_lens_as_python_does():
+    true = Camera.from_fov(1600, 1200, 32.0, distortion=RadialDistortion(k1=-0.06))
+    told = true.pinhole.with_focal(true.f_px * 0.999)
+    seen = _cases(true, told, 6, (VerifyConfig(),), sigma_px=1.0)
+    assert seen["k1"] >= 3 and seen["failed"] >= 3, seen
+
+
+def test_the_compiled_rounds_keep_a_described_lens_as_python_does():
+    lens = RadialDistortion(k1=-0.04, k2=0.01)
+    true = Camera.from_fov(1280, 1024, 28.0, distortion=lens)
+    told = true.with_focal(true.f_px * 1.0005)
+    seen = _cases(true, told, 7, (VerifyConfig(),), frames=6)
+    assert seen["accepted"] >= 3, seen
+
+
+def test_an_index_verify_wraps_is_left_to_the_python_rounds():
+    """A negative hypothesis index (numpy's, from the end) is one the compiled rounds do
+    not take: ``_verify_fitted`` answers it as the Python rounds do."""
+    true = Camera.from_fov(1024, 768, 20.0)
+    db = StarDatabase(random_sky(4000, seed=5), true)
+    rng = np.random.default_rng(5)
+    frame = synthetic_frame(db.catalog, true, random_attitudes(1, rng)[0], rng, noise_px=0.3)
+    real = np.flatnonzero(frame.truth_rows >= 0)[:4]
+    hyp = Hypothesis(real - len(frame.obs.x), frame.truth_rows[real])
+    told = true.with_focal(true.f_px * 1.01)
+    x, y = frame.obs.x, frame.obs.y
+    assert _fov_fit._compiled_rounds(hyp, x, y, told, 0.3, db, VerifyConfig(), None) is None
+    _assert_same(_fov_fit._verify_fitted(hyp, x, y, told, 0.3, db, VerifyConfig()),
+                 _fov_fit._python_rounds(hyp, x, y, told, 0.3, db, VerifyConfig()))
+    # a held verification's negative index too (numpy's indexing reads it from the end)
+    good = Hypothesis(real, frame.truth_rows[real])
+    held = verify(good, Observation.from_pixels(x, y, true, 0.3), db, VerifyConfig())
+    assert held.accepted
+    wrapped = dataclasses.replace(held, obs_index=held.obs_index - len(x))
+    args = (good, x, y, true, 0.3, db, VerifyConfig(), wrapped)
+    assert _fov_fit._compiled_rounds(*args) is None
+    _assert_same(_fov_fit._verify_fitted(*args), _fov_fit._python_rounds(*args))
