@@ -6,6 +6,8 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
+from fitted_rounds_reference import reference_rounds
 from synth import synthetic_frame
 
 from startrack.attitude import random_attitudes
@@ -46,7 +48,7 @@ def _assert_same(got, want) -> None:
 
 def _both(hyp, x, y, camera, db, config, accepted=None, sigma_px=0.3):
     args = (hyp, x, y, camera, sigma_px, db, config, accepted)
-    return _fov_fit._compiled_rounds(*args), _fov_fit._python_rounds(*args)
+    return _fov_fit._compiled_rounds(*args), reference_rounds(*args)
 
 
 def _cases(true: Camera, told: Camera, seed: int, configs, frames: int = 10,
@@ -109,25 +111,42 @@ def test_the_compiled_rounds_keep_a_described_lens_as_python_does():
     assert seen["accepted"] >= 3, seen
 
 
-def test_an_index_verify_wraps_is_left_to_the_python_rounds():
-    """A negative hypothesis index (numpy's, from the end) is one the compiled rounds do
-    not take: ``_verify_fitted`` answers it as the Python rounds do."""
+def test_an_index_verify_wraps_is_read_as_verify_reads_it():
+    """A negative hypothesis index (numpy's, from the end) is one the compiled check
+    refuses: ``_verify_fitted`` reads it as ``verify`` does, and answers as the
+    reference rounds do; a repeated star is refused (nothing confirmed)."""
     true = Camera.from_fov(1024, 768, 20.0)
     db = StarDatabase(random_sky(4000, seed=5), true)
     rng = np.random.default_rng(5)
     frame = synthetic_frame(db.catalog, true, random_attitudes(1, rng)[0], rng, noise_px=0.3)
     real = np.flatnonzero(frame.truth_rows >= 0)[:4]
     hyp = Hypothesis(real - len(frame.obs.x), frame.truth_rows[real])
-    told = true.with_focal(true.f_px * 1.01)
+    told = true.with_focal(true.f_px * 1.0005)
     x, y = frame.obs.x, frame.obs.y
     assert _fov_fit._compiled_rounds(hyp, x, y, told, 0.3, db, VerifyConfig(), None) is None
-    _assert_same(_fov_fit._verify_fitted(hyp, x, y, told, 0.3, db, VerifyConfig()),
-                 _fov_fit._python_rounds(hyp, x, y, told, 0.3, db, VerifyConfig()))
-    # a held verification's negative index too (numpy's indexing reads it from the end)
+    found = _fov_fit._verify_fitted(hyp, x, y, told, 0.3, db, VerifyConfig())
+    assert isinstance(found, tuple)
+    _assert_same(found, reference_rounds(hyp, x, y, told, 0.3, db, VerifyConfig()))
+    twice = Hypothesis(real[[0, 0, 1, 2]], frame.truth_rows[real])
+    assert _fov_fit._verify_fitted(twice, x, y, told, 0.3, db, VerifyConfig()) == 0
+    assert reference_rounds(twice, x, y, told, 0.3, db, VerifyConfig()) == 0
+    with pytest.raises(IndexError):  # beyond the frame, as numpy's indexing
+        _fov_fit._verify_fitted(Hypothesis(real + len(x), frame.truth_rows[real]), x, y,
+                                told, 0.3, db, VerifyConfig())
+
+
+def test_a_held_verification_must_hold_indices_in_range():
+    """A refit's held verification comes from an accepted answer: its pairs index the
+    frame and the catalog (no wrapping); others are an error, not a silent answer."""
+    true = Camera.from_fov(1024, 768, 20.0)
+    db = StarDatabase(random_sky(4000, seed=5), true)
+    rng = np.random.default_rng(5)
+    frame = synthetic_frame(db.catalog, true, random_attitudes(1, rng)[0], rng, noise_px=0.3)
+    real = np.flatnonzero(frame.truth_rows >= 0)[:4]
+    x, y = frame.obs.x, frame.obs.y
     good = Hypothesis(real, frame.truth_rows[real])
     held = verify(good, Observation.from_pixels(x, y, true, 0.3), db, VerifyConfig())
     assert held.accepted
     wrapped = dataclasses.replace(held, obs_index=held.obs_index - len(x))
-    args = (good, x, y, true, 0.3, db, VerifyConfig(), wrapped)
-    assert _fov_fit._compiled_rounds(*args) is None
-    _assert_same(_fov_fit._verify_fitted(*args), _fov_fit._python_rounds(*args))
+    with pytest.raises(IndexError):
+        _fov_fit._verify_fitted(good, x, y, true, 0.3, db, VerifyConfig(), wrapped)

@@ -14,3 +14,9 @@ cdef class Optics:
     cdef Lens _lens
     cdef tuple _normalised(self, x, y)
     cdef void _normalise(self, double[::1] a, double[::1] b) except *
+
+
+# Optics.pixel_to_vector and Optics.corner_cosines of a camera's geometry, for the
+# compiled stages that change the focal length without making an Optics
+cdef object unit_vectors(const Geometry* g, const double[::1] x, const double[::1] y)
+cdef object corner_cosines(const Geometry* g)

@@ -14,7 +14,7 @@ import numpy as np
 
 cimport numpy as cnp
 from startrack._core._arrays cimport empty_f64, empty_rows
-from startrack._core._camera cimport Geometry, Lens, lens_factor, lens_is_identity
+from startrack._core._camera cimport Geometry, Lens, lens_factor, lens_is_identity, lens_of
 from startrack._core._camera cimport lens_undistort
 
 
@@ -114,35 +114,18 @@ cdef class Optics:
             b[i] = g.cy + g.f_px * b[i]
         return u.reshape(x.shape), v.reshape(y.shape)
 
-    @cython.cdivision(True)
     def pixel_to_vector(self, x, y):
         """Camera-frame unit vectors (shape of ``x`` + (3,)) of pixel coordinates."""
         x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
         u, v = self._normalised(x, y)
-        cdef double[::1] a = u, b = v
-        out = empty_rows(a.shape[0], 3)
-        cdef double[:, ::1] vec = out
-        cdef double norm
-        cdef Py_ssize_t i
-        for i in range(a.shape[0]):
-            norm = _norm(a[i], b[i])
-            vec[i, 0], vec[i, 1], vec[i, 2] = a[i] / norm, b[i] / norm, 1.0 / norm
+        out = _unit_rows(u, v)
         return out if x.ndim == 1 else out.reshape(x.shape + (3,))
 
     def corner_cosines(self):
         """The cosine of the angle from the boresight to each image corner (the corner
         pixels' centres: top-left, top-right, bottom-left, bottom-right): the z of
         :meth:`pixel_to_vector` there, in one call (a camera's cone radius)."""
-        u, v = empty_f64(4), empty_f64(4)
-        cdef double[::1] a = u, b = v
-        a[0], a[1], a[2], a[3] = 0.0, self.geometry.width - 1.0, 0.0, self.geometry.width - 1.0
-        b[0], b[1], b[2] = 0.0, 0.0, self.geometry.height - 1.0
-        b[3] = b[2]
-        self._normalise(u, v)
-        cdef Py_ssize_t i
-        for i in range(4):
-            a[i] = 1.0 / _norm(a[i], b[i])
-        return u
+        return corner_cosines(&self.geometry)
 
     @cython.cdivision(True)
     def vector_to_pixel(self, vectors):
@@ -180,14 +163,59 @@ cdef class Optics:
         self._normalise(u, v)
         return u, v
 
-    @cython.cdivision(True)
     cdef void _normalise(self, double[::1] a, double[::1] b) except *:
         """Pixels ``a``, ``b`` made their ideal normalised coordinates, in place."""
-        cdef Geometry g = self.geometry
-        cdef Py_ssize_t i
-        for i in range(a.shape[0]):
-            a[i] = (a[i] - g.cx) / g.f_px
-            b[i] = (b[i] - g.cy) / g.f_px
-        if a.shape[0] and not lens_is_identity(&self._lens) \
-                and lens_undistort(&self._lens, &a[0], &b[0], a.shape[0], 1) < 0:
-            raise MemoryError("pixel_to_vector: no memory for the lens inversion")
+        _normalise(&self.geometry, a, b)
+
+
+@cython.cdivision(True)
+cdef void _normalise(const Geometry* g, double[::1] a, double[::1] b) except *:
+    """Pixels ``a``, ``b`` made their ideal normalised coordinates through ``g`` (its
+    pinhole, then its lens inverted), in place."""
+    cdef Py_ssize_t i
+    for i in range(a.shape[0]):
+        a[i] = (a[i] - g.cx) / g.f_px
+        b[i] = (b[i] - g.cy) / g.f_px
+    cdef Lens lens = lens_of(g)
+    if a.shape[0] and not lens_is_identity(&lens) \
+            and lens_undistort(&lens, &a[0], &b[0], a.shape[0], 1) < 0:
+        raise MemoryError("pixel_to_vector: no memory for the lens inversion")
+
+
+@cython.cdivision(True)
+cdef object _unit_rows(const double[::1] a, const double[::1] b):
+    """The unit vectors (n, 3) of the rays through normalised-plane points ``a``, ``b``."""
+    out = empty_rows(a.shape[0], 3)
+    cdef double[:, ::1] vec = out
+    cdef double norm
+    cdef Py_ssize_t i
+    for i in range(a.shape[0]):
+        norm = _norm(a[i], b[i])
+        vec[i, 0], vec[i, 1], vec[i, 2] = a[i] / norm, b[i] / norm, 1.0 / norm
+    return out
+
+
+cdef object unit_vectors(const Geometry* g, const double[::1] x, const double[::1] y):
+    """Camera-frame unit vectors (n, 3, a fresh array) of pixels ``x``, ``y`` through
+    camera ``g``: :meth:`Optics.pixel_to_vector` for compiled callers."""
+    u, v = empty_f64(x.shape[0]), empty_f64(y.shape[0])
+    cdef double[::1] a = u, b = v
+    a[:] = x
+    b[:] = y
+    _normalise(g, a, b)
+    return _unit_rows(a, b)
+
+
+@cython.cdivision(True)
+cdef object corner_cosines(const Geometry* g):
+    """:meth:`Optics.corner_cosines` of camera ``g``, for compiled callers."""
+    u, v = empty_f64(4), empty_f64(4)
+    cdef double[::1] a = u, b = v
+    a[0], a[1], a[2], a[3] = 0.0, g.width - 1.0, 0.0, g.width - 1.0
+    b[0], b[1], b[2] = 0.0, 0.0, g.height - 1.0
+    b[3] = b[2]
+    _normalise(g, a, b)
+    cdef Py_ssize_t i
+    for i in range(4):
+        a[i] = 1.0 / _norm(a[i], b[i])
+    return u

@@ -11,20 +11,19 @@ the Camera compute it, so every answer is theirs to the last bit.
 """
 
 cimport cython
-from libc.math cimport INFINITY, atan2, cos, fabs, isfinite, pow, sqrt
+from libc.math cimport INFINITY, atan2, cos, isfinite
 
 import numpy as np
 
 cimport numpy as cnp
 
 from startrack._core._arrays cimport empty_f64, empty_rows
-from startrack._core._camera cimport Geometry as Camera, Lens, lens_is_identity, lens_of
-from startrack._core._camera cimport lens_undistort
+from startrack._core._camera cimport Geometry as Camera
 from startrack._core._cone cimport ConeTable
 from startrack._core._verify cimport ACCEPTED, BAD_INDEX, CheckParams, Frame, Geometry
 from startrack._core._verify cimport Verdict, check_cone
-from startrack._core.camera cimport RadialLens
-from startrack._core.fov_fit cimport _BAD_FOCAL, fit_geometry
+from startrack._core.camera cimport RadialLens, corner_cosines, unit_vectors
+from startrack._core.fov_fit cimport _BAD_FOCAL, _FOLDS, fit_geometry
 
 cnp.import_array()  # the C API the _arrays helpers call
 
@@ -50,8 +49,7 @@ cdef struct FitConstants:
     # The solver's constants: the labelling's resolve_px and resolve_sigmas; the cone's
     # CONE_MARGIN, CONE_LOOKUP_MARGIN and CONE_REUSE_FRACTION; fit_camera's
     # LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1 and iterations; REFIT_ROUNDS; and
-    # math.radians(1.0), math.degrees(1.0) and 2.0 (the exponent of Python's ``x ** 2``,
-    # a runtime value so the compiler keeps ``pow``).
+    # math.radians(1.0) and math.degrees(1.0) (what those functions multiply by).
     double resolve_px
     double resolve_sigmas
     double cone_margin
@@ -64,7 +62,6 @@ cdef struct FitConstants:
     int rounds
     double rad
     double deg
-    double two
 
 
 cdef class FittedRounds:
@@ -113,8 +110,8 @@ cdef class FittedRounds:
         first verification when the caller holds it (int64). Returns the last accepted
         (Verdict, focal length, fitted k1 (0: none fitted), the observed vectors), or what
         ``_verify_fitted`` returns on failure (the first verification's confirmed count,
-        0 after a failed fit or a later round), or None where the Python rounds must
-        answer (an index to wrap or refuse, as ``verify`` and numpy's indexing do)."""
+        0 after a failed fit or a later round), or None where the check refuses a
+        hypothesis index (the caller reads it as ``verify`` does)."""
         cdef Camera g = self.base
         g.f_px = f
         cdef bint described = self.described, accepted
@@ -136,7 +133,8 @@ cdef class FittedRounds:
             accepted, obs, rows, confirmed = True, held_obs, held_rows, held_confirmed
             if not (len(held_obs) == len(held_rows) and _within(held_obs, self.x.shape[0])
                     and _within(held_rows, self.catalog.shape[0])):
-                return None  # numpy's indexing wraps or refuses them
+                raise IndexError("FittedRounds: a held verification's pairs must be "
+                                 "as many stars as rows, each in range")
         cdef const long long[::1] o, r
         cdef double[::1] fx, fy
         cdef double[:, ::1] fcat
@@ -154,10 +152,10 @@ cdef class FittedRounds:
             status = fit_geometry(&g, fx, fy, fcat, self.c.iterations,
                                   not described and m >= self.c.lens_min_stars,
                                   self.c.lens_min_r2, self.c.lens_max_k1, &f_new, &k1_new)
+            if status == _FOLDS:  # Camera.with_distortion's refusal, the same test
+                return 0
             g.f_px = f_new  # Camera.with_focal
             if not (status == _BAD_FOCAL or k1_new == 0.0):  # Camera.with_distortion
-                if self._folds(f_new, k1_new):
-                    return 0
                 g.k1, g.k2, g.k3 = k1_new, 0.0, 0.0
                 g.max_r2 = -1.0 / (3.0 * k1_new) if k1_new < 0.0 else INFINITY
                 described, k1_fitted = True, k1_new
@@ -174,39 +172,9 @@ cdef class FittedRounds:
                 break  # a fit to the same stars again would return this camera
         return (v, g.f_px, k1_fitted, vectors) if accepted else 0
 
-    @cython.cdivision(True)
-    cdef bint _folds(self, double f, double k1):
-        """Whether the k1-only lens folds back inside the image at focal length ``f``, in
-        :meth:`startrack.camera.Camera.with_distortion`'s arithmetic (Python's ``x ** 2``
-        is ``pow``; ``max`` keeps the first of equals)."""
-        cdef double a = fabs(-0.5 - self.base.cx)
-        cdef double b = fabs(self.base.width - 0.5 - self.base.cx)
-        cdef double ex = b if b > a else a
-        a, b = fabs(-0.5 - self.base.cy), fabs(self.base.height - 0.5 - self.base.cy)
-        cdef double ey = b if b > a else a
-        cdef double rd2 = (pow(ex, self.c.two) + pow(ey, self.c.two)) / pow(f, self.c.two)
-        cdef double r2 = -1.0 / (3.0 * k1) if k1 < 0.0 else INFINITY  # RadialDistortion.max_r2
-        cdef double factor = 1.0 + r2 * (k1 + r2 * (0.0 + r2 * 0.0))
-        return isfinite(r2) and rd2 >= r2 * pow(factor, self.c.two)
-
-    @cython.cdivision(True)
     cdef object _vectors(self, const Camera* g):
-        """Camera-frame unit vectors of the pixels (``Optics.pixel_to_vector``)."""
-        cdef Py_ssize_t i, n = self.x.shape[0]
-        cdef double[::1] a = empty_f64(n), b = empty_f64(n)
-        for i in range(n):
-            a[i] = (self.x[i] - g.cx) / g.f_px
-            b[i] = (self.y[i] - g.cy) / g.f_px
-        cdef Lens lens = lens_of(g)
-        if n and not lens_is_identity(&lens) and lens_undistort(&lens, &a[0], &b[0], n, 1) < 0:
-            raise MemoryError("FittedRounds: no memory for the lens inversion")
-        out = empty_rows(n, 3)
-        cdef double[:, ::1] vec = out
-        cdef double norm
-        for i in range(n):
-            norm = sqrt(a[i] * a[i] + b[i] * b[i] + 1.0)
-            vec[i, 0], vec[i, 1], vec[i, 2] = a[i] / norm, b[i] / norm, 1.0 / norm
-        return out
+        """Camera-frame unit vectors of the pixels through camera ``g``."""
+        return unit_vectors(g, self.x, self.y)
 
     cdef Frame _frame(self, Frame frame, vectors, const Camera* g):
         """The Frame of ``vectors`` through camera ``g``: ``frame``'s bucketed pixels
@@ -234,16 +202,16 @@ cdef class FittedRounds:
         if not described:  # Camera.half_diagonal_deg of a pinhole
             half = atan2(self.values.corner_r, f) * self.c.deg
         else:  # with a lens, numpy's arccos (the Camera's; it need not be C's acos)
-            half = _largest(np.arccos(_corner_cosines(g))) * self.c.deg
+            half = _largest(np.arccos(corner_cosines(g))) * self.c.deg
         cone = half * self.c.rad * self.c.cone_margin
         self.params.cone_radius = cone * self.c.lookup_margin
         self.params.margin_cos = cos(self.c.reuse_fraction * cone)
-        self.params.label.radius2 = pow(radius, self.c.two)
+        self.params.label.radius2 = radius * radius
         self.params.label.sigma0 = sigma
         scaled = self.c.resolve_sigmas * sigma
         if not scaled > self.c.resolve_px:
             scaled = self.c.resolve_px
-        self.params.label.resolve2 = pow(scaled, self.c.two)
+        self.params.label.resolve2 = scaled * scaled
 
 
 cdef bint _within(const long long[::1] index, Py_ssize_t size) noexcept:
@@ -264,27 +232,6 @@ cdef bint _same(const long long[::1] a, const long long[::1] b) noexcept:
         if a[i] != b[i]:
             return False
     return True
-
-
-@cython.cdivision(True)
-cdef object _corner_cosines(const Camera* g):
-    """``Optics.corner_cosines`` of camera ``g``, operation for operation: the cosine of
-    the angle from the boresight to each corner pixel's centre."""
-    out = empty_f64(4)
-    cdef double[::1] u = out
-    cdef double v[4]
-    u[0], u[1], u[2], u[3] = 0.0, g.width - 1.0, 0.0, g.width - 1.0
-    v[0], v[1], v[2], v[3] = 0.0, 0.0, g.height - 1.0, g.height - 1.0
-    cdef Py_ssize_t i
-    for i in range(4):
-        u[i] = (u[i] - g.cx) / g.f_px
-        v[i] = (v[i] - g.cy) / g.f_px
-    cdef Lens lens = lens_of(g)
-    if not lens_is_identity(&lens) and lens_undistort(&lens, &u[0], &v[0], 4, 1) < 0:
-        raise MemoryError("FittedRounds: no memory for the lens inversion")
-    for i in range(4):
-        u[i] = 1.0 / sqrt(u[i] * u[i] + v[i] * v[i] + 1.0)
-    return out
 
 
 cdef double _largest(const double[::1] a):

@@ -100,12 +100,15 @@ class Camera:
         itself inside the frame is an error."""
         if distortion is None or distortion.is_identity:
             return self._with(self.f_px, None)
-        # in scalars, not arrays: a fitted lens is checked in every FOV refit
+        # in scalars, not arrays: a fitted lens is checked in every FOV refit; squares
+        # as products, the arithmetic of the compiled fit's own check
+        # (startrack._core.fov_fit), which refuses the same lenses
         ex = max(abs(-0.5 - self.cx), abs(self.width - 0.5 - self.cx))
         ey = max(abs(-0.5 - self.cy), abs(self.height - 0.5 - self.cy))
-        rd2 = (ex**2 + ey**2) / self.f_px**2
+        rd2 = (ex * ex + ey * ey) / (self.f_px * self.f_px)
         r2 = distortion.max_r2
-        if math.isfinite(r2) and rd2 >= r2 * distortion.factor(r2) ** 2:
+        scale = distortion.factor(r2) if math.isfinite(r2) else 0.0
+        if math.isfinite(r2) and rd2 >= r2 * (scale * scale):
             raise InputError(f"camera: distortion {distortion.to_dict()} folds back inside "
                              "the image (not invertible at the corners)")
         return self._with(self.f_px, distortion)

@@ -15,7 +15,6 @@ from startrack._core.shared import wahba
 from startrack.camera._distortion import RadialDistortion
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
-from startrack.errors import InputError
 from startrack.solver._calibrate_sigma import SIGNIFICANCE
 from startrack.solver._lost_in_space import residuals_arcsec
 from startrack.types import Hypothesis, Observation
@@ -27,7 +26,12 @@ from startrack.verify._frame import (
     MAX_REFINEMENTS,
 )
 from startrack.verify._labelling import LabelConfig, label_params
-from startrack.verify._verification import Verification, VerifyConfig, verify
+from startrack.verify._verification import (
+    Verification,
+    VerifyConfig,
+    verify,
+    wrapped_hypothesis,
+)
 
 #: an undescribed lens's k1 is fitted to this many stars reaching this far (r^2 of the
 #: normalised plane: 11 deg off axis), within +-LENS_MAX_K1
@@ -109,51 +113,36 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
                    accepted: Verification | None = None,
                    ) -> tuple[Verification, Camera, Observation] | int:
     """:func:`verify_fitted` on the stars ``x``, ``y``; when it fails, how many stars the
-    first verification confirmed. The rounds run in one compiled call
-    (:func:`_compiled_rounds`); :func:`_python_rounds` answers the hypotheses it leaves."""
+    first verification confirmed (0 after a failed fit or a later round). Verify, fit
+    the camera to every matched star (:func:`fit_camera`), verify again through the
+    fitted camera, until a round matches the stars of the one before (a fit to the
+    same stars would return the same camera), at most ``REFIT_ROUNDS`` fits: in one
+    compiled call (:func:`_compiled_rounds`). A hypothesis index the compiled check
+    refuses is read as :func:`startrack.verify.verify` reads it (negative from the
+    end)."""
     if accepted is not None and not accepted.accepted:
         return accepted.confirmed
     found = _compiled_rounds(hyp, x, y, camera, sigma_px, database, config, accepted)
-    if found is None:  # an index verify wraps or refuses
-        return _python_rounds(hyp, x, y, camera, sigma_px, database, config, accepted)
-    return found
-
-
-def _python_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
-                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
-                   accepted: Verification | None = None,
-                   ) -> tuple[Verification, Camera, Observation] | int:
-    """:func:`_verify_fitted`'s rounds in Python: verify, fit, verify again through the
-    fitted camera, until a round matches the stars of the one before (what the compiled
-    rounds compute, operation for operation)."""
-    cat = database.vectors
-    check = accepted or verify(hyp, Observation.from_pixels(x, y, camera, sigma_px),
-                               database, config)
-    confirmed = check.confirmed
-    for _ in range(REFIT_ROUNDS):
-        if not check.accepted:
-            return confirmed
-        try:
-            camera = fit_camera(camera, x[check.obs_index], y[check.obs_index],
-                                cat[check.cat_index])
-        except InputError:  # a fitted lens that folds back inside the image
-            return 0
-        if not (camera.f_px > 0 and math.isfinite(camera.f_px)):
-            return 0
-        obs = Observation.from_pixels(x, y, camera, sigma_px)
-        last, check = check, verify(hyp, obs, database, config)
-        if check.accepted and _same_stars(last, check):
-            break  # a fit to the same stars again would return this camera
-    return (check, camera, obs) if check.accepted else 0
+    if found is not None:
+        return found
+    wrapped = wrapped_hypothesis(np.asarray(hyp.obs_index, np.int64),
+                                 np.asarray(hyp.cat_index, np.int64), len(x),
+                                 len(database.vectors))
+    if wrapped is None:
+        return 0  # verify refuses it: nothing confirmed
+    found = _compiled_rounds(Hypothesis(*wrapped), x, y, camera, sigma_px, database, config,
+                             accepted)
+    return 0 if found is None else found
 
 
 def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
                      sigma_px: float, database: StarDatabase, config: VerifyConfig,
                      accepted: Verification | None,
                      ) -> tuple[Verification, Camera, Observation] | int | None:
-    """:func:`_python_rounds`'s answer from one compiled call
-    (:class:`startrack._core.fitted_rounds.FittedRounds`); None where a hypothesis index
-    is one :func:`startrack.verify.verify` wraps or refuses (Python answers)."""
+    """:func:`_verify_fitted`'s answer from one compiled call
+    (:class:`startrack._core.fitted_rounds.FittedRounds`); None where the compiled check
+    refuses a hypothesis index (to wrap, or refuse, as :func:`startrack.verify.verify`
+    does)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)  # from_pixels's
     fixed = config.match_radius_px is not None
     label = _LABELS.get((camera.width, camera.height))
@@ -201,21 +190,13 @@ _NO_VECTORS = np.zeros((0, 3))
 _LABELS: dict[tuple[int, int], dict] = {}
 #: the solver's constants as the compiled rounds take them (a FitConstants): the
 #: labelling's (label_params' defaults), the catalog cone's, fit_camera's, and
-#: math.radians and math.degrees as the one product each is, and Python's ``** 2``
+#: math.radians and math.degrees as the one product each is
 _CONSTANTS = {"resolve_px": float(LabelConfig().resolve_px),
               "resolve_sigmas": LabelConfig().resolve_sigmas, "cone_margin": CONE_MARGIN,
               "lookup_margin": CONE_LOOKUP_MARGIN, "reuse_fraction": CONE_REUSE_FRACTION,
               "lens_min_stars": LENS_MIN_STARS, "lens_min_r2": LENS_MIN_R2,
               "lens_max_k1": LENS_MAX_K1, "iterations": 12,  # fit_camera's default
-              "rounds": REFIT_ROUNDS, "rad": math.radians(1.0), "deg": math.degrees(1.0),
-              "two": 2.0}
-
-
-def _same_stars(a: Verification, b: Verification) -> bool:
-    # np.array_equal's checks and conversions cost more than comparing tens of indices
-    return (a.obs_index.shape == b.obs_index.shape and a.cat_index.shape == b.cat_index.shape
-            and bool((a.obs_index == b.obs_index).all())
-            and bool((a.cat_index == b.cat_index).all()))
+              "rounds": REFIT_ROUNDS, "rad": math.radians(1.0), "deg": math.degrees(1.0)}
 
 
 #: the given camera stands unless the fitted one lowers the matched stars' chi-square

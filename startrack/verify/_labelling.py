@@ -127,15 +127,16 @@ def label_params(obs: Observation, radius_px: float, config: LabelConfig | None 
     (the fields of its ``LabelParams`` structure: logs and squares taken)."""
     config = config or _DEFAULT_CONFIG
     sigma_px = float(obs.sigma_rad * obs.camera.f_px)
-    return {
+    resolve = max(float(config.resolve_px), config.resolve_sigmas * sigma_px)
+    return {  # squares as products, as the compiled fit-and-verify rounds take them
         "has_flux": obs.flux is not None,
-        "radius2": float(radius_px) ** 2,
+        "radius2": float(radius_px) * float(radius_px),
         "sigma0": sigma_px,
         "area": float(obs.camera.width * obs.camera.height),
         "log_gap": math.log(config.ambiguity),
         "log_false_odds": math.log(config.false_odds_flux if obs.flux is not None
                                    else config.false_odds),
-        "resolve2": max(float(config.resolve_px), config.resolve_sigmas * sigma_px) ** 2,
+        "resolve2": resolve * resolve,
         "mag_sigmas": float(config.mag_sigmas),
         "min_mag_sigma": float(config.min_mag_sigma),
         "min_sigma_px": float(config.min_sigma_px),

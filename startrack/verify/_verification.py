@@ -127,9 +127,10 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
     cat_h = np.ascontiguousarray(hypothesis.cat_index, dtype=np.int64)
     checker = checker or FrameVerifier(obs, database, config)
     verdict = checker.check(obs_h, cat_h)
-    if verdict.status == BAD_INDEX and _distinct(obs_h, cat_h):
-        verdict = checker.check(_wrapped(obs_h, len(obs)),
-                                _wrapped(cat_h, len(database.vectors)))
+    if verdict.status == BAD_INDEX:
+        wrapped = wrapped_hypothesis(obs_h, cat_h, len(obs), len(database.vectors))
+        if wrapped is not None:
+            verdict = checker.check(*wrapped)
     if verdict.status == ACCEPTED:
         return Verification._of(True, verdict.final, verdict.obs, verdict.rows,
                                 verdict.probability, verdict.confirmed, verdict.residuals,
@@ -138,6 +139,22 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
         return Verification._of(False, verdict.first, verdict.obs, verdict.rows,
                                 verdict.probability, verdict.confirmed)
     return _REJECTED
+
+
+def wrapped_hypothesis(obs_h: np.ndarray, cat_h: np.ndarray, n_obs: int, n_cat: int,
+                       ) -> tuple[np.ndarray, np.ndarray] | None:
+    """A hypothesis the compiled check refused for its indices, read as numpy reads
+    them (negative from the end): the indices to check again, or None when it does not
+    pair three or more distinct stars with as many rows (refused as it is).
+
+    Raises
+    ------
+    IndexError
+        An index beyond the frame's stars or the catalog.
+    """
+    if not _distinct(obs_h, cat_h):
+        return None
+    return _wrapped(obs_h, n_obs), _wrapped(cat_h, n_cat)
 
 
 def _distinct(obs_h: np.ndarray, cat_h: np.ndarray) -> bool:
