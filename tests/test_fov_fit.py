@@ -167,3 +167,30 @@ def test_the_given_cameras_rejection_thresholds_are_scipys_quantiles():
     for n in (1, 2):
         assert _fov_fit._GIVEN_REJECT_CHI2[n] == pytest.approx(float(chi2.isf(p, n)),
                                                                 rel=1e-12)
+
+
+@pytest.mark.parametrize("distortion", [None, RadialDistortion(k1=-0.05, k2=0.01)])
+def test_a_cameras_residuals_are_the_python_composition_bit_for_bit(distortion):
+    """keep_given's chi-square of a camera (camera_residuals): pixel_to_vector, the Wahba
+    attitude of the matched pairs and their residuals, as the Python calls compose them."""
+    from startrack._core.fov_fit import camera_residuals
+
+    camera = Camera.from_fov(1024, 768, 20.0, distortion=distortion)
+    db = StarDatabase(random_sky(3000, seed=3), camera.pinhole)
+    rng = np.random.default_rng(3)
+    frame = synthetic_frame(db.catalog, camera, random_attitudes(1, rng)[0], rng,
+                            noise_px=0.5, false_stars=2)
+    obs_index = np.flatnonzero(frame.truth_rows >= 0)
+    cat = np.ascontiguousarray(db.vectors[frame.truth_rows[obs_index]])
+    x, y = frame.obs.x, frame.obs.y
+    told = camera.with_focal(camera.f_px * 1.003)
+    got = camera_residuals(told.optics, x, y, obs_index, cat)
+    obs = Observation.from_pixels(x, y, told, 0.5)
+    matrix = wahba(np.ascontiguousarray(obs.vectors[obs_index]), cat)
+    want = residuals_arcsec(matrix, obs, obs_index, cat)
+    assert got.tobytes() == want.tobytes() and len(got) >= 10
+    assert np.median(got) > 1.0  # a focal length 0.3% off shows in the residuals
+    with pytest.raises(IndexError):
+        camera_residuals(told.optics, x, y, obs_index + len(x), cat)
+    with pytest.raises(ValueError):
+        camera_residuals(told.optics, x, y[:-1], obs_index, cat)

@@ -12,13 +12,16 @@ same minimiser) and the two-column least squares (Gram-Schmidt instead of an SVD
 cimport cython
 from libc.math cimport INFINITY, fabs, isfinite, sqrt
 
+import numpy as np
+
 cimport numpy as cnp
 
 from startrack._core._arrays cimport empty_f64, empty_rows
 from startrack._core._camera cimport Geometry, Lens, lens_factor, lens_is_identity, lens_of
 from startrack._core._camera cimport lens_undistort
+from startrack._core._verify cimport residual_arcsec
 from startrack._core._wahba cimport wahba
-from startrack._core.camera cimport Optics
+from startrack._core.camera cimport Optics, unit_vectors
 
 #: What :func:`fit_focal` ended on (its first return value): settled (or out of
 #: iterations), a focal length not positive and finite, a fitted k1 folding back inside
@@ -213,3 +216,26 @@ cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] 
             break
     f_out[0], k1_out[0] = f, k1
     return status
+
+
+def camera_residuals(Optics optics, const double[::1] x, const double[::1] y,
+                     const long long[::1] obs_index, const double[:, ::1] cat):
+    """The residuals (arcsec) of the observed stars ``obs_index`` (of pixels ``x``,
+    ``y`` through ``optics``) against their catalog vectors ``cat`` at the Wahba
+    attitude of those pairs: how well a camera fits the stars matched through another
+    (``keep_given``'s test). The same arithmetic as ``pixel_to_vector``, ``wahba`` and
+    ``residual_arcsec`` called one after the other, in one call."""
+    cdef Py_ssize_t k, m = obs_index.shape[0], n = x.shape[0]
+    if y.shape[0] != n or cat.shape[0] != m:
+        raise ValueError("camera_residuals: x and y, or obs_index and cat, of unequal lengths")
+    for k in range(m):
+        if not 0 <= obs_index[k] < n:
+            raise IndexError(f"camera_residuals: star {obs_index[k]} of {n}")
+    cdef const double[:, ::1] vec = unit_vectors(&optics.geometry, x, y)
+    cdef double[:, ::1] matched = empty_rows(m, 3), rot = empty_rows(3, 3)
+    for k in range(m):
+        matched[k, 0], matched[k, 1], matched[k, 2] = (vec[obs_index[k], 0],
+                                                       vec[obs_index[k], 1],
+                                                       vec[obs_index[k], 2])
+    wahba(matched, cat, rot)
+    return np.asarray(residual_arcsec(vec, obs_index, rot, cat))

@@ -9,14 +9,12 @@ import math
 import numpy as np
 
 from startrack._core.fitted_rounds import FittedRounds
-from startrack._core.fov_fit import BAD_FOCAL
+from startrack._core.fov_fit import BAD_FOCAL, camera_residuals
 from startrack._core.fov_fit import fit_focal as fit_focal_kernel
-from startrack._core.shared import wahba
 from startrack.camera._distortion import RadialDistortion
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.solver._calibrate_sigma import SIGNIFICANCE
-from startrack.solver._lost_in_space import residuals_arcsec
 from startrack.types import Hypothesis, Observation
 from startrack.verify._frame import (
     CAPTURE,
@@ -229,12 +227,12 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     if fitted == given:
         return found
     cat = np.ascontiguousarray(database.vectors[check.cat_index], dtype=np.float64)
-    given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
+    x, y = np.ascontiguousarray(obs.x), np.ascontiguousarray(obs.y)
+    obs_index = np.ascontiguousarray(check.obs_index, dtype=np.int64)
 
-    def squared(o: Observation) -> float:
-        # the compiled Wahba fit verification uses (no scipy Rotation in every refit)
-        rotation = wahba(np.ascontiguousarray(o.vectors[check.obs_index]), cat)
-        return float(np.sum(residuals_arcsec(rotation, o, check.obs_index, cat) ** 2))
+    def squared(camera: Camera) -> float:
+        # the matched stars through ``camera`` at their own Wahba attitude, one call
+        return float(np.sum(camera_residuals(camera.optics, x, y, obs_index, cat) ** 2))
 
     n_params = 1 + int(fitted.distortion != given.distortion)
     dof = len(check.obs_index) * 2 - 3 - n_params
@@ -243,12 +241,13 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     # the fitted camera's residuals are its verification's own when it checked ``obs``:
     # the same Wahba fit of the same pairs (its final attitude), the same angles
     fit_sq = float(np.sum(check.residual_arcsec ** 2)) if check.obs_vectors is obs.vectors \
-        else squared(obs)
+        else squared(fitted)
     if fit_sq <= 0.0:
         return found
-    drop = (squared(given_obs) - fit_sq) / (fit_sq / dof)
+    drop = (squared(given) - fit_sq) / (fit_sq / dof)
     if drop > _GIVEN_REJECT_CHI2[n_params]:
         return found
+    given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
     first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]
     hyp = Hypothesis(check.obs_index[first], check.cat_index[first])
     again = verify(hyp, given_obs, database, config)
