@@ -150,3 +150,31 @@ def test_a_held_verification_must_hold_indices_in_range():
     wrapped = dataclasses.replace(held, obs_index=held.obs_index - len(x))
     with pytest.raises(IndexError):
         _fov_fit._verify_fitted(good, x, y, true, 0.3, db, VerifyConfig(), wrapped)
+
+
+@pytest.mark.parametrize("config", [VerifyConfig(), VerifyConfig(match_radius_px=2.0),
+                                    VerifyConfig(radius_sigma=3, min_radius_px=1.5)])
+@pytest.mark.parametrize("lens", [None, RadialDistortion(k1=-0.04, k2=0.01), "fitted"])
+def test_the_rounds_thresholds_are_the_frame_verifiers(config, lens):
+    """The thresholds the compiled rounds derive from each focal length (the match
+    radius, the cone, the labelling's scales) are FrameVerifier's for that camera, bit
+    for bit: the rounds compute them again rather than build a Python verifier."""
+    from startrack.verify._frame import FrameVerifier
+
+    base = Camera.from_fov(1280, 960, 24.0, cx=600.25, cy=500.5,
+                           distortion=None if lens == "fitted" else lens)
+    db = StarDatabase(random_sky(500, seed=1), base.pinhole)
+    rng = np.random.default_rng(1)
+    x, y = rng.uniform(0, 1280, 30), rng.uniform(0, 960, 30)
+    rounds = _fov_fit._rounds_for(x, y, base, 0.7, db, config)
+    for f in base.f_px * np.array([0.9, 0.999, 1.0, 1.0137, 1.2]):
+        camera = base.with_focal(f)
+        k1 = -0.02 if lens == "fitted" else 0.0
+        if k1:
+            camera = camera.with_distortion(RadialDistortion(k1=k1))
+        want = FrameVerifier(Observation.from_pixels(x, y, camera, 0.7), db, config).params
+        got = rounds.params_at(f, k1)
+        for key in ("radius_px", "cos_radius", "cone_radius", "margin_cos"):
+            assert _bits(got[key]) == _bits(want[key]), key
+        for key in ("radius2", "sigma0", "resolve2", "has_flux"):
+            assert _bits(got["label"][key]) == _bits(want["label"][key]), key

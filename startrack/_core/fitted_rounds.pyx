@@ -156,8 +156,7 @@ cdef class FittedRounds:
                 return 0
             g.f_px = f_new  # Camera.with_focal
             if not (status == _BAD_FOCAL or k1_new == 0.0):  # Camera.with_distortion
-                g.k1, g.k2, g.k3 = k1_new, 0.0, 0.0
-                g.max_r2 = -1.0 / (3.0 * k1_new) if k1_new < 0.0 else INFINITY
+                _fitted_lens(&g, k1_new)
                 described, k1_fitted = True, k1_new
             if not (g.f_px > 0.0 and isfinite(g.f_px)):
                 return 0
@@ -171,6 +170,19 @@ cdef class FittedRounds:
             if accepted and _same(o, obs) and _same(r, rows):
                 break  # a fit to the same stars again would return this camera
         return (v, g.f_px, k1_fitted, vectors) if accepted else 0
+
+    def params_at(self, double f, double k1=0.0):
+        """The thresholds a round checks with through this frame's camera at focal
+        length ``f`` (and a fitted ``k1`` on a pinhole): the CheckParams, as a dict,
+        that FrameVerifier makes for that camera."""
+        cdef Camera g = self.base
+        g.f_px = f
+        cdef bint described = self.described
+        if k1 != 0.0 and not described:
+            _fitted_lens(&g, k1)
+            described = True
+        self._set_params(&g, described)
+        return self.params
 
     cdef object _vectors(self, const Camera* g):
         """Camera-frame unit vectors of the pixels through camera ``g``."""
@@ -212,6 +224,12 @@ cdef class FittedRounds:
         if not scaled > self.c.resolve_px:
             scaled = self.c.resolve_px
         self.params.label.resolve2 = scaled * scaled
+
+
+cdef void _fitted_lens(Camera* g, double k1) noexcept:
+    """``g`` given the k1-only lens of a fit (RadialDistortion(k1=k1): its fold radius)."""
+    g.k1, g.k2, g.k3 = k1, 0.0, 0.0
+    g.max_r2 = -1.0 / (3.0 * k1) if k1 < 0.0 else INFINITY
 
 
 cdef bint _within(const long long[::1] index, Py_ssize_t size) noexcept:

@@ -142,24 +142,7 @@ def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
     refuses a hypothesis index (to wrap, or refuse, as :func:`startrack.verify.verify`
     does)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)  # from_pixels's
-    fixed = config.match_radius_px is not None
-    label = _LABELS.get((camera.width, camera.height))
-    if label is None:  # the thresholds of this image size; the rounds set the scales
-        label = _LABELS[camera.width, camera.height] = label_params(
-            Observation(_NO_VECTORS, x[:0], y[:0], camera, 1.0), 1.0)
-    params = {"radius_px": 0.0, "cos_radius": 0.0, "cone_radius": 0.0, "margin_cos": 0.0,
-              "capture": CAPTURE, "max_rounds": MAX_REFINEMENTS,
-              "min_confirmed": config.min_confirmed,
-              "max_probability": config.max_false_probability, "label": label}
-    frame = {"cx": camera.cx, "cy": camera.cy, "width": camera.width,
-             "height": camera.height, "corner_r": camera.corner_radius_px,
-             "sigma_px": float(sigma_px), "fixed_radius": fixed,
-             "match_radius": float(config.match_radius_px) if fixed else 0.0,
-             "radius_sigma": config.radius_sigma, "min_radius": config.min_radius_px}
-    rounds = FittedRounds(_as(x), _as(y),
-                          None if camera.distortion is None else camera.distortion.compiled,
-                          frame, _CONSTANTS, params, database.cone_index.table,
-                          _as(database.catalog.mag), _as(database.vectors))
+    rounds = _rounds_for(x, y, camera, sigma_px, database, config)
     held = (None, None, 0) if accepted is None else (
         _as(accepted.obs_index, np.int64), _as(accepted.cat_index, np.int64),
         accepted.confirmed)
@@ -176,6 +159,30 @@ def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
                              verdict.probability, verdict.confirmed, verdict.residuals,
                              verdict.quaternion, vectors)
     return check, fitted, obs
+
+
+def _rounds_for(x: np.ndarray, y: np.ndarray, camera: Camera, sigma_px: float,
+                database: StarDatabase, config: VerifyConfig) -> FittedRounds:
+    """The compiled rounds of the stars at pixels ``x``, ``y`` (float64) seen through
+    ``camera`` (its focal length is each run's), verified under ``config``."""
+    fixed = config.match_radius_px is not None
+    label = _LABELS.get((camera.width, camera.height))
+    if label is None:  # the thresholds of this image size; the rounds set the scales
+        label = _LABELS[camera.width, camera.height] = label_params(
+            Observation(_NO_VECTORS, x[:0], y[:0], camera, 1.0), 1.0)
+    params = {"radius_px": 0.0, "cos_radius": 0.0, "cone_radius": 0.0, "margin_cos": 0.0,
+              "capture": CAPTURE, "max_rounds": MAX_REFINEMENTS,
+              "min_confirmed": config.min_confirmed,
+              "max_probability": config.max_false_probability, "label": label}
+    frame = {"cx": camera.cx, "cy": camera.cy, "width": camera.width,
+             "height": camera.height, "corner_r": camera.corner_radius_px,
+             "sigma_px": float(sigma_px), "fixed_radius": fixed,
+             "match_radius": float(config.match_radius_px) if fixed else 0.0,
+             "radius_sigma": config.radius_sigma, "min_radius": config.min_radius_px}
+    return FittedRounds(_as(x), _as(y),
+                        None if camera.distortion is None else camera.distortion.compiled,
+                        frame, _CONSTANTS, params, database.cone_index.table,
+                        _as(database.catalog.mag), _as(database.vectors))
 
 
 def _as(array: np.ndarray, dtype: type = np.float64) -> np.ndarray:

@@ -86,6 +86,7 @@ class FrameVerifier:
             rows = _as(rows, np.int64)
             stars = Stars(_as(database.vectors[rows]), _as(mags[rows]), rows)
         self.radius_px = radius
+        self.params = params  # the thresholds (CheckParams' fields) this frame checks with
         self.vectors = obs.vectors  # what an accepted Verification's residuals refer to
         self._verifier = Verifier(frame, params, database.cone_index.table, mags, stars)
 
