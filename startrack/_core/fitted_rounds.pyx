@@ -7,7 +7,9 @@ In Python each round made an Observation, a FrameVerifier, a verification and a 
 costing more than its compiled work. Every number a round derives from the focal length
 (match radius, the labelling's scales, the catalog cone) is computed here by the same
 operations, in the same order, as VerifyConfig.radius_px, label_params, FrameVerifier and
-the Camera compute it, so every answer is theirs to the last bit.
+the Camera compute it, so every answer is theirs to the last bit; a change to one of
+those formulas must be made here too (``tests/test_fitted_rounds.py`` holds
+:meth:`FittedRounds.params_at` to FrameVerifier's thresholds, bit for bit).
 """
 
 cimport cython
@@ -18,7 +20,7 @@ import numpy as np
 cimport numpy as cnp
 
 from startrack._core._arrays cimport empty_f64, empty_rows
-from startrack._core._camera cimport Geometry as Camera
+from startrack._core._camera cimport Geometry as CameraGeometry
 from startrack._core._cone cimport ConeTable
 from startrack._core._verify cimport ACCEPTED, BAD_INDEX, CheckParams, Frame, Geometry
 from startrack._core._verify cimport Verdict, check_cone
@@ -74,7 +76,7 @@ cdef class FittedRounds:
     cdef object x_array, y_array
     cdef const double[::1] x
     cdef const double[::1] y
-    cdef Camera base
+    cdef CameraGeometry base
     cdef bint described
     cdef FitFrame values
     cdef FitConstants c
@@ -112,7 +114,7 @@ cdef class FittedRounds:
         ``_verify_fitted`` returns on failure (the first verification's confirmed count,
         0 after a failed fit or a later round), or None where the check refuses a
         hypothesis index (the caller reads it as ``verify`` does)."""
-        cdef Camera g = self.base
+        cdef CameraGeometry g = self.base
         g.f_px = f
         cdef bint described = self.described, accepted
         cdef double k1_fitted = 0.0, f_new, k1_new
@@ -175,7 +177,7 @@ cdef class FittedRounds:
         """The thresholds a round checks with through this frame's camera at focal
         length ``f`` (and a fitted ``k1`` on a pinhole): the CheckParams, as a dict,
         that FrameVerifier makes for that camera."""
-        cdef Camera g = self.base
+        cdef CameraGeometry g = self.base
         g.f_px = f
         cdef bint described = self.described
         if k1 != 0.0 and not described:
@@ -184,11 +186,11 @@ cdef class FittedRounds:
         self._set_params(&g, described)
         return self.params
 
-    cdef object _vectors(self, const Camera* g):
+    cdef object _vectors(self, const CameraGeometry* g):
         """Camera-frame unit vectors of the pixels through camera ``g``."""
         return unit_vectors(g, self.x, self.y)
 
-    cdef Frame _frame(self, Frame frame, vectors, const Camera* g):
+    cdef Frame _frame(self, Frame frame, vectors, const CameraGeometry* g):
         """The Frame of ``vectors`` through camera ``g``: ``frame``'s bucketed pixels
         reused (they do not depend on the camera), a new Frame the first time."""
         cdef Geometry geometry
@@ -201,7 +203,7 @@ cdef class FittedRounds:
         return frame
 
     @cython.cdivision(True)
-    cdef void _set_params(self, const Camera* g, bint described) except *:
+    cdef void _set_params(self, const CameraGeometry* g, bint described) except *:
         """The CheckParams and LabelParams fields of camera ``g``, as FrameVerifier,
         VerifyConfig.radius_px and label_params compute them."""
         cdef double f = g.f_px, sigma = self.values.sigma_px / f * f  # obs.sigma_rad * f_px
@@ -226,7 +228,7 @@ cdef class FittedRounds:
         self.params.label.resolve2 = scaled * scaled
 
 
-cdef void _fitted_lens(Camera* g, double k1) noexcept:
+cdef void _fitted_lens(CameraGeometry* g, double k1) noexcept:
     """``g`` given the k1-only lens of a fit (RadialDistortion(k1=k1): its fold radius)."""
     g.k1, g.k2, g.k3 = k1, 0.0, 0.0
     g.max_r2 = -1.0 / (3.0 * k1) if k1 < 0.0 else INFINITY
