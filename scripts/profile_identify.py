@@ -13,6 +13,12 @@ count and condition). Prints the solved/wrong count and median time, then the pr
 With ``--fov-tolerance`` the frames are solved as ``startrack identify`` solves them,
 told the FOV ``--fov-error`` off (scripts/bench_identify.py's pipeline): the refit of a
 nominal FOV, or its search, is profiled too.
+With ``--kernels`` the time inside each compiled entry point is clocked instead of
+profiled (scripts/_kernel_clock.py), and what share of the identify time they make:
+
+    .venv/bin/python scripts/profile_identify.py --method quad --noise-px 0.3 \
+        --false-stars 3 --missing 0.1 --fov-tolerance 0.025 --fov-error 0.025 --kernels
+
 With ``--junk N`` the frames are N random centroid sets instead (4-60 points, no star
 pattern: scripts/false_positives.py's), where every hypothesis must be refused.
 """
@@ -30,10 +36,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _kernel_clock  # noqa: E402
 from bench_identify import Frame, make_frames, pipeline_solver  # noqa: E402
 from bench_peers import misidentified  # noqa: E402
 from false_positives import random_sets  # noqa: E402
 
+from startrack.attitude import boresight_error_arcsec  # noqa: E402
 from startrack.camera._model import Camera  # noqa: E402
 from startrack.database import StarDatabase  # noqa: E402
 from startrack.matchers import MatcherConfig, get_matcher  # noqa: E402
@@ -69,9 +77,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="solve as `startrack identify --fov-tolerance` does (the pipeline)")
     ap.add_argument("--fov-error", type=float, default=0.0,
                     help="with --fov-tolerance: the told FOV is this fraction off")
+    ap.add_argument("--kernels", action="store_true",
+                    help="clock the compiled entry points instead of profiling")
     ap.add_argument("--junk", type=int, default=0,
                     help="profile the 'no' on this many random centroid sets instead")
     args = ap.parse_args(argv)
+    if args.kernels:
+        _kernel_clock.install()  # before the solver is made: it looks the names up
+        args.no_profile = True
 
     camera = Camera.from_fov(1024, 1024, 20.0)
     catalog = load_sky(SkySpec(kind="hipparcos", mag_limit=6.5,
@@ -89,15 +102,31 @@ def main(argv: list[str] | None = None) -> int:
     def solve(frame: Frame):
         return identify(frame.obs, matcher, verify)
 
+    def wrong_answer(sol, frame: Frame) -> bool:
+        return misidentified(sol, frame)
+
     if args.fov_tolerance is not None:
         spec = SkySpec(kind="hipparcos", mag_limit=6.5)
         through = pipeline_solver(args.method, camera, spec, args.fov_error,
                                   args.fov_tolerance, args.max_stars, args.noise_px)
 
+        answered = {}
+
         def solve(frame: Frame):
-            return through(frame).solution
+            result = through(frame)
+            answered[id(frame)] = result.catalog
+            return result.solution
+
+        def wrong_answer(sol, frame: Frame) -> bool:
+            # the pipeline loads its own catalog: the same stars by id, not by row
+            ids = answered[id(frame)].ids[sol.cat_index]
+            truth = frame.truth_rows[sol.obs_index]
+            real = truth >= 0
+            return (boresight_error_arcsec(sol.rotation, frame.rotation) > 60.0
+                    or bool(np.any(catalog.ids[truth[real]] != ids[real])))
 
     solve(frames[0])  # compiled kernels loaded before timing
+    _kernel_clock.reset()
     prof = cProfile.Profile()
     times, solved, wrong, hyps = [], 0, 0, []
     for frame in frames:
@@ -108,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
         times.append(sol.identify_ms)
         hyps.append(sol.diagnostics.hypotheses)
         solved += int(sol.solved)
-        wrong += int(sol.solved and misidentified(sol, frame))
+        wrong += int(sol.solved and wrong_answer(sol, frame))
     t = np.array(times)
     what = (f"{args.junk} random centroid sets, sigma {args.noise_px} px" if args.junk else
             f"{args.noise_px} px, {args.false_stars} false, {args.missing:.0%} missing, "
@@ -116,6 +145,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{args.method} {dict(args.param)}: {what}: solved {solved}, wrong "
           f"{wrong}, median {np.median(t):.2f} ms, p95 {np.percentile(t, 95):.2f} ms, "
           f"max {t.max():.1f} ms, hypotheses/frame {np.mean(hyps):.1f}")
+    if args.kernels:
+        print(_kernel_clock.report(len(frames), float(t.sum())))
     if not args.no_profile:
         out = io.StringIO()
         pstats.Stats(prof, stream=out).sort_stats(args.sort).print_stats(args.top)
