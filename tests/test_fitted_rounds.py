@@ -86,7 +86,7 @@ def _cases(true: Camera, told: Camera, seed: int, configs, frames: int = 10,
     return seen
 
 
-def test_the_compiled_rounds_are_the_python_rounds_through_a_pinhole():
+def test_the_compiled_rounds_are_the_reference_rounds_through_a_pinhole():
     true = Camera.from_fov(1024, 768, 20.0)
     told = true.with_focal(true.f_px * 1.0005)
     configs = (VerifyConfig(), VerifyConfig(match_radius_px=2.0),
@@ -96,14 +96,14 @@ def test_the_compiled_rounds_are_the_python_rounds_through_a_pinhole():
     assert seen["accepted"] >= 10 and seen["confirmed"] >= 5 and seen["k1"] >= 3, seen
 
 
-def test_the_compiled_rounds_fit_an_undescribed_lens_as_python_does():
+def test_the_compiled_rounds_fit_an_undescribed_lens_as_the_reference_does():
     true = Camera.from_fov(1600, 1200, 32.0, distortion=RadialDistortion(k1=-0.06))
     told = true.pinhole.with_focal(true.f_px * 0.999)
     seen = _cases(true, told, 6, (VerifyConfig(),), sigma_px=1.0)
     assert seen["k1"] >= 3 and seen["failed"] >= 3, seen
 
 
-def test_the_compiled_rounds_keep_a_described_lens_as_python_does():
+def test_the_compiled_rounds_keep_a_described_lens_as_the_reference_does():
     lens = RadialDistortion(k1=-0.04, k2=0.01)
     true = Camera.from_fov(1280, 1024, 28.0, distortion=lens)
     told = true.with_focal(true.f_px * 1.0005)
