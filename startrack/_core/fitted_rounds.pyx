@@ -85,6 +85,8 @@ cdef class FittedRounds:
     cdef object mags_array
     cdef const double[::1] mags
     cdef const double[:, ::1] catalog
+    cdef Frame frame  # a run's frame, its bucketed pixels reused by every round
+    cdef object vectors  # the vectors of the last round's camera
 
     def __init__(self, x, y, RadialLens lens, FitFrame frame, FitConstants constants,
                  CheckParams params, ConeTable table, mags, const double[:, ::1] catalog):
@@ -118,16 +120,12 @@ cdef class FittedRounds:
         g.f_px = f
         cdef bint described = self.described, accepted
         cdef double k1_fitted = 0.0, f_new, k1_new
-        cdef Frame frame = None
         cdef Verdict v
         cdef Py_ssize_t confirmed, k, m
         cdef int status, round_
-        vectors = None
+        self.frame = None
         if held_obs is None:
-            vectors = self._vectors(&g)
-            frame = self._frame(frame, vectors, &g)
-            self._set_params(&g, described)
-            v = check_cone(frame, hyp_obs, hyp_rows, self.table, self.mags, self.params)
+            v = self._check_at(&g, described, hyp_obs, hyp_rows)
             if v.status == BAD_INDEX:
                 return None
             accepted, obs, rows, confirmed = v.status == ACCEPTED, v.obs, v.rows, v.confirmed
@@ -162,16 +160,23 @@ cdef class FittedRounds:
                 described, k1_fitted = True, k1_new
             if not (g.f_px > 0.0 and isfinite(g.f_px)):
                 return 0
-            vectors = self._vectors(&g)
-            frame = self._frame(frame, vectors, &g)
-            self._set_params(&g, described)
-            v = check_cone(frame, hyp_obs, hyp_rows, self.table, self.mags, self.params)
+            v = self._check_at(&g, described, hyp_obs, hyp_rows)
             if v.status == BAD_INDEX:
                 return None
             accepted, obs, rows = v.status == ACCEPTED, v.obs, v.rows
             if accepted and _same(o, obs) and _same(r, rows):
                 break  # a fit to the same stars again would return this camera
-        return (v, g.f_px, k1_fitted, vectors) if accepted else 0
+        return (v, g.f_px, k1_fitted, self.vectors) if accepted else 0
+
+    cdef Verdict _check_at(self, const CameraGeometry* g, bint described,
+                           const long long[::1] hyp_obs, const long long[::1] hyp_rows):
+        """The hypothesis verified through camera ``g``: the pixels' vectors made through
+        it (kept: an accepted verdict's residuals refer to them), the run's frame reused,
+        the thresholds of ``g`` set."""
+        self.vectors = self._vectors(g)
+        self.frame = self._frame(self.frame, self.vectors, g)
+        self._set_params(g, described)
+        return check_cone(self.frame, hyp_obs, hyp_rows, self.table, self.mags, self.params)
 
     def params_at(self, double f, double k1=0.0):
         """The thresholds a round checks with through this frame's camera at focal
