@@ -29,7 +29,7 @@ def reference_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
                                database, config)
     confirmed = check.confirmed
     for _ in range(REFIT_ROUNDS):
-        if not check.accepted:
+        if not (check.accepted or check.unlabelled):  # unlabelled: its matches are fitted
             return confirmed
         try:
             camera = fit_camera(camera, x[check.obs_index], y[check.obs_index],

@@ -62,6 +62,14 @@ cpdef enum Status:
     REJECTED = 1       # a pair of the hypothesis lies beyond the match radius at its fit
     NOT_ACCEPTED = 2   # too little independent evidence
     ACCEPTED = 3
+    UNLABELLED = 4     # the bound passed, but the final labelling kept too few stars to
+                       # carry it (a camera off in scale): the matched pairs, to refit
+
+
+cdef enum:
+    # the stars a final labelling must keep for an accepted verdict, beyond those
+    # confirmed: the smallest hypothesis's (a triangle), as the evidence gate counts them
+    SMALLEST_HYPOTHESIS = 3
 
 
 cdef class Projection:
@@ -154,7 +162,9 @@ cdef class Labelled:
 
 
 cdef class Verdict:
-    """One hypothesis checked: the status, the first attitude, the pairs (the first test's unless ACCEPTED; catalog rows), the bound, the
+    """One hypothesis checked: the status, the first attitude, the pairs (catalog rows:
+    the labelled ones once ACCEPTED, the refinement's matches when UNLABELLED, else the
+    first test's), the bound, the
     confirmed count, the final attitude and, once ACCEPTED, the residuals in arcseconds
     and the quaternion ``[x, y, z, w]`` of the final attitude (_wahba's
     matrix_to_quaternion: what ``Rotation.from_quat`` takes); ``cones``: how many catalog

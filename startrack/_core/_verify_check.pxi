@@ -113,6 +113,15 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
     if cone is not None and _drift(r.matrix, first) < params.margin_cos:
         r, stars = _refine_on_fresh_cone(frame, r.matrix, params, cone, v)
     cdef Labelled done = _label_at(frame, stars, r.matrix, r.projection, r.matches, params)
+    if done.obs.shape[0] < SMALLEST_HYPOTHESIS + params.min_confirmed:
+        # the labelling withheld what the bound counted (residuals growing across the
+        # frame, as a focal length a percent off makes them): not an answer, but its
+        # matches tell a caller fitting the camera where to look again
+        m = r.matches if r.matches is not None else match(frame, stars.vectors, r.matrix,
+                                                          params.radius_px)
+        v.status, v.final = UNLABELLED, _matrix_array(r.matrix)
+        v.obs, v.rows = copy_i64(m.obs, m.obs.shape[0]), _take(stars.rows, m.pos)
+        return v
     v.status, v.final = ACCEPTED, _matrix_array(done.final)
     v.obs, v.rows = copy_i64(done.obs, done.obs.shape[0]), _take(stars.rows, done.pos)
     cdef double[:, ::1] cat = _sky_rows(frame, done.pos.shape[0])

@@ -22,7 +22,8 @@ cimport numpy as cnp
 from startrack._core._arrays cimport empty_f64, empty_rows
 from startrack._core._camera cimport Geometry as CameraGeometry
 from startrack._core._cone cimport ConeTable
-from startrack._core._verify cimport ACCEPTED, BAD_INDEX, CheckParams, Frame, Geometry
+from startrack._core._verify cimport ACCEPTED, BAD_INDEX, UNLABELLED, CheckParams, Frame
+from startrack._core._verify cimport Geometry
 from startrack._core._verify cimport Verdict, check_cone
 from startrack._core.camera cimport RadialLens, corner_cosines, unit_vectors
 from startrack._core.fov_fit cimport _BAD_FOCAL, _FOLDS, fit_geometry
@@ -118,7 +119,7 @@ cdef class FittedRounds:
         hypothesis index (the caller reads it as ``verify`` does)."""
         cdef CameraGeometry g = self.base
         g.f_px = f
-        cdef bint described = self.described, accepted
+        cdef bint described = self.described, accepted, usable
         cdef double k1_fitted = 0.0, f_new, k1_new
         cdef Verdict v
         cdef Py_ssize_t confirmed, k, m
@@ -129,8 +130,10 @@ cdef class FittedRounds:
             if v.status == BAD_INDEX:
                 return None
             accepted, obs, rows, confirmed = v.status == ACCEPTED, v.obs, v.rows, v.confirmed
+            usable = accepted or v.status == UNLABELLED
         else:
             accepted, obs, rows, confirmed = True, held_obs, held_rows, held_confirmed
+            usable = True
             if not (len(held_obs) == len(held_rows) and _within(held_obs, self.x.shape[0])
                     and _within(held_rows, self.catalog.shape[0])):
                 raise IndexError("FittedRounds: a held verification's pairs must be "
@@ -139,7 +142,7 @@ cdef class FittedRounds:
         cdef double[::1] fx, fy
         cdef double[:, ::1] fcat
         for round_ in range(self.c.rounds):
-            if not accepted:
+            if not usable:  # an unlabelled verdict's matches are fitted all the same
                 return confirmed
             o, r = obs, rows
             m = o.shape[0]
@@ -164,6 +167,7 @@ cdef class FittedRounds:
             if v.status == BAD_INDEX:
                 return None
             accepted, obs, rows = v.status == ACCEPTED, v.obs, v.rows
+            usable = accepted or v.status == UNLABELLED
             if accepted and _same(o, obs) and _same(r, rows):
                 break  # a fit to the same stars again would return this camera
         return (v, g.f_px, k1_fitted, self.vectors) if accepted else 0

@@ -1,16 +1,16 @@
 """The camera fitted to identified stars, compiled (:func:`fit_focal`, called by
-:func:`startrack.fov_fit.fit_camera`): the pixels turned into directions through the
-current focal length and lens, Wahba's attitude, then the linear least squares of the
-focal length (and a fitted k1), until they settle.
+:func:`startrack.fov_fit.fit_camera`): Wahba's attitude from the pixels at the starting
+focal length, then the joint least squares of the pixel residuals over the attitude,
+the focal length and (for a lens nobody described) k1 (``_camera_lsq.pxi``).
 
 The fit runs for every solved frame whose field of view was given as nominal and for
-every hypothesis of a blind search, so it must cost microseconds. Each step is the numpy
-fit's (``tests/fov_fit_reference.py``) except Wahba's problem (Davenport's q-method, the
-same minimiser) and the two-column least squares (Gram-Schmidt instead of an SVD).
+every hypothesis of a blind search, so it must cost microseconds: a few Gauss-Newton
+steps on 4 or 5 parameters. ``tests/test_fov_fit.py`` holds it to scipy's
+``least_squares`` of the same residuals.
 """
 
 cimport cython
-from libc.math cimport INFINITY, fabs, isfinite, sqrt
+from libc.math cimport INFINITY, cos, fabs, isfinite, sin, sqrt
 
 import numpy as np
 
@@ -27,6 +27,13 @@ from startrack._core.camera cimport Optics, unit_vectors
 #: iterations), a focal length not positive and finite, a fitted k1 folding back inside
 #: the image.
 SETTLED, BAD_FOCAL, FOLDS = _SETTLED, _BAD_FOCAL, _FOLDS
+
+#: a fitted k1 stands only where it lowers the squared pixel residuals by more than this
+#: many times their variance: the 1-degree-of-freedom chi-square of the 3-sigma rule
+#: (startrack.solver._calibrate_sigma.SIGNIFICANCE squared). A pinhole's k1 fitted to
+#: noise would otherwise bend the camera and move the attitude (tens of arcseconds at 2 px).
+cdef double _K1_CHI2 = 9.0
+K1_CHI2 = _K1_CHI2
 
 cnp.import_array()  # the C API the _arrays helpers call
 
@@ -48,53 +55,17 @@ cdef bint _folds(const Geometry* g, double f, double k1) noexcept nogil:
     return isfinite(r2) and rd2 >= r2 * (s * s)
 
 
-cdef double _dot(const double[::1] a, const double[::1] b) noexcept nogil:
-    cdef double t = 0.0
-    cdef Py_ssize_t i
-    for i in range(a.shape[0]):
-        t += a[i] * b[i]
-    return t
-
-
 @cython.cdivision(True)
-cdef (double, double) _two_column_lsq(double[::1] a1, double[::1] a2,
-                                      const double[::1] d) noexcept nogil:
-    """The least-squares (x1, x2) of a1 x1 + a2 x2 = d (the minimum-norm one when the
-    columns are parallel), by Gram-Schmidt; a1 and a2 are overwritten."""
-    cdef double r11 = sqrt(_dot(a1, a1))
-    if r11 == 0.0:
-        return 0.0, 0.0
-    cdef Py_ssize_t i
-    for i in range(a1.shape[0]):
-        a1[i] = a1[i] / r11  # q1
-    cdef double r12 = _dot(a1, a2)
-    for i in range(a2.shape[0]):
-        a2[i] = a2[i] - r12 * a1[i]  # w
-    cdef double r22 = sqrt(_dot(a2, a2)), b1 = _dot(a1, d), c, x1, x2
-    if r22 <= 1e-12 * r11:  # a2 = c a1: x = (1, c) b1 / (r11 (1 + c^2))
-        c = r12 / r11
-        x1 = b1 / (r11 * (1.0 + c * c))
-        return x1, c * x1
-    x2 = _dot(a2, d) / r22 / r22
-    return (b1 - r12 * x2) / r11, x2
-
-
-@cython.cdivision(True)
-cdef void _directions(const Geometry* g, double f, double k1, const double[::1] dx,
+cdef void _directions(const Geometry* g, double f, const double[::1] dx,
                       const double[::1] dy, double[:, ::1] cam) noexcept nogil:
     """Camera-frame unit vectors of the offsets ``dx``, ``dy`` through focal length ``f``
-    and the described lens (else a fitted ``k1``), into ``cam``."""
+    and the described lens, into ``cam``."""
     cdef Py_ssize_t i, m = dx.shape[0]
-    cdef Lens fitted, described = lens_of(g)
+    cdef Lens described = lens_of(g)
     for i in range(m):
         cam[i, 0], cam[i, 1] = dx[i] / f, dy[i] / f
     if not lens_is_identity(&described):
         lens_undistort(&described, &cam[0, 0], &cam[0, 1], m, 3)
-    elif k1 != 0.0:
-        fitted.k1, fitted.k2, fitted.k3 = k1, 0.0, 0.0
-        fitted.max_r2 = k1_fold_r2(k1)
-        fitted.r_cap = sqrt(fitted.max_r2)
-        lens_undistort(&fitted, &cam[0, 0], &cam[0, 1], m, 3)
     cdef double norm
     for i in range(m):
         norm = sqrt(cam[i, 0] * cam[i, 0] + cam[i, 1] * cam[i, 1] + 1.0)
@@ -102,71 +73,31 @@ cdef void _directions(const Geometry* g, double f, double k1, const double[::1] 
 
 
 @cython.cdivision(True)
-cdef double _tangent(const Geometry* g, const double[:, ::1] cat, const double[:, ::1] rot,
-                     double[:, ::1] t) noexcept nogil:
-    """The catalog directions in the camera frame (R^T v) on the tangent plane, the lens
-    applied when one is described, into ``t`` (x, y, r^2 per star); the largest r^2
-    (NaN if any is)."""
+cdef double _largest_r2(const double[:, ::1] cat, const double[:, ::1] rot) noexcept nogil:
+    """The largest r^2 of the catalog directions on the camera's tangent plane at
+    attitude ``rot`` (NaN if any is)."""
     cdef Py_ssize_t i
-    cdef double c0, c1, c2, s, top = -INFINITY
-    cdef Lens lens = lens_of(g)
-    cdef bint described = not lens_is_identity(&lens)
+    cdef double c0, c1, c2, r2, top = -INFINITY
     for i in range(cat.shape[0]):
         c0 = cat[i, 0] * rot[0, 0] + cat[i, 1] * rot[1, 0] + cat[i, 2] * rot[2, 0]
         c1 = cat[i, 0] * rot[0, 1] + cat[i, 1] * rot[1, 1] + cat[i, 2] * rot[2, 1]
         c2 = cat[i, 0] * rot[0, 2] + cat[i, 1] * rot[1, 2] + cat[i, 2] * rot[2, 2]
-        t[i, 0], t[i, 1] = c0 / c2, c1 / c2
-        if described:  # the lens acts on the normalised plane
-            s = lens_factor(&lens, t[i, 0] * t[i, 0] + t[i, 1] * t[i, 1])
-            t[i, 0], t[i, 1] = t[i, 0] * s, t[i, 1] * s
-        t[i, 2] = t[i, 0] * t[i, 0] + t[i, 1] * t[i, 1]
-        if not t[i, 2] <= top:  # numpy's max: a NaN wins
-            top = t[i, 2]
+        r2 = (c0 * c0 + c1 * c1) / (c2 * c2)
+        if not r2 <= top:  # numpy's max: a NaN wins
+            top = r2
     return top
 
 
-@cython.cdivision(True)
-cdef (double, double) _lens_step(const double[:, ::1] t, const double[::1] dx,
-                                 const double[::1] dy, double max_k1,
-                                 double[:, ::1] cols) noexcept nogil:
-    """The focal length and k1 of the two-column least squares, rows interleaved x, y
-    per star (as t.ravel()); ``cols`` (3, 2 m) is its working space."""
-    cdef Py_ssize_t i, m = dx.shape[0]
-    cdef double f, g
-    for i in range(m):
-        cols[0, 2 * i], cols[0, 2 * i + 1] = t[i, 0], t[i, 1]
-        cols[1, 2 * i], cols[1, 2 * i + 1] = t[i, 0] * t[i, 2], t[i, 1] * t[i, 2]
-        cols[2, 2 * i], cols[2, 2 * i + 1] = dx[i], dy[i]
-    f, g = _two_column_lsq(cols[0], cols[1], cols[2])
-    return f, (min(max(g / f, -max_k1), max_k1) if f > 0.0 else 0.0)
-
-
-@cython.cdivision(True)
-cdef bint _focal_step(const double[:, ::1] t, const double[::1] dx, const double[::1] dy,
-                      double* f) noexcept nogil:
-    """The focal length's least squares, (dx . tx + dy . ty) / sum r^2, into ``f``;
-    False (``f`` untouched) when the sum is not positive."""
-    cdef double r2_sum = 0.0, fx = 0.0, fy = 0.0
-    cdef Py_ssize_t i
-    for i in range(dx.shape[0]):
-        r2_sum += t[i, 2]
-    if not r2_sum > 0.0:
-        return False
-    for i in range(dx.shape[0]):
-        fx += dx[i] * t[i, 0]
-    for i in range(dx.shape[0]):
-        fy += dy[i] * t[i, 1]
-    f[0] = (fx + fy) / r2_sum
-    return True
+include "_camera_lsq.pxi"
 
 
 def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
               const double[:, ::1] cat, int iterations, bint with_k1, double min_r2,
               double max_k1):
-    """Alternate Wahba's attitude and the focal length's (and k1's) least squares, from
-    ``optics``'s focal length, for the pixels ``x``, ``y`` of the catalog directions
-    ``cat``, at most ``iterations`` times. A described lens (``optics.lens``) is applied
-    as it is; ``with_k1``: fit the k1 of an undescribed one when the stars reach r^2 =
+    """The attitude, focal length (and k1) whose projection of the catalog directions
+    ``cat`` best fits the pixels ``x``, ``y`` in least squares, from ``optics``'s focal
+    length and the Wahba attitude there, in at most ``iterations`` Gauss-Newton steps.
+    A described lens (``optics.lens``) is applied as it is; ``with_k1``: fit the k1 of an undescribed one when the stars reach r^2 =
     ``min_r2``, within +-``max_k1``. Returns (SETTLED, BAD_FOCAL or FOLDS; the focal
     length; the fitted k1)."""
     cdef Geometry g = optics.geometry
@@ -176,7 +107,6 @@ def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
     return status, f, k1
 
 
-@cython.cdivision(True)
 cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] y,
                       const double[:, ::1] cat, int iterations, bint with_k1,
                       double min_r2, double max_k1, double* f_out, double* k1_out):
@@ -184,38 +114,53 @@ cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] 
     ``startrack._core.fitted_rounds``): the status, the focal length and k1 into
     ``f_out`` and ``k1_out``."""
     cdef Py_ssize_t i, m = x.shape[0]
-    # the buffers of every round, made once (numpy's Python calls would cost more than
-    # a round's arithmetic)
     cdef double[::1] dx = empty_f64(m), dy = empty_f64(m)
     for i in range(m):
         dx[i], dy[i] = x[i] - g.cx, y[i] - g.cy
-    cdef double[:, ::1] cam = empty_rows(m, 3), t = empty_rows(m, 3), rot = empty_rows(3, 3)
-    cdef double[:, ::1] cols = empty_rows(3, 2 * m) if with_k1 else None
-    cdef double f = g.f_px, k1 = 0.0, f_new, k1_new, top
-    cdef bint done
-    cdef int _, status = SETTLED
-    for _ in range(iterations):
-        _directions(g, f, k1, dx, dy, cam)
-        wahba(cam, cat, rot)
-        top = _tangent(g, cat, rot, t)
-        if with_k1 and top >= min_r2:
-            f_new, k1_new = _lens_step(t, dx, dy, max_k1, cols)
-        else:
-            k1_new = 0.0
-            if not _focal_step(t, dx, dy, &f_new):  # no star off the axis: nothing to fit
-                break
-        done = fabs(f_new - f) <= 1e-10 * fabs(f) and fabs(k1_new - k1) <= 1e-12
-        f, k1 = f_new, k1_new
-        if not (f > 0.0 and isfinite(f)):
-            status = BAD_FOCAL
-            break
-        if k1 != 0.0 and _folds(g, f, k1):
-            status = FOLDS
-            break
-        if done:
-            break
+    cdef double[:, ::1] cam = empty_rows(m, 3), rot = empty_rows(3, 3)
+    cdef double[:, ::1] trial = empty_rows(3, 3), plain = empty_rows(3, 3)
+    cdef double f = g.f_px, k1 = 0.0, f_plain = g.f_px, k1_plain = 0.0, cost, cost_plain
+    cdef Lens described = lens_of(g)
+    cdef int steps
+    f_out[0], k1_out[0] = f, 0.0
+    if m == 0 or iterations <= 0:
+        return SETTLED
+    _directions(g, f, dx, dy, cam)
+    wahba(cam, cat, rot)  # the attitude the pixels give at the starting focal length
+    plain[:, :] = rot
+    steps = -1
+    if with_k1 and _largest_r2(cat, rot) >= min_r2:
+        steps = _least_squares(&described, cat, rot, dx, dy, &f, &k1, 5, iterations, trial,
+                               &cost)
+        if steps >= 0 and not fabs(k1) <= max_k1:  # held at its bound, the rest refitted
+            k1 = max_k1 if k1 > 0.0 else -max_k1
+            steps = _least_squares(&described, cat, rot, dx, dy, &f, &k1, 4, iterations,
+                                   trial, &cost)
+    if steps >= 0:  # a k1 stands only where it lowers the residuals significantly
+        if _least_squares(&described, cat, plain, dx, dy, &f_plain, &k1_plain, 4,
+                          iterations, trial, &cost_plain) >= 0 \
+                and not _k1_significant(cost_plain, cost, 2 * m - 5):
+            f, k1 = f_plain, 0.0
+    elif _least_squares(&described, cat, plain, dx, dy, &f_plain, &k1_plain, 4,
+                        iterations, trial, &cost_plain) >= 0:
+        f, k1 = f_plain, 0.0
+    else:  # the stars fix no focal length (none off the axis): it stands
+        return SETTLED
     f_out[0], k1_out[0] = f, k1
-    return status
+    if not (f > 0.0 and isfinite(f)):
+        return BAD_FOCAL
+    if k1 != 0.0 and _folds(g, f, k1):
+        return FOLDS
+    return SETTLED
+
+
+cdef inline bint _k1_significant(double cost_plain, double cost_k1,
+                                 Py_ssize_t dof) noexcept nogil:
+    """Whether fitting k1 lowered the squared residuals from ``cost_plain`` to ``cost_k1``
+    by more than chance would (``K1_CHI2`` times the variance per degree of freedom)."""
+    if dof <= 0:
+        return False
+    return (cost_plain - cost_k1) * dof > _K1_CHI2 * cost_k1
 
 
 def camera_residuals(Optics optics, const double[::1] x, const double[::1] y,

@@ -25,8 +25,8 @@ from startrack._core._wahba cimport wahba
 # The records Python builds and reads, under their own names.
 ConeTable, Frame, Stars, Verdict = _ConeTable, _Frame, _Stars, _Verdict
 
-BAD_INDEX, REJECTED, NOT_ACCEPTED, ACCEPTED = (Status.BAD_INDEX, Status.REJECTED,
-                                               Status.NOT_ACCEPTED, Status.ACCEPTED)
+BAD_INDEX, REJECTED, NOT_ACCEPTED, ACCEPTED, UNLABELLED = (
+    Status.BAD_INDEX, Status.REJECTED, Status.NOT_ACCEPTED, Status.ACCEPTED, Status.UNLABELLED)
 
 cnp.import_array()  # the C API the _arrays helpers call
 

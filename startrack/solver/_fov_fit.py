@@ -53,14 +53,16 @@ def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndar
 def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
                iterations: int = 12, lens: bool = True) -> Camera:
     """``camera`` with the focal length that, with its best attitude, fits the pixels
-    ``x``, ``y`` to the catalog directions: alternate Wahba's problem and the linear least
-    squares of ``pixel - centre = f * D(tangent-plane position)`` (D the lens model), at
-    most ``iterations`` times (compiled: :func:`startrack._core.fov_fit.fit_focal`).
+    ``x``, ``y`` to the catalog directions: the least squares of ``pixel - centre = f *
+    D(tangent-plane position)`` (D the lens model) over the attitude and the focal length
+    together, from Wahba's attitude at the given focal length, in at most ``iterations``
+    Gauss-Newton steps (compiled: :func:`startrack._core.fov_fit.fit_focal`).
     With ``lens``, a pinhole ``camera`` and at least ``LENS_MIN_STARS`` stars reaching
     ``LENS_MIN_R2``, the radial ``k1`` too (``f k1`` is linear as well): a lens nobody
     described still has its wide-field stars fitted. A focal length that is not positive
     and finite comes back as it is; a fitted lens that folds back inside the image is an
-    :class:`InputError`, as :meth:`Camera.with_distortion` makes it."""
+    :class:`InputError`, as :meth:`Camera.with_distortion` makes it. A k1 beyond
+    +-``LENS_MAX_K1`` is held at that bound and the rest fitted again."""
     with_k1 = lens and camera.distortion is None and len(x) >= LENS_MIN_STARS
     status, f, k1 = _fit(camera, x, y, cat_vectors, iterations, with_k1)
     cam = camera.with_focal(f)
@@ -115,9 +117,11 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
     the camera to every matched star (:func:`fit_camera`), verify again through the
     fitted camera, until a round matches the stars of the one before (a fit to the
     same stars would return the same camera), at most ``REFIT_ROUNDS`` fits: in one
-    compiled call (:func:`_compiled_rounds`). A hypothesis index the compiled check
-    refuses is read as :func:`startrack.verify.verify` reads it (negative from the
-    end)."""
+    compiled call (:func:`_compiled_rounds`). A round whose bound passed but whose
+    labelling kept too few stars (``Verification.unlabelled``: a focal length a percent
+    off) has its matched pairs fitted all the same; only an accepted round answers. A
+    hypothesis index the compiled check refuses is read as
+    :func:`startrack.verify.verify` reads it (negative from the end)."""
     if accepted is not None and not accepted.accepted:
         return accepted.confirmed
     found = _compiled_rounds(hyp, x, y, camera, sigma_px, database, config, accepted)

@@ -20,7 +20,13 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from startrack._core import shared
-from startrack._core.verify import ACCEPTED, BAD_INDEX, NOT_ACCEPTED, binomial_tail
+from startrack._core.verify import (
+    ACCEPTED,
+    BAD_INDEX,
+    NOT_ACCEPTED,
+    UNLABELLED,
+    binomial_tail,
+)
 from startrack.types import Hypothesis, Observation
 from startrack.verify._frame import FrameVerifier
 
@@ -66,19 +72,25 @@ class Verification:
     #: once accepted: the observed stars' unit vectors the residuals were measured with
     #: (the checked frame's ``Observation.vectors``, the array itself)
     obs_vectors: np.ndarray | None = None
+    #: not accepted though the bound passed: the final labelling kept too few stars to
+    #: carry it (a camera off in scale); ``obs_index``, ``cat_index`` are then the
+    #: refinement's matched pairs, to which a nominal camera may be refitted
+    unlabelled: bool = False
 
     @classmethod
     def _of(cls, accepted: bool, matrix: np.ndarray, obs_index: np.ndarray,
             cat_index: np.ndarray, false_probability: float, confirmed: int,
             residual_arcsec: np.ndarray | None = None, quaternion: np.ndarray | None = None,
-            obs_vectors: np.ndarray | None = None) -> Verification:
+            obs_vectors: np.ndarray | None = None, unlabelled: bool = False,
+            ) -> Verification:
         """The Verification of these fields, made without the frozen dataclass's
         ``__init__`` (one ``object.__setattr__`` per field: a tenth of a verification)."""
         made = object.__new__(cls)
         made.__dict__.update(accepted=accepted, matrix=matrix, obs_index=obs_index,
                              cat_index=cat_index, false_probability=false_probability,
                              confirmed=confirmed, residual_arcsec=residual_arcsec,
-                             quaternion=quaternion, obs_vectors=obs_vectors)
+                             quaternion=quaternion, obs_vectors=obs_vectors,
+                             unlabelled=unlabelled)
         return made
 
     @cached_property  # a scipy Rotation costs tens of microseconds to make
@@ -138,6 +150,9 @@ def verify(hypothesis: Hypothesis, obs: Observation, database: StarDatabase,
     if verdict.status == NOT_ACCEPTED:
         return Verification._of(False, verdict.first, verdict.obs, verdict.rows,
                                 verdict.probability, verdict.confirmed)
+    if verdict.status == UNLABELLED:
+        return Verification._of(False, verdict.final, verdict.obs, verdict.rows,
+                                verdict.probability, verdict.confirmed, unlabelled=True)
     return _REJECTED
 
 
