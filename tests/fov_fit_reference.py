@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
-
 from startrack._core.fov_fit import K1_CHI2
+
 from startrack.attitude import wahba_matrices
 from startrack.camera._model import Camera
 from startrack.solver._fov_fit import LENS_MAX_K1, LENS_MIN_R2, LENS_MIN_STARS

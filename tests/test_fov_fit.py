@@ -53,6 +53,7 @@ def test_a_k1_stands_only_where_the_stars_demand_it():
     moves the attitude); a real lens's noisy stars keep theirs. The rule is the 3-sigma
     rule of startrack.solver._calibrate_sigma."""
     from startrack._core.fov_fit import K1_CHI2
+
     from startrack.solver._calibrate_sigma import SIGNIFICANCE
 
     assert K1_CHI2 == SIGNIFICANCE**2
