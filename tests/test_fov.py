@@ -128,6 +128,40 @@ def test_an_exact_camera_is_reported_as_given_unless_the_data_reject_it(error):
             assert result.camera.fov_deg == pytest.approx(CAMERA.fov_deg, abs=0.03)
 
 
+@pytest.mark.parametrize("method", ["pyramid", "quad"])
+def test_a_right_nominal_fov_answers_through_the_nominal_camera(method):
+    """A nominal FOV that is right: the answer is made through the nominal camera and
+    stands as it is (no refit, no second verification). Where the configured method's
+    first look answers, it is the exact FOV's own answer, to the bit."""
+    from startrack.solver import _fov_given
+
+    nominal = Pipeline(Options(fov_deg=CAMERA.fov_deg, size=(1024, 1024), sky="random",
+                               method=method, fov_tolerance=0.1))
+    exact = Pipeline(Options(fov_deg=CAMERA.fov_deg, size=(1024, 1024), sky="random",
+                             method=method, fov_tolerance=0.0))
+    truth_ids = load_sky(SKY).ids
+    same = 0
+    for frame, rows, rot in _frames(CAMERA, 6, seed=21):
+        got, want = nominal.solve(frame), exact.solve(frame)
+        sol = got.solution
+        assert sol.solved and got.camera == exact.setup_for(frame)[0]
+        assert _boresight_error_arcsec(sol.rotation, rot) < 60.0
+        assert np.array_equal(truth_ids[rows[sol.obs_index]], got.catalog.ids[sol.cat_index])
+        if sol.method == method == "pyramid":
+            for name in ("obs_index", "cat_index", "residual_arcsec"):
+                assert np.array_equal(getattr(sol, name), getattr(want.solution, name))
+            assert np.array_equal(sol.rotation.as_quat(), want.solution.rotation.as_quat())
+            same += 1
+    assert same >= 3 or method == "quad"
+    # the rule: the right camera stands on its stars, one 1% off does not
+    frame, rows, _ = _frames(CAMERA, 1, seed=22)[0]
+    catalog = load_sky(SKY)
+    x, y = frame.centroids.x, frame.centroids.y
+    assert _fov_given.given_stands(CAMERA, x, y, np.arange(len(x)), catalog.vectors[rows])
+    assert not _fov_given.given_stands(CAMERA.with_focal(CAMERA.f_px * 1.01), x, y,
+                                       np.arange(len(x)), catalog.vectors[rows])
+
+
 def test_fov_outside_the_tolerance_is_not_solved_never_wrong():
     pipeline = Pipeline(Options(fov_deg=CAMERA.fov_deg * 1.3, size=(1024, 1024),
                                 sky="random", method="quad", fov_tolerance=0.05))

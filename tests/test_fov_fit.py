@@ -20,9 +20,9 @@ from startrack.solver._fov_fit import (
     LENS_MIN_STARS,
     fit_camera,
     fit_focal,
-    keep_given,
     verify_fitted,
 )
+from startrack.solver._fov_given import keep_given
 from startrack.solver._lost_in_space import residuals_arcsec
 from startrack.types import Hypothesis, Observation
 from startrack.verify._verification import VerifyConfig
@@ -229,7 +229,7 @@ def test_the_given_cameras_rejection_thresholds_are_scipys_quantiles():
     longer imports: the two-sided 3-sigma tail and its chi-square quantiles."""
     from scipy.stats import chi2, norm
 
-    from startrack.solver import _fov_fit
+    from startrack.solver import _fov_given as _fov_fit
 
     p = 2.0 * float(norm.sf(3.0))
     assert pytest.approx(p, rel=1e-12) == _fov_fit.GIVEN_REJECT_P

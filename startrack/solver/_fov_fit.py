@@ -9,12 +9,11 @@ import math
 import numpy as np
 
 from startrack._core.fitted_rounds import FittedRounds
-from startrack._core.fov_fit import BAD_FOCAL, camera_residuals
+from startrack._core.fov_fit import BAD_FOCAL
 from startrack._core.fov_fit import fit_focal as fit_focal_kernel
 from startrack.camera._distortion import RadialDistortion
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
-from startrack.solver._calibrate_sigma import SIGNIFICANCE
 from startrack.types import Hypothesis, Observation
 from startrack.verify._frame import (
     CAPTURE,
@@ -206,62 +205,3 @@ _CONSTANTS = {"resolve_px": float(LabelConfig().resolve_px),
               "lens_min_stars": LENS_MIN_STARS, "lens_min_r2": LENS_MIN_R2,
               "lens_max_k1": LENS_MAX_K1, "iterations": 12,  # fit_camera's default
               "rounds": REFIT_ROUNDS, "rad": math.radians(1.0), "deg": math.degrees(1.0)}
-
-
-#: the given camera stands unless the fitted one lowers the matched stars' chi-square
-#: by more than a 3-sigma chance would (the calibrate rule, startrack.solver._calibrate_sigma):
-#: the two-sided normal tail, erfc(3 / sqrt(2))
-GIVEN_REJECT_P = math.erfc(SIGNIFICANCE / math.sqrt(2.0))
-#: the chi-square quantile of GIVEN_REJECT_P for the 1 or 2 parameters fitted (the focal
-#: length, and k1), in closed form (not scipy.stats, whose import costs a few tenths of a
-#: second in every identify process): one degree of freedom is a squared normal, so its
-#: quantile is SIGNIFICANCE squared; two are an exponential of mean 2
-_GIVEN_REJECT_CHI2 = {1: SIGNIFICANCE**2, 2: -2.0 * math.log(GIVEN_REJECT_P)}
-#: stars of an accepted answer used as the hypothesis when its FOV is refitted or its
-#: given camera verified again: the rest of the frame is the independent evidence
-#: verification counts
-REFIT_HYPOTHESIS_STARS = 4
-
-
-def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
-               sigma_px: float, database: StarDatabase, config: VerifyConfig,
-               ) -> tuple[Verification, Camera, Observation]:
-    """``found`` (from :func:`verify_fitted`) with the ``given`` camera put back when the
-    data do not reject it: a camera given exactly (a simulated frame's sidecar) is reported
-    as given, not as a fitted focal length and k1 a few parts in 1e4 off. Rejected means
-    the fit's drop in the squared residuals of the matched stars, over the noise the
-    fitted residuals show, exceeds the chi-square quantile of :data:`GIVEN_REJECT_P` for
-    the parameters fitted; the given camera must also pass verification again, with the
-    :data:`REFIT_HYPOTHESIS_STARS` brightest matched stars as the hypothesis (the rest of
-    the frame is the independent evidence, as when a FOV is refitted)."""
-    check, fitted, obs = found
-    if fitted == given:
-        return found
-    cat = np.ascontiguousarray(database.vectors[check.cat_index], dtype=np.float64)
-    x, y = np.ascontiguousarray(obs.x), np.ascontiguousarray(obs.y)
-    obs_index = np.ascontiguousarray(check.obs_index, dtype=np.int64)
-
-    def squared(camera: Camera) -> float:
-        # the matched stars through ``camera`` at their own Wahba attitude, one call
-        return float(np.sum(camera_residuals(camera.optics, x, y, obs_index, cat) ** 2))
-
-    n_params = 1 + int(fitted.distortion != given.distortion)
-    dof = len(check.obs_index) * 2 - 3 - n_params
-    if dof <= 0:  # too few matched stars to tell the cameras apart (or to solve Wahba)
-        return found
-    # the fitted camera's residuals are its verification's own when it checked ``obs``:
-    # the same Wahba fit of the same pairs (its final attitude), the same angles
-    fit_sq = float(np.sum(check.residual_arcsec ** 2)) if check.obs_vectors is obs.vectors \
-        else squared(fitted)
-    if fit_sq <= 0.0:
-        return found
-    drop = (squared(given) - fit_sq) / (fit_sq / dof)
-    if drop > _GIVEN_REJECT_CHI2[n_params]:
-        return found
-    given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
-    first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]
-    hyp = Hypothesis(check.obs_index[first], check.cat_index[first])
-    again = verify(hyp, given_obs, database, config)
-    # as refit_fov: an answer labelling fewer than 3 stars has no attitude to stand on
-    return (again, given, given_obs) if again.accepted and len(again.obs_index) >= 3 \
-        else found

@@ -32,7 +32,13 @@ from startrack.defaults import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
 from startrack.solver._deadline import NO_DEADLINE, Deadline
-from startrack.solver._fov_fit import REFIT_HYPOTHESIS_STARS, fit_focal, keep_given, verify_fitted
+from startrack.solver._fov_fit import fit_focal, verify_fitted
+from startrack.solver._fov_given import (
+    REFIT_HYPOTHESIS_STARS,
+    given_stands,
+    keep_given,
+    through_given,
+)
 from startrack.solver._fov_windows import MARGIN, Pass, f_of_fov, focal_range, passes
 from startrack.solver._lost_in_space import residuals_arcsec
 from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
@@ -44,6 +50,9 @@ KEEP_DATABASES = 2
 #: catalog stars at its attitude (verification needs two, at a tighter radius)
 MIN_CONFIRMED = 2
 MAX_VERIFY = 25  # hypotheses verified per window: bounded work on a junk frame
+#: a candidate whose own four stars put the focal length this close to the nominal one is
+#: verified through the nominal camera first (four stars fix it to about 0.1%)
+GIVEN_FIRST_WITHIN = 0.003
 
 
 class SearchTimeout(Exception):
@@ -67,11 +76,16 @@ def _solution(check: Verification, obs: Observation, database: StarDatabase, met
 
 def search_window(matcher: QuadMatcher, x, y, camera: Camera, window: Pass,
                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
-                  diag: MatchDiagnostics, seen: set, deadline: Deadline = NO_DEADLINE):
+                  diag: MatchDiagnostics, seen: set, deadline: Deadline = NO_DEADLINE,
+                  given: Camera | None = None):
     """The first quad hypothesis of ``window`` (a focal-length range, a pattern level, and
     either its one strong candidate or all of them ranked) that passes
     :func:`verify_fitted` against ``database``: (verification, camera, obs) or None.
-    Raises :class:`SearchTimeout` when ``deadline`` passes first."""
+    ``given``: the nominal camera, if any; a hypothesis whose own stars put the focal
+    length within :data:`GIVEN_FIRST_WITHIN` of it is verified through it first, and that
+    answer stands where the matched stars do not reject the camera
+    (:func:`~startrack.solver._fov_given.through_given`). Raises :class:`SearchTimeout`
+    when ``deadline`` passes first."""
     n_cat = len(database.vectors)
     _check(deadline)
     tried = 0
@@ -93,7 +107,11 @@ def search_window(matcher: QuadMatcher, x, y, camera: Camera, window: Pass,
         diag.hypotheses += 1
         tried += 1
         guess = _fitted_guess(sh, x, y, camera, database)
-        found = verify_fitted(hyp, x, y, guess, sigma_px, database, config)
+        found = None
+        if given is not None and abs(guess.f_px / given.f_px - 1.0) <= GIVEN_FIRST_WITHIN:
+            found = through_given(hyp, x, y, given, sigma_px, database, config)
+        if found is None:
+            found = verify_fitted(hyp, x, y, guess, sigma_px, database, config)
         if found is not None:
             return found
         if tried >= MAX_VERIFY:
@@ -160,7 +178,7 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
     try:
         for window in passes(*focal_range(cam, tolerance)):
             found = search_window(quad, x, y, cam, window, ident.sigma_px, db, config, diag,
-                                  seen, deadline)
+                                  seen, deadline, given=cam)
             if found is not None:
                 found = keep_given(found, cam, ident.sigma_px, db, config)
                 return _result(found, ident.catalog, quad.name, diag, t0, config, db)
@@ -223,7 +241,7 @@ class BlindSolver:
                 db = self.database_for(dataclasses.replace(
                     base, f_px=math.sqrt(window.f_lo * window.f_hi)))
                 found = search_window(self.matcher, x, y, base, window, self.sigma_px, db,
-                                      self.config, diag, seen, deadline)
+                                      self.config, diag, seen, deadline, given=camera)
                 if found is not None:
                     if camera is not None:
                         found = keep_given(found, camera, self.sigma_px, db, self.config)
@@ -241,11 +259,19 @@ def refit_fov(result, database: StarDatabase, config: VerifyConfig,
     """A solved :class:`startrack.solver._identifier.FrameResult` made at a nominal FOV, with the
     focal length fitted to its identified stars and the pointing verified again through
     the fitted camera (:func:`verify_fitted`); None when that verification fails or
-    ``deadline`` has already passed (the search after it then says "timeout")."""
+    ``deadline`` has already passed (the search after it then says "timeout"). Where the
+    fitted camera does not fit the identified stars significantly better than the nominal
+    one (:func:`given_stands`), the answer stands as it was made."""
     t0 = time.perf_counter()
     if deadline.passed():
         return None
     sol = result.solution
+    if given_stands(result.camera, result.obs.x, result.obs.y, sol.obs_index,
+                    database.vectors[sol.cat_index]):
+        # the nominal camera was right: the answer made through it stands as it is
+        spent = (time.perf_counter() - t0) * 1000.0
+        return FovResult(dataclasses.replace(sol, identify_ms=sol.identify_ms + spent),
+                         result.camera, result.obs, result.catalog, result.match_radius_px)
     k = min(REFIT_HYPOTHESIS_STARS, len(sol.obs_index))
     brightest = np.argsort(sol.obs_index)[:k]
     hyp = Hypothesis(sol.obs_index[brightest], sol.cat_index[brightest])

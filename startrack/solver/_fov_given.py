@@ -1,0 +1,121 @@
+"""The nominal camera kept where the data do not reject it: a camera given exactly (a
+simulated frame's sidecar, a calibrated camera file) is reported as given, not as a fitted
+focal length and k1 a few parts in 1e4 off; where the nominal FOV was right, the answer
+made through it stands without a refit (:func:`given_stands`, :func:`through_given`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from startrack._core.fov_fit import camera_residuals
+from startrack.camera._model import Camera
+from startrack.database import StarDatabase
+from startrack.errors import InputError
+from startrack.solver._calibrate_sigma import SIGNIFICANCE
+from startrack.solver._fov_fit import fit_camera
+from startrack.types import Hypothesis, Observation
+from startrack.verify._verification import Verification, VerifyConfig, verify
+
+#: the given camera stands unless the fitted one lowers the matched stars' chi-square
+#: by more than a 3-sigma chance would (the calibrate rule, startrack.solver._calibrate_sigma):
+#: the two-sided normal tail, erfc(3 / sqrt(2))
+GIVEN_REJECT_P = math.erfc(SIGNIFICANCE / math.sqrt(2.0))
+#: the chi-square quantile of GIVEN_REJECT_P for the 1 or 2 parameters fitted (the focal
+#: length, and k1), in closed form (not scipy.stats, whose import costs a few tenths of a
+#: second in every identify process): one degree of freedom is a squared normal, so its
+#: quantile is SIGNIFICANCE squared; two are an exponential of mean 2
+_GIVEN_REJECT_CHI2 = {1: SIGNIFICANCE**2, 2: -2.0 * math.log(GIVEN_REJECT_P)}
+#: stars of an accepted answer used as the hypothesis when its FOV is refitted or its
+#: given camera verified again: the rest of the frame is the independent evidence
+#: verification counts
+REFIT_HYPOTHESIS_STARS = 4
+
+
+def _given_kept(given: Camera, fitted: Camera, n_pairs: int, given_sq, fit_sq: float) -> bool:
+    """Whether ``n_pairs`` matched stars do not reject the ``given`` camera for the
+    ``fitted`` one: the drop in their squared residuals (``given_sq()``, called only when
+    needed, against ``fit_sq``), over the noise the fitted residuals show, within the
+    chi-square quantile of :data:`GIVEN_REJECT_P` for the parameters fitted. False when
+    too few stars tell the cameras apart (or solve Wahba's problem)."""
+    n_params = 1 + int(fitted.distortion != given.distortion)
+    dof = n_pairs * 2 - 3 - n_params
+    if dof <= 0 or not fit_sq > 0.0:
+        return False
+    return (given_sq() - fit_sq) / (fit_sq / dof) <= _GIVEN_REJECT_CHI2[n_params]
+
+
+def given_stands(given: Camera, x: np.ndarray, y: np.ndarray, obs_index: np.ndarray,
+                 cat_vectors: np.ndarray) -> bool:
+    """Whether an answer made through the ``given`` camera (its observed stars
+    ``obs_index`` of pixels ``x``, ``y`` matched to ``cat_vectors``) stands as it is: the
+    camera fitted to those pairs (:func:`fit_camera`) does not fit them significantly
+    better (the rule of :func:`keep_given`), each camera at its own Wahba attitude of the
+    pairs. A nominal FOV that was right then needs no refit and no second verification."""
+    obs_index = np.ascontiguousarray(obs_index, dtype=np.int64)
+    cat = np.ascontiguousarray(cat_vectors, dtype=np.float64)
+    x, y = np.ascontiguousarray(x, dtype=np.float64), np.ascontiguousarray(y, dtype=np.float64)
+    try:
+        fitted = fit_camera(given, x[obs_index], y[obs_index], cat)
+    except InputError:  # a fitted lens folding back inside the image: let the refit say
+        return False
+    if not (fitted.f_px > 0 and math.isfinite(fitted.f_px)):
+        return False
+
+    def squared(camera: Camera) -> float:
+        return float(np.sum(camera_residuals(camera.optics, x, y, obs_index, cat) ** 2))
+
+    return _given_kept(given, fitted, len(obs_index), lambda: squared(given), squared(fitted))
+
+
+def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
+               sigma_px: float, database: StarDatabase, config: VerifyConfig,
+               ) -> tuple[Verification, Camera, Observation]:
+    """``found`` (from :func:`verify_fitted`) with the ``given`` camera put back when the
+    data do not reject it: a camera given exactly (a simulated frame's sidecar) is reported
+    as given, not as a fitted focal length and k1 a few parts in 1e4 off. Rejected means
+    the fit's drop in the squared residuals of the matched stars, over the noise the
+    fitted residuals show, exceeds the chi-square quantile of :data:`GIVEN_REJECT_P` for
+    the parameters fitted; the given camera must also pass verification again, with the
+    :data:`REFIT_HYPOTHESIS_STARS` brightest matched stars as the hypothesis (the rest of
+    the frame is the independent evidence, as when a FOV is refitted)."""
+    check, fitted, obs = found
+    if fitted == given:
+        return found
+    cat = np.ascontiguousarray(database.vectors[check.cat_index], dtype=np.float64)
+    x, y = np.ascontiguousarray(obs.x), np.ascontiguousarray(obs.y)
+    obs_index = np.ascontiguousarray(check.obs_index, dtype=np.int64)
+
+    def squared(camera: Camera) -> float:
+        # the matched stars through ``camera`` at their own Wahba attitude, one call
+        return float(np.sum(camera_residuals(camera.optics, x, y, obs_index, cat) ** 2))
+
+    # the fitted camera's residuals are its verification's own when it checked ``obs``:
+    # the same Wahba fit of the same pairs (its final attitude), the same angles
+    fit_sq = float(np.sum(check.residual_arcsec ** 2)) if check.obs_vectors is obs.vectors \
+        else squared(fitted)
+    if not _given_kept(given, fitted, len(check.obs_index), lambda: squared(given), fit_sq):
+        return found
+    given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
+    first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]
+    hyp = Hypothesis(check.obs_index[first], check.cat_index[first])
+    again = verify(hyp, given_obs, database, config)
+    # as refit_fov: an answer labelling fewer than 3 stars has no attitude to stand on
+    return (again, given, given_obs) if again.accepted and len(again.obs_index) >= 3 \
+        else found
+
+
+def through_given(hyp: Hypothesis, x, y, given: Camera, sigma_px: float,
+                   database: StarDatabase, config: VerifyConfig):
+    """``hyp`` verified through the nominal camera ``given``: (verification, camera, obs)
+    when accepted with at least 3 stars and the camera fitted to them does not fit them
+    significantly better (:func:`given_stands`); else None. A nominal FOV that is right
+    then costs one verification, not the fit-and-verify rounds and a second check of the
+    nominal camera (:func:`keep_given`)."""
+    obs = Observation.from_pixels(x, y, given, sigma_px)
+    check = verify(hyp, obs, database, config)
+    if not check.accepted or len(check.obs_index) < 3 or not given_stands(
+            given, x, y, check.obs_index, database.vectors[check.cat_index]):
+        return None
+    return check, given, obs
