@@ -18,6 +18,7 @@ import startrack._core.pyramid as pyramid_core
 
 import startrack.matchers.quad as quad
 import startrack.solver._fov_fit as fov_fit
+import startrack.solver._fov_given as fov_given
 import startrack.verify._frame as frame_verifier
 
 SECONDS: dict[str, float] = defaultdict(float)
@@ -63,8 +64,8 @@ def install() -> None:
     quad.first_confirmed = _clocked(quad.first_confirmed, "quad search (first_confirmed)")
     pyramid_core.search = _clocked(pyramid_core.search, "pyramid search")
     fov_fit.fit_focal_kernel = _clocked(fov_fit.fit_focal_kernel, "camera fit (fit_focal)")
-    fov_fit.camera_residuals = _clocked(fov_fit.camera_residuals,
-                                        "camera chi-square (camera_residuals)")
+    fov_given.camera_residuals = _clocked(fov_given.camera_residuals,
+                                          "camera chi-square (camera_residuals)")
     fov_fit.FittedRounds = _clocked_class(fov_fit.FittedRounds, "fitted rounds: set-up",
                                           {"run": "fitted rounds: run"})
     frame_verifier.Frame = _clocked(frame_verifier.Frame, "verifier: frame set-up")

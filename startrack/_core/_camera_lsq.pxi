@@ -141,10 +141,11 @@ cdef int _least_squares(const Lens* described, const double[:, ::1] cat, double[
                         int n_params, int iterations, double[:, ::1] trial,
                         double* cost) noexcept nogil:
     """Gauss-Newton from ``rot``, ``f``, ``k1`` (all updated in place), at most
-    ``iterations`` steps, each halved until it lowers the squared residuals; ends when a
-    step no longer moves any parameter beyond rounding or none lowers them. Returns how
-    many steps were taken (-1: the normal equations were singular at the start); the
-    sum of the squared residuals reached into ``cost``."""
+    ``iterations`` steps, each halved (up to 10 times) until it lowers the squared
+    residuals; ends when a step would move no parameter beyond rounding, lowers them by
+    no more than rounding, or none lowers them. Returns how many steps were taken (-1:
+    the normal equations were singular at the start); the sum of the squared residuals
+    reached into ``cost``."""
     cdef _Normal here, there
     cdef double step[_MAX_PARAMS]
     cdef double f_new, k1_new
@@ -155,8 +156,12 @@ cdef int _least_squares(const Lens* described, const double[:, ::1] cat, double[
     for it in range(iterations):
         if not _solve_normal(&here, n_params, step):
             return -1 if it == 0 else it
+        if (fabs(step[3]) <= 1e-13 * fabs(f[0])
+                and fabs(step[0]) + fabs(step[1]) + fabs(step[2]) <= 1e-13
+                and (n_params < 5 or fabs(step[4]) <= 1e-13)):
+            return it  # settled: the step is rounding
         lowered = False
-        for halvings in range(30):
+        for halvings in range(10):
             _turned(rot, step, trial)
             f_new = f[0] + step[3]
             k1_new = k1[0] + step[4] if n_params == 5 else k1[0]
@@ -170,10 +175,9 @@ cdef int _least_squares(const Lens* described, const double[:, ::1] cat, double[
             return it
         for p in range(3):
             rot[p, 0], rot[p, 1], rot[p, 2] = trial[p, 0], trial[p, 1], trial[p, 2]
+        lowered = here.cost - there.cost > 1e-14 * here.cost
         f[0], k1[0], here = f_new, k1_new, there
         cost[0] = here.cost
-        if (fabs(step[3]) <= 1e-12 * fabs(f[0])
-                and fabs(step[0]) + fabs(step[1]) + fabs(step[2]) <= 1e-14
-                and (n_params < 5 or fabs(step[4]) <= 1e-12)):
-            return it + 1
+        if not lowered:
+            return it + 1  # settled: the residuals moved by rounding
     return iterations
