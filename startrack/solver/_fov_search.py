@@ -66,11 +66,19 @@ def _check(deadline: Deadline) -> None:
 
 def _solution(check: Verification, obs: Observation, database: StarDatabase, method: str,
               diag: MatchDiagnostics, t0: float) -> Solution:
-    order = np.argsort(check.obs_index)
-    obs_index, cat_index = check.obs_index[order], check.cat_index[order]
+    """The Solution of an accepted verification of ``obs``: its pairs and residuals as it
+    measured them when it checked ``obs`` itself (pairs ascending), as an exact FOV's
+    answer takes them (:func:`startrack.solver._lost_in_space.identify`), else measured
+    here."""
     rotation = check.rotation
-    return Solution(True, method, rotation, obs_index, cat_index,
-                    residuals_arcsec(rotation, obs, obs_index, database.vectors[cat_index]),
+    if check.residual_arcsec is not None and check.obs_vectors is obs.vectors:
+        obs_index, cat_index, residuals = (check.obs_index, check.cat_index,
+                                           check.residual_arcsec)
+    else:
+        order = np.argsort(check.obs_index)
+        obs_index, cat_index = check.obs_index[order], check.cat_index[order]
+        residuals = residuals_arcsec(rotation, obs, obs_index, database.vectors[cat_index])
+    return Solution(True, method, rotation, obs_index, cat_index, residuals,
                     check.false_probability, diag, (time.perf_counter() - t0) * 1000.0)
 
 
