@@ -111,7 +111,8 @@ def bench_method(name: str, database: StarDatabase, frames: list[Frame], max_sta
 def pipeline_solver(name: str, camera: Camera, spec: SkySpec, fov_error: float,
                     fov_tolerance: float, max_stars: int, sigma_px: float):
     """A function solving one :class:`Frame` as ``startrack identify`` does, told the FOV
-    ``fov_error`` off (a fraction) and good to ``fov_tolerance``: its FrameResult."""
+    ``fov_error`` off (a fraction) and good to ``fov_tolerance``: its FrameResult, after
+    the evidence gate every answer a user sees has passed (``Pipeline.solve``)."""
     pipeline = Pipeline(Options(method=name, fov_deg=camera.fov_deg * (1.0 + fov_error),
                                 size=(camera.width, camera.height), sky=spec.kind,
                                 mag_limit=spec.mag_limit, max_stars=max_stars,
@@ -120,7 +121,7 @@ def pipeline_solver(name: str, camera: Camera, spec: SkySpec, fov_error: float,
     def solve(frame: Frame):
         obs = frame.obs
         ranks = np.arange(len(obs), 0, -1.0)  # listed brightest first
-        return pipeline.identify_frame(FrameInput("frame", Centroids(
+        return pipeline.solve(FrameInput("frame", Centroids(
             obs.x, obs.y, ranks, photometric=False)))
 
     return solve
