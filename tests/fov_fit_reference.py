@@ -4,18 +4,17 @@ minus the focal length times the lens applied to the catalog direction on the ta
 plane), the same start (Wahba's attitude from the pixels at the given focal length),
 minimised by ``scipy.optimize.least_squares`` over a rotation vector, the focal length
 and, for an undescribed lens, k1 within its bound, kept only where it lowers the squared
-residuals by more than ``K1_CHI2`` times their variance."""
+residuals by more than ``LENS_K1_CHI2`` times their variance."""
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
-from startrack._core.fov_fit import K1_CHI2
 
 from startrack.attitude import wahba_matrices
 from startrack.camera._model import Camera
-from startrack.solver._fov_fit import LENS_MAX_K1, LENS_MIN_R2, LENS_MIN_STARS
+from startrack.solver._fov_fit import LENS_K1_CHI2, LENS_MAX_K1, LENS_MIN_R2, LENS_MIN_STARS
 
 
 def pixel_residuals(camera: Camera, rot: np.ndarray, f: float, k1: float, x: np.ndarray,
@@ -63,8 +62,8 @@ def reference_fit(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.
     found = least_squares(residuals, np.array([0.0, 0.0, 0.0, camera.f_px, 0.0]),
                           bounds=bounds, method="trf", x_scale="jac", **tight)
     cost = float(np.sum(found.fun**2))
-    # k1 stands only where it lowers the residuals by more than K1_CHI2 variances
+    # k1 stands only where it lowers the residuals by more than LENS_K1_CHI2 variances
     dof = 2 * len(x) - 5
-    if dof <= 0 or (plain_cost - cost) * dof <= K1_CHI2 * cost:
+    if dof <= 0 or (plain_cost - cost) * dof <= LENS_K1_CHI2 * cost:
         return float(plain.x[3]), 0.0, plain_cost
     return float(found.x[3]), float(found.x[4]), cost

@@ -51,7 +51,8 @@ cdef struct FitFrame:
 cdef struct FitConstants:
     # The solver's constants: the labelling's resolve_px and resolve_sigmas; the cone's
     # CONE_MARGIN, CONE_LOOKUP_MARGIN and CONE_REUSE_FRACTION; fit_camera's
-    # LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1 and iterations; REFIT_ROUNDS; and
+    # LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1, LENS_K1_CHI2 and FIT_ITERATIONS;
+    # REFIT_ROUNDS; and
     # math.radians(1.0) and math.degrees(1.0) (what those functions multiply by).
     double resolve_px
     double resolve_sigmas
@@ -61,6 +62,7 @@ cdef struct FitConstants:
     Py_ssize_t lens_min_stars
     double lens_min_r2
     double lens_max_k1
+    double lens_k1_chi2
     int iterations
     int rounds
     double rad
@@ -154,7 +156,8 @@ cdef class FittedRounds:
                                                       self.catalog[r[k], 2])
             status = fit_geometry(&g, fx, fy, fcat, self.c.iterations,
                                   not described and m >= self.c.lens_min_stars,
-                                  self.c.lens_min_r2, self.c.lens_max_k1, &f_new, &k1_new)
+                                  self.c.lens_min_r2, self.c.lens_max_k1,
+                                  self.c.lens_k1_chi2, &f_new, &k1_new)
             if status == _FOLDS:  # Camera.with_distortion's refusal, the same test
                 return 0
             g.f_px = f_new  # Camera.with_focal

@@ -13,4 +13,5 @@ cdef enum:
 
 cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] y,
                       const double[:, ::1] cat, int iterations, bint with_k1,
-                      double min_r2, double max_k1, double* f_out, double* k1_out)
+                      double min_r2, double max_k1, double k1_chi2, double* f_out,
+                      double* k1_out)

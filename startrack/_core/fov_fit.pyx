@@ -28,13 +28,6 @@ from startrack._core.camera cimport Optics, unit_vectors
 #: the image.
 SETTLED, BAD_FOCAL, FOLDS = _SETTLED, _BAD_FOCAL, _FOLDS
 
-#: a fitted k1 stands only where it lowers the squared pixel residuals by more than this
-#: many times their variance: the 1-degree-of-freedom chi-square of the 3-sigma rule
-#: (startrack.solver._calibrate_sigma.SIGNIFICANCE squared). A pinhole's k1 fitted to
-#: noise would otherwise bend the camera and move the attitude (tens of arcseconds at 2 px).
-cdef double _K1_CHI2 = 9.0
-K1_CHI2 = _K1_CHI2
-
 cnp.import_array()  # the C API the _arrays helpers call
 
 
@@ -93,23 +86,25 @@ include "_camera_lsq.pxi"
 
 def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
               const double[:, ::1] cat, int iterations, bint with_k1, double min_r2,
-              double max_k1):
+              double max_k1, double k1_chi2):
     """The attitude, focal length (and k1) whose projection of the catalog directions
     ``cat`` best fits the pixels ``x``, ``y`` in least squares, from ``optics``'s focal
     length and the Wahba attitude there, in at most ``iterations`` Gauss-Newton steps.
-    A described lens (``optics.lens``) is applied as it is; ``with_k1``: fit the k1 of an undescribed one when the stars reach r^2 =
-    ``min_r2``, within +-``max_k1``. Returns (SETTLED, BAD_FOCAL or FOLDS; the focal
+    A described lens (``optics.lens``) is applied as it is; ``with_k1``: fit the k1 of
+    an undescribed one when the stars reach r^2 = ``min_r2``, within +-``max_k1``, kept
+    where it lowers the squared residuals by more than ``k1_chi2`` variances. Returns (SETTLED, BAD_FOCAL or FOLDS; the focal
     length; the fitted k1)."""
     cdef Geometry g = optics.geometry
     cdef double f, k1
     cdef int status = fit_geometry(&g, x, y, cat, iterations, with_k1, min_r2, max_k1,
-                                   &f, &k1)
+                                   k1_chi2, &f, &k1)
     return status, f, k1
 
 
 cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] y,
                       const double[:, ::1] cat, int iterations, bint with_k1,
-                      double min_r2, double max_k1, double* f_out, double* k1_out):
+                      double min_r2, double max_k1, double k1_chi2, double* f_out,
+                      double* k1_out):
     """:func:`fit_focal` of the camera ``g`` (C callers: the fitted rounds of
     ``startrack._core.fitted_rounds``): the status, the focal length and k1 into
     ``f_out`` and ``k1_out``."""
@@ -139,7 +134,7 @@ cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] 
     if steps >= 0:  # a k1 stands only where it lowers the residuals significantly
         if _least_squares(&described, cat, plain, dx, dy, &f_plain, &k1_plain, 4,
                           iterations, trial, &cost_plain) >= 0 \
-                and not _k1_significant(cost_plain, cost, 2 * m - 5):
+                and not _k1_significant(cost_plain, cost, 2 * m - 5, k1_chi2):
             f, k1 = f_plain, 0.0
     elif _least_squares(&described, cat, plain, dx, dy, &f_plain, &k1_plain, 4,
                         iterations, trial, &cost_plain) >= 0:
@@ -154,13 +149,13 @@ cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] 
     return SETTLED
 
 
-cdef inline bint _k1_significant(double cost_plain, double cost_k1,
-                                 Py_ssize_t dof) noexcept nogil:
+cdef inline bint _k1_significant(double cost_plain, double cost_k1, Py_ssize_t dof,
+                                 double k1_chi2) noexcept nogil:
     """Whether fitting k1 lowered the squared residuals from ``cost_plain`` to ``cost_k1``
-    by more than chance would (``K1_CHI2`` times the variance per degree of freedom)."""
+    by more than chance would (``k1_chi2`` times the variance per degree of freedom)."""
     if dof <= 0:
         return False
-    return (cost_plain - cost_k1) * dof > _K1_CHI2 * cost_k1
+    return (cost_plain - cost_k1) * dof > k1_chi2 * cost_k1
 
 
 def camera_residuals(Optics optics, const double[::1] x, const double[::1] y,

@@ -14,6 +14,7 @@ from startrack._core.fov_fit import fit_focal as fit_focal_kernel
 from startrack.camera._distortion import RadialDistortion
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
+from startrack.solver._calibrate_sigma import SIGNIFICANCE
 from startrack.types import Hypothesis, Observation
 from startrack.verify._frame import (
     CAPTURE,
@@ -38,27 +39,35 @@ LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1 = 6, 0.04, 0.3
 BRIGHTEST = 16
 #: ... only when the whole frame confirmed at least this many stars (fewer cannot pass)
 BRIGHTEST_MIN_CONFIRMED = 3
+#: a fitted k1 stands only where it lowers the squared pixel residuals by more than this
+#: many times their variance: the 1-degree-of-freedom chi-square of the 3-sigma rule
+#: (startrack.solver._calibrate_sigma). A pinhole's k1 fitted to noise would bend the
+#: camera and move the attitude (tens of arcseconds at 2 px).
+LENS_K1_CHI2 = SIGNIFICANCE**2
+#: Gauss-Newton steps of a camera fit at most (it settles in a few where the stars fix it)
+FIT_ITERATIONS = 12
 #: fit-and-verify rounds at most; they stop once a round matches the same stars as the one
 #: before (the next fit would start from its own optimum)
 REFIT_ROUNDS = 3
 
 
 def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
-              iterations: int = 12) -> float:
+              iterations: int = FIT_ITERATIONS) -> float:
     """The focal length (px) of :func:`fit_camera` with the lens left as it is."""
     return _fit(camera, x, y, cat_vectors, iterations, False)[1]  # no Camera made
 
 
 def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
-               iterations: int = 12, lens: bool = True) -> Camera:
+               iterations: int = FIT_ITERATIONS, lens: bool = True) -> Camera:
     """``camera`` with the focal length that, with its best attitude, fits the pixels
     ``x``, ``y`` to the catalog directions: the least squares of ``pixel - centre = f *
     D(tangent-plane position)`` (D the lens model) over the attitude and the focal length
     together, from Wahba's attitude at the given focal length, in at most ``iterations``
     Gauss-Newton steps (compiled: :func:`startrack._core.fov_fit.fit_focal`).
     With ``lens``, a pinhole ``camera`` and at least ``LENS_MIN_STARS`` stars reaching
-    ``LENS_MIN_R2``, the radial ``k1`` too (``f k1`` is linear as well): a lens nobody
-    described still has its wide-field stars fitted. A focal length that is not positive
+    ``LENS_MIN_R2``, the radial ``k1`` too, where it lowers the residuals by more than
+    ``LENS_K1_CHI2`` variances: a lens nobody described still has its wide-field stars
+    fitted. A focal length that is not positive
     and finite comes back as it is; a fitted lens that folds back inside the image is an
     :class:`InputError`, as :meth:`Camera.with_distortion` makes it. A k1 beyond
     +-``LENS_MAX_K1`` is held at that bound and the rest fitted again."""
@@ -76,7 +85,7 @@ def _fit(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
     return fit_focal_kernel(camera.optics, np.ascontiguousarray(x, dtype=np.float64),
                             np.ascontiguousarray(y, dtype=np.float64),
                             np.ascontiguousarray(cat_vectors, dtype=np.float64),
-                            iterations, with_k1, LENS_MIN_R2, LENS_MAX_K1)
+                            iterations, with_k1, LENS_MIN_R2, LENS_MAX_K1, LENS_K1_CHI2)
 
 
 def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
@@ -203,5 +212,6 @@ _CONSTANTS = {"resolve_px": float(LabelConfig().resolve_px),
               "resolve_sigmas": LabelConfig().resolve_sigmas, "cone_margin": CONE_MARGIN,
               "lookup_margin": CONE_LOOKUP_MARGIN, "reuse_fraction": CONE_REUSE_FRACTION,
               "lens_min_stars": LENS_MIN_STARS, "lens_min_r2": LENS_MIN_R2,
-              "lens_max_k1": LENS_MAX_K1, "iterations": 12,  # fit_camera's default
+              "lens_max_k1": LENS_MAX_K1, "lens_k1_chi2": LENS_K1_CHI2,
+              "iterations": FIT_ITERATIONS,
               "rounds": REFIT_ROUNDS, "rad": math.radians(1.0), "deg": math.degrees(1.0)}

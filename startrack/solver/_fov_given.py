@@ -101,21 +101,19 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]
     hyp = Hypothesis(check.obs_index[first], check.cat_index[first])
     again = verify(hyp, given_obs, database, config)
-    # as refit_fov: an answer labelling fewer than 3 stars has no attitude to stand on
-    return (again, given, given_obs) if again.accepted and len(again.obs_index) >= 3 \
-        else found
+    return (again, given, given_obs) if again.accepted else found
 
 
 def through_given(hyp: Hypothesis, x, y, given: Camera, sigma_px: float,
                    database: StarDatabase, config: VerifyConfig):
     """``hyp`` verified through the nominal camera ``given``: (verification, camera, obs)
-    when accepted with at least 3 stars and the camera fitted to them does not fit them
+    when accepted and the camera fitted to its stars does not fit them
     significantly better (:func:`given_stands`); else None. A nominal FOV that is right
     then costs one verification, not the fit-and-verify rounds and a second check of the
     nominal camera (:func:`keep_given`)."""
     obs = Observation.from_pixels(x, y, given, sigma_px)
     check = verify(hyp, obs, database, config)
-    if not check.accepted or len(check.obs_index) < 3 or not given_stands(
+    if not check.accepted or not given_stands(
             given, x, y, check.obs_index, database.vectors[check.cat_index]):
         return None
     return check, given, obs

@@ -288,9 +288,7 @@ def refit_fov(result, database: StarDatabase, config: VerifyConfig,
                         len(sol.obs_index) - k)
     found = verify_fitted(hyp, result.obs.x, result.obs.y, result.camera, result.sigma_px,
                           database, config, held)
-    # An answer whose final labelling keeps fewer than 3 stars has no fitted attitude
-    # to stand on (seen at a nominal FOV 0.7% off): the search decides instead.
-    if found is None or len(found[0].obs_index) < 3:
+    if found is None:
         return None
     found = keep_given(found, result.camera, result.sigma_px, database, config)
     fitted = _result(found, result.catalog, sol.method, sol.diagnostics, t0, config, database)
