@@ -59,15 +59,35 @@ def _clocked_class(cls, name: str, methods: dict[str, str]):
     return make
 
 
+def _clocked_rounds(cls):
+    """The fitted rounds' class, each frame's copy (``with_pixels``) clocked as its
+    set-up and its calls as the rounds and the pattern's camera fit."""
+    methods = {"run": "fitted rounds: run", "pattern_focal": "camera fit (pattern_focal)"}
+
+    class Template:
+        def __init__(self, *args, **kwargs) -> None:
+            self._inner = cls(*args, **kwargs)
+
+        def with_pixels(self, x, y):
+            t0 = time.perf_counter()
+            copy = self._inner.with_pixels(x, y)
+            SECONDS["fitted rounds: set-up"] += time.perf_counter() - t0
+            CALLS["fitted rounds: set-up"] += 1
+            return _ClockedMethods(copy, methods)
+
+    return Template
+
+
 def install() -> None:
     """Wrap the entry points (once per process)."""
     quad.first_confirmed = _clocked(quad.first_confirmed, "quad search (first_confirmed)")
     pyramid_core.search = _clocked(pyramid_core.search, "pyramid search")
     fov_fit.fit_focal_kernel = _clocked(fov_fit.fit_focal_kernel, "camera fit (fit_focal)")
-    fov_given.camera_residuals = _clocked(fov_given.camera_residuals,
-                                          "camera chi-square (camera_residuals)")
-    fov_fit.FittedRounds = _clocked_class(fov_fit.FittedRounds, "fitted rounds: set-up",
-                                          {"run": "fitted rounds: run"})
+    fov_given.squared_residuals = _clocked(fov_given.squared_residuals,
+                                           "camera chi-square (squared_residuals)")
+    fov_given.fit_against = _clocked(fov_given.fit_against,
+                                     "camera fit and chi-squares (fit_against)")
+    fov_fit.FittedRounds = _clocked_rounds(fov_fit.FittedRounds)
     frame_verifier.Frame = _clocked(frame_verifier.Frame, "verifier: frame set-up")
     frame_verifier.Verifier = _clocked_class(frame_verifier.Verifier,
                                              "verifier: set-up", {"check": "verification"})

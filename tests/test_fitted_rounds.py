@@ -167,7 +167,7 @@ def test_the_rounds_thresholds_are_the_frame_verifiers(config, lens):
     db = StarDatabase(random_sky(500, seed=1), base.pinhole)
     rng = np.random.default_rng(1)
     x, y = rng.uniform(0, 1280, 30), rng.uniform(0, 960, 30)
-    rounds = _fov_fit._rounds_for(x, y, base, 0.7, db, config)
+    rounds = _fov_fit.rounds_for(x, y, base, 0.7, db, config)
     for f in base.f_px * np.array([0.9, 0.999, 1.0, 1.0137, 1.2]):
         camera = base.with_focal(f)
         k1 = -0.02 if lens == "fitted" else 0.0

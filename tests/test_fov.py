@@ -18,7 +18,8 @@ from startrack.database import quads as Q
 from startrack.outputs._records import frame_record
 from startrack.simulate._scene import stars_in_view
 from startrack.sky import SkySpec, load_sky
-from startrack.solver._fov_search import BlindSolver, fit_focal, focal_range
+from startrack.solver._fov_fit import fit_focal
+from startrack.solver._fov_search import BlindSolver, focal_range
 from startrack.solver._fov_windows import windows
 from startrack.solver._pipeline import FrameInput, Options, Pipeline
 

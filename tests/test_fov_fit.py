@@ -16,7 +16,10 @@ from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.sky import random_sky
 from startrack.solver._fov_fit import (
+    FIT_ITERATIONS,
+    LENS_K1_CHI2,
     LENS_MAX_K1,
+    LENS_MIN_R2,
     LENS_MIN_STARS,
     fit_camera,
     fit_focal,
@@ -234,9 +237,11 @@ def test_the_given_cameras_rejection_thresholds_are_scipys_quantiles():
 
 @pytest.mark.parametrize("distortion", [None, RadialDistortion(k1=-0.05, k2=0.01)])
 def test_a_cameras_residuals_are_the_python_composition_bit_for_bit(distortion):
-    """keep_given's chi-square of a camera (camera_residuals): pixel_to_vector, the Wahba
-    attitude of the matched pairs and their residuals, as the Python calls compose them."""
-    from startrack._core.fov_fit import camera_residuals
+    """keep_given's chi-square of a camera (squared_residuals): pixel_to_vector, the Wahba
+    attitude of the matched pairs and their residuals, as the Python calls compose them,
+    squared and summed in order; and given_stands' one call (fit_against): fit_camera's
+    camera and both cameras' chi-squares."""
+    from startrack._core.fov_fit import SETTLED, fit_against, squared_residuals
 
     camera = Camera.from_fov(1024, 768, 20.0, distortion=distortion)
     db = StarDatabase(random_sky(3000, seed=3), camera.pinhole)
@@ -244,16 +249,38 @@ def test_a_cameras_residuals_are_the_python_composition_bit_for_bit(distortion):
     frame = synthetic_frame(db.catalog, camera, random_attitudes(1, rng)[0], rng,
                             noise_px=0.5, false_stars=2)
     obs_index = np.flatnonzero(frame.truth_rows >= 0)
-    cat = np.ascontiguousarray(db.vectors[frame.truth_rows[obs_index]])
+    rows = frame.truth_rows[obs_index].astype(np.int64)
+    cat = np.ascontiguousarray(db.vectors[rows])
     x, y = frame.obs.x, frame.obs.y
+
+    def composed(cam: Camera) -> np.ndarray:
+        obs = Observation.from_pixels(x, y, cam, 0.5)
+        matrix = wahba(np.ascontiguousarray(obs.vectors[obs_index]), cat)
+        return residuals_arcsec(matrix, obs, obs_index, cat)
+
+    def in_order(residuals: np.ndarray) -> float:
+        total = 0.0
+        for r in residuals.tolist():
+            total += r * r
+        return total
+
     told = camera.with_focal(camera.f_px * 1.003)
-    got = camera_residuals(told.optics, x, y, obs_index, cat)
-    obs = Observation.from_pixels(x, y, told, 0.5)
-    matrix = wahba(np.ascontiguousarray(obs.vectors[obs_index]), cat)
-    want = residuals_arcsec(matrix, obs, obs_index, cat)
-    assert got.tobytes() == want.tobytes() and len(got) >= 10
-    assert np.median(got) > 1.0  # a focal length 0.3% off shows in the residuals
+    want = composed(told)
+    got = squared_residuals(told.optics, x, y, obs_index, rows, db.vectors)
+    assert got == in_order(want) and len(want) >= 10
+    assert np.median(want) > 1.0  # a focal length 0.3% off shows in the residuals
+    fitted = fit_camera(told, x[obs_index], y[obs_index], cat)
+    status, f, k1, told_sq, fit_sq = fit_against(
+        told.optics, x, y, obs_index, cat, FIT_ITERATIONS, distortion is None,
+        LENS_MIN_R2, LENS_MAX_K1, LENS_K1_CHI2)
+    assert status == SETTLED and f == fitted.f_px and told_sq == got
+    assert k1 == (0.0 if fitted.distortion == told.distortion else fitted.distortion.k1)
+    assert fit_sq == in_order(composed(fitted)) and fit_sq < told_sq / 2
     with pytest.raises(IndexError):
-        camera_residuals(told.optics, x, y, obs_index + len(x), cat)
+        squared_residuals(told.optics, x, y, obs_index + len(x), rows, db.vectors)
+    with pytest.raises(IndexError):
+        squared_residuals(told.optics, x, y, obs_index, rows + len(db.vectors), db.vectors)
     with pytest.raises(ValueError):
-        camera_residuals(told.optics, x, y[:-1], obs_index, cat)
+        squared_residuals(told.optics, x, y[:-1], obs_index, rows, db.vectors)
+    with pytest.raises(ValueError):
+        fit_against(told.optics, x, y, obs_index, cat[:-1], 12, False, 0.04, 0.3, 9.0)

@@ -110,6 +110,44 @@ cdef class FittedRounds:
         if self.mags.shape[0] != table.vectors.shape[0]:
             raise ValueError("FittedRounds: one magnitude per catalog star")
 
+    def with_pixels(self, x, y):
+        """These rounds for another frame's pixels ``x``, ``y`` (float64, contiguous),
+        everything else shared: a camera, sky and settings make their rounds once, and
+        each frame takes a copy."""
+        cdef FittedRounds copy = FittedRounds.__new__(FittedRounds)
+        copy.x_array, copy.y_array, copy.x, copy.y = x, y, x, y
+        if copy.x.shape[0] != copy.y.shape[0]:
+            raise ValueError("FittedRounds: x and y of unequal lengths")
+        copy.base, copy.described, copy.values = self.base, self.described, self.values
+        copy.c, copy.params = self.c, self.params
+        copy.table, copy.mags_array, copy.mags = self.table, self.mags_array, self.mags
+        copy.catalog = self.catalog
+        return copy
+
+    def pattern_focal(self, const long long[::1] hyp_obs, const long long[::1] hyp_rows,
+                      double f):
+        """The focal length fitted to the hypothesis' own stars from ``f``, the lens as
+        described and no k1 fitted (``fit_focal`` of their pixels and catalog vectors);
+        ``f`` itself where that fit is not positive and finite."""
+        cdef Py_ssize_t k, m = hyp_obs.shape[0]
+        if hyp_rows.shape[0] != m or not (_within(hyp_obs, self.x.shape[0])
+                                          and _within(hyp_rows, self.catalog.shape[0])):
+            raise IndexError("FittedRounds: a hypothesis' pairs must be as many stars as "
+                             "rows, each in range")
+        cdef double[::1] fx = empty_f64(m), fy = empty_f64(m)
+        cdef double[:, ::1] fcat = empty_rows(m, 3)
+        for k in range(m):
+            fx[k], fy[k] = self.x[hyp_obs[k]], self.y[hyp_obs[k]]
+            fcat[k, 0], fcat[k, 1], fcat[k, 2] = (self.catalog[hyp_rows[k], 0],
+                                                  self.catalog[hyp_rows[k], 1],
+                                                  self.catalog[hyp_rows[k], 2])
+        cdef CameraGeometry g = self.base
+        g.f_px = f
+        cdef double fitted, k1
+        fit_geometry(&g, fx, fy, fcat, self.c.iterations, False, self.c.lens_min_r2,
+                     self.c.lens_max_k1, self.c.lens_k1_chi2, &fitted, &k1)
+        return fitted if fitted > 0.0 and isfinite(fitted) else f
+
     def run(self, const long long[::1] hyp_obs, const long long[::1] hyp_rows, double f,
             held_obs=None, held_rows=None, Py_ssize_t held_confirmed=0):
         """The rounds of hypothesis ``hyp_obs`` -> ``hyp_rows`` from the focal length

@@ -10,7 +10,7 @@ steps on 4 or 5 parameters. ``tests/test_fov_fit.py`` holds it to scipy's
 """
 
 cimport cython
-from libc.math cimport INFINITY, cos, fabs, isfinite, sin, sqrt
+from libc.math cimport INFINITY, NAN, cos, fabs, isfinite, sin, sqrt
 
 import numpy as np
 
@@ -158,24 +158,84 @@ cdef inline bint _k1_significant(double cost_plain, double cost_k1, Py_ssize_t d
     return (cost_plain - cost_k1) * dof > k1_chi2 * cost_k1
 
 
-def camera_residuals(Optics optics, const double[::1] x, const double[::1] y,
-                     const long long[::1] obs_index, const double[:, ::1] cat):
-    """The residuals (arcsec) of the observed stars ``obs_index`` (of pixels ``x``,
-    ``y`` through ``optics``) against their catalog vectors ``cat`` at the Wahba
-    attitude of those pairs: how well a camera fits the stars matched through another
-    (``keep_given``'s test). The same arithmetic as ``pixel_to_vector``, ``wahba`` and
-    ``residual_arcsec`` called one after the other, in one call."""
+def squared_residuals(Optics optics, const double[::1] x, const double[::1] y,
+                      const long long[::1] obs_index, const long long[::1] rows,
+                      const double[:, ::1] catalog):
+    """How well a camera fits the stars matched through another (``keep_given``'s
+    chi-square): the residuals (arcsec) of the observed stars ``obs_index`` (of pixels
+    ``x``, ``y`` through ``optics``) against the catalog rows ``rows`` of ``catalog`` at
+    the Wahba attitude of those pairs, squared and summed in order. The same arithmetic
+    as ``pixel_to_vector``, ``wahba`` and ``residual_arcsec`` called one after the
+    other, in one call."""
+    cdef Py_ssize_t k, m = rows.shape[0]
+    for k in range(m):
+        if not 0 <= rows[k] < catalog.shape[0]:
+            raise IndexError(f"squared_residuals: row {rows[k]} of {catalog.shape[0]}")
+    cdef double[:, ::1] cat = empty_rows(m, 3)
+    for k in range(m):
+        cat[k, 0], cat[k, 1], cat[k, 2] = (catalog[rows[k], 0], catalog[rows[k], 1],
+                                           catalog[rows[k], 2])
+    _check_pairs(x, y, obs_index, cat, "squared_residuals")
+    return _sum_squares(_residuals(&optics.geometry, x, y, obs_index, cat))
+
+
+def fit_against(Optics optics, const double[::1] x, const double[::1] y,
+                const long long[::1] obs_index, const double[:, ::1] cat, int iterations,
+                bint with_k1, double min_r2, double max_k1, double k1_chi2):
+    """The camera ``optics`` fitted to its matched stars ``obs_index`` (of pixels ``x``,
+    ``y``; catalog vectors ``cat``), as :func:`fit_focal` fits their pixels, and how well
+    each camera fits them: (status, focal length, k1, the given camera's squared
+    residuals, the fitted camera's), each as :func:`squared_residuals` sums them through
+    that camera; both sums NaN unless SETTLED.
+    ``given_stands``' test in one call."""
+    _check_pairs(x, y, obs_index, cat, "fit_against")
+    cdef Py_ssize_t k, m = obs_index.shape[0]
+    cdef double[::1] fx = empty_f64(m), fy = empty_f64(m)
+    for k in range(m):
+        fx[k], fy[k] = x[obs_index[k]], y[obs_index[k]]
+    cdef Geometry g = optics.geometry
+    cdef double f, k1
+    cdef int status = fit_geometry(&g, fx, fy, cat, iterations, with_k1, min_r2, max_k1,
+                                   k1_chi2, &f, &k1)
+    if status != SETTLED:
+        return status, f, k1, NAN, NAN
+    cdef double given_sq = _sum_squares(_residuals(&g, x, y, obs_index, cat))
+    g.f_px = f
+    if k1 != 0.0:  # the k1-only lens of the fit (RadialDistortion(k1=k1))
+        g.k1, g.k2, g.k3, g.max_r2 = k1, 0.0, 0.0, k1_fold_r2(k1)
+    return status, f, k1, given_sq, _sum_squares(_residuals(&g, x, y, obs_index, cat))
+
+
+cdef void _check_pairs(const double[::1] x, const double[::1] y,
+                       const long long[::1] obs_index, const double[:, ::1] cat,
+                       str caller) except *:
+    """Refuse pixels and pairs of unequal lengths or an observed index out of range."""
     cdef Py_ssize_t k, m = obs_index.shape[0], n = x.shape[0]
     if y.shape[0] != n or cat.shape[0] != m:
-        raise ValueError("camera_residuals: x and y, or obs_index and cat, of unequal lengths")
+        raise ValueError(f"{caller}: x and y, or obs_index and cat, of unequal lengths")
     for k in range(m):
         if not 0 <= obs_index[k] < n:
-            raise IndexError(f"camera_residuals: star {obs_index[k]} of {n}")
-    cdef const double[:, ::1] vec = unit_vectors(&optics.geometry, x, y)
+            raise IndexError(f"{caller}: star {obs_index[k]} of {n}")
+
+
+cdef double[::1] _residuals(const Geometry* g, const double[::1] x, const double[::1] y,
+                            const long long[::1] obs_index, const double[:, ::1] cat):
+    """The residuals (arcsec) of :func:`squared_residuals` through camera ``g``, its
+    pairs already checked."""
+    cdef Py_ssize_t k, m = obs_index.shape[0]
+    cdef const double[:, ::1] vec = unit_vectors(g, x, y)
     cdef double[:, ::1] matched = empty_rows(m, 3), rot = empty_rows(3, 3)
     for k in range(m):
         matched[k, 0], matched[k, 1], matched[k, 2] = (vec[obs_index[k], 0],
                                                        vec[obs_index[k], 1],
                                                        vec[obs_index[k], 2])
     wahba(matched, cat, rot)
-    return np.asarray(residual_arcsec(vec, obs_index, rot, cat))
+    return residual_arcsec(vec, obs_index, rot, cat)
+
+
+cdef double _sum_squares(const double[::1] a) noexcept:
+    cdef double total = 0.0
+    cdef Py_ssize_t k
+    for k in range(a.shape[0]):
+        total += a[k] * a[k]
+    return total

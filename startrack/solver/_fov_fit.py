@@ -154,7 +154,7 @@ def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
     refuses a hypothesis index (to wrap, or refuse, as :func:`startrack.verify.verify`
     does)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)  # from_pixels's
-    rounds = _rounds_for(x, y, camera, sigma_px, database, config)
+    rounds = rounds_for(x, y, camera, sigma_px, database, config)
     held = (None, None, 0) if accepted is None else (
         _as(accepted.obs_index, np.int64), _as(accepted.cat_index, np.int64),
         accepted.confirmed)
@@ -173,15 +173,28 @@ def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
     return check, fitted, obs
 
 
-def _rounds_for(x: np.ndarray, y: np.ndarray, camera: Camera, sigma_px: float,
+def rounds_for(x: np.ndarray, y: np.ndarray, camera: Camera, sigma_px: float,
                 database: StarDatabase, config: VerifyConfig) -> FittedRounds:
     """The compiled rounds of the stars at pixels ``x``, ``y`` (float64) seen through
-    ``camera`` (its focal length is each run's), verified under ``config``."""
+    ``camera`` (its focal length is each run's), verified under ``config``: a copy of the
+    rounds made once for that camera, sky and settings (:data:`_ROUNDS`)."""
+    key = (camera.width, camera.height, camera.cx, camera.cy, camera.distortion,
+           float(sigma_px), config, id(database))
+    held = _ROUNDS.get(key)
+    if held is None or held[0] is not database:
+        if len(_ROUNDS) >= ROUNDS_KEPT:
+            _ROUNDS.clear()
+        held = _ROUNDS[key] = (database, _rounds(camera, sigma_px, database, config))
+    return held[1].with_pixels(_as(x), _as(y))
+
+
+def _rounds(camera: Camera, sigma_px: float, database: StarDatabase,
+            config: VerifyConfig) -> FittedRounds:
+    """The rounds of ``camera``, ``database`` and ``config``, with no stars yet."""
     fixed = config.match_radius_px is not None
-    label = _LABELS.get((camera.width, camera.height))
-    if label is None:  # the thresholds of this image size; the rounds set the scales
-        label = _LABELS[camera.width, camera.height] = label_params(
-            Observation(_NO_VECTORS, x[:0], y[:0], camera, 1.0), 1.0)
+    no_pixels = np.zeros(0)
+    # the labelling's thresholds of this image size; the rounds set the scales
+    label = label_params(Observation(_NO_VECTORS, no_pixels, no_pixels, camera, 1.0), 1.0)
     params = {"radius_px": 0.0, "cos_radius": 0.0, "cone_radius": 0.0, "margin_cos": 0.0,
               "capture": CAPTURE, "max_rounds": MAX_REFINEMENTS,
               "min_confirmed": config.min_confirmed,
@@ -191,7 +204,7 @@ def _rounds_for(x: np.ndarray, y: np.ndarray, camera: Camera, sigma_px: float,
              "sigma_px": float(sigma_px), "fixed_radius": fixed,
              "match_radius": float(config.match_radius_px) if fixed else 0.0,
              "radius_sigma": config.radius_sigma, "min_radius": config.min_radius_px}
-    return FittedRounds(_as(x), _as(y),
+    return FittedRounds(no_pixels, no_pixels,
                         None if camera.distortion is None else camera.distortion.compiled,
                         frame, _CONSTANTS, params, database.cone_index.table,
                         _as(database.catalog.mag), _as(database.vectors))
@@ -202,9 +215,10 @@ def _as(array: np.ndarray, dtype: type = np.float64) -> np.ndarray:
 
 
 _NO_VECTORS = np.zeros((0, 3))
-#: label_params of a frame without fluxes, by image size (the rounds' stars carry none;
-#: the rounds set the fields that depend on the camera's focal length)
-_LABELS: dict[tuple[int, int], dict] = {}
+#: the rounds of each camera (its focal length aside), centroid noise, settings and
+#: database met lately, without stars: made once, copied for each frame's pixels
+_ROUNDS: dict[tuple, tuple[StarDatabase, FittedRounds]] = {}
+ROUNDS_KEPT = 16
 #: the solver's constants as the compiled rounds take them (a FitConstants): the
 #: labelling's (label_params' defaults), the catalog cone's, fit_camera's, and
 #: math.radians and math.degrees as the one product each is

@@ -9,12 +9,17 @@ import math
 
 import numpy as np
 
-from startrack._core.fov_fit import camera_residuals
+from startrack._core.fov_fit import SETTLED, fit_against, squared_residuals
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
-from startrack.errors import InputError
 from startrack.solver._calibrate_sigma import SIGNIFICANCE
-from startrack.solver._fov_fit import fit_camera
+from startrack.solver._fov_fit import (
+    FIT_ITERATIONS,
+    LENS_K1_CHI2,
+    LENS_MAX_K1,
+    LENS_MIN_R2,
+    LENS_MIN_STARS,
+)
 from startrack.types import Hypothesis, Observation
 from startrack.verify._verification import Verification, VerifyConfig, verify
 
@@ -33,13 +38,13 @@ _GIVEN_REJECT_CHI2 = {1: SIGNIFICANCE**2, 2: -2.0 * math.log(GIVEN_REJECT_P)}
 REFIT_HYPOTHESIS_STARS = 4
 
 
-def _given_kept(given: Camera, fitted: Camera, n_pairs: int, given_sq, fit_sq: float) -> bool:
-    """Whether ``n_pairs`` matched stars do not reject the ``given`` camera for the
-    ``fitted`` one: the drop in their squared residuals (``given_sq()``, called only when
-    needed, against ``fit_sq``), over the noise the fitted residuals show, within the
-    chi-square quantile of :data:`GIVEN_REJECT_P` for the parameters fitted. False when
-    too few stars tell the cameras apart (or solve Wahba's problem)."""
-    n_params = 1 + int(fitted.distortion != given.distortion)
+def _given_kept(n_params: int, n_pairs: int, given_sq, fit_sq: float) -> bool:
+    """Whether ``n_pairs`` matched stars do not reject the given camera for one fitted
+    with ``n_params`` parameters (the focal length, and k1): the drop in their squared
+    residuals (``given_sq()``, called only when needed, against ``fit_sq``), over the
+    noise the fitted residuals show, within the chi-square quantile of
+    :data:`GIVEN_REJECT_P` for the parameters fitted. False when too few stars tell the
+    cameras apart (or solve Wahba's problem)."""
     dof = n_pairs * 2 - 3 - n_params
     if dof <= 0 or not fit_sq > 0.0:
         return False
@@ -50,23 +55,23 @@ def given_stands(given: Camera, x: np.ndarray, y: np.ndarray, obs_index: np.ndar
                  cat_vectors: np.ndarray) -> bool:
     """Whether an answer made through the ``given`` camera (its observed stars
     ``obs_index`` of pixels ``x``, ``y`` matched to ``cat_vectors``) stands as it is: the
-    camera fitted to those pairs (:func:`fit_camera`) does not fit them significantly
-    better (the rule of :func:`keep_given`), each camera at its own Wahba attitude of the
-    pairs. A nominal FOV that was right then needs no refit and no second verification."""
+    camera fitted to those pairs (:func:`fit_camera`'s fit) does not fit them
+    significantly better (the rule of :func:`keep_given`), each camera at its own Wahba
+    attitude of the pairs; False where the fit fails (a focal length not positive and
+    finite, a lens folding back inside the image: the refit then says). A nominal FOV
+    that was right then needs no refit and no second verification. The fit and both
+    cameras' residuals are one compiled call
+    (:func:`startrack._core.fov_fit.fit_against`)."""
     obs_index = np.ascontiguousarray(obs_index, dtype=np.int64)
-    cat = np.ascontiguousarray(cat_vectors, dtype=np.float64)
-    x, y = np.ascontiguousarray(x, dtype=np.float64), np.ascontiguousarray(y, dtype=np.float64)
-    try:
-        fitted = fit_camera(given, x[obs_index], y[obs_index], cat)
-    except InputError:  # a fitted lens folding back inside the image: let the refit say
+    with_k1 = given.distortion is None and len(obs_index) >= LENS_MIN_STARS
+    status, _, k1, given_sq, fit_sq = fit_against(
+        given.optics, np.ascontiguousarray(x, dtype=np.float64),
+        np.ascontiguousarray(y, dtype=np.float64), obs_index,
+        np.ascontiguousarray(cat_vectors, dtype=np.float64), FIT_ITERATIONS, with_k1,
+        LENS_MIN_R2, LENS_MAX_K1, LENS_K1_CHI2)
+    if status != SETTLED:
         return False
-    if not (fitted.f_px > 0 and math.isfinite(fitted.f_px)):
-        return False
-
-    def squared(camera: Camera) -> float:
-        return float(np.sum(camera_residuals(camera.optics, x, y, obs_index, cat) ** 2))
-
-    return _given_kept(given, fitted, len(obs_index), lambda: squared(given), squared(fitted))
+    return _given_kept(1 + int(k1 != 0.0), len(obs_index), lambda: given_sq, fit_sq)
 
 
 def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
@@ -83,19 +88,21 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     check, fitted, obs = found
     if fitted == given:
         return found
-    cat = np.ascontiguousarray(database.vectors[check.cat_index], dtype=np.float64)
     x, y = np.ascontiguousarray(obs.x), np.ascontiguousarray(obs.y)
     obs_index = np.ascontiguousarray(check.obs_index, dtype=np.int64)
+    rows = np.ascontiguousarray(check.cat_index, dtype=np.int64)
+    vectors = np.ascontiguousarray(database.vectors, dtype=np.float64)
 
     def squared(camera: Camera) -> float:
         # the matched stars through ``camera`` at their own Wahba attitude, one call
-        return float(np.sum(camera_residuals(camera.optics, x, y, obs_index, cat) ** 2))
+        return squared_residuals(camera.optics, x, y, obs_index, rows, vectors)
 
     # the fitted camera's residuals are its verification's own when it checked ``obs``:
     # the same Wahba fit of the same pairs (its final attitude), the same angles
     fit_sq = float(np.sum(check.residual_arcsec ** 2)) if check.obs_vectors is obs.vectors \
         else squared(fitted)
-    if not _given_kept(given, fitted, len(check.obs_index), lambda: squared(given), fit_sq):
+    n_params = 1 + int(fitted.distortion != given.distortion)
+    if not _given_kept(n_params, len(check.obs_index), lambda: squared(given), fit_sq):
         return found
     given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
     first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]

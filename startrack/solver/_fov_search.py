@@ -32,7 +32,7 @@ from startrack.defaults import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
 from startrack.solver._deadline import NO_DEADLINE, Deadline
-from startrack.solver._fov_fit import fit_focal, verify_fitted
+from startrack.solver._fov_fit import rounds_for, verify_fitted
 from startrack.solver._fov_given import (
     REFIT_HYPOTHESIS_STARS,
     given_stands,
@@ -107,14 +107,15 @@ def search_window(matcher: QuadMatcher, x, y, camera: Camera, window: Pass,
         if sh.confirmed < MIN_CONFIRMED:
             break  # best first: no later candidate has more support
         hyp = sh.hypothesis
-        key = tuple(sorted(zip(hyp.obs_index.tolist(), hyp.cat_index.tolist(), strict=True)))
-        if key in seen or hyp.cat_index.max() >= n_cat:
+        rows = hyp.cat_index.tolist()
+        key = tuple(sorted(zip(hyp.obs_index.tolist(), rows, strict=True)))
+        if key in seen or max(rows) >= n_cat:
             continue
         _check(deadline)
         seen.add(key)
         diag.hypotheses += 1
         tried += 1
-        guess = _fitted_guess(sh, x, y, camera, database)
+        guess = _fitted_guess(sh, x, y, camera, sigma_px, database, config)
         found = None
         if given is not None and abs(guess.f_px / given.f_px - 1.0) <= GIVEN_FIRST_WITHIN:
             found = through_given(hyp, x, y, given, sigma_px, database, config)
@@ -127,13 +128,15 @@ def search_window(matcher: QuadMatcher, x, y, camera: Camera, window: Pass,
     return None
 
 
-def _fitted_guess(sh: ScaledHypothesis, x, y, camera: Camera,
-                  database: StarDatabase) -> Camera:
-    """The camera with the focal length fitted to the hypothesis' own four stars."""
-    cam = camera.with_focal(sh.f_px)
+def _fitted_guess(sh: ScaledHypothesis, x, y, camera: Camera, sigma_px: float,
+                  database: StarDatabase, config: VerifyConfig) -> Camera:
+    """The camera with the focal length fitted to the hypothesis' own four stars (from
+    the pattern's focal length; that one where the fit fails), in one compiled call."""
     h = sh.hypothesis
-    f = fit_focal(cam, x[h.obs_index], y[h.obs_index], database.vectors[h.cat_index])
-    return camera.with_focal(f) if f > 0 and math.isfinite(f) else cam
+    rounds = rounds_for(x, y, camera, sigma_px, database, config)
+    return camera.with_focal(rounds.pattern_focal(
+        np.ascontiguousarray(h.obs_index, dtype=np.int64),
+        np.ascontiguousarray(h.cat_index, dtype=np.int64), sh.f_px))
 
 
 @dataclass(frozen=True)
