@@ -27,12 +27,26 @@ cdef inline bint _passes(QuadTable t, QuadRules rules, Py_ssize_t row,
     return worst <= rules.near
 
 
+cdef inline Py_ssize_t _first_key(const int[::1] keys, Py_ssize_t lo, Py_ssize_t hi,
+                                  long long key) noexcept nogil:
+    """The first row of ascending ``keys[lo:hi]`` at least ``key`` (``hi`` if none)."""
+    cdef Py_ssize_t mid
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if keys[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 cdef void _near_rows(QuadTable t, QuadRules rules, const double *r, const long long *lo,
                      const long long *hi, _Ints out):
     """Append to ``out``, ascending and once each, the table rows of the keys within the
     tolerance of ratios ``r`` (each digit ``lo`` or ``hi``) that pass the first test: the
-    buckets of the three high digits in ascending order, each scanned up to the greatest
-    of the two low digits' keys (``low``, ascending; a bucket's keys are sorted)."""
+    buckets of the three high digits in ascending order, each scanned from the least of
+    the two low digits' keys (``low``, ascending; a bucket's keys are sorted: found by
+    bisection) up to the greatest."""
     cdef long long n1 = rules.nbins, n2 = rules.nbins * rules.nbins
     cdef long long low[4]
     cdef long long base[8]
@@ -54,7 +68,7 @@ cdef void _near_rows(QuadTable t, QuadRules rules, const double *r, const long l
             base[nbk], start[nbk], end[nbk] = b * n2, t.bucket[b], t.bucket[b + 1]
             nbk += 1
     for p in range(nbk):
-        for row in range(start[p], end[p]):
+        for row in range(_first_key(t.keys, start[p], end[p], base[p] + low[0]), end[p]):
             key = t.keys[row] - base[p]
             if key > low[nlow - 1]:
                 break
