@@ -284,33 +284,4 @@ cdef void _fitted_lens(CameraGeometry* g, double k1) noexcept:
     g.max_r2 = -1.0 / (3.0 * k1) if k1 < 0.0 else INFINITY
 
 
-cdef bint _within(const long long[::1] index, Py_ssize_t size) noexcept:
-    """Whether every index lies in [0, size)."""
-    cdef Py_ssize_t i
-    for i in range(index.shape[0]):
-        if index[i] < 0 or index[i] >= size:
-            return False
-    return True
-
-
-cdef bint _same(const long long[::1] a, const long long[::1] b) noexcept:
-    """Whether two index arrays hold the same values (``_same_stars``)."""
-    if a.shape[0] != b.shape[0]:
-        return False
-    cdef Py_ssize_t i
-    for i in range(a.shape[0]):
-        if a[i] != b[i]:
-            return False
-    return True
-
-
-cdef double _largest(const double[::1] a):
-    """``float(np.maximum.reduce(a))``: the largest value, NaN if any is."""
-    cdef double top = a[0]
-    cdef Py_ssize_t i
-    for i in range(1, a.shape[0]):
-        if a[i] != a[i] or a[i] > top:
-            top = a[i]
-        if top != top:
-            break
-    return top
+include "_rounds_arrays.pxi"
