@@ -56,7 +56,7 @@ def window_report(matcher, x, y, camera, lo, hi, db, config, sigma, rows) -> str
         return head + ", no true one"
     k = true[0]
     sh = cands[k]
-    guess = F._fitted_guess(sh, x, y, camera, db)
+    guess = F._fitted_guess(sh, x, y, camera, sigma, db, config)
     obs = Observation.from_pixels(x, y, guess, sigma)
     check = verify(sh.hypothesis, obs, db, config)
     fitted = F.verify_fitted(sh.hypothesis, x, y, guess, sigma, db, config)
