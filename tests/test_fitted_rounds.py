@@ -209,3 +209,59 @@ def test_a_focal_length_a_percent_off_is_refitted_from_the_unlabelled_matches():
         assert camera.f_px == pytest.approx(true.f_px, rel=2e-3)
         recovered += 1
     assert recovered >= 1
+
+
+@pytest.mark.parametrize("distortion", [None, RadialDistortion(k1=-0.05)])
+def test_a_patterns_focal_fit_on_the_rounds_is_fit_focal_bit_for_bit(distortion):
+    """The quad search's guess (``pattern_focal``): the focal length fitted to a
+    hypothesis' own stars from the pattern's, as :func:`fit_focal` fits them, to the bit;
+    rows out of range are refused."""
+    true = Camera.from_fov(1024, 768, 20.0, distortion=distortion)
+    db = StarDatabase(random_sky(3000, seed=7), true.pinhole)
+    rng = np.random.default_rng(7)
+    frame = synthetic_frame(db.catalog, true, random_attitudes(1, rng)[0], rng, noise_px=0.3)
+    x, y = frame.obs.x, frame.obs.y
+    obs = np.flatnonzero(frame.truth_rows >= 0)[:4].astype(np.int64)
+    rows = frame.truth_rows[obs].astype(np.int64)
+    rounds = _fov_fit.rounds_for(x, y, true, 0.3, db, VerifyConfig())
+    for start in true.f_px * np.array([0.97, 1.0, 1.03]):
+        got = rounds.pattern_focal(obs, rows, start)
+        want = _fov_fit.fit_focal(true.with_focal(start), x[obs], y[obs], db.vectors[rows])
+        assert _bits(got) == _bits(want)
+        assert got == pytest.approx(true.f_px, rel=5e-3)
+    with pytest.raises(IndexError):
+        rounds.pattern_focal(obs, rows + len(db.vectors), true.f_px)
+    with pytest.raises(IndexError):
+        rounds.pattern_focal(obs, rows[:3], true.f_px)
+
+
+def test_a_databases_rounds_are_made_once_copied_per_frame_and_go_with_it():
+    """rounds_for: one template per camera, noise and settings, held by the database (a
+    blind search's evicted cut is not kept alive by it); each frame's copy has its own
+    pixels, so one frame's run does not change another's."""
+    import gc
+    import weakref
+
+    camera = Camera.from_fov(1024, 1024, 20.0)
+    db = StarDatabase(random_sky(3000, seed=9), camera)
+    rng = np.random.default_rng(9)
+    frames = [synthetic_frame(db.catalog, camera, rot, rng, noise_px=0.3)
+              for rot in random_attitudes(2, rng)]
+    config = VerifyConfig()
+
+    def answer(frame, database):
+        real = np.flatnonzero(frame.truth_rows >= 0)[:4].astype(np.int64)
+        rounds = _fov_fit.rounds_for(frame.obs.x, frame.obs.y, camera, 0.3, database, config)
+        return rounds, real, frame.truth_rows[real].astype(np.int64)
+
+    first, obs0, rows0 = answer(frames[0], db)
+    alone = first.run(obs0, rows0, camera.f_px)
+    second, obs1, rows1 = answer(frames[1], db)
+    assert second.run(obs1, rows1, camera.f_px)[0].obs.tolist() != alone[0].obs.tolist()
+    again = first.run(obs0, rows0, camera.f_px)
+    assert again[0].obs.tolist() == alone[0].obs.tolist() and again[1] == alone[1]
+    assert len(db.__dict__["_fitted_rounds"]) == 1  # the second frame copied the first's
+    gone = weakref.ref(db)
+    del db, first, second
+    gc.collect()
+    assert gone() is None

@@ -26,7 +26,7 @@ from startrack._core._verify cimport ACCEPTED, BAD_INDEX, UNLABELLED, CheckParam
 from startrack._core._verify cimport Geometry
 from startrack._core._verify cimport Verdict, check_cone
 from startrack._core.camera cimport RadialLens, corner_cosines, unit_vectors
-from startrack._core.fov_fit cimport _BAD_FOCAL, _FOLDS, fit_geometry
+from startrack._core.fov_fit cimport _BAD_FOCAL, _FOLDS, fit_geometry, fitted_lens
 
 cnp.import_array()  # the C API the _arrays helpers call
 
@@ -200,7 +200,7 @@ cdef class FittedRounds:
                 return 0
             g.f_px = f_new  # Camera.with_focal
             if not (status == _BAD_FOCAL or k1_new == 0.0):  # Camera.with_distortion
-                _fitted_lens(&g, k1_new)
+                fitted_lens(&g, k1_new)
                 described, k1_fitted = True, k1_new
             if not (g.f_px > 0.0 and isfinite(g.f_px)):
                 return 0
@@ -231,7 +231,7 @@ cdef class FittedRounds:
         g.f_px = f
         cdef bint described = self.described
         if k1 != 0.0 and not described:
-            _fitted_lens(&g, k1)
+            fitted_lens(&g, k1)
             described = True
         self._set_params(&g, described)
         return self.params
@@ -276,12 +276,6 @@ cdef class FittedRounds:
         if not scaled > self.c.resolve_px:
             scaled = self.c.resolve_px
         self.params.label.resolve2 = scaled * scaled
-
-
-cdef void _fitted_lens(CameraGeometry* g, double k1) noexcept:
-    """``g`` given the k1-only lens of a fit (RadialDistortion(k1=k1): its fold radius)."""
-    g.k1, g.k2, g.k3 = k1, 0.0, 0.0
-    g.max_r2 = -1.0 / (3.0 * k1) if k1 < 0.0 else INFINITY
 
 
 include "_rounds_arrays.pxi"

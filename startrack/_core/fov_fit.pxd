@@ -15,3 +15,6 @@ cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] 
                       const double[:, ::1] cat, int iterations, bint with_k1,
                       double min_r2, double max_k1, double k1_chi2, double* f_out,
                       double* k1_out)
+
+
+cdef void fitted_lens(Geometry* g, double k1) noexcept nogil

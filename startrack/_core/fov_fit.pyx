@@ -48,6 +48,11 @@ cdef bint _folds(const Geometry* g, double f, double k1) noexcept nogil:
     return isfinite(r2) and rd2 >= r2 * (s * s)
 
 
+cdef void fitted_lens(Geometry* g, double k1) noexcept nogil:
+    """``g`` given the k1-only lens of a fit: RadialDistortion(k1=k1), its fold radius."""
+    g.k1, g.k2, g.k3, g.max_r2 = k1, 0.0, 0.0, k1_fold_r2(k1)
+
+
 @cython.cdivision(True)
 cdef void _directions(const Geometry* g, double f, const double[::1] dx,
                       const double[::1] dy, double[:, ::1] cam) noexcept nogil:
@@ -201,8 +206,8 @@ def fit_against(Optics optics, const double[::1] x, const double[::1] y,
         return status, f, k1, NAN, NAN
     cdef double given_sq = _sum_squares(_residuals(&g, x, y, obs_index, cat))
     g.f_px = f
-    if k1 != 0.0:  # the k1-only lens of the fit (RadialDistortion(k1=k1))
-        g.k1, g.k2, g.k3, g.max_r2 = k1, 0.0, 0.0, k1_fold_r2(k1)
+    if k1 != 0.0:
+        fitted_lens(&g, k1)
     return status, f, k1, given_sq, _sum_squares(_residuals(&g, x, y, obs_index, cat))
 
 

@@ -174,18 +174,20 @@ def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
 
 
 def rounds_for(x: np.ndarray, y: np.ndarray, camera: Camera, sigma_px: float,
-                database: StarDatabase, config: VerifyConfig) -> FittedRounds:
+               database: StarDatabase, config: VerifyConfig) -> FittedRounds:
     """The compiled rounds of the stars at pixels ``x``, ``y`` (float64) seen through
     ``camera`` (its focal length is each run's), verified under ``config``: a copy of the
-    rounds made once for that camera, sky and settings (:data:`_ROUNDS`)."""
+    rounds made once for that camera, noise and settings, held by ``database`` (they
+    read its tables, and go with them: a blind search's evicted cut is not kept alive)."""
+    held = database.__dict__.setdefault("_fitted_rounds", {})
     key = (camera.width, camera.height, camera.cx, camera.cy, camera.distortion,
-           float(sigma_px), config, id(database))
-    held = _ROUNDS.get(key)
-    if held is None or held[0] is not database:
-        if len(_ROUNDS) >= ROUNDS_KEPT:
-            _ROUNDS.clear()
-        held = _ROUNDS[key] = (database, _rounds(camera, sigma_px, database, config))
-    return held[1].with_pixels(_as(x), _as(y))
+           float(sigma_px), config)
+    rounds = held.get(key)
+    if rounds is None:
+        if len(held) >= ROUNDS_KEPT:
+            held.clear()
+        rounds = held[key] = _rounds(camera, sigma_px, database, config)
+    return rounds.with_pixels(_as(x), _as(y))
 
 
 def _rounds(camera: Camera, sigma_px: float, database: StarDatabase,
@@ -215,9 +217,8 @@ def _as(array: np.ndarray, dtype: type = np.float64) -> np.ndarray:
 
 
 _NO_VECTORS = np.zeros((0, 3))
-#: the rounds of each camera (its focal length aside), centroid noise, settings and
-#: database met lately, without stars: made once, copied for each frame's pixels
-_ROUNDS: dict[tuple, tuple[StarDatabase, FittedRounds]] = {}
+#: rounds (without stars) a database holds, one per camera (its focal length aside),
+#: centroid noise and settings met lately: made once, copied for each frame's pixels
 ROUNDS_KEPT = 16
 #: the solver's constants as the compiled rounds take them (a FitConstants): the
 #: labelling's (label_params' defaults), the catalog cone's, fit_camera's, and

@@ -38,17 +38,16 @@ _GIVEN_REJECT_CHI2 = {1: SIGNIFICANCE**2, 2: -2.0 * math.log(GIVEN_REJECT_P)}
 REFIT_HYPOTHESIS_STARS = 4
 
 
-def _given_kept(n_params: int, n_pairs: int, given_sq, fit_sq: float) -> bool:
+def _given_kept(n_params: int, n_pairs: int, given_sq: float, fit_sq: float) -> bool:
     """Whether ``n_pairs`` matched stars do not reject the given camera for one fitted
     with ``n_params`` parameters (the focal length, and k1): the drop in their squared
-    residuals (``given_sq()``, called only when needed, against ``fit_sq``), over the
-    noise the fitted residuals show, within the chi-square quantile of
-    :data:`GIVEN_REJECT_P` for the parameters fitted. False when too few stars tell the
-    cameras apart (or solve Wahba's problem)."""
+    residuals (``given_sq`` to ``fit_sq``), over the noise the fitted residuals show,
+    within the chi-square quantile of :data:`GIVEN_REJECT_P` for the parameters fitted.
+    False when too few stars tell the cameras apart (or solve Wahba's problem)."""
     dof = n_pairs * 2 - 3 - n_params
     if dof <= 0 or not fit_sq > 0.0:
         return False
-    return (given_sq() - fit_sq) / (fit_sq / dof) <= _GIVEN_REJECT_CHI2[n_params]
+    return (given_sq - fit_sq) / (fit_sq / dof) <= _GIVEN_REJECT_CHI2[n_params]
 
 
 def given_stands(given: Camera, x: np.ndarray, y: np.ndarray, obs_index: np.ndarray,
@@ -71,7 +70,7 @@ def given_stands(given: Camera, x: np.ndarray, y: np.ndarray, obs_index: np.ndar
         LENS_MIN_R2, LENS_MAX_K1, LENS_K1_CHI2)
     if status != SETTLED:
         return False
-    return _given_kept(1 + int(k1 != 0.0), len(obs_index), lambda: given_sq, fit_sq)
+    return _given_kept(1 + int(k1 != 0.0), len(obs_index), given_sq, fit_sq)
 
 
 def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
@@ -102,7 +101,7 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     fit_sq = float(np.sum(check.residual_arcsec ** 2)) if check.obs_vectors is obs.vectors \
         else squared(fitted)
     n_params = 1 + int(fitted.distortion != given.distortion)
-    if not _given_kept(n_params, len(check.obs_index), lambda: squared(given), fit_sq):
+    if not _given_kept(n_params, len(check.obs_index), squared(given), fit_sq):
         return found
     given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
     first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]
