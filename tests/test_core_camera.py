@@ -4,6 +4,7 @@
 import pickle
 
 import numpy as np
+import pytest
 from camera_reference import (
     reference_distort,
     reference_half_diagonal_deg,
@@ -87,3 +88,33 @@ def test_pixels_of_any_layout_or_type_are_taken_as_float64():
         got = cam.pixel_to_vector(x, np.asarray(x)[::-1])
         np.testing.assert_array_equal(got, want)
         assert got.flags.c_contiguous and got.shape == np.shape(x) + (3,)
+
+
+def test_a_fits_halvings_cost_is_its_normal_equations_cost_to_the_bit():
+    """A camera fit's halvings after the first evaluate the cost alone
+    (startrack._core.fov_fit): it must be the number the full normal equations sum, to the
+    bit, or a fit would step differently; and both are the squared pixel residuals
+    (tests/fov_fit_reference.py) to rounding."""
+    from fov_fit_reference import pixel_residuals
+    from scipy.spatial.transform import Rotation
+    from startrack._core.fov_fit import lsq_costs
+
+    rng = np.random.default_rng(17)
+    for t, lens in enumerate([None, *LENSES[:3]] * 3):
+        camera = Camera.from_fov(int(rng.integers(300, 3000)), int(rng.integers(300, 2000)),
+                                 float(rng.choice([3.0, 20.0, 60.0])), distortion=lens)
+        n = int(rng.integers(1, 60))
+        x = rng.uniform(0, camera.width - 1, n)
+        y = rng.uniform(0, camera.height - 1, n)
+        rot = Rotation.random(random_state=t).as_matrix()
+        # the catalog a little off the pixels' directions: residuals of a few pixels
+        cat = rot @ camera.pixel_to_vector(x + rng.normal(0, 2, n), y).T
+        cat = np.ascontiguousarray(cat.T)
+        f = camera.f_px * float(rng.uniform(0.98, 1.02))
+        k1 = 0.0 if lens is not None else float(rng.uniform(-0.2, 0.2))
+        for n_params in (4, 5):
+            full, alone = lsq_costs(camera.optics, x, y, cat, np.ascontiguousarray(rot), f,
+                                    k1, n_params)
+            assert full == alone
+            want = np.sum(pixel_residuals(camera, rot, f, k1, x, y, cat) ** 2)
+            assert full == pytest.approx(want, rel=1e-9) and full > 0.0

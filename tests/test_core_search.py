@@ -48,14 +48,18 @@ def _reference_search(m, obs) -> tuple[list, list]:
     return answers, stats.tolist()
 
 
-def _compiled_search(m, obs) -> tuple[list, list]:
+def _searcher(m) -> core_pyramid.PyramidSearch:
+    return core_pyramid.PyramidSearch(
+        m.database.vectors, pair_index(m.database.pairs, len(m.database.vectors)).neighbours,
+        m.max_triangles, m.max_pyramids)
+
+
+def _compiled_search(m, obs, search=None) -> tuple[list, list]:
     n = min(m.config.max_stars + max(m.extra_stars, 0), len(obs))
     first = min(m.config.max_stars, n)
     tol = m.angle_tolerance(obs)
     n_cat = len(m.database.vectors)
-    search = core_pyramid.PyramidSearch(m.database.vectors,
-                                        pair_index(m.database.pairs, n_cat).neighbours,
-                                        m.max_triangles, m.max_pyramids)
+    search = search or _searcher(m)
     frame = core_pyramid.PyramidFrame(obs.vectors[:n], tol, CONFIRM_RADIUS * tol)
     tab = pair_index(m._tables()[0], n_cat).neighbours
     triples, start, answers = triple_array(first, n, m.max_triples), 0, []
@@ -84,6 +88,26 @@ def test_pyramid_search_gives_the_reference_answers(hip_db):
             checked += len(r_a)
             three_star_answers += len(c_a) == 3 and len(r_a) > 0
     assert checked > 0 and three_star_answers > 0
+
+
+def test_one_search_serves_every_frame_and_its_answers_stay_as_given(hip_db):
+    """A matcher keeps one PyramidSearch (its scratch reused by every frame and triple):
+    each frame's answers are those of a fresh search, and an answer already handed out
+    is not overwritten by a later search."""
+    matcher = prepared_matcher("pyramid", hip_db, max_triples=40)
+    sky = [f.obs for f in frames(hip_db.catalog, hip_db.camera, 6, seed=7, noise_px=0.5,
+                                 false_stars=3, missing=0.1)]
+    shared, kept = _searcher(matcher), []
+    for obs in sky + _junk(hip_db.camera, 3, seed=4) + sky[:2]:
+        got, _ = _compiled_search(matcher, obs, shared)
+        want, _ = _compiled_search(matcher, obs)
+        assert [(s, c.tolist(), r.tolist()) for s, c, r in got] == \
+            [(s, c.tolist(), r.tolist()) for s, c, r in want]
+        kept.append((got, [(s, c.copy(), r.copy()) for s, c, r in got]))
+    for handed, copied in kept:  # what every search returned, after all the others
+        for (_, c_a, r_a), (_, c_b, r_b) in zip(handed, copied, strict=True):
+            assert np.array_equal(c_a, c_b) and np.array_equal(r_a, r_b)
+    assert sum(len(r) for got, _ in kept for _, _, r in got) > 0
 
 
 def test_neighbour_lists_list_each_stars_partners_by_angle():

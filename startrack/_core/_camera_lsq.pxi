@@ -74,6 +74,27 @@ cdef void _normal_equations(const Lens* described, const double[:, ::1] cat,
 
 
 @cython.cdivision(True)
+cdef double _cost(const Lens* described, const double[:, ::1] cat, const double[:, ::1] rot,
+                  const double[::1] dx, const double[::1] dy, double f,
+                  double k1) noexcept nogil:
+    """The ``cost`` of :func:`_normal_equations` alone, by the same arithmetic in the same
+    order (so the same to the last bit)."""
+    cdef Py_ssize_t i
+    cdef double c0, c1, c2, u, v, r2, s, ex, ey, cost = 0.0
+    cdef bint lens = not lens_is_identity(described)
+    for i in range(cat.shape[0]):
+        c0 = cat[i, 0] * rot[0, 0] + cat[i, 1] * rot[1, 0] + cat[i, 2] * rot[2, 0]
+        c1 = cat[i, 0] * rot[0, 1] + cat[i, 1] * rot[1, 1] + cat[i, 2] * rot[2, 1]
+        c2 = cat[i, 0] * rot[0, 2] + cat[i, 1] * rot[1, 2] + cat[i, 2] * rot[2, 2]
+        u, v = c0 / c2, c1 / c2
+        r2 = u * u + v * v
+        s = lens_factor(described, r2) if lens else 1.0 + k1 * r2
+        ex, ey = dx[i] - f * s * u, dy[i] - f * s * v
+        cost += ex * ex + ey * ey
+    return cost
+
+
+@cython.cdivision(True)
 cdef bint _solve_normal(_Normal* n, int n_params, double* step) noexcept nogil:
     """``step`` solving J^T J step = J^T e (Cholesky of the Jacobi-scaled matrix); False
     when the matrix is singular to rounding (the stars do not fix every parameter)."""
@@ -141,14 +162,14 @@ cdef int _least_squares(const Lens* described, const double[:, ::1] cat, double[
                         int n_params, int iterations, double[:, ::1] trial,
                         double* cost) noexcept nogil:
     """Gauss-Newton from ``rot``, ``f``, ``k1`` (all updated in place), at most
-    ``iterations`` steps, each halved (up to 10 times) until it lowers the squared
-    residuals; ends when a step would move no parameter beyond rounding, lowers them by
+    ``iterations`` steps, each halved (up to 10 times, the halves' cost alone evaluated)
+    until it lowers the squared residuals; ends when a step would move no parameter beyond rounding, lowers them by
     no more than rounding, or none lowers them. Returns how many steps were taken (-1:
     the normal equations were singular at the start); the sum of the squared residuals
     reached into ``cost``."""
     cdef _Normal here, there
     cdef double step[_MAX_PARAMS]
-    cdef double f_new, k1_new
+    cdef double f_new, k1_new, trial_cost
     cdef int it, halvings, p
     cdef bint lowered
     _normal_equations(described, cat, rot, dx, dy, f[0], k1[0], n_params, &here)
@@ -165,8 +186,16 @@ cdef int _least_squares(const Lens* described, const double[:, ::1] cat, double[
             _turned(rot, step, trial)
             f_new = f[0] + step[3]
             k1_new = k1[0] + step[4] if n_params == 5 else k1[0]
-            _normal_equations(described, cat, trial, dx, dy, f_new, k1_new, n_params, &there)
-            if there.cost <= here.cost:
+            if halvings == 0:  # a full step usually lowers the cost: its equations too
+                _normal_equations(described, cat, trial, dx, dy, f_new, k1_new, n_params,
+                                  &there)
+                trial_cost = there.cost
+            else:  # a fit ends on ten halvings that fail: each costs the cost alone
+                trial_cost = _cost(described, cat, trial, dx, dy, f_new, k1_new)
+            if trial_cost <= here.cost:
+                if halvings > 0:
+                    _normal_equations(described, cat, trial, dx, dy, f_new, k1_new,
+                                      n_params, &there)
                 lowered = True
                 break
             for p in range(n_params):

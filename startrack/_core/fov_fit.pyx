@@ -106,6 +106,29 @@ def fit_focal(Optics optics, const double[::1] x, const double[::1] y,
     return status, f, k1
 
 
+def lsq_costs(Optics optics, const double[::1] x, const double[::1] y,
+              const double[:, ::1] cat, const double[:, ::1] rot, double f, double k1,
+              int n_params):
+    """The squared pixel residuals of the catalog directions ``cat`` at attitude ``rot``,
+    focal length ``f`` and (without a described lens) k1 ``k1``, summed twice: by the
+    normal equations of ``n_params`` parameters (4, or 5 with k1) and by the cost-only
+    sum a fit's later halvings take. A fit's steps depend on the two being one number
+    (``tests/test_fov_fit.py`` holds them equal to the bit)."""
+    cdef Geometry g = optics.geometry
+    cdef Lens described = lens_of(&g)
+    cdef Py_ssize_t i, m = x.shape[0]
+    if y.shape[0] != m or cat.shape[0] != m or rot.shape[0] != 3 or rot.shape[1] != 3 \
+            or n_params not in (4, 5):
+        raise ValueError("lsq_costs: x, y and cat of one length, rot 3 x 3, 4 or 5 "
+                         "parameters")
+    cdef double[::1] dx = empty_f64(m), dy = empty_f64(m)
+    for i in range(m):
+        dx[i], dy[i] = x[i] - g.cx, y[i] - g.cy
+    cdef _Normal normal
+    _normal_equations(&described, cat, rot, dx, dy, f, k1, n_params, &normal)
+    return normal.cost, _cost(&described, cat, rot, dx, dy, f, k1)
+
+
 cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] y,
                       const double[:, ::1] cat, int iterations, bint with_k1,
                       double min_r2, double max_k1, double k1_chi2, double* f_out,

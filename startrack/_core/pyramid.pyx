@@ -29,6 +29,12 @@ cdef class PyramidSearch:
     cdef int[:, ::1] links
     cdef long long[:, ::1] tri
     cdef object buf
+    # the confirmation's scratch: each triangle's attitude, whether it is made yet, and
+    # the pyramids found (a triple at a wrong scale or a junk frame reaches the
+    # confirmation again and again: allocating these on each call cost more than it)
+    cdef double[:, :, ::1] rots
+    cdef unsigned char[::1] have
+    cdef long long[:, ::1] pyramids
 
     def __init__(self, cat, PairNeighbours full, Py_ssize_t max_triangles,
                  Py_ssize_t max_pyramids):
@@ -40,6 +46,9 @@ cdef class PyramidSearch:
         self.links = np.empty((4, 4096), np.int32)  # next and partner, two groupings
         self.tri = np.empty((max_triangles + 1, 3), np.int64)
         self.buf = np.empty(4096, np.int64)
+        self.rots = np.empty((max_triangles + 1, 3, 3))
+        self.have = np.zeros(max_triangles + 1, np.uint8)
+        self.pyramids = np.empty((max_pyramids, 4), np.int64)
 
     cdef void room(self, Py_ssize_t size):
         """``links`` rows of at least ``size``."""
@@ -212,13 +221,14 @@ cdef tuple _confirm(PyramidSearch s, PyramidFrame f, const long long[:, ::1] tri
     catalog stars R whose angles to I, J, K all lie within the tolerance of the observed
     angles from r to i, j, k, and which lie within the radius of where the triangle's
     attitude puts r (so that a flat triangle's mirror point does not count). Returns
-    (r, rows) or (-1, no rows)."""
+    (r, rows: a new array) or (-1, no rows)."""
     cdef Py_ssize_t i = ijk[0], j = ijk[1], k = ijk[2], r, t, q, n_r, count, star
-    out = np.empty((s.max_pyramids, 4), np.int64)
-    cdef long long[:, ::1] rows = out
-    cdef double[:, :, ::1] rots = np.zeros((tri.shape[0], 3, 3))
-    cdef unsigned char[::1] have = np.zeros(tri.shape[0], np.uint8)
+    cdef long long[:, ::1] rows = s.pyramids
+    cdef double[:, :, ::1] rots = s.rots
+    cdef unsigned char[::1] have = s.have
     cdef long long[::1] buf = s.buf
+    for t in range(tri.shape[0]):
+        have[t] = False
     cdef double cos_radius = cos(f.radius), side
     for r in range(f.vec.shape[0]):
         if r == i or r == j or r == k:
@@ -245,8 +255,8 @@ cdef tuple _confirm(PyramidSearch s, PyramidFrame f, const long long[:, ::1] tri
                     rows[count, 2], rows[count, 3] = tri[t, 2], star
                 count += 1
         if 1 <= count <= s.max_pyramids:
-            return r, out[:count]
-    return -1, out[:0]
+            return r, np.array(s.pyramids[:count])
+    return -1, None
 
 
 def search(PyramidSearch matcher, PyramidFrame frame, PairNeighbours tab,
