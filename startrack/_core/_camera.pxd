@@ -21,7 +21,7 @@ cdef struct Lens:
 
 
 cdef struct Geometry:
-    # Field for field the layout of startrack._core._verify's Geometry.
+    # The camera of every compiled stage (verification's projection included).
     double f_px    # focal length, px
     double cx      # principal point, px
     double cy

@@ -24,24 +24,12 @@
 # and the labelling's thresholds (LabelParams); tracking fills it from the same
 # VerifyConfig verification uses. Every routine takes and returns named fields.
 
+# Geometry: the camera as projection takes it (Camera.vector_to_pixel, then in_image),
+# the one camera struct of the compiled core
+from startrack._core._camera cimport Geometry
 from startrack._core._cone cimport ConeTable
 from startrack._core._labelling cimport LabelParams
 from startrack._core._nearest cimport NearestScratch, PointGrid
-
-
-cdef struct Geometry:
-    # The camera as projection takes it (startrack.camera.Camera.vector_to_pixel, then
-    # in_image): pinhole focal length and principal point (px), image size, the radial
-    # distortion's coefficients and the squared radius where the model folds back.
-    double f_px
-    double cx
-    double cy
-    double width
-    double height
-    double k1
-    double k2
-    double k3
-    double max_r2
 
 
 cdef struct CheckParams:

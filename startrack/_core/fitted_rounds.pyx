@@ -20,10 +20,9 @@ import numpy as np
 cimport numpy as cnp
 
 from startrack._core._arrays cimport empty_f64, empty_rows
-from startrack._core._camera cimport Geometry as CameraGeometry
+from startrack._core._camera cimport Geometry
 from startrack._core._cone cimport ConeTable
 from startrack._core._verify cimport ACCEPTED, BAD_INDEX, UNLABELLED, CheckParams, Frame
-from startrack._core._verify cimport Geometry
 from startrack._core._verify cimport Verdict, check_cone
 from startrack._core.camera cimport RadialLens, corner_cosines, unit_vectors
 from startrack._core.fov_fit cimport _BAD_FOCAL, _FOLDS, fit_geometry, fitted_lens
@@ -79,7 +78,7 @@ cdef class FittedRounds:
     cdef object x_array, y_array
     cdef const double[::1] x
     cdef const double[::1] y
-    cdef CameraGeometry base
+    cdef Geometry base
     cdef bint described
     cdef FitFrame values
     cdef FitConstants c
@@ -141,7 +140,7 @@ cdef class FittedRounds:
             fcat[k, 0], fcat[k, 1], fcat[k, 2] = (self.catalog[hyp_rows[k], 0],
                                                   self.catalog[hyp_rows[k], 1],
                                                   self.catalog[hyp_rows[k], 2])
-        cdef CameraGeometry g = self.base
+        cdef Geometry g = self.base
         g.f_px = f
         cdef double fitted, k1
         fit_geometry(&g, fx, fy, fcat, self.c.iterations, False, self.c.lens_min_r2,
@@ -157,7 +156,7 @@ cdef class FittedRounds:
         ``_verify_fitted`` returns on failure (the first verification's confirmed count,
         0 after a failed fit or a later round), or None where the check refuses a
         hypothesis index (the caller reads it as ``verify`` does)."""
-        cdef CameraGeometry g = self.base
+        cdef Geometry g = self.base
         g.f_px = f
         cdef bint described = self.described, accepted, usable
         cdef double k1_fitted = 0.0, f_new, k1_new
@@ -213,7 +212,7 @@ cdef class FittedRounds:
                 break  # a fit to the same stars again would return this camera
         return (v, g.f_px, k1_fitted, self.vectors) if accepted else 0
 
-    cdef Verdict _check_at(self, const CameraGeometry* g, bint described,
+    cdef Verdict _check_at(self, const Geometry* g, bint described,
                            const long long[::1] hyp_obs, const long long[::1] hyp_rows):
         """The hypothesis verified through camera ``g``: the pixels' vectors made through
         it (kept: an accepted verdict's residuals refer to them), the run's frame reused,
@@ -227,7 +226,7 @@ cdef class FittedRounds:
         """The thresholds a round checks with through this frame's camera at focal
         length ``f`` (and a fitted ``k1`` on a pinhole): the CheckParams, as a dict,
         that FrameVerifier makes for that camera."""
-        cdef CameraGeometry g = self.base
+        cdef Geometry g = self.base
         g.f_px = f
         cdef bint described = self.described
         if k1 != 0.0 and not described:
@@ -236,24 +235,20 @@ cdef class FittedRounds:
         self._set_params(&g, described)
         return self.params
 
-    cdef object _vectors(self, const CameraGeometry* g):
+    cdef object _vectors(self, const Geometry* g):
         """Camera-frame unit vectors of the pixels through camera ``g``."""
         return unit_vectors(g, self.x, self.y)
 
-    cdef Frame _frame(self, Frame frame, vectors, const CameraGeometry* g):
+    cdef Frame _frame(self, Frame frame, vectors, const Geometry* g):
         """The Frame of ``vectors`` through camera ``g``: ``frame``'s bucketed pixels
         reused (they do not depend on the camera), a new Frame the first time."""
-        cdef Geometry geometry
-        geometry.f_px, geometry.cx, geometry.cy = g.f_px, g.cx, g.cy
-        geometry.width, geometry.height = g.width, g.height
-        geometry.k1, geometry.k2, geometry.k3, geometry.max_r2 = g.k1, g.k2, g.k3, g.max_r2
         if frame is None:
-            return Frame(vectors, self.x_array, self.y_array, self.x_array, geometry)
-        frame.vectors, frame.geometry = vectors, geometry
+            return Frame(vectors, self.x_array, self.y_array, self.x_array, g[0])
+        frame.vectors, frame.geometry = vectors, g[0]
         return frame
 
     @cython.cdivision(True)
-    cdef void _set_params(self, const CameraGeometry* g, bint described) except *:
+    cdef void _set_params(self, const Geometry* g, bint described) except *:
         """The CheckParams and LabelParams fields of camera ``g``, as FrameVerifier,
         VerifyConfig.radius_px and label_params compute them."""
         cdef double f = g.f_px, sigma = self.values.sigma_px / f * f  # obs.sigma_rad * f_px

@@ -16,7 +16,6 @@ from libc.math cimport M_PI, cos, isfinite
 
 import numpy as np
 
-from startrack._core._camera cimport Geometry as CameraGeometry
 from startrack._core._nearest cimport Pairs, pairs_within  # the vote's (_track_vote.pxi)
 from startrack._core._verify cimport CheckParams, FirstTest, Frame, Geometry, Labelled
 from startrack._core._verify cimport Matches, Projection, Stars, binomial_tail
@@ -131,12 +130,8 @@ cdef class Attempt:
 
 
 cdef Geometry _geometry(Optics optics):
-    """The camera's geometry as verification's projection takes it (the same fields)."""
-    cdef CameraGeometry g = optics.geometry
-    cdef Geometry out
-    out.f_px, out.cx, out.cy, out.width, out.height = g.f_px, g.cx, g.cy, g.width, g.height
-    out.k1, out.k2, out.k3, out.max_r2 = g.k1, g.k2, g.k3, g.max_r2
-    return out
+    """The camera's geometry as verification's projection takes it."""
+    return optics.geometry
 
 
 cdef bint near(const double[:, :] a, const double[:, :] b, double min_trace) noexcept nogil:
