@@ -11,7 +11,12 @@ import numpy as np
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
 from startrack.errors import InputError
-from startrack.solver._fov_fit import REFIT_ROUNDS, fit_camera
+from startrack.solver._fov_fit import (
+    REFIT_ROUNDS,
+    SETTLE_FRACTION,
+    SETTLE_ROUNDS,
+    fit_camera,
+)
 from startrack.types import Hypothesis, Observation
 from startrack.verify._verification import Verification, VerifyConfig, verify
 
@@ -21,16 +26,18 @@ def reference_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
                      accepted: Verification | None = None,
                      ) -> tuple[Verification, Camera, Observation] | int:
     """Verify, fit the camera to the matched stars, verify again through the fitted
-    camera, until a round matches the stars of the one before: (verification, camera,
-    observation), or the first verification's confirmed count (0 after a failed fit or
-    a later round)."""
-    cat = database.vectors
+    camera, until a round matches the stars of the one before (or, past REFIT_ROUNDS,
+    its fit moved the camera by at most SETTLE_FRACTION of the match radius):
+    (verification, camera, observation), or the first verification's confirmed count (0
+    after a failed fit, a later round, or SETTLE_ROUNDS rounds that did not settle)."""
+    cat, given = database.vectors, camera
     check = accepted or verify(hyp, Observation.from_pixels(x, y, camera, sigma_px),
                                database, config)
     confirmed = check.confirmed
-    for _ in range(REFIT_ROUNDS):
+    for round_ in range(SETTLE_ROUNDS):
         if not (check.accepted or check.unlabelled):  # unlabelled: its matches are fitted
             return confirmed
+        before = camera
         try:
             camera = fit_camera(camera, x[check.obs_index], y[check.obs_index],
                                 cat[check.cat_index])
@@ -42,7 +49,24 @@ def reference_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
         last, check = check, verify(hyp, obs, database, config)
         if check.accepted and _same_stars(last, check):
             break
+        if check.accepted and round_ >= REFIT_ROUNDS and _moved_px(
+                given, before, camera) <= SETTLE_FRACTION * config.radius_px(obs):
+            break  # past REFIT_ROUNDS: the fit moved the camera by a fraction of a radius
+    else:
+        return 0  # the rounds never settled: the last matches were never fitted
     return (check, camera, obs) if check.accepted else 0
+
+
+def _moved_px(given: Camera, before: Camera, after: Camera) -> float:
+    """How far a fit moved the camera at the farthest corner (px): the focal length's
+    change in scale, and a k1's fitted to a pinhole ``given`` at that radius."""
+    def fitted_k1(c: Camera) -> float:
+        return c.distortion.k1 if given.distortion is None and c.distortion else 0.0
+
+    r = after.corner_radius_px
+    t = r / after.f_px
+    return (r * abs(after.f_px / before.f_px - 1.0)
+            + r * t * t * abs(fitted_k1(after) - fitted_k1(before)))
 
 
 def _same_stars(a: Verification, b: Verification) -> bool:

@@ -32,3 +32,12 @@ cdef double _largest(const double[::1] a):
         if top != top:
             break
     return top
+
+
+@cython.cdivision(True)
+cdef double _moved_px(double f_before, double k1_before, double f, double k1,
+                      double corner_r) noexcept:
+    """How far a fit moved the camera, in pixels at the distance ``corner_r`` from the
+    principal point: the focal length's change in scale, and a k1's at that radius."""
+    cdef double t = corner_r / f
+    return corner_r * fabs(f / f_before - 1.0) + corner_r * t * t * fabs(k1 - k1_before)

@@ -1,7 +1,8 @@
 """The fit-and-verify rounds of a hypothesis at a nominal field of view, in one compiled call
 (:class:`FittedRounds`, the rounds of :func:`startrack.solver._fov_fit._verify_fitted`):
 verify, fit the camera to the matched stars, turn the pixels into directions through the
-fitted camera, verify again, until a round matches the stars of the one before.
+fitted camera, verify again, until a round matches the stars of the one before (or, past
+REFIT_ROUNDS, its fit barely moved the camera); rounds that never settle give no answer.
 
 In Python each round made an Observation, a FrameVerifier, a verification and a Camera,
 costing more than its compiled work. Every number a round derives from the focal length
@@ -13,7 +14,7 @@ those formulas must be made here too (``tests/test_fitted_rounds.py`` holds
 """
 
 cimport cython
-from libc.math cimport INFINITY, atan2, cos, isfinite
+from libc.math cimport INFINITY, atan2, cos, fabs, isfinite
 
 import numpy as np
 
@@ -51,7 +52,7 @@ cdef struct FitConstants:
     # The solver's constants: the labelling's resolve_px and resolve_sigmas; the cone's
     # CONE_MARGIN, CONE_LOOKUP_MARGIN and CONE_REUSE_FRACTION; fit_camera's
     # LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1, LENS_K1_CHI2 and FIT_ITERATIONS;
-    # REFIT_ROUNDS; and
+    # REFIT_ROUNDS, SETTLE_ROUNDS and SETTLE_FRACTION; and
     # math.radians(1.0) and math.degrees(1.0) (what those functions multiply by).
     double resolve_px
     double resolve_sigmas
@@ -64,6 +65,8 @@ cdef struct FitConstants:
     double lens_k1_chi2
     int iterations
     int rounds
+    int settle_rounds
+    double settle_fraction
     double rad
     double deg
 
@@ -151,11 +154,12 @@ cdef class FittedRounds:
             held_obs=None, held_rows=None, Py_ssize_t held_confirmed=0):
         """The rounds of hypothesis ``hyp_obs`` -> ``hyp_rows`` from the focal length
         ``f``; ``held_obs``, ``held_rows``, ``held_confirmed``: the accepted pairs of the
-        first verification when the caller holds it (int64). Returns the last accepted
-        (Verdict, focal length, fitted k1 (0: none fitted), the observed vectors), or what
-        ``_verify_fitted`` returns on failure (the first verification's confirmed count,
-        0 after a failed fit or a later round), or None where the check refuses a
-        hypothesis index (the caller reads it as ``verify`` does)."""
+        first verification when the caller holds it (int64). Returns the accepted
+        (Verdict, focal length, fitted k1 (0: none fitted), the observed vectors) of the
+        round that matched the stars of the one before, or what ``_verify_fitted``
+        returns on failure (the first verification's confirmed count, 0 after a failed
+        fit, a later round or rounds that did not settle), or None where the check
+        refuses a hypothesis index (the caller reads it as ``verify`` does)."""
         cdef Geometry g = self.base
         g.f_px = f
         cdef bint described = self.described, accepted, usable
@@ -180,10 +184,13 @@ cdef class FittedRounds:
         cdef const long long[::1] o, r
         cdef double[::1] fx, fy
         cdef double[:, ::1] fcat
-        for round_ in range(self.c.rounds):
+        cdef bint settled = False
+        cdef double f_before, k1_before, moved
+        for round_ in range(self.c.settle_rounds):
             if not usable:  # an unlabelled verdict's matches are fitted all the same
                 return confirmed
             o, r = obs, rows
+            f_before, k1_before = g.f_px, k1_fitted
             m = o.shape[0]
             fx, fy, fcat = empty_f64(m), empty_f64(m), empty_rows(m, 3)
             for k in range(m):
@@ -209,8 +216,20 @@ cdef class FittedRounds:
             accepted, obs, rows = v.status == ACCEPTED, v.obs, v.rows
             usable = accepted or v.status == UNLABELLED
             if accepted and _same(o, obs) and _same(r, rows):
+                settled = True
                 break  # a fit to the same stars again would return this camera
-        return (v, g.f_px, k1_fitted, self.vectors) if accepted else 0
+            # Past REFIT_ROUNDS a round also settles where its fit moved the camera by
+            # a fraction of the match radius (at the farthest corner): a star at the
+            # edge of the radius may come and go with the noise. A camera fitted to a
+            # patch of stars can be a percent off in scale, its attitude turned to
+            # match; each round then gains stars at the patch's edge and moves it on.
+            moved = _moved_px(f_before, k1_before, g.f_px, k1_fitted, self.values.corner_r)
+            if accepted and round_ >= self.c.rounds and \
+                    moved <= self.c.settle_fraction * self.params.radius_px:
+                settled = True
+                break
+        # unsettled, the last round's matches were never fitted: not reported
+        return (v, g.f_px, k1_fitted, self.vectors) if accepted and settled else 0
 
     cdef Verdict _check_at(self, const Geometry* g, bint described,
                            const long long[::1] hyp_obs, const long long[::1] hyp_rows):

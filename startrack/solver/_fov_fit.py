@@ -49,6 +49,13 @@ FIT_ITERATIONS = 12
 #: fit-and-verify rounds at most; they stop once a round matches the same stars as the one
 #: before (the next fit would start from its own optimum)
 REFIT_ROUNDS = 3
+#: ... past which a round also settles where its fit moved the camera by at most
+#: SETTLE_FRACTION of the match radius at the farthest corner (a star at the edge of the
+#: radius comes and goes with the noise); rounds still moving it after SETTLE_ROUNDS
+#: (a camera fitted to a patch of stars, its scale off, gaining stars at the patch's
+#: edge round after round) give no answer
+SETTLE_ROUNDS = 8
+SETTLE_FRACTION = 0.25
 
 
 def fit_focal(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
@@ -124,12 +131,14 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
     first verification confirmed (0 after a failed fit or a later round). Verify, fit
     the camera to every matched star (:func:`fit_camera`), verify again through the
     fitted camera, until a round matches the stars of the one before (a fit to the
-    same stars would return the same camera), at most ``REFIT_ROUNDS`` fits: in one
-    compiled call (:func:`_compiled_rounds`). A round whose bound passed but whose
-    labelling kept too few stars (``Verification.unlabelled``: a focal length a percent
-    off) has its matched pairs fitted all the same; only an accepted round answers. A
-    hypothesis index the compiled check refuses is read as
-    :func:`startrack.verify.verify` reads it (negative from the end)."""
+    same stars would return the same camera) or, past ``REFIT_ROUNDS``, its fit moved
+    the camera by at most ``SETTLE_FRACTION`` of the match radius; rounds unsettled
+    after ``SETTLE_ROUNDS`` fail (0). In one compiled call (:func:`_compiled_rounds`).
+    A round whose bound passed but whose labelling kept too few stars
+    (``Verification.unlabelled``: a focal length a percent off) has its matched pairs
+    fitted all the same; only an accepted round answers. A hypothesis index the
+    compiled check refuses is read as :func:`startrack.verify.verify` reads it
+    (negative from the end)."""
     if accepted is not None and not accepted.accepted:
         return accepted.confirmed
     found = _compiled_rounds(hyp, x, y, camera, sigma_px, database, config, accepted)
@@ -229,4 +238,6 @@ _CONSTANTS = {"resolve_px": float(LabelConfig().resolve_px),
               "lens_min_stars": LENS_MIN_STARS, "lens_min_r2": LENS_MIN_R2,
               "lens_max_k1": LENS_MAX_K1, "lens_k1_chi2": LENS_K1_CHI2,
               "iterations": FIT_ITERATIONS,
-              "rounds": REFIT_ROUNDS, "rad": math.radians(1.0), "deg": math.degrees(1.0)}
+              "rounds": REFIT_ROUNDS, "settle_rounds": SETTLE_ROUNDS,
+              "settle_fraction": SETTLE_FRACTION, "rad": math.radians(1.0),
+              "deg": math.degrees(1.0)}
