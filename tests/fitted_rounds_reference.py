@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from startrack._core.fov_fit import focal_error
 
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
@@ -29,7 +30,10 @@ def reference_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
     camera, until a round matches the stars of the one before (or, past REFIT_ROUNDS,
     its fit moved the camera by at most SETTLE_FRACTION of the match radius):
     (verification, camera, observation), or the first verification's confirmed count (0
-    after a failed fit, a later round, or SETTLE_ROUNDS rounds that did not settle)."""
+    after a failed fit, a later round, SETTLE_ROUNDS rounds that did not settle, or
+    fitted stars that fix the focal length to no better than a match radius at the
+    farthest corner: the compiled ``focal_error``, held to numpy in
+    tests/test_core_camera.py)."""
     cat, given = database.vectors, camera
     check = accepted or verify(hyp, Observation.from_pixels(x, y, camera, sigma_px),
                                database, config)
@@ -54,7 +58,14 @@ def reference_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
             break  # past REFIT_ROUNDS: the fit moved the camera by a fraction of a radius
     else:
         return 0  # the rounds never settled: the last matches were never fitted
-    return (check, camera, obs) if check.accepted else 0
+    if not check.accepted:
+        return 0
+    # the focal length the fitted stars fix must be good to a match radius at the corners
+    spread = focal_error(camera.optics, x[last.obs_index], y[last.obs_index],
+                         cat[last.cat_index])
+    if not sigma_px * spread * camera.corner_radius_px <= config.radius_px(obs):
+        return 0
+    return check, camera, obs
 
 
 def _moved_px(given: Camera, before: Camera, after: Camera) -> float:

@@ -118,3 +118,42 @@ def test_a_fits_halvings_cost_is_its_normal_equations_cost_to_the_bit():
             assert full == alone
             want = np.sum(pixel_residuals(camera, rot, f, k1, x, y, cat) ** 2)
             assert full == pytest.approx(want, rel=1e-9) and full > 0.0
+
+
+def test_the_focal_lengths_standard_error_is_numpys_least_squares_covariance():
+    """The error a fit's stars leave on the focal length (startrack._core.fov_fit's
+    focal_error, which the fitted rounds require to be a match radius at the corners)
+    is sqrt((J^T J)^-1) of the joint least squares of the attitude and the focal length,
+    J by central differences of the reference residuals, per pixel of noise; stars in a
+    patch fix it far worse than stars across the frame, and a single star not at all."""
+    from fov_fit_reference import pixel_residuals
+    from scipy.spatial.transform import Rotation
+    from startrack._core.fov_fit import focal_error
+
+    from startrack.attitude import wahba_matrices
+
+    rng = np.random.default_rng(23)
+    errors = {}
+    for t, lens in enumerate([None, LENSES[0], LENSES[2]]):
+        camera = Camera.from_fov(1024, 768, 20.0, distortion=lens)
+        for spread in (1.0, 0.05):  # across the frame, a patch
+            n = 12
+            x = 500 + spread * rng.uniform(-480, 480, n)
+            y = 380 + spread * rng.uniform(-360, 360, n)
+            rot = Rotation.random(random_state=t).as_matrix()
+            cat = np.ascontiguousarray((rot @ camera.pixel_to_vector(x, y).T).T)
+            start = wahba_matrices(camera.pixel_to_vector(x, y), cat)
+
+            def residuals(p, camera=camera, x=x, y=y, cat=cat, start=start):
+                turn = start @ Rotation.from_rotvec(p[:3]).as_matrix()
+                return pixel_residuals(camera, turn, camera.f_px + p[3], 0.0, x, y, cat)
+
+            steps = np.array([1e-7, 1e-7, 1e-7, 1e-4 * camera.f_px])
+            jac = np.stack([(residuals(np.eye(4)[k] * h) - residuals(-np.eye(4)[k] * h))
+                            / (2 * h) for k, h in enumerate(steps)], axis=1)
+            want = np.sqrt(np.linalg.inv(jac.T @ jac)[3, 3]) / camera.f_px
+            got = focal_error(camera.optics, x, y, cat)
+            assert got == pytest.approx(want, rel=1e-4)
+            errors[t, spread] = got
+        assert errors[t, 0.05] > 10 * errors[t, 1.0]
+        assert focal_error(camera.optics, x[:1], y[:1], cat[:1]) == np.inf

@@ -210,3 +210,38 @@ cdef int _least_squares(const Lens* described, const double[:, ::1] cat, double[
         if not lowered:
             return it + 1  # settled: the residuals moved by rounding
     return iterations
+
+
+def focal_error(Optics optics, const double[::1] x, const double[::1] y,
+                const double[:, ::1] cat):
+    """The standard error of the focal length that the stars at pixels ``x``, ``y``
+    (catalog directions ``cat``) fix through camera ``optics``, relative to it, per
+    pixel of centroid noise: the focal length's entry of (J^T J)^-1 of the joint least
+    squares (the attitude with it, the lens held), at the Wahba attitude of the pairs;
+    inf where the stars do not fix it."""
+    if y.shape[0] != x.shape[0] or cat.shape[0] != x.shape[0]:
+        raise ValueError("focal_error: x, y and cat of unequal lengths")
+    return focal_spread(&optics.geometry, x, y, cat)
+
+
+@cython.cdivision(True)
+cdef double focal_spread(const Geometry* g, const double[::1] x, const double[::1] y,
+                         const double[:, ::1] cat):
+    """:func:`focal_error` of camera ``g`` (C callers: the fitted rounds)."""
+    cdef Py_ssize_t i, m = x.shape[0]
+    if m < 2:
+        return INFINITY
+    cdef double[::1] dx = empty_f64(m), dy = empty_f64(m)
+    for i in range(m):
+        dx[i], dy[i] = x[i] - g.cx, y[i] - g.cy
+    cdef double[:, ::1] cam = empty_rows(m, 3), rot = empty_rows(3, 3)
+    _directions(g, g.f_px, dx, dy, cam)
+    wahba(cam, cat, rot)
+    cdef Lens described = lens_of(g)
+    cdef _Normal n
+    cdef double unit[_MAX_PARAMS]
+    _normal_equations(&described, cat, rot, dx, dy, g.f_px, 0.0, 4, &n)
+    n.b[0], n.b[1], n.b[2], n.b[3] = 0.0, 0.0, 0.0, 1.0
+    if not _solve_normal(&n, 4, unit) or not unit[3] > 0.0:
+        return INFINITY
+    return sqrt(unit[3]) / g.f_px

@@ -26,7 +26,7 @@ from startrack._core._cone cimport ConeTable
 from startrack._core._verify cimport ACCEPTED, BAD_INDEX, UNLABELLED, CheckParams, Frame
 from startrack._core._verify cimport Verdict, check_cone
 from startrack._core.camera cimport RadialLens, corner_cosines, unit_vectors
-from startrack._core.fov_fit cimport _BAD_FOCAL, _FOLDS, fit_geometry, fitted_lens
+from startrack._core.fov_fit cimport _BAD_FOCAL, _FOLDS, fit_geometry, fitted_lens, focal_spread
 
 cnp.import_array()  # the C API the _arrays helpers call
 
@@ -218,18 +218,23 @@ cdef class FittedRounds:
             if accepted and _same(o, obs) and _same(r, rows):
                 settled = True
                 break  # a fit to the same stars again would return this camera
-            # Past REFIT_ROUNDS a round also settles where its fit moved the camera by
-            # a fraction of the match radius (at the farthest corner): a star at the
-            # edge of the radius may come and go with the noise. A camera fitted to a
-            # patch of stars can be a percent off in scale, its attitude turned to
-            # match; each round then gains stars at the patch's edge and moves it on.
+            # Past REFIT_ROUNDS a round also settles where its fit barely moved the
+            # camera (a star at the edge of the radius comes and goes with the noise);
+            # a camera fitted to a patch of stars, its scale off and its attitude
+            # turned to match, gains stars at the patch's edge round after round.
             moved = _moved_px(f_before, k1_before, g.f_px, k1_fitted, self.values.corner_r)
             if accepted and round_ >= self.c.rounds and \
                     moved <= self.c.settle_fraction * self.params.radius_px:
                 settled = True
                 break
-        # unsettled, the last round's matches were never fitted: not reported
-        return (v, g.f_px, k1_fitted, self.vectors) if accepted and settled else 0
+        if not (accepted and settled):  # unsettled: its last matches were never fitted
+            return 0
+        # Stars in a small patch fix neither the scale nor, turned to match, the
+        # attitude: the focal length must be good to a match radius at the corners.
+        if not (self.values.sigma_px * focal_spread(&g, fx, fy, fcat) * self.values.corner_r
+                <= self.params.radius_px):
+            return 0
+        return v, g.f_px, k1_fitted, self.vectors
 
     cdef Verdict _check_at(self, const Geometry* g, bint described,
                            const long long[::1] hyp_obs, const long long[::1] hyp_rows):

@@ -18,3 +18,7 @@ cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] 
 
 
 cdef void fitted_lens(Geometry* g, double k1) noexcept nogil
+
+
+cdef double focal_spread(const Geometry* g, const double[::1] x, const double[::1] y,
+                         const double[:, ::1] cat)
