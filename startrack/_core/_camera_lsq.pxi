@@ -20,6 +20,25 @@ cdef struct _Normal:
 
 
 @cython.cdivision(True)
+cdef inline void _tangent(const double[:, ::1] cat, const double[:, ::1] rot, Py_ssize_t i,
+                          double* u, double* v) noexcept nogil:
+    """Catalog direction ``i`` on the camera's tangent plane at attitude ``rot`` (camera
+    to sky): the one projection the normal equations and the cost-only sum share."""
+    cdef double c0 = cat[i, 0] * rot[0, 0] + cat[i, 1] * rot[1, 0] + cat[i, 2] * rot[2, 0]
+    cdef double c1 = cat[i, 0] * rot[0, 1] + cat[i, 1] * rot[1, 1] + cat[i, 2] * rot[2, 1]
+    cdef double c2 = cat[i, 0] * rot[0, 2] + cat[i, 1] * rot[1, 2] + cat[i, 2] * rot[2, 2]
+    u[0], v[0] = c0 / c2, c1 / c2
+
+
+cdef void _offsets(const Geometry* g, const double[::1] x, const double[::1] y,
+                   double[::1] dx, double[::1] dy) noexcept nogil:
+    """The pixels' offsets from the principal point, into ``dx``, ``dy``."""
+    cdef Py_ssize_t i
+    for i in range(x.shape[0]):
+        dx[i], dy[i] = x[i] - g.cx, y[i] - g.cy
+
+
+@cython.cdivision(True)
 cdef void _normal_equations(const Lens* described, const double[:, ::1] cat,
                             const double[:, ::1] rot, const double[::1] dx,
                             const double[::1] dy, double f, double k1, int n_params,
@@ -31,7 +50,7 @@ cdef void _normal_equations(const Lens* described, const double[:, ::1] cat,
     to c x w."""
     cdef Py_ssize_t i
     cdef int p, q, k
-    cdef double c0, c1, c2, u, v, r2, s, ds, ex, ey, ru
+    cdef double u, v, r2, s, ds, ex, ey, ru
     cdef double du[3]
     cdef double dv[3]
     cdef double jx[_MAX_PARAMS]
@@ -43,10 +62,7 @@ cdef void _normal_equations(const Lens* described, const double[:, ::1] cat,
             out.a[p][q] = 0.0
     out.cost = 0.0
     for i in range(cat.shape[0]):
-        c0 = cat[i, 0] * rot[0, 0] + cat[i, 1] * rot[1, 0] + cat[i, 2] * rot[2, 0]
-        c1 = cat[i, 0] * rot[0, 1] + cat[i, 1] * rot[1, 1] + cat[i, 2] * rot[2, 1]
-        c2 = cat[i, 0] * rot[0, 2] + cat[i, 1] * rot[1, 2] + cat[i, 2] * rot[2, 2]
-        u, v = c0 / c2, c1 / c2
+        _tangent(cat, rot, i, &u, &v)
         r2 = u * u + v * v
         if lens:  # the radial scale s(r^2) and its derivative
             s = lens_factor(described, r2)
@@ -80,13 +96,10 @@ cdef double _cost(const Lens* described, const double[:, ::1] cat, const double[
     """The ``cost`` of :func:`_normal_equations` alone, by the same arithmetic in the same
     order (so the same to the last bit)."""
     cdef Py_ssize_t i
-    cdef double c0, c1, c2, u, v, r2, s, ex, ey, cost = 0.0
+    cdef double u, v, r2, s, ex, ey, cost = 0.0
     cdef bint lens = not lens_is_identity(described)
     for i in range(cat.shape[0]):
-        c0 = cat[i, 0] * rot[0, 0] + cat[i, 1] * rot[1, 0] + cat[i, 2] * rot[2, 0]
-        c1 = cat[i, 0] * rot[0, 1] + cat[i, 1] * rot[1, 1] + cat[i, 2] * rot[2, 1]
-        c2 = cat[i, 0] * rot[0, 2] + cat[i, 1] * rot[1, 2] + cat[i, 2] * rot[2, 2]
-        u, v = c0 / c2, c1 / c2
+        _tangent(cat, rot, i, &u, &v)
         r2 = u * u + v * v
         s = lens_factor(described, r2) if lens else 1.0 + k1 * r2
         ex, ey = dx[i] - f * s * u, dy[i] - f * s * v
@@ -163,8 +176,8 @@ cdef int _least_squares(const Lens* described, const double[:, ::1] cat, double[
                         double* cost) noexcept nogil:
     """Gauss-Newton from ``rot``, ``f``, ``k1`` (all updated in place), at most
     ``iterations`` steps, each halved (up to 10 times, the halves' cost alone evaluated)
-    until it lowers the squared residuals; ends when a step would move no parameter beyond rounding, lowers them by
-    no more than rounding, or none lowers them. Returns how many steps were taken (-1:
+    until it lowers the squared residuals; ends when a step would move no parameter
+    beyond rounding, lowers them by no more than rounding, or none lowers them. Returns how many steps were taken (-1:
     the normal equations were singular at the start); the sum of the squared residuals
     reached into ``cost``."""
     cdef _Normal here, there
@@ -228,12 +241,11 @@ def focal_error(Optics optics, const double[::1] x, const double[::1] y,
 cdef double focal_spread(const Geometry* g, const double[::1] x, const double[::1] y,
                          const double[:, ::1] cat):
     """:func:`focal_error` of camera ``g`` (C callers: the fitted rounds)."""
-    cdef Py_ssize_t i, m = x.shape[0]
+    cdef Py_ssize_t m = x.shape[0]
     if m < 2:
         return INFINITY
     cdef double[::1] dx = empty_f64(m), dy = empty_f64(m)
-    for i in range(m):
-        dx[i], dy[i] = x[i] - g.cx, y[i] - g.cy
+    _offsets(g, x, y, dx, dy)
     cdef double[:, ::1] cam = empty_rows(m, 3), rot = empty_rows(3, 3)
     _directions(g, g.f_px, dx, dy, cam)
     wahba(cam, cat, rot)

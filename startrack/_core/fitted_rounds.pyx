@@ -185,7 +185,7 @@ cdef class FittedRounds:
         cdef double[::1] fx, fy
         cdef double[:, ::1] fcat
         cdef bint settled = False
-        cdef double f_before, k1_before, moved
+        cdef double f_before, k1_before
         for round_ in range(self.c.settle_rounds):
             if not usable:  # an unlabelled verdict's matches are fitted all the same
                 return confirmed
@@ -222,9 +222,9 @@ cdef class FittedRounds:
             # camera (a star at the edge of the radius comes and goes with the noise);
             # a camera fitted to a patch of stars, its scale off and its attitude
             # turned to match, gains stars at the patch's edge round after round.
-            moved = _moved_px(f_before, k1_before, g.f_px, k1_fitted, self.values.corner_r)
-            if accepted and round_ >= self.c.rounds and \
-                    moved <= self.c.settle_fraction * self.params.radius_px:
+            if accepted and round_ >= self.c.rounds and _moved_px(
+                    f_before, k1_before, g.f_px, k1_fitted, self.values.corner_r,
+            ) <= self.c.settle_fraction * self.params.radius_px:
                 settled = True
                 break
         if not (accepted and settled):  # unsettled: its last matches were never fitted

@@ -113,17 +113,16 @@ def lsq_costs(Optics optics, const double[::1] x, const double[::1] y,
     focal length ``f`` and (without a described lens) k1 ``k1``, summed twice: by the
     normal equations of ``n_params`` parameters (4, or 5 with k1) and by the cost-only
     sum a fit's later halvings take. A fit's steps depend on the two being one number
-    (``tests/test_fov_fit.py`` holds them equal to the bit)."""
+    (``tests/test_core_camera.py`` holds them equal to the bit)."""
     cdef Geometry g = optics.geometry
     cdef Lens described = lens_of(&g)
-    cdef Py_ssize_t i, m = x.shape[0]
+    cdef Py_ssize_t m = x.shape[0]
     if y.shape[0] != m or cat.shape[0] != m or rot.shape[0] != 3 or rot.shape[1] != 3 \
             or n_params not in (4, 5):
         raise ValueError("lsq_costs: x, y and cat of one length, rot 3 x 3, 4 or 5 "
                          "parameters")
     cdef double[::1] dx = empty_f64(m), dy = empty_f64(m)
-    for i in range(m):
-        dx[i], dy[i] = x[i] - g.cx, y[i] - g.cy
+    _offsets(&g, x, y, dx, dy)
     cdef _Normal normal
     _normal_equations(&described, cat, rot, dx, dy, f, k1, n_params, &normal)
     return normal.cost, _cost(&described, cat, rot, dx, dy, f, k1)
@@ -136,10 +135,9 @@ cdef int fit_geometry(const Geometry* g, const double[::1] x, const double[::1] 
     """:func:`fit_focal` of the camera ``g`` (C callers: the fitted rounds of
     ``startrack._core.fitted_rounds``): the status, the focal length and k1 into
     ``f_out`` and ``k1_out``."""
-    cdef Py_ssize_t i, m = x.shape[0]
+    cdef Py_ssize_t m = x.shape[0]
     cdef double[::1] dx = empty_f64(m), dy = empty_f64(m)
-    for i in range(m):
-        dx[i], dy[i] = x[i] - g.cx, y[i] - g.cy
+    _offsets(g, x, y, dx, dy)
     cdef double[:, ::1] cam = empty_rows(m, 3), rot = empty_rows(3, 3)
     cdef double[:, ::1] trial = empty_rows(3, 3), plain = empty_rows(3, 3)
     cdef double f = g.f_px, k1 = 0.0, f_plain = g.f_px, k1_plain = 0.0, cost, cost_plain

@@ -133,7 +133,9 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
     fitted camera, until a round matches the stars of the one before (a fit to the
     same stars would return the same camera) or, past ``REFIT_ROUNDS``, its fit moved
     the camera by at most ``SETTLE_FRACTION`` of the match radius; rounds unsettled
-    after ``SETTLE_ROUNDS`` fail (0). In one compiled call (:func:`_compiled_rounds`).
+    after ``SETTLE_ROUNDS`` fail (0), as does a camera whose stars fix its focal length
+    to no better than a match radius at the farthest corner (a patch of stars: its
+    attitude is not fixed either). In one compiled call (:func:`_compiled_rounds`).
     A round whose bound passed but whose labelling kept too few stars
     (``Verification.unlabelled``: a focal length a percent off) has its matched pairs
     fitted all the same; only an accepted round answers. A hypothesis index the
