@@ -16,7 +16,6 @@ from startrack._api_checks import api_camera, api_prior, api_size, api_time, che
 from startrack._result import STAR_COLUMNS, SolveResult
 from startrack.camera._model import Camera
 from startrack.centroids._table import (
-    DEFAULT_SIGMA_PX,
     MAX_CENTROID_COORD_PX,
     Centroids,
     bad_centroid_row,
@@ -123,7 +122,7 @@ class Solver:
     def __init__(self, fov_deg: float | None = None, *, camera: Camera | str | Path | None = None,
                  size: tuple[int, int] | None = None, method: str = DEFAULT_METHOD,
                  sky: str | None = None, mag_limit: float | None = None,
-                 epoch: float | None = None, sigma_px: float = DEFAULT_SIGMA_PX,
+                 epoch: float | None = None, sigma_px: float | None = None,
                  max_stars: int | None = None, timeout_ms: float | None = None,
                  track: bool = False, prior: tuple[float, float, float] | None = None,
                  prior_sigma_deg: float = 1.0, time: str | None = None,

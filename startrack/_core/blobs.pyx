@@ -8,10 +8,16 @@ the frame was cut into bands.
 
 import numpy as np
 
-# Columns of the moments (as in ``extract``): weight, weighted column and row, flux,
-# area, saturated, peak residual, the peak's raster index.
+from libc.math cimport sqrt
+
+#: the elongation of a one-pixel-wide line (no width to measure) and of anything longer
+MAX_ELONGATION = 100.0
+
+# Columns of the moments (as in ``extract``): weight, weighted column and row, their
+# weighted squares and product, flux, area, saturated, peak residual, the peak's raster
+# index.
 cdef enum:
-    SW, SWX, SWY, FLUX, AREA, SAT, PEAK, PEAK_AT, N_ACC
+    SW, SWX, SWY, SWXX, SWXY, SWYY, FLUX, AREA, SAT, PEAK, PEAK_AT, N_ACC
 
 
 cdef Py_ssize_t _find(Py_ssize_t[::1] parent, Py_ssize_t i) noexcept nogil:
@@ -33,7 +39,7 @@ cdef Py_ssize_t _merge(double[:, ::1] acc, Py_ssize_t[::1] parent) noexcept nogi
         root = _find(parent, i)
         if root == i:
             continue
-        for k in range(AREA + 1):  # SW, SWX, SWY, FLUX, AREA
+        for k in range(AREA + 1):  # the moments, FLUX and AREA
             acc[root, k] += acc[i, k]
         acc[root, SAT] = max(acc[root, SAT], acc[i, SAT])
         if acc[i, PEAK] > acc[root, PEAK] or (acc[i, PEAK] == acc[root, PEAK]
@@ -84,13 +90,18 @@ def join_runs(const long long[:, ::1] runs, double[:, ::1] acc):
 def stars(const double[:, ::1] comp, const double[::1] box, double hot_fraction,
           double hot_margin, long long min_area, long long max_area, long long max_saturated):
     """The components of ``comp`` that are stars, as a dict of arrays (``x``, ``y``,
-    ``flux``, ``saturated``, ``area``; the fields of ``Centroids``) in their order: area within [min_area, max_area] (``max_saturated`` with a saturated
+    ``flux``, ``saturated``, ``area``, ``elongation``; the fields of ``Centroids``) in
+    their order: area within [min_area, max_area] (``max_saturated`` with a saturated
     pixel), positive weight and flux, and not a hot pixel: the peak holds no more than
     ``hot_fraction`` of the 3 x 3 ``box`` around it, whose other pixels hold at least
-    ``hot_margin``."""
+    ``hot_margin``. ``elongation``: the ratio of the weighted image's principal axes (the
+    square root of its second moments' eigenvalues), at most MAX_ELONGATION."""
     cdef Py_ssize_t i, n = 0
     cdef long long area
     cdef bint sat, hot
+    cdef double mx, my, vxx, vyy, vxy, half, disc, lo
+    elongation = np.empty(comp.shape[0])
+    cdef double[::1] eo = elongation
     x, y = np.empty(comp.shape[0]), np.empty(comp.shape[0])
     flux, saturated = np.empty(comp.shape[0]), np.empty(comp.shape[0], np.bool_)
     areas = np.empty(comp.shape[0], np.int64)
@@ -104,6 +115,16 @@ def stars(const double[:, ::1] comp, const double[::1] box, double hot_fraction,
                 and comp[i, SW] > 0 and comp[i, FLUX] > 0):
             xo[n], yo[n] = comp[i, SWX] / comp[i, SW], comp[i, SWY] / comp[i, SW]
             fo[n], so[n], ao[n] = comp[i, FLUX], sat, area
+            mx, my = xo[n], yo[n]
+            vxx = comp[i, SWXX] / comp[i, SW] - mx * mx
+            vyy = comp[i, SWYY] / comp[i, SW] - my * my
+            vxy = comp[i, SWXY] / comp[i, SW] - mx * my
+            half = 0.5 * (vxx + vyy)
+            disc = sqrt(max(0.0, half * half - (vxx * vyy - vxy * vxy)))
+            lo = half - disc
+            eo[n] = (MAX_ELONGATION if lo * MAX_ELONGATION ** 2 <= half + disc
+                     else sqrt((half + disc) / lo))
             n += 1
     return {"x": x[:n].copy(), "y": y[:n].copy(), "flux": flux[:n].copy(),
-            "saturated": saturated[:n].copy(), "area": areas[:n].copy()}
+            "saturated": saturated[:n].copy(), "area": areas[:n].copy(),
+            "elongation": elongation[:n].copy()}

@@ -19,10 +19,11 @@ from startrack._core._pixels cimport (PixelSky, background_at, detection_row, pi
 
 # Columns of the per-run accumulator and of the components that ``join_runs`` returns.
 cdef enum:
-    SW, SWX, SWY, FLUX, AREA, SAT, PEAK, PEAK_AT, N_ACC
+    SW, SWX, SWY, SWXX, SWXY, SWYY, FLUX, AREA, SAT, PEAK, PEAK_AT, N_ACC
     CHUNK = 32  # px, the unit in which rows are searched for detections
 
-COLUMNS = {"sw": SW, "swx": SWX, "swy": SWY, "flux": FLUX, "area": AREA, "sat": SAT,
+COLUMNS = {"sw": SW, "swx": SWX, "swy": SWY, "swxx": SWXX, "swxy": SWXY, "swyy": SWYY,
+           "flux": FLUX, "area": AREA, "sat": SAT,
            "peak": PEAK, "peak_at": PEAK_AT}
 
 
@@ -140,19 +141,22 @@ cdef void _add_run(double* acc, const pixel_t[:, ::1] image, const double[::1] r
                    Py_ssize_t r, Py_ssize_t s, Py_ssize_t e, double sat_level) noexcept nogil:
     """Moments of one run (row r, columns s..e) of detected pixels into ``acc``."""
     cdef Py_ssize_t w = image.shape[1], c
-    cdef double sw = 0.0, swx = 0.0, flux = 0.0, sat = 0.0, peak = -INFINITY, at = 0.0
+    cdef double sw = 0.0, swx = 0.0, swxx = 0.0, flux = 0.0, sat = 0.0, peak = -INFINITY
+    cdef double at = 0.0
     cdef double v, wgt
     for c in range(s, e + 1):
         v = res_row[c]
         wgt = max(v, 0.0)  # negative noise pixels would pull the centroid off the star
         sw += wgt
         swx += wgt * c
+        swxx += wgt * c * c
         flux += v
         if <double>image[r, c] >= sat_level:
             sat = 1.0
         if v >= peak:  # ties: the last pixel in raster order
             peak, at = v, <double>(r * w + c)
     acc[SW], acc[SWX], acc[SWY], acc[FLUX] = sw, swx, sw * r, flux
+    acc[SWXX], acc[SWXY], acc[SWYY] = swxx, swx * r, sw * r * r
     acc[AREA], acc[SAT], acc[PEAK], acc[PEAK_AT] = e - s + 1.0, sat, peak, at
 
 

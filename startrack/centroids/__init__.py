@@ -4,7 +4,7 @@
 from startrack._lazy import lazy_exports
 
 __all__ = [
-    "CentroidConfig", "Centroids", "extract_centroids", "read_centroid_csv",
+    "CentroidConfig", "Centroids", "extract_centroids", "frame_sigma_px", "read_centroid_csv",
     "write_centroid_csv",
 ]
 
@@ -12,6 +12,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "CentroidConfig": "_config",
     "Centroids": "_table",
     "extract_centroids": "_extract",
+    "frame_sigma_px": "_table",
     "read_centroid_csv": "_table",
     "write_centroid_csv": "_table",
 })

@@ -32,6 +32,9 @@ class CentroidConfig:
     threads: threads that the passes over the pixels run on (None = the cores this
         process may use, or fewer when other processes keep them busy). The result is
         the same, bit for bit, whatever the number.
+    shape_cut: drop the spots far more elongated than the frame's typical star image
+        (``startrack.centroids._extract.unlike_stars``): a caption's letters, a
+        satellite's trail, a cosmic ray's track, a nebula's filaments.
     """
 
     k_sigma: float = 5.0
@@ -45,6 +48,7 @@ class CentroidConfig:
     max_stars: int | None = None
     fast: bool = False
     threads: int | None = None
+    shape_cut: bool = True
 
     def __post_init__(self) -> None:
         if not self.k_sigma > 0:

@@ -38,6 +38,16 @@ _MASK_SIGMA = 3.0  # blocks above this (grown) are left out of the final sky mod
 _NO_MASK = np.zeros((0, 0), np.uint8)
 _NO_GRID = np.zeros((0, 0))
 _NATIVE = (np.uint8, np.uint16, np.int16, np.float32, np.float64)  # kernels take these
+#: spots of at least this many pixels have a shape worth measuring (a fainter star's
+#: few pixels give its moments no meaning)
+SHAPE_MIN_AREA = 9
+#: a spot more elongated than this many times the frame's median spot, and than
+#: MIN_CUT_ELONGATION, is no star: every star image of a frame shares the optics' blur
+#: and any trailing, so a real star is as round (or as trailed) as the others
+ELONGATION_FACTOR = 1.6
+MIN_CUT_ELONGATION = 2.2
+#: spots whose shapes set the frame's typical elongation, at least
+SHAPE_SAMPLE = 10
 
 
 
@@ -95,7 +105,29 @@ def extract_centroids(image: np.ndarray, config: CentroidConfig | None = None) -
     out = Centroids(**blobs.stars(comp, box, config.hot_pixel_fraction,
                                   2.0 * math.sqrt(8.0) * sigma, config.min_area,
                                   *config.area_limits(image.shape)))
+    if config.shape_cut:
+        unlike = unlike_stars(out)
+        if unlike.any():
+            out = _keep(out, ~unlike)
     return out if config.max_stars is None else out.brightest(config.max_stars)
+
+
+def unlike_stars(found: Centroids) -> np.ndarray:
+    """Which spots are no star by their shape: of those of at least
+    :data:`SHAPE_MIN_AREA` pixels, the ones more elongated than
+    :data:`ELONGATION_FACTOR` times the median of them all (and than
+    :data:`MIN_CUT_ELONGATION`). Too few measured spots: none."""
+    measured = found.area >= SHAPE_MIN_AREA
+    if np.count_nonzero(measured) < SHAPE_SAMPLE:
+        return np.zeros(len(found), bool)
+    typical = float(np.median(found.elongation[measured]))
+    cut = max(MIN_CUT_ELONGATION, ELONGATION_FACTOR * typical)
+    return measured & (found.elongation > cut)
+
+
+def _keep(found: Centroids, keep: np.ndarray) -> Centroids:
+    return Centroids(found.x[keep], found.y[keep], found.flux[keep], found.saturated[keep],
+                     found.area[keep], found.photometric, found.elongation[keep])
 
 
 def estimate_background(frame: np.ndarray, tile: int,

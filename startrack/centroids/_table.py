@@ -14,6 +14,15 @@ from startrack.errors import InputError, InputFileNotFoundError, StartrackWarnin
 # a few tenths of a pixel (scripts/bench_centroid.py); 0.5 px also leaves room for small
 # lens distortion. identify, the Python API and compare --from images all assume it.
 DEFAULT_SIGMA_PX = 0.5
+# A wide star image (defocus, bloom, seeing in a long exposure, a lens's coma) is
+# centroided no better than about a tenth of its radius on real frames: blended wings,
+# asymmetric aberrations and saturated cores move the centre (the wide real frames'
+# stars land 1 to 5 px from their catalog places at radii of 7 to 10 px). The radius is
+# that of the median detected area of the brightest stars; a compact image (a radius up
+# to ~4 px: every simulated frame) keeps DEFAULT_SIGMA_PX.
+SIGMA_PER_RADIUS = 0.12
+MAX_FRAME_SIGMA_PX = 3.0
+SIGMA_FROM_STARS = 20  # the brightest stars whose areas give the radius
 # A centroid CSV keeps its brightest MAX_CENTROIDS rows (a star tracker's frame holds tens
 # to hundreds of stars; more only costs memory and time); it is read CSV_CHUNK_ROWS at once.
 MAX_CENTROIDS = 1000
@@ -37,7 +46,8 @@ class Centroids:
     """Observed star positions in pixels, sorted brightest first.
 
     ``flux`` is linear brightness (background removed); ``saturated`` flags spots with a
-    saturated pixel; ``area`` is the spot's pixel count (0 when unknown).
+    saturated pixel; ``area`` is the spot's pixel count (0 when unknown); ``elongation``
+    the ratio of its image's principal axes (1 for a round spot; NaN when unknown).
     ``photometric`` is False when ``flux`` only ranks the stars (a centroid list without
     a flux column): the order is then right but brightness cannot be compared with the
     catalog's magnitudes.
@@ -49,6 +59,7 @@ class Centroids:
     saturated: np.ndarray = field(default=None)  # type: ignore[assignment]
     area: np.ndarray = field(default=None)  # type: ignore[assignment]
     photometric: bool = True
+    elongation: np.ndarray = field(default=None)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         n = len(self.x)
@@ -60,6 +71,8 @@ class Centroids:
             else np.asarray(self.saturated, dtype=bool),
             "area": np.zeros(n, np.int64) if self.area is None
             else np.asarray(self.area, dtype=np.int64),
+            "elongation": np.full(n, np.nan) if self.elongation is None
+            else np.asarray(self.elongation, dtype=np.float64),
         }
         order = np.argsort(-fields["flux"], kind="stable")
         for name, arr in fields.items():
@@ -72,7 +85,20 @@ class Centroids:
 
     def brightest(self, n: int) -> Centroids:
         return Centroids(self.x[:n], self.y[:n], self.flux[:n], self.saturated[:n],
-                         self.area[:n], self.photometric)
+                         self.area[:n], self.photometric, self.elongation[:n])
+
+
+def frame_sigma_px(centroids: Centroids) -> float:
+    """The 1-sigma centroid error the frame's star images allow (pixels): the default
+    for compact images, else :data:`SIGMA_PER_RADIUS` of their radius (the median area
+    of the :data:`SIGMA_FROM_STARS` brightest, as a disk), at most
+    :data:`MAX_FRAME_SIGMA_PX`. A centroid list without areas gets the default."""
+    area = centroids.area[:SIGMA_FROM_STARS]
+    area = area[area > 0]
+    if len(area) == 0:
+        return DEFAULT_SIGMA_PX
+    radius = float(np.sqrt(np.median(area) / np.pi))
+    return float(min(MAX_FRAME_SIGMA_PX, max(DEFAULT_SIGMA_PX, SIGMA_PER_RADIUS * radius)))
 
 
 def _csv_columns(path: Path) -> dict[str, str]:

@@ -24,7 +24,12 @@ def around_bar(emit):
 
 
 def verbose_notes(quiet: bool, verbose: bool):
-    """A function printing a note on stderr when -v is given (never with -q)."""
+    """A function printing a note on stderr when -v is given (never with -q); slow
+    table builds are announced unless -q."""
+    from startrack.io import announce_builds  # the cache's module loads numpy: on use
+
+    announce_builds(not quiet)
+
     def note(text: str) -> None:
         if verbose and not quiet:
             click.echo(text, err=True)

@@ -96,8 +96,9 @@ def _time(ctx, param, value):
 @click.option("--max-stars", type=Number(SOLVER_BOUNDS["max_stars"]),
               help="Brightest stars the matcher may use to form patterns.")
 @click.option("--sigma-px", type=Number(SOLVER_BOUNDS["sigma_px"]),
-              default=DEFAULT_SIGMA_PX, show_default=True,
-              help="1-sigma centroid error in pixels; sets match tolerances.")
+              help="1-sigma centroid error in pixels; sets match tolerances. Default: "
+                   f"{DEFAULT_SIGMA_PX} px, more for wide star images (a tenth of their "
+                   "radius; the record's diagnostics give the value used).")
 @click.option("--timeout-ms", type=Number(SOLVER_BOUNDS["timeout_ms"]),
               help="Wall-clock limit per input, over all its stages (the method, the FOV "
                    "refit and search); past it the input is not solved, with reason "

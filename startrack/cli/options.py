@@ -96,7 +96,12 @@ def verbosity(command):
 
 
 def notes(quiet: bool, verbose: bool):
-    """``(note, detail)``: print a note on stderr unless -q; a detail only with -v."""
+    """``(note, detail)``: print a note on stderr unless -q; a detail only with -v; slow
+    table builds are announced unless -q."""
+    from startrack.io import announce_builds  # the cache's module loads numpy: on use
+
+    announce_builds(not quiet)
+
     def note(text: str) -> None:
         if not quiet:
             click.echo(text, err=True)

@@ -18,6 +18,7 @@ Each level is built once and cached (:func:`startrack.io._cache.cached_arrays`).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -38,6 +39,8 @@ RATIO_STEPS = 255  # a table's ratios are stored as uint8 in steps of 1/RATIO_ST
 FORMAT_VERSION = 4
 #: pair (a, b) of each of the six edges of a pattern (a < b, rows of a 4-star pattern)
 EDGES = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
+#: pattern stars whose neighbours and patterns a build holds at once
+BUILD_CHUNK_STARS = 1 << 16
 
 
 def level_for(fov_deg: float) -> float:
@@ -71,40 +74,80 @@ def _chord(angle_rad: float) -> float:
 
 
 def pattern_radii(vectors: np.ndarray, min_rad: float, max_rad: float,
-                  k: int = K_NEAREST) -> tuple[np.ndarray, np.ndarray]:
+                  k: int = K_NEAREST, rows: slice = slice(None),
+                  tree: cKDTree | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Each row's largest pattern edge (radians): ``min_rad``, or where stars are sparse
     the angle to its ``k``-th nearest other row, at most ``max_rad``; and the rows within
     that angle of each row whose radius exceeds ``min_rad`` (N x k, ``len(vectors)`` where
-    there is none)."""
+    there is none). ``rows``: only these rows' (a build's chunk); ``tree``: the k-d tree of
+    ``vectors``, when one is built already."""
     n = len(vectors)
+    heads = vectors[rows]
     kk = min(k, n - 1)
     if kk <= 0 or max_rad <= min_rad:
-        return np.full(n, float(min_rad)), np.full((n, 0), n, np.int64)
-    dist, rows = cKDTree(vectors).query(vectors, k=kk + 1,
-                                        distance_upper_bound=_chord(max_rad))
+        return np.full(len(heads), float(min_rad)), np.full((len(heads), 0), n, np.int64)
+    tree = cKDTree(vectors) if tree is None else tree
+    dist, near = tree.query(heads, k=kk + 1, distance_upper_bound=_chord(max_rad))
     kth = dist[:, -1]
     angle = np.where(np.isfinite(kth), 2.0 * np.arcsin(np.clip(kth / 2.0, 0.0, 1.0)),
                      max_rad)
     radii = np.clip(angle, min_rad, max_rad)
-    rows = np.where(radii[:, None] > min_rad, rows[:, 1:], n)
-    return radii, rows
+    near = np.where(radii[:, None] > min_rad, near[:, 1:], n)
+    return radii, near
 
 
-def _neighbour_lists(vectors: np.ndarray, min_rad: float, sparse_rows: np.ndarray):
+def _neighbour_lists(vectors: np.ndarray, min_rad: float, sparse_rows: np.ndarray,
+                     rows: slice = slice(None), tree: cKDTree | None = None):
     """CSR lists of each row's higher rows within its pattern radius: the pairs within
-    ``min_rad`` and the rows of :func:`pattern_radii` beyond it."""
+    ``min_rad`` and the rows of :func:`pattern_radii` beyond it (``sparse_rows``, of the
+    same ``rows``). ``rows``: a contiguous range of rows (a build's chunk), whose lists
+    alone are made, with the others' row numbers."""
     n = len(vectors)
-    pairs = cKDTree(vectors).query_pairs(_chord(min_rad), output_type="ndarray")
-    pairs = np.sort(pairs.reshape(-1, 2).astype(np.int64), axis=1)
-    head = np.repeat(np.arange(n, dtype=np.int64), sparse_rows.shape[1])
+    first, stop, _ = rows.indices(n)
+    tree = cKDTree(vectors) if tree is None else tree
+    near = cKDTree(vectors[first:stop]).sparse_distance_matrix(tree, _chord(min_rad),
+                                                                output_type="ndarray")
+    head_p = near["i"].astype(np.int64) + first
+    other_p = near["j"].astype(np.int64)
+    higher = other_p > head_p
+    head = np.repeat(np.arange(first, stop, dtype=np.int64), sparse_rows.shape[1])
     other = sparse_rows.ravel().astype(np.int64)
     far = (other < n) & (other > head)
-    # one int64 code per (head, higher row): unique sorts by head, then by brightness
-    code = np.unique(np.concatenate([pairs[:, 0] * n + pairs[:, 1],
-                                     head[far] * n + other[far]]))
-    indptr = np.zeros(n + 1, np.int64)
-    np.cumsum(np.bincount(code // n, minlength=n), out=indptr[1:])
+    # one int64 code per (head, higher row): sorted, by head, then by brightness (a sort
+    # and a comparison: numpy's hashing np.unique is several times slower on these)
+    code = np.concatenate([head_p[higher] * n + other_p[higher], head[far] * n + other[far]])
+    code.sort()
+    code = code[np.concatenate([[True], code[1:] != code[:-1]])] if len(code) else code
+    indptr = np.zeros(stop - first + 1, np.int64)
+    np.cumsum(np.bincount(code // n - first, minlength=stop - first), out=indptr[1:])
     return indptr, np.ascontiguousarray(code % n, np.int64)
+
+
+def quad_chunks(vectors: np.ndarray, max_edge_rad: float, sparse_edge_rad: float = 0.0,
+                max_higher: int = MAX_HIGHER, k: int = K_NEAREST,
+                chunk: int = BUILD_CHUNK_STARS) -> Iterator[np.ndarray]:
+    """:func:`all_quads`, ``chunk`` first rows at a time (in the same order): memory held
+    by a build grows with a chunk's pairs, not with the whole sky's."""
+    n = len(vectors)
+    if n < 4:
+        return
+    v = np.ascontiguousarray(vectors, np.float64)
+    tree = cKDTree(v)
+    for first in range(0, n, chunk):
+        rows = slice(first, min(n, first + chunk))
+        radii, sparse_rows = pattern_radii(v, max_edge_rad, sparse_edge_rad, k, rows, tree)
+        indptr, indices = _neighbour_lists(v, max_edge_rad, sparse_rows, rows, tree)
+        if len(indices) == 0:
+            continue
+        # a sparse star's pattern lies in the disk out to its k-th nearest star: edges
+        # between its neighbours reach across that disk
+        sparse = radii > max_edge_rad
+        cos_max = np.cos(np.where(sparse, np.minimum(2.0 * radii, max(sparse_edge_rad,
+                                                                      max_edge_rad)), radii))
+        cap = np.where(sparse, max(k, max_higher), max_higher).astype(np.int64)
+        quads = enumerate_quads(indptr, indices, v, np.ascontiguousarray(cos_max), cap)
+        quads[:, 0] += first
+        yield quads
 
 
 def all_quads(vectors: np.ndarray, max_edge_rad: float, sparse_edge_rad: float = 0.0,
@@ -114,21 +157,8 @@ def all_quads(vectors: np.ndarray, max_edge_rad: float, sparse_edge_rad: float =
     are sparse), each row combining with at most the first ``max_higher`` later rows near
     it (rows are brightest first, so a crowded field keeps its brighter patterns); a
     sparse row reaches its ``k`` nearest rows and combines with every later one of them."""
-    n = len(vectors)
-    if n < 4:
-        return np.zeros((0, 4), np.int64)
-    radii, sparse_rows = pattern_radii(vectors, max_edge_rad, sparse_edge_rad, k)
-    indptr, indices = _neighbour_lists(vectors, max_edge_rad, sparse_rows)
-    if len(indices) == 0:
-        return np.zeros((0, 4), np.int64)
-    v = np.ascontiguousarray(vectors, np.float64)
-    # a sparse star's pattern lies in the disk out to its k-th nearest star: edges between
-    # its neighbours reach across that disk
-    sparse = radii > max_edge_rad
-    cos_max = np.cos(np.where(sparse, np.minimum(2.0 * radii, max(sparse_edge_rad,
-                                                                  max_edge_rad)), radii))
-    cap = np.where(sparse, max(k, max_higher), max_higher).astype(np.int64)
-    return enumerate_quads(indptr, indices, v, np.ascontiguousarray(cos_max), cap)
+    parts = list(quad_chunks(vectors, max_edge_rad, sparse_edge_rad, max_higher, k))
+    return np.concatenate(parts) if parts else np.zeros((0, 4), np.int64)
 
 
 def level_stars(level_deg: float) -> int:
@@ -143,13 +173,21 @@ def build_level_arrays(vectors: np.ndarray, level_deg: float) -> dict[str, np.nd
     (rows of ``vectors``, which are brightest first) and the ratios in ``RATIO_STEPS``
     (a first test of a lookup's candidates that needs no star of the catalog)."""
     head = vectors[: min(len(vectors), level_stars(level_deg))]
-    quads = all_quads(head, PATTERN_SIZE * math.radians(level_deg),
-                      MAX_PATTERN_SIZE * math.radians(level_deg))
-    r, _ = ratios(edge_angles(head, quads))
-    keys = keys_of(r)
+    keys, quads, stored = [], [], []
+    # Chunk by chunk: the edges of every pattern at once (six pairs of 3-vectors each)
+    # would hold ~300 bytes per pattern, GBs for a deep catalog's narrow level.
+    for part in quad_chunks(head, PATTERN_SIZE * math.radians(level_deg),
+                            MAX_PATTERN_SIZE * math.radians(level_deg)):
+        r, _ = ratios(edge_angles(head, part))
+        keys.append(keys_of(r).astype(np.int32))
+        quads.append(part.astype(np.int32))
+        stored.append(np.round(r * RATIO_STEPS).astype(np.uint8))
+    if not keys:
+        return {"keys": np.zeros(0, np.int32), "quads": np.zeros((0, 4), np.int32),
+                "ratios": np.zeros((0, 5), np.uint8)}
+    keys, quads, stored = np.concatenate(keys), np.concatenate(quads), np.concatenate(stored)
     order = np.argsort(keys, kind="stable")
-    return {"keys": keys[order].astype(np.int32), "quads": quads[order].astype(np.int32),
-            "ratios": np.round(r[order] * RATIO_STEPS).astype(np.uint8)}
+    return {"keys": keys[order], "quads": quads[order], "ratios": stored[order]}
 
 
 class QuadLevel:
@@ -158,7 +196,7 @@ class QuadLevel:
 
     def __init__(self, level_deg: float, arrays: dict[str, np.ndarray]) -> None:
         self.level_deg = level_deg
-        self.keys = arrays["keys"].astype(np.int64)
+        self.keys = arrays["keys"]  # int32 as stored: a large level is mapped, not copied
         self.quads = arrays["quads"]
         self.ratios = arrays["ratios"]
 
@@ -168,12 +206,14 @@ class QuadLevel:
 
 def quad_level(catalog, level_deg: float) -> QuadLevel:
     """The cached pattern table of ``catalog`` at one level."""
-    params = {"catalog": catalog.fingerprint(), "level": round(level_deg, 9),
+    # keyed by the pattern stars alone: the magnitude cuts that hold them share the table
+    head = min(len(catalog), level_stars(level_deg))
+    params = {"catalog": catalog.fingerprint(head), "head": head, "level": round(level_deg, 9),
               "stars": STARS_PER_FRAME, "size": PATTERN_SIZE, "k": MAX_HIGHER, "bin": BIN,
               "near": K_NEAREST, "sparse": MAX_PATTERN_SIZE,
               "v": FORMAT_VERSION}
     arrays = cached_arrays("quads", params,
-                           lambda: build_level_arrays(catalog.vectors, level_deg))
+                           lambda: build_level_arrays(catalog.vectors[:head], level_deg))
     return QuadLevel(level_deg, arrays)
 
 __all__ = [

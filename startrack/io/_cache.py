@@ -25,6 +25,8 @@ import math
 import os
 import re
 import struct
+import sys
+import threading
 import time
 import warnings
 import zipfile
@@ -42,6 +44,40 @@ from startrack.validate import CACHE_MAX_MB, env_number
 CACHE_VERSION = 4  # 2: a checksum; 3: XXH3-128 instead of SHA-256; 4: the key inside
 DEFAULT_CACHE_MAX_MB = 2048  # room for a blind search's Gaia pattern tables beside the rest
 CHECKSUM_KEY = "__xxh3_128__"
+#: an entry this large (a deep catalog's pattern table) is mapped, not read: a process
+#: touches only the pages its lookups need, and loading costs milliseconds. Its hash is
+#: checked when it is written; on load, the key, every member's size and the zip
+#: directory are (a write is atomic, so a torn entry cannot appear); a smaller entry's
+#: hash is checked on every load.
+MAP_MIN_BYTES = 64 * 1024 * 1024
+#: a build still running after this many seconds says so on stderr (when builds are
+#: announced: :func:`announce_builds`, which the command line turns on unless -q)
+BUILD_NOTICE_S = 3.0
+_announce = {"on": False}
+
+
+def announce_builds(on: bool) -> None:
+    """Whether a slow build of a cache entry prints one line on stderr saying what it
+    builds (a deep catalog's tables take minutes, once)."""
+    _announce["on"] = bool(on)
+
+
+def _built(kind: str, build: Callable[[], dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """``build()``, announced on stderr when it runs past :data:`BUILD_NOTICE_S`."""
+    if not _announce["on"]:
+        return build()
+
+    def say() -> None:
+        print(f"startrack: building the {kind} table once (it is kept in {cache_dir()} "
+              "for later runs)...", file=sys.stderr, flush=True)
+
+    timer = threading.Timer(BUILD_NOTICE_S, say)
+    timer.daemon = True
+    timer.start()
+    try:
+        return build()
+    finally:
+        timer.cancel()
 ENTRY_KEY = "__key__"  # the member holding the entry's own key (what the entry is)
 # What the cache writes: kind-<20 hex>.suffix; anything else in the folder is left alone.
 ENTRY_NAME = re.compile(r"^[a-z0-9_]+-[0-9a-f]{20}(\.[A-Za-z0-9]+)+$")
@@ -83,9 +119,10 @@ def arrays_checksum(arrays: dict[str, np.ndarray]) -> str:
     return digest.hexdigest()
 
 
-def _read_member(fh, info: zipfile.ZipInfo) -> np.ndarray | None:
+def _read_member(fh, info: zipfile.ZipInfo, mapped: bool = False) -> np.ndarray | None:
     """One stored .npy member, read straight into an array of its own (aligned and
-    writable, one copy from the page cache); None when it is not a plain .npy."""
+    writable, one copy from the page cache), or with ``mapped`` a read-only map of the
+    file's bytes; None when it is not a plain .npy."""
     fh.seek(info.header_offset)
     local = fh.read(30)
     if local[:4] != b"PK\x03\x04":
@@ -104,22 +141,25 @@ def _read_member(fh, info: zipfile.ZipInfo) -> np.ndarray | None:
     nbytes = math.prod(shape) * dtype.itemsize
     if fh.tell() - start + nbytes != info.file_size:
         raise ValueError("member size does not match its header")
+    if mapped and nbytes:
+        return np.memmap(fh.name, dtype, "r", fh.tell(), shape, "F" if fortran else "C")
     raw = np.empty(nbytes, np.uint8)
     if fh.readinto(raw) != nbytes:
         raise ValueError("truncated member")
     return raw.view(dtype).reshape(shape, order="F" if fortran else "C")
 
 
-def _read_npz(path: Path) -> dict[str, np.ndarray]:
+def _read_npz(path: Path, mapped: bool = False) -> dict[str, np.ndarray]:
     """The arrays of a .npz: its stored members read directly (np.load decompresses and
-    CRCs through a stream, several times slower; the caller checks the hash anyway),
-    anything else by np.load."""
+    CRCs through a stream, several times slower; the caller checks the hash anyway), or
+    with ``mapped`` mapped read-only; anything else by np.load."""
     with zipfile.ZipFile(path) as zf, open(path, "rb") as fh:
         arrays: dict[str, np.ndarray] = {}
         for info in zf.infolist():
             arr = None
             if info.compress_type == zipfile.ZIP_STORED and info.filename.endswith(".npy"):
-                arr = _read_member(fh, info)
+                arr = _read_member(fh, info, mapped and info.filename != f"{CHECKSUM_KEY}.npy"
+                                   and info.filename != f"{ENTRY_KEY}.npy")
             if arr is None:
                 with np.load(path, allow_pickle=False) as data:
                     return {name: data[name] for name in data.files}
@@ -131,11 +171,12 @@ def _load_checked(path: Path, key: str) -> dict[str, np.ndarray] | None:
     """The arrays of a cache entry, or None when it is damaged, altered or another entry
     (its stored ``key`` differs: what the file name says is not what the entry holds)."""
     try:
-        arrays = _read_npz(path)
+        mapped = path.stat().st_size >= MAP_MIN_BYTES
+        arrays = _read_npz(path, mapped)
     except Exception:  # any damage (truncation, bad zip, bad header) means a rebuild
         return None
     stored = arrays.pop(CHECKSUM_KEY, None)
-    if not arrays or stored is None or str(stored) != arrays_checksum(arrays):
+    if not arrays or stored is None or (not mapped and str(stored) != arrays_checksum(arrays)):
         return None
     stored_key = arrays.pop(ENTRY_KEY, None)
     if stored_key is None or stored_key.shape != () or str(stored_key) != key or not arrays:
@@ -189,7 +230,7 @@ def cached_arrays(kind: str, params: dict,
         if arrays is not None:
             _touch(path)
             return arrays
-    arrays = build()
+    arrays = _built(kind, build)
     try:
         with atomic_path(path, "cache entry") as tmp:
             _write_npz(tmp, {**arrays, ENTRY_KEY: np.array(key)})

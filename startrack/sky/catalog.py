@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
+import xxhash
 from scipy.spatial import cKDTree
 
 
@@ -42,9 +42,12 @@ class Catalog:
     vectors: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        order = np.argsort(self.mag, kind="stable")
+        mag = np.asarray(self.mag)
+        # a catalog read from the cache is sorted already: a deep one's sort costs seconds
+        order = None if bool(np.all(mag[1:] >= mag[:-1])) else np.argsort(mag, kind="stable")
         for name in ("ids", "ra_deg", "dec_deg", "mag"):
-            arr = np.ascontiguousarray(np.asarray(getattr(self, name))[order])
+            arr = np.asarray(getattr(self, name))
+            arr = np.ascontiguousarray(arr if order is None else arr[order])
             object.__setattr__(self, name, arr)
         object.__setattr__(self, "vectors", radec_to_vectors(self.ra_deg, self.dec_deg))
 
@@ -61,12 +64,19 @@ class Catalog:
             source=dict(self.source),
         )
 
-    def fingerprint(self) -> str:
-        """A short hash of the catalog's content, for cache keys."""
-        h = hashlib.sha256()
-        for arr in (self.ids, self.vectors, self.mag):
-            h.update(np.ascontiguousarray(arr).tobytes())
-        return h.hexdigest()[:16]
+    def fingerprint(self, rows: int | None = None) -> str:
+        """A short hash of the catalog's content, for cache keys (computed once: XXH3
+        reads a deep catalog's arrays in milliseconds, where SHA-256 took a second).
+        ``rows``: of its first (brightest) rows only, which every magnitude cut of the
+        same catalog holding them shares: a table made of them serves every such cut."""
+        rows = len(self) if rows is None else min(int(rows), len(self))
+        prints = self.__dict__.setdefault("_fingerprints", {})
+        if rows not in prints:
+            h = xxhash.xxh3_128()
+            for arr in (self.ids, self.vectors, self.mag):
+                h.update(np.ascontiguousarray(arr[:rows]).reshape(-1).view(np.uint8))
+            prints[rows] = h.hexdigest()[:16]
+        return prints[rows]
 
     def index_of(self, ids: np.ndarray) -> np.ndarray:
         """Row indices of the given ids (-1 where absent)."""

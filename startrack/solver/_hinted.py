@@ -50,6 +50,7 @@ def frame_hints(pipeline, frame: FrameInput) -> Hints | None:
 def solve_hinted(pipeline, frame: FrameInput, hints: Hints) -> FrameResult:
     """:meth:`Pipeline.identify_frame` for an input with ``hints``."""
     child = _child(pipeline, frame, hints)
+    child.sigma_px = pipeline.sigma_px  # this input's, as the parent decided it
     found = child.identify_unhinted(frame)
     sol = found.solution
     if sol.solved and hints.pointing is not None and not within_hint(sol.rotation,

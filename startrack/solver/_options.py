@@ -6,7 +6,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from startrack.camera._model import Camera
-from startrack.centroids._table import DEFAULT_SIGMA_PX
 from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD
 from startrack.sky import SkySpec
 from startrack.solver._hints import Hints
@@ -24,7 +23,9 @@ class Options:
     mag_limit: float | None = None
     epoch: float | None = None
     max_stars: int | None = None
-    sigma_px: float = DEFAULT_SIGMA_PX
+    #: 1-sigma centroid error (px); None: from each frame's star images
+    #: (:func:`startrack.centroids.frame_sigma_px`)
+    sigma_px: float | None = None
     #: how far the true FOV may be from the given one (a fraction); 0: exactly as given
     fov_tolerance: float = DEFAULT_FOV_TOLERANCE
     #: wall-clock limit per input, over all its stages (reason "timeout")

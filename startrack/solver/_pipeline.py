@@ -19,6 +19,8 @@ import sys
 from pathlib import Path
 
 from startrack.camera._model import Camera
+from startrack.centroids import frame_sigma_px
+from startrack.centroids._table import DEFAULT_SIGMA_PX
 from startrack.database import StarDatabase
 from startrack.defaults import BLIND_FOV_RANGE
 from startrack.errors import InputError
@@ -56,12 +58,14 @@ class Pipeline:
             raise InputError(f"timeout_ms must be a number >= 0, got {options.timeout_ms}")
         self.options = options
         get_matcher(options.method)  # an unknown method fails before any work
-        self._identifiers: dict[tuple[Camera, SkySpec, str], Identifier] = {}
+        #: the 1-sigma centroid error of the input being solved (:meth:`solve` sets it)
+        self.sigma_px = DEFAULT_SIGMA_PX if options.sigma_px is None else options.sigma_px
+        self._identifiers: dict[tuple[Camera, SkySpec, str, float], Identifier] = {}
         self.catalogs: dict[SkySpec, Catalog] = {} if catalogs is None else catalogs
         #: (Pointing, radius_deg): the catalogs are cut to this cone (startrack.solver._hinted)
         self.cone = None
         self._cut: dict[SkySpec, Catalog] = {}
-        self._blind: dict[tuple[SkySpec, tuple[float, float]], BlindSolver] = {}
+        self._blind: dict[tuple[SkySpec, tuple[float, float], float], BlindSolver] = {}
         self._notes: set[str] = set()
         #: :meth:`setup_for`'s decisions by image size for inputs without a sidecar, made
         #: under the options ``_setups_for`` (the bench sets new options on a pipeline)
@@ -91,22 +95,31 @@ class Pipeline:
         method = method or opt.method
         # the one of ``method`` asked for last: a batch asks for it again and again
         held = self._held.get(method)
-        if held is not None and held[0] is camera and held[1] is sky:
+        if held is not None and held[0] is camera and held[1] is sky \
+                and held[2].sigma_px == self.sigma_px:
             return held[2]
-        key = (camera, sky, method)
+        key = (camera, sky, method, self.sigma_px)
         if key not in self._identifiers:
             with self.setup.counting():
                 self._identifiers[key] = Identifier(
                     camera, self.catalog(sky, camera), method, max_stars=opt.max_stars,
-                    sigma_px=opt.sigma_px, timeout_ms=opt.timeout_ms)
+                    sigma_px=self.sigma_px, timeout_ms=opt.timeout_ms)
         self._held[method] = (camera, sky, self._identifiers[key])
         return self._identifiers[key]
 
     def solve(self, frame: FrameInput) -> FrameResult:
         """Identify one input that is already read (startrack.solver._fov_search: a nominal or
-        unknown
-        field of view), its attitude corrected for aberration when the time is known."""
+        unknown field of view), its attitude corrected for aberration when the time is
+        known; its centroid error the option's, else what its star images allow."""
+        self.sigma_px = self.frame_sigma(frame)
         return self.correct_aberration(frame, self.identify_frame(frame))
+
+    def frame_sigma(self, frame: FrameInput) -> float:
+        """The 1-sigma centroid error (px) that ``frame`` is matched with: the option's,
+        else :func:`startrack.centroids.frame_sigma_px` of its stars."""
+        if self.options.sigma_px is not None:
+            return float(self.options.sigma_px)
+        return frame_sigma_px(frame.centroids)
 
     def identify_frame(self, frame: FrameInput) -> FrameResult:
         """:meth:`solve` without the aberration correction: the attitude in the catalog's
@@ -135,7 +148,7 @@ class Pipeline:
         sol = found.solution
         return FrameResult(frame.name, sol, found.obs, frame.centroids,
                            frame_timing(frame, sol.identify_ms), found.camera,
-                           found.catalog, self.options.sigma_px, found.match_radius_px,
+                           found.catalog, self.sigma_px, found.match_radius_px,
                            frame.image)
 
     def _approximate(self, frame: FrameInput, camera: Camera, sky: SkySpec):
@@ -150,7 +163,7 @@ class Pipeline:
         # the search alone for a scale-free method (its first window holds the nominal FOV)
         # or where the tables do not fit (a deep narrow-field sky)
         if not get_matcher(self.options.method).scale_free and self._tables_fit(camera, sky):
-            fresh = (camera, sky, self.options.method) not in self._identifiers
+            fresh = (camera, sky, self.options.method, self.sigma_px) not in self._identifiers
             nominal = self.identifier(camera, sky)
             if fresh:  # the refit's first use too, before this input's deadline starts
                 with self.setup.counting():
@@ -192,8 +205,8 @@ class Pipeline:
         """Whether the configured method's pair table for ``camera`` fits the pair budget
         (:func:`startrack.sky.check_pair_budget`); a Gaia sky for a 1.5 to 4 deg field
         does not, and the quad search, which tables no pairs, then answers alone."""
-        if not get_matcher(self.options.method).tables or (camera, sky, self.options.method) \
-                in self._identifiers:
+        if not get_matcher(self.options.method).tables or (
+                camera, sky, self.options.method, self.sigma_px) in self._identifiers:
             return True
         try:
             check_pair_budget(self.catalog(sky, camera), camera)
@@ -251,11 +264,12 @@ class Pipeline:
 
     def blind_solver(self, sky: SkySpec,
                      fov_range: tuple[float, float] = BLIND_FOV_RANGE) -> BlindSolver:
-        if (sky, fov_range) not in self._blind:
+        key = (sky, fov_range, self.sigma_px)
+        if key not in self._blind:
             with self.setup.counting():
-                self._blind[sky, fov_range] = BlindSolver(
-                    self.catalog(sky, None), sky, self.options.sigma_px, fov_range=fov_range)
-        return self._blind[sky, fov_range]
+                self._blind[key] = BlindSolver(self.catalog(sky, None), sky, self.sigma_px,
+                                               fov_range=fov_range)
+        return self._blind[key]
 
     def _blind_search(self, x, y, size: tuple[int, int], sky: SkySpec, deadline: Deadline):
         """No FOV: the blind search on ``sky``; on the default Tycho-2 sky, Gaia's for the

@@ -86,20 +86,21 @@ class SequenceSolver:
     def solve(self, frame: FrameInput) -> FrameResult:
         """Solve the next input of the sequence, already read."""
         setup = self.pipeline.setup_for(frame)
+        sigma_px = self.pipeline.sigma_px = self.pipeline.frame_sigma(frame)
         if not self.track or setup != self._setup:
             self.reset()  # a single frame, or another camera: no state carries
         self._setup = setup
         held = self._held or self._seeded(*setup)
         spent, failed = 0.0, None
         if held is not None and frame.size in (None, (held.camera.width, held.camera.height)):
-            obs = observation(frame.centroids, held.camera, self.pipeline.options.sigma_px)
+            obs = observation(frame.centroids, held.camera, sigma_px)
             tracked = self.tracker.attempt(obs, held.database, self.verify_config, held.method)
             if tracked is not None and tracked.solved:
                 solution = self._lock(self.tracker.record(tracked, obs, "tracking"))
                 timing = frame_timing(frame, solution.identify_ms)
                 return self.pipeline.correct_aberration(frame, FrameResult(
                     frame.name, solution, obs, frame.centroids, timing, held.camera,
-                    held.catalog, self.pipeline.options.sigma_px,
+                    held.catalog, sigma_px,
                     self.verify_config.radius_px(obs), frame.image))
             spent = 0.0 if tracked is None else tracked.identify_ms
             failed = None if tracked is None else (tracked.reason or "no_track")
