@@ -130,3 +130,23 @@ def test_spots_far_more_elongated_than_the_frames_stars_are_dropped():
     trailed = [(x, y, 4.0, 1.3, 800.0) for x, y, *_ in stars]
     assert len(extract_centroids(_frame(trailed, 300))) == len(
         extract_centroids(_frame(trailed, 300), CentroidConfig(shape_cut=False)))
+
+
+def test_a_slow_build_says_what_it_builds_unless_quiet(monkeypatch, capsys):
+    import time
+
+    monkeypatch.setattr(_cache, "BUILD_NOTICE_S", 0.05)
+
+    def slow():
+        time.sleep(0.5)
+        return {"a": np.arange(3)}
+
+    _cache.announce_builds(True)
+    try:
+        _cache.cached_arrays("slowtest", {"n": 1}, slow)
+        assert "building the slowtest table once" in capsys.readouterr().err
+        _cache.announce_builds(False)
+        _cache.cached_arrays("slowtest", {"n": 2}, slow)
+        assert capsys.readouterr().err == ""
+    finally:
+        _cache.announce_builds(False)

@@ -42,14 +42,16 @@ from startrack.io._writer import atomic_path
 from startrack.validate import CACHE_MAX_MB, env_number
 
 CACHE_VERSION = 4  # 2: a checksum; 3: XXH3-128 instead of SHA-256; 4: the key inside
-DEFAULT_CACHE_MAX_MB = 2048  # room for a blind search's Gaia pattern tables beside the rest
+# room for a blind search's Gaia pattern tables and a deep sky's (Tycho-2's narrow levels,
+# ~0.1 to 0.7 GB each, mapped) beside the rest: a cap below them rebuilds them every run
+DEFAULT_CACHE_MAX_MB = 4096
 CHECKSUM_KEY = "__xxh3_128__"
-#: an entry this large (a deep catalog's pattern table) is mapped, not read: a process
+#: an entry this large (a deep catalog, its pattern tables) is mapped, not read: a process
 #: touches only the pages its lookups need, and loading costs milliseconds. Its hash is
 #: checked when it is written; on load, the key, every member's size and the zip
 #: directory are (a write is atomic, so a torn entry cannot appear); a smaller entry's
 #: hash is checked on every load.
-MAP_MIN_BYTES = 64 * 1024 * 1024
+MAP_MIN_BYTES = 16 * 1024 * 1024
 #: a build still running after this many seconds says so on stderr (when builds are
 #: announced: :func:`announce_builds`, which the command line turns on unless -q)
 BUILD_NOTICE_S = 3.0
