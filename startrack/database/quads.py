@@ -173,21 +173,31 @@ def build_level_arrays(vectors: np.ndarray, level_deg: float) -> dict[str, np.nd
     (rows of ``vectors``, which are brightest first) and the ratios in ``RATIO_STEPS``
     (a first test of a lookup's candidates that needs no star of the catalog)."""
     head = vectors[: min(len(vectors), level_stars(level_deg))]
-    keys, quads, stored = [], [], []
+    key_parts, quad_parts, ratio_parts = [], [], []
     # Chunk by chunk: the edges of every pattern at once (six pairs of 3-vectors each)
     # would hold ~300 bytes per pattern, GBs for a deep catalog's narrow level.
     for part in quad_chunks(head, PATTERN_SIZE * math.radians(level_deg),
                             MAX_PATTERN_SIZE * math.radians(level_deg)):
         r, _ = ratios(edge_angles(head, part))
-        keys.append(keys_of(r).astype(np.int32))
-        quads.append(part.astype(np.int32))
-        stored.append(np.round(r * RATIO_STEPS).astype(np.uint8))
-    if not keys:
+        key_parts.append(keys_of(r).astype(np.int32))
+        quad_parts.append(part.astype(np.int32))
+        ratio_parts.append(np.round(r * RATIO_STEPS).astype(np.uint8))
+    if not key_parts:
         return {"keys": np.zeros(0, np.int32), "quads": np.zeros((0, 4), np.int32),
                 "ratios": np.zeros((0, 5), np.uint8)}
-    keys, quads, stored = np.concatenate(keys), np.concatenate(quads), np.concatenate(stored)
+    # one array at a time, each part list let go as soon as it is joined: the peak is
+    # about two copies of the largest array (the quads), not of the whole table
+    keys = np.concatenate(key_parts)
+    del key_parts
     order = np.argsort(keys, kind="stable")
-    return {"keys": keys[order], "quads": quads[order], "ratios": stored[order]}
+    table = {"keys": keys[order]}
+    del keys
+    for name, parts in (("quads", quad_parts), ("ratios", ratio_parts)):
+        joined = np.concatenate(parts)
+        parts.clear()
+        table[name] = joined[order]
+        del joined
+    return table
 
 
 class QuadLevel:

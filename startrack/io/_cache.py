@@ -238,7 +238,14 @@ def cached_arrays(kind: str, params: dict,
             _write_npz(tmp, {**arrays, ENTRY_KEY: np.array(key)})
     except OSError as exc:
         _warn_unwritable(exc)
+        return arrays
     evict(keep=path)
+    # a large entry just written is used through its map: the built arrays are let go,
+    # so the rest of the run holds only the pages it reads
+    if sum(np.asarray(a).nbytes for a in arrays.values()) >= MAP_MIN_BYTES:
+        mapped = _load_checked(path, key)
+        if mapped is not None:
+            return mapped
     return arrays
 
 
