@@ -150,3 +150,24 @@ def test_a_slow_build_says_what_it_builds_unless_quiet(monkeypatch, capsys):
         assert capsys.readouterr().err == ""
     finally:
         _cache.announce_builds(False)
+
+
+def test_a_cuts_cone_index_is_the_index_built_for_it():
+    from startrack.database.cone import ConeIndex
+
+    sky = random_sky(4000, seed=8)
+    whole = ConeIndex.build(sky.vectors)
+    for n in (1, 37, 2500, 4000):
+        cut, built = whole.prefix(n), ConeIndex.build(sky.vectors[:n])
+        for name in ("vectors", "order", "ra_sorted", "band_start"):
+            np.testing.assert_array_equal(getattr(cut, name), getattr(built, name))
+        direction = sky.vectors[n // 2]
+        np.testing.assert_array_equal(cut.rows(direction, 0.2), built.rows(direction, 0.2))
+
+
+def test_a_catalogs_head_is_its_magnitude_cut():
+    sky = random_sky(500, seed=9)
+    head, cut = sky.head(120), sky.subset(np.arange(120))
+    for name in ("ids", "ra_deg", "dec_deg", "mag", "vectors"):
+        np.testing.assert_array_equal(getattr(head, name), getattr(cut, name))
+    assert head.fingerprint() == cut.fingerprint() == sky.fingerprint(120)

@@ -46,6 +46,19 @@ class ConeIndex:
         return cls(vectors, order, ra_sorted, band_start,
                    ConeTable(vectors, order, ra_sorted, band_start))
 
+    def prefix(self, n: int) -> ConeIndex:
+        """The index of the first ``n`` rows (a magnitude cut of a brightest-first
+        catalog): the same bands and order with the later rows left out, which is what
+        :meth:`build` makes of them, without its sort of every star."""
+        keep = self.order < n
+        kept_before = np.concatenate([[0], np.cumsum(keep)]).astype(np.int64)
+        vectors = self.vectors[:n]
+        order = np.ascontiguousarray(self.order[keep])
+        ra_sorted = np.ascontiguousarray(self.ra_sorted[keep])
+        band_start = np.ascontiguousarray(kept_before[self.band_start])
+        return ConeIndex(vectors, order, ra_sorted, band_start,
+                         ConeTable(vectors, order, ra_sorted, band_start))
+
     def rows(self, direction: np.ndarray, radius_rad: float) -> np.ndarray:
         """Rows within ``radius_rad`` of the unit vector ``direction``, ascending."""
         direction = np.ascontiguousarray(direction, dtype=np.float64)

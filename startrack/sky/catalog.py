@@ -64,6 +64,15 @@ class Catalog:
             source=dict(self.source),
         )
 
+    def head(self, n: int) -> Catalog:
+        """The brightest ``n`` stars (a magnitude cut), sharing this catalog's arrays and
+        unit vectors (no copy, no conversion)."""
+        cut = object.__new__(Catalog)
+        for name in ("ids", "ra_deg", "dec_deg", "mag", "vectors"):
+            object.__setattr__(cut, name, getattr(self, name)[:n])
+        object.__setattr__(cut, "source", dict(self.source))
+        return cut
+
     def fingerprint(self, rows: int | None = None) -> str:
         """A short hash of the catalog's content, for cache keys (computed once: XXH3
         reads a deep catalog's arrays in milliseconds, where SHA-256 took a second).

@@ -28,6 +28,7 @@ import numpy as np
 
 from startrack.camera._model import Camera
 from startrack.database import StarDatabase
+from startrack.database.cone import ConeIndex
 from startrack.defaults import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
@@ -226,8 +227,18 @@ class BlindSolver:
             # so a cut evicted here is reloaded, not rebuilt.
             while len(self._databases) >= KEEP_DATABASES:
                 self._databases.pop(next(iter(self._databases)))
-            self._databases[n] = StarDatabase(self.catalog.subset(np.arange(n)), camera)
+            cut = StarDatabase(self.catalog.head(n), camera)
+            # the whole catalog's cone index, cut: sorting a deep catalog per window took
+            # most of a blind search's time
+            cut.__dict__["cone_index"] = self._cone().prefix(n)
+            self._databases[n] = cut
         return self._databases[n]
+
+    def _cone(self) -> ConeIndex:
+        """The cone index of the whole catalog (built once; every cut is a prefix)."""
+        if "_whole_cone" not in self.__dict__:
+            self.__dict__["_whole_cone"] = ConeIndex.build(self.catalog.vectors)
+        return self.__dict__["_whole_cone"]
 
     def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int],
               deadline: Deadline = NO_DEADLINE, camera: Camera | None = None,
