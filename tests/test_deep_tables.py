@@ -171,3 +171,20 @@ def test_a_catalogs_head_is_its_magnitude_cut():
     for name in ("ids", "ra_deg", "dec_deg", "mag", "vectors"):
         np.testing.assert_array_equal(getattr(head, name), getattr(cut, name))
     assert head.fingerprint() == cut.fingerprint() == sky.fingerprint(120)
+
+
+def test_close_stars_merge_greedily_in_brightness_order():
+    """Each kept star removes its fainter close partners; a removed star removes none (the
+    vectorised fixed point is the greedy loop, on random pair graphs)."""
+    from startrack.sky.catalog import kept_in_brightness_order
+
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        n = int(rng.integers(2, 50))
+        a, b = rng.integers(0, n, 120), rng.integers(0, n, 120)
+        a, b = np.minimum(a[a != b], b[a != b]), np.maximum(a[a != b], b[a != b])
+        want = np.ones(n, bool)
+        for i in np.lexsort((b, a)):
+            if want[a[i]]:
+                want[b[i]] = False
+        np.testing.assert_array_equal(kept_in_brightness_order(a, b, n), want)

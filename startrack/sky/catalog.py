@@ -55,14 +55,19 @@ class Catalog:
         return len(self.ids)
 
     def subset(self, mask_or_index: np.ndarray) -> Catalog:
-        """A catalog of the selected rows, keeping the source description."""
-        return Catalog(
-            ids=self.ids[mask_or_index],
-            ra_deg=self.ra_deg[mask_or_index],
-            dec_deg=self.dec_deg[mask_or_index],
-            mag=self.mag[mask_or_index],
-            source=dict(self.source),
-        )
+        """A catalog of the selected rows, keeping the source description (and the rows'
+        unit vectors: converting a deep catalog's positions again costs a second)."""
+        picked = {name: getattr(self, name)[mask_or_index]
+                  for name in ("ids", "ra_deg", "dec_deg", "mag", "vectors")}
+        mag = picked["mag"]
+        if not bool(np.all(mag[1:] >= mag[:-1])):  # rows picked out of order
+            order = np.argsort(mag, kind="stable")
+            picked = {name: arr[order] for name, arr in picked.items()}
+        cut = object.__new__(Catalog)
+        for name, arr in picked.items():
+            object.__setattr__(cut, name, np.ascontiguousarray(arr))
+        object.__setattr__(cut, "source", dict(self.source))
+        return cut
 
     def head(self, n: int) -> Catalog:
         """The brightest ``n`` stars (a magnitude cut), sharing this catalog's arrays and
@@ -119,13 +124,22 @@ def merge_close_stars(catalog: Catalog, min_separation_deg: float) -> Catalog:
         return catalog
     # Rows are sorted brightest first, so in each pair the smaller row is the brighter.
     pairs = np.sort(pairs, axis=1)
-    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
-    keep = np.ones(len(catalog), dtype=bool)
-    # Greedy in brightness order: a star removed by a brighter neighbour cannot remove others.
-    # Only stars that take part in a close pair are visited, a small fraction of the sky.
-    for a, b in pairs:
-        if keep[a]:
-            keep[b] = False
-    return catalog.subset(keep)
+    return catalog.subset(kept_in_brightness_order(pairs[:, 0], pairs[:, 1], len(catalog)))
 
-__all__ = ["Catalog", "cut_magnitude", "merge_close_stars", "radec_to_vectors", "vectors_to_radec"]
+
+def kept_in_brightness_order(brighter: np.ndarray, fainter: np.ndarray, n: int) -> np.ndarray:
+    """Which of ``n`` rows stay when, in brightness order (row order), each kept row
+    removes the fainter rows it is paired with: a row removed by a brighter one removes
+    no other. Computed as the fixed point of "kept unless a kept brighter partner", which
+    a row reaches once every row before it has, so the loop runs as many times as the
+    longest chain of partners is long (a few: close pairs seldom chain), each vectorised."""
+    keep = np.ones(n, dtype=bool)
+    while True:
+        removed = np.zeros(n, dtype=bool)
+        removed[fainter[keep[brighter]]] = True
+        if np.array_equal(~removed, keep):
+            return keep
+        keep = ~removed
+
+__all__ = ["Catalog", "cut_magnitude", "kept_in_brightness_order", "merge_close_stars",
+           "radec_to_vectors", "vectors_to_radec"]

@@ -31,7 +31,7 @@ from startrack.io._cache import cached_arrays
 from startrack.sky.catalog import Catalog, radec_to_vectors, vectors_to_radec
 from startrack.sky.hipparcos import CATALOG_EPOCH, hipparcos_arrays, propagate
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: stored brightest first, so that a load sorts nothing
 TYCHO2_EPOCH = 2000.0
 #: where Debian's packages put the index files, then astrometry.net's own default
 DEFAULT_INDEX_DIRS = ("/usr/share/astrometry", "/usr/local/astrometry/data")
@@ -153,7 +153,8 @@ def parse_index_files(files: list[Path]) -> dict[str, np.ndarray]:
     ra, dec = vectors_to_radec(vectors)
     hip = _hipparcos_numbers(vectors)
     ids = np.where(hip > 0, hip, position_ids(ra, dec))
-    return {"ids": ids, "ra_deg": ra, "dec_deg": dec, "mag": mag}
+    order = np.argsort(mag, kind="stable")  # brightest first, as a Catalog holds them
+    return {"ids": ids[order], "ra_deg": ra[order], "dec_deg": dec[order], "mag": mag[order]}
 
 
 def tycho2_arrays(files: list[Path] | None = None) -> dict[str, np.ndarray]:
