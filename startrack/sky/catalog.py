@@ -109,6 +109,11 @@ def cut_magnitude(catalog: Catalog, mag_limit: float | None) -> Catalog:
     return catalog.subset(catalog.mag <= mag_limit)
 
 
+#: a catalog this large has its merge kept in the disk cache (a deep catalog's pairs take
+#: seconds to find, on every run of the same camera)
+CACHED_MERGE_STARS = 100_000
+
+
 def merge_close_stars(catalog: Catalog, min_separation_deg: float) -> Catalog:
     """Drop every star that lies within ``min_separation_deg`` of a brighter kept star.
 
@@ -117,14 +122,27 @@ def merge_close_stars(catalog: Catalog, min_separation_deg: float) -> Catalog:
     """
     if min_separation_deg <= 0 or len(catalog) < 2:
         return catalog
+    if len(catalog) < CACHED_MERGE_STARS:
+        keep = _kept_apart(catalog.vectors, min_separation_deg)
+    else:
+        from startrack.io._cache import cached_arrays  # the cache's module: on use
+
+        keep = cached_arrays("merged", {"catalog": catalog.fingerprint(),
+                                        "separation_deg": round(float(min_separation_deg), 12)},
+                             lambda: {"keep": _kept_apart(catalog.vectors,
+                                                          min_separation_deg)})["keep"]
+    return catalog if bool(np.all(keep)) else catalog.subset(np.asarray(keep))
+
+
+def _kept_apart(vectors: np.ndarray, min_separation_deg: float) -> np.ndarray:
+    """:func:`merge_close_stars`' rows kept (rows brightest first)."""
     chord = 2.0 * np.sin(np.radians(min_separation_deg) / 2.0)
-    tree = cKDTree(catalog.vectors)
-    pairs = tree.query_pairs(chord, output_type="ndarray")
+    pairs = cKDTree(vectors).query_pairs(chord, output_type="ndarray")
     if len(pairs) == 0:
-        return catalog
+        return np.ones(len(vectors), dtype=bool)
     # Rows are sorted brightest first, so in each pair the smaller row is the brighter.
     pairs = np.sort(pairs, axis=1)
-    return catalog.subset(kept_in_brightness_order(pairs[:, 0], pairs[:, 1], len(catalog)))
+    return kept_in_brightness_order(pairs[:, 0], pairs[:, 1], len(vectors))
 
 
 def kept_in_brightness_order(brighter: np.ndarray, fainter: np.ndarray, n: int) -> np.ndarray:
