@@ -17,7 +17,7 @@ import xxhash
 
 from startrack.errors import InputError
 from startrack.io._cache import cached_arrays
-from startrack.sky.catalog import Catalog
+from startrack.sky.catalog import BadId, Catalog, exact_ids
 from startrack.sky.hipparcos import julian_year, propagate
 
 FORMAT_VERSION = 1
@@ -26,7 +26,9 @@ REQUIRED = ("ra", "dec", "mag")
 OPTIONAL = {"pm_ra": 0.0, "pm_dec": 0.0, "epoch": 2000.0}
 #: (column, lowest, highest) a value may take
 RANGES = (("ra", -360.0, 360.0), ("dec", -90.0, 90.0), ("mag", -30.0, 40.0),
-          ("epoch", 1000.0, 3000.0))
+          ("epoch", 1000.0, 3000.0),
+          # ten times Barnard's star's 10.4"/yr: a millennium moves a star at most ~30 deg
+          ("pm_ra", -1e5, 1e5), ("pm_dec", -1e5, 1e5))
 
 
 def is_catalog_path(text: str) -> bool:
@@ -53,6 +55,7 @@ def _read_table(path: Path) -> dict[str, np.ndarray]:
             from astropy.table import Table  # astropy: only for a FITS catalog
 
             table = Table.read(path, format="fits")
+            _check_units(path, table)
             frame = pd.DataFrame({name: np.asarray(table[name]) for name in table.colnames
                                   if table[name].ndim == 1})
     except InputError:
@@ -70,6 +73,17 @@ def _read_table(path: Path) -> dict[str, np.ndarray]:
     return columns
 
 
+def _check_units(path: Path, table) -> None:
+    """Refuse a FITS catalog whose ra or dec column declares another unit than degrees
+    (RA in hours would crowd the sky into 24 degrees: wrong stars, and a dense sky)."""
+    for name in table.colnames:
+        unit = table[name].unit
+        if name.strip().lower() in ("ra", "dec") and unit is not None \
+                and unit.to_string() not in ("deg", ""):
+            raise InputError(f"{path}: column {name} is in {unit.to_string()!r} (TUNIT); "
+                             "startrack reads ra and dec in degrees: convert the column")
+
+
 def _numbers(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(float values, empty cells) of a column; a non-number is NaN and not empty."""
     import pandas as pd  # pandas: loaded only when a catalog file is read
@@ -77,7 +91,12 @@ def _numbers(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     text = values.astype(str) if values.dtype == object else None
     empty = np.zeros(len(values), bool) if text is None else np.char.strip(
         text.astype("U")) == ""
-    numbers = pd.to_numeric(pd.Series(values), errors="coerce").to_numpy(np.float64, copy=True)
+    try:
+        numbers = pd.to_numeric(pd.Series(values), errors="coerce")
+    except TypeError:  # a Parquet list or struct cell: no number (NaN), named by its row
+        scalar = [np.ndim(v) == 0 and not isinstance(v, dict) for v in values]
+        numbers = pd.to_numeric(pd.Series(np.where(scalar, values, None)), errors="coerce")
+    numbers = numbers.to_numpy(np.float64, copy=True)
     return numbers, empty
 
 
@@ -115,12 +134,10 @@ def parse_catalog(path: Path) -> dict[str, np.ndarray]:
                         f"[{low:g}, {high:g}]")
     ids = np.arange(1, n + 1, dtype=np.int64)
     if "id" in columns:
-        numbers, _ = _numbers(columns["id"])
-        bad = np.flatnonzero(~np.isfinite(numbers) | (numbers != np.round(numbers))
-                             | (np.abs(numbers) >= 2.0**63))
-        if len(bad):
-            raise _fail(path, bad[0], f"id {columns['id'][bad[0]]!r} is not an integer")
-        ids = numbers.astype(np.int64)
+        try:
+            ids = exact_ids(columns["id"])
+        except BadId as exc:
+            raise _fail(path, exc.row, str(exc)) from None
         order = np.argsort(ids, kind="stable")
         dup = np.flatnonzero(ids[order][1:] == ids[order][:-1])
         if len(dup):
@@ -151,6 +168,9 @@ def catalog_arrays(path: str | Path) -> dict[str, np.ndarray]:
     path = Path(path)
     if path.suffix.lower() not in SUFFIXES:
         raise InputError(f"{path}: a catalog file must be {', '.join(SUFFIXES)}")
+    if path.exists() and not path.is_file():  # a device (/dev/zero) would be read forever
+        raise InputError(f"{path}: not a regular file (a folder, pipe or device); a catalog "
+                         "is a file")
     key = {"content": content_hash(path), "suffix": path.suffix.lower(),
            "format": FORMAT_VERSION}
     return cached_arrays("usersky", key, lambda: parse_catalog(path))
