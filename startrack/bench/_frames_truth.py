@@ -34,8 +34,9 @@ def _frame_numbers(path: Path, values: pd.Series) -> np.ndarray:
     bad = np.flatnonzero(~np.isfinite(numbers) | (numbers != np.round(numbers))
                          | (numbers < 0) | (numbers >= 2.0**53))
     if len(bad):
-        raise InputError(f"{_where(path, int(bad[0]))}: frame {values.iloc[bad[0]]!r} is not "
-                         "a frame number (an integer from 0)")
+        cell = str(values.iloc[bad[0]])
+        raise InputError(f"{_where(path, int(bad[0]))}: frame {cell!r} is not a frame number "
+                         "(an integer from 0)")
     return numbers.astype(np.int64)
 
 

@@ -120,18 +120,28 @@ def _bench_frame(data: FramesFolder, row, catalog, identifier) -> tuple[int, Ben
                              frame.centroid_ms)
 
 
-def run_frames_folder(data: FramesFolder, methods: tuple[str, ...], *, max_stars: int,
-                      threshold_arcsec: float, quiet: bool = False):
-    """Every method on every frame of the folder: (frames.csv rows, load seconds)."""
-    from startrack.bench.runner import frame_row
-    from startrack.outputs._progress import progress
+def checked_sky(data: FramesFolder):
+    """The folder's sky, once its truth is found to agree with its stars.csv
+    (startrack.bench._frames_truth): (catalog, seconds it took to load)."""
     from startrack.sky import load_sky
-    from startrack.solver._identifier import Identifier
 
     t0 = time.perf_counter()
     catalog = load_sky(data.sky, data.camera)
+    seconds = time.perf_counter() - t0
     check_agreement(data.folder, data.truth, data.stars, catalog, data.camera)
-    load = {"sky": time.perf_counter() - t0}
+    return catalog, seconds
+
+
+def run_frames_folder(data: FramesFolder, methods: tuple[str, ...], *, max_stars: int,
+                      threshold_arcsec: float, quiet: bool = False, sky=None):
+    """Every method on every frame of the folder: (frames.csv rows, load seconds);
+    ``sky``: :func:`checked_sky`'s answer, when already loaded."""
+    from startrack.bench.runner import frame_row
+    from startrack.outputs._progress import progress
+    from startrack.solver._identifier import Identifier
+
+    catalog, seconds = checked_sky(data) if sky is None else sky
+    load = {"sky": seconds}
     identifiers = {}
     for name in methods:
         identifiers[name] = Identifier(data.camera, catalog, name, max_stars=max_stars)
@@ -211,6 +221,7 @@ def compare_frames_folder(folder: str | Path, methods: tuple[str, ...], out: str
     if Path(out).resolve() == source.resolve():
         raise InputError(f"--out {out}: is the --frames-dir folder; choose another --out")
     data = read_frames_folder(source)
+    sky = checked_sky(data)  # a truth that disagrees is refused before --out is touched
     identity = run_identity({"frames_dir": str(source.resolve()), "methods": list(methods),
                              "max_stars": max_stars, "threshold_arcsec": threshold_arcsec})
 
@@ -218,7 +229,8 @@ def compare_frames_folder(folder: str | Path, methods: tuple[str, ...], out: str
         if announce is not None:
             announce(data)
         frames, load = run_frames_folder(data, methods, max_stars=max_stars,
-                                         threshold_arcsec=threshold_arcsec, quiet=quiet)
+                                         threshold_arcsec=threshold_arcsec, quiet=quiet,
+                                         sky=sky)
         with atomic_text(out / FRAMES_FILE) as fh:
             writer = csv.writer(fh, lineterminator="\n")
             writer.writerow(COLUMNS)
@@ -251,6 +263,6 @@ def identify_command(folder: str | Path):
                         str(row["method"])]
 
 __all__ = [
-    "FramesFolder", "compare_frames_folder", "export_frames", "identify_command",
+    "FramesFolder", "checked_sky", "compare_frames_folder", "export_frames", "identify_command",
     "read_frames_folder", "run_frames_folder",
 ]

@@ -70,7 +70,18 @@ def _read_table(path: Path) -> dict[str, np.ndarray]:
         key = str(name).strip().lower()
         if key in (*REQUIRED, *OPTIONAL, "id") and key not in columns:
             columns[key] = frame[name].to_numpy()
+            if suffix == ".parquet" and columns[key].dtype == object:
+                columns[key] = _scalars(path, key, columns[key])
     return columns
+
+
+def _scalars(path: Path, name: str, values: np.ndarray) -> np.ndarray:
+    """A Parquet column of objects, refused when a cell is a list or struct (no number)."""
+    bad = np.flatnonzero([np.ndim(v) != 0 or isinstance(v, dict) for v in values])
+    if len(bad):
+        raise InputError(f"{path}: row {int(bad[0]) + 1}: {name} holds a list or struct, "
+                         "not a number")
+    return values
 
 
 def _check_units(path: Path, table) -> None:
@@ -91,13 +102,23 @@ def _numbers(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     text = values.astype(str) if values.dtype == object else None
     empty = np.zeros(len(values), bool) if text is None else np.char.strip(
         text.astype("U")) == ""
-    try:
-        numbers = pd.to_numeric(pd.Series(values), errors="coerce")
-    except TypeError:  # a Parquet list or struct cell: no number (NaN), named by its row
-        scalar = [np.ndim(v) == 0 and not isinstance(v, dict) for v in values]
-        numbers = pd.to_numeric(pd.Series(np.where(scalar, values, None)), errors="coerce")
+    numbers = pd.to_numeric(pd.Series(values), errors="coerce")
     numbers = numbers.to_numpy(np.float64, copy=True)
     return numbers, empty
+
+
+#: a catalog whose every ra lies in [0, 24] while its dec spans more than this many
+#: degrees gives its ra in hours (a real field that wide is never 24 deg of ra only)
+HOURS_DEC_SPAN_DEG = 90.0
+
+
+def _refuse_hours(path: Path, ra: np.ndarray, dec: np.ndarray) -> None:
+    """Refuse ra in hours: read as degrees it crowds the sky into 24 degrees (wrong
+    stars, and a sky far denser than any real one)."""
+    span = float(dec.max() - dec.min())
+    if len(ra) >= 100 and ra.min() >= 0.0 and ra.max() <= 24.0 and span > HOURS_DEC_SPAN_DEG:
+        raise InputError(f"{path}: every ra lies within 0 to 24 while dec spans {span:.0f} "
+                         "deg: ra in hours? startrack reads ra in degrees (multiply by 15)")
 
 
 def _fail(path: Path, row: int, message: str) -> InputError:
@@ -132,6 +153,7 @@ def parse_catalog(path: Path) -> dict[str, np.ndarray]:
         if len(bad):
             raise _fail(path, bad[0], f"{name} {values[name][bad[0]]:g} is outside "
                         f"[{low:g}, {high:g}]")
+    _refuse_hours(path, values["ra"], values["dec"])
     ids = np.arange(1, n + 1, dtype=np.int64)
     if "id" in columns:
         try:
