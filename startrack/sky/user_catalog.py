@@ -20,7 +20,8 @@ from startrack.io._cache import cached_arrays
 from startrack.sky.catalog import BadId, Catalog, exact_ids
 from startrack.sky.hipparcos import julian_year, propagate
 
-FORMAT_VERSION = 1
+#: 2: ids parsed as exact 64-bit integers (1 passed them through float64)
+FORMAT_VERSION = 2
 SUFFIXES = (".csv", ".fits", ".fit", ".parquet")
 REQUIRED = ("ra", "dec", "mag")
 OPTIONAL = {"pm_ra": 0.0, "pm_dec": 0.0, "epoch": 2000.0}
