@@ -19,7 +19,13 @@ Counted per method over the frames:
 The observed stars carry the bench's fluxes (exact unless ``--mag-noise``), which the final
 labelling checks against the catalog magnitudes.
 
+``--pipeline`` solves each frame's centroids (x, y, flux) through :class:`startrack.Solver`
+instead, the path of ``startrack identify`` and the API: the camera's FOV taken as nominal
+(the default ``--fov-tolerance``), its first look at the brightest stars, the refit and
+the search, and the evidence gate on every answer.
+
     .venv/bin/python scripts/harsh_frames.py --frames 200 --seed 0
+    .venv/bin/python scripts/harsh_frames.py --frames 200 --seed 0 --methods pyramid --pipeline
 """
 
 from __future__ import annotations
@@ -93,12 +99,15 @@ def run(args: argparse.Namespace) -> int:
     print("-" * len(head))
     config = VerifyConfig()
     for name in [m.strip() for m in args.methods.split(",") if m.strip()]:
-        ident = Identifier(camera, catalog, name, max_stars=args.max_stars)
+        solve = (_through_pipeline(camera, args, name) if args.pipeline else
+                 _through_matcher(Identifier(camera, catalog, name, max_stars=args.max_stars),
+                                  config))
         total = dict.fromkeys(keys, 0)
-        where = []
+        where, unsolved = [], []
         for i, frame in enumerate(frames):
-            solution = identify(frame.obs, ident.matcher, config)
+            solution = solve(frame)
             if not solution.solved:
+                unsolved.append(i)
                 continue
             counts = score(frame, solution, catalog, camera, config.radius_px(frame.obs))
             for key in keys:
@@ -110,7 +119,37 @@ def run(args: argparse.Namespace) -> int:
               f"{total['withheld']:>8} {total['identifiable']:>12}")
         if where:
             print(f"    frames with a wrong attitude or identity: {where[:20]}")
+        if unsolved:
+            print(f"    frames not solved: {unsolved[:20]}")
     return 0
+
+
+def _through_matcher(ident: Identifier, config: VerifyConfig):
+    return lambda frame: identify(frame.obs, ident.matcher, config)
+
+
+def _through_pipeline(camera: Camera, args: argparse.Namespace, method: str):
+    """Each frame's centroids solved by startrack.Solver (the identify command's path);
+    its answer as the matcher's Solution, in the catalog rows load_sky gives."""
+    from startrack import Solver
+    from startrack.solver._pipeline import Pipeline
+
+    solver = Solver(camera=camera, sky="hipparcos", mag_limit=args.mag_limit, method=method,
+                    max_stars=args.max_stars, sigma_px=args.noise_px or 0.5)
+    pipeline: Pipeline = solver._pipeline
+
+    def solve(frame):
+        obs = frame.obs
+        spots = np.column_stack([obs.x, obs.y, obs.flux])
+        return pipeline.solve(_as_input(spots)).solution
+
+    return solve
+
+
+def _as_input(spots: np.ndarray):
+    from startrack.api import _as_input as api_input
+
+    return api_input(spots)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -124,6 +163,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--mag-noise", type=float, default=0.0,
                     help="1-sigma error of the observed magnitudes (fluxes)")
     ap.add_argument("--max-stars", type=int, default=8)
+    ap.add_argument("--pipeline", action="store_true",
+                    help="solve through startrack.Solver (identify's path), not the matcher")
     return run(ap.parse_args(argv))
 
 

@@ -20,8 +20,9 @@ from startrack.centroids._table import (
     Centroids,
     bad_centroid_row,
 )
-from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD
+from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD, DEFAULT_TIMEOUT_MS
 from startrack.errors import InputError, as_builtin
+from startrack.io._headers import check_pixels
 from startrack.solver._hints import preset, user_hints
 from startrack.solver._inputs import FrameInput, image_input, read_input
 from startrack.solver._pipeline import Options, Pipeline
@@ -68,7 +69,8 @@ class Solver:
         ``"random"``, ``"hipparcos"``, ``"gaia"``, ``"tycho2"`` or a catalog file;
         default: chosen for the field of view (docs/conventions.md, "Default sky").
     mag_limit, epoch, sigma_px, max_stars, timeout_ms, fov_tolerance
-        As ``identify``'s options of the same names.
+        As ``identify``'s options of the same names (``timeout_ms`` defaults to
+        ``identify``'s 60 s; None: no time limit).
     track : bool
         The frames given to :meth:`solve` are one sequence, in order: the first is solved
         lost-in-space, each later one by tracking from the attitudes before it (falling
@@ -123,13 +125,16 @@ class Solver:
                  size: tuple[int, int] | None = None, method: str = DEFAULT_METHOD,
                  sky: str | None = None, mag_limit: float | None = None,
                  epoch: float | None = None, sigma_px: float | None = None,
-                 max_stars: int | None = None, timeout_ms: float | None = None,
+                 max_stars: int | None = None,
+                 timeout_ms: float | None = DEFAULT_TIMEOUT_MS,
                  track: bool = False, prior: tuple[float, float, float] | None = None,
                  prior_sigma_deg: float = 1.0, time: str | None = None,
                  fov_tolerance: float = DEFAULT_FOV_TOLERANCE, ra=None, dec=None,
                  radius=None, scale_low=None, scale_high=None, scale_units: str = "degwidth",
                  pixel_size_um: float | None = None, downsample: int = 1,
                  header_hints: bool = True, config: str | Path | None = None) -> None:
+        # what pickling carries: a Solver goes to a process pool as its options
+        self._given = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
         deg = degree_options(dict(fov_deg=fov_deg, prior=prior, ra=ra, dec=dec,
                                   radius=radius, prior_sigma_deg=prior_sigma_deg))
         fov_deg, prior, prior_sigma_deg = deg["fov_deg"], deg["prior"], deg["prior_sigma_deg"]
@@ -155,6 +160,14 @@ class Solver:
         if track or prior is not None:
             seed = None if prior is None else prior_from_radec_roll(*prior, prior_sigma_deg)
             self._sequence = SequenceSolver(self._pipeline, track=track, prior=seed)
+
+    def __getstate__(self) -> dict:
+        """A Solver pickles as its options (to a process pool, a Dask worker): the copy
+        loads its own databases, and a tracking copy starts a new sequence."""
+        return dict(self._given)
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(**state)
 
     def reset(self) -> None:
         """Start a new sequence (``track=True``): the next frame is solved lost-in-space."""
@@ -240,6 +253,10 @@ def solve(source: str | Path | np.ndarray, **options) -> SolveResult:
     return Solver(**options).solve(source)
 
 
+#: an N x 2 / N x 3 centroid array holds at most this many rows (160 MB as float64)
+MAX_ARRAY_CENTROIDS = 10_000_000
+
+
 def _as_input(source: str | Path | np.ndarray, downsample: int = 1) -> FrameInput:
     if isinstance(source, str | Path):
         return read_input(source, downsample=downsample)
@@ -250,6 +267,9 @@ def _as_input(source: str | Path | np.ndarray, downsample: int = 1) -> FrameInpu
     # Two or three columns are centroids whatever the dtype: no star can be found in an
     # image two or three pixels wide (docs/conventions.md).
     if array.ndim == 2 and array.shape[1] in (2, 3):
+        if len(array) > MAX_ARRAY_CENTROIDS:
+            raise InputError(f"<array>: {len(array):,} centroids, above the limit of "
+                             f"{MAX_ARRAY_CENTROIDS:,} (a frame holds tens to thousands)")
         array = array.astype(np.float64)
         bad = bad_centroid_row(array)
         if bad is not None:
@@ -260,7 +280,8 @@ def _as_input(source: str | Path | np.ndarray, downsample: int = 1) -> FrameInpu
         ranks = np.arange(len(array), 0, -1.0)  # listed brightest first
         return FrameInput("<array>", Centroids(array[:, 0], array[:, 1], ranks,
                                                photometric=False))
-    if array.ndim == 2:
+    if array.ndim == 2:  # the pixel limit of an image file, before any work on it
+        check_pixels(array.shape[1], array.shape[0], "<array>")
         return image_input(array, "<array>", downsample=downsample)
     raise InputError(f"cannot solve an array of shape {array.shape}: give a 2-D image or "
                      "an N x 2 / N x 3 array of centroids")

@@ -25,6 +25,9 @@ BLIND_FOV_RANGE = (0.8, 40.0)
 #: Below this horizontal FOV the default sky is Gaia: Hipparcos (complete to about
 #: V = 8) leaves fewer than about 50 stars in an average frame.
 GAIA_BELOW_FOV_DEG = 8.0
+#: default ``--timeout-ms``: every input's search stops here, not solved with reason
+#: "timeout" (docs/limits.md); a frame a star tracker can solve takes well under a second
+DEFAULT_TIMEOUT_MS = 60_000.0
 #: default ``--prior-sigma-deg``
 DEFAULT_PRIOR_SIGMA_DEG = 1.0
 #: ``--scale-units`` of a scale hint
@@ -42,6 +45,7 @@ def max_pairs() -> int:
 
 __all__ = [
     "BLIND_FOV_RANGE", "BUILTIN_METHODS", "DEFAULT_FOV_TOLERANCE", "DEFAULT_MAX_PAIRS",
-    "DEFAULT_METHOD", "DEFAULT_PRIOR_SIGMA_DEG", "GAIA_BELOW_FOV_DEG", "SCALE_UNITS",
+    "DEFAULT_METHOD", "DEFAULT_PRIOR_SIGMA_DEG", "DEFAULT_TIMEOUT_MS", "GAIA_BELOW_FOV_DEG",
+    "SCALE_UNITS",
     "max_pairs",
 ]

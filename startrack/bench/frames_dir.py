@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from startrack.bench._frames_truth import check_agreement, check_stars, check_truth
 from startrack.bench.conditions import Condition
 from startrack.bench.frames import BenchFrame, label_spots
 from startrack.camera._model import Camera
@@ -79,11 +80,25 @@ def read_frames_folder(folder: str | Path) -> FramesFolder:
         elif (camera, sky) != first[:2]:
             raise InputError(f"--frames-dir: {name}'s sidecar gives another camera or sky "
                              f"than {first[2].name}; a folder is one camera and one sky")
-    options = json.loads(first[2].read_text()).get("frames") or {}
-    condition = Condition(false_stars=int(options.get("false_stars", 0) or 0),
-                          missing=float(options.get("missing", 0.0) or 0.0),
-                          mag_noise=float(options.get("mag_noise", 0.0) or 0.0))
-    return FramesFolder(folder, first[0], first[1], condition, truth, stars)
+    truth = check_truth(folder, truth)
+    stars = check_stars(folder, stars, truth)
+    return FramesFolder(folder, first[0], first[1], _condition(first[2]), truth, stars)
+
+
+def _condition(sidecar: Path) -> Condition:
+    """The frames options a sidecar records (its "frames" entry), checked."""
+    from startrack.validate import FALSE_STARS, FRACTION, MAG_NOISE, check_number
+
+    options = json.loads(sidecar.read_text()).get("frames") or {}
+    if not isinstance(options, dict):
+        raise InputError(f"--frames-dir: {sidecar}: 'frames' must be an object")
+    values = {}
+    for key, check, default in (("false_stars", FALSE_STARS, 0), ("missing", FRACTION, 0.0),
+                                ("mag_noise", MAG_NOISE, 0.0)):
+        value = options.get(key)
+        values[key] = default if value is None else check_number(
+            value, f"--frames-dir: {sidecar}: frames.{key}", check)
+    return Condition(**values)
 
 
 def _bench_frame(data: FramesFolder, row, catalog, identifier) -> tuple[int, BenchFrame]:
@@ -96,26 +111,37 @@ def _bench_frame(data: FramesFolder, row, catalog, identifier) -> tuple[int, Ben
     frame = read_input(data.folder / str(row.file))
     obs = identifier.observation(frame.centroids)
     drawn = data.stars[data.stars["frame"] == index]
-    ids = drawn["catalog_id"].to_numpy(dtype=np.int64)
-    rows = pd.Index(catalog.ids).get_indexer(ids)  # -1: a false star or an unknown id
-    rows[(drawn["is_false"].to_numpy() != 0) | (ids < 0)] = -1
+    ids = drawn["catalog_id"].to_numpy(dtype=np.int64)  # exact (check_stars)
+    rows = catalog.index_of(ids)  # -1: a false star or an unknown id
+    rows[drawn["is_false"].to_numpy() | (ids < 0)] = -1
     truth = label_spots(obs.x, obs.y, drawn["x"].to_numpy(), drawn["y"].to_numpy(), rows)
     rotation = from_quaternion(np.array([row.qw, row.qx, row.qy, row.qz], dtype=float))
     return index, BenchFrame(obs, truth, rotation, int(np.count_nonzero(rows >= 0)),
                              frame.centroid_ms)
 
 
-def run_frames_folder(data: FramesFolder, methods: tuple[str, ...], *, max_stars: int,
-                      threshold_arcsec: float, quiet: bool = False):
-    """Every method on every frame of the folder: (frames.csv rows, load seconds)."""
-    from startrack.bench.runner import frame_row
-    from startrack.outputs._progress import progress
+def checked_sky(data: FramesFolder):
+    """The folder's sky, once its truth is found to agree with its stars.csv
+    (startrack.bench._frames_truth): (catalog, seconds it took to load)."""
     from startrack.sky import load_sky
-    from startrack.solver._identifier import Identifier
 
     t0 = time.perf_counter()
     catalog = load_sky(data.sky, data.camera)
-    load = {"sky": time.perf_counter() - t0}
+    seconds = time.perf_counter() - t0
+    check_agreement(data.folder, data.truth, data.stars, catalog, data.camera)
+    return catalog, seconds
+
+
+def run_frames_folder(data: FramesFolder, methods: tuple[str, ...], *, max_stars: int,
+                      threshold_arcsec: float, quiet: bool = False, sky=None):
+    """Every method on every frame of the folder: (frames.csv rows, load seconds);
+    ``sky``: :func:`checked_sky`'s answer, when already loaded."""
+    from startrack.bench.runner import frame_row
+    from startrack.outputs._progress import progress
+    from startrack.solver._identifier import Identifier
+
+    catalog, seconds = checked_sky(data) if sky is None else sky
+    load = {"sky": seconds}
     identifiers = {}
     for name in methods:
         identifiers[name] = Identifier(data.camera, catalog, name, max_stars=max_stars)
@@ -195,6 +221,7 @@ def compare_frames_folder(folder: str | Path, methods: tuple[str, ...], out: str
     if Path(out).resolve() == source.resolve():
         raise InputError(f"--out {out}: is the --frames-dir folder; choose another --out")
     data = read_frames_folder(source)
+    sky = checked_sky(data)  # a truth that disagrees is refused before --out is touched
     identity = run_identity({"frames_dir": str(source.resolve()), "methods": list(methods),
                              "max_stars": max_stars, "threshold_arcsec": threshold_arcsec})
 
@@ -202,7 +229,8 @@ def compare_frames_folder(folder: str | Path, methods: tuple[str, ...], out: str
         if announce is not None:
             announce(data)
         frames, load = run_frames_folder(data, methods, max_stars=max_stars,
-                                         threshold_arcsec=threshold_arcsec, quiet=quiet)
+                                         threshold_arcsec=threshold_arcsec, quiet=quiet,
+                                         sky=sky)
         with atomic_text(out / FRAMES_FILE) as fh:
             writer = csv.writer(fh, lineterminator="\n")
             writer.writerow(COLUMNS)
@@ -235,6 +263,6 @@ def identify_command(folder: str | Path):
                         str(row["method"])]
 
 __all__ = [
-    "FramesFolder", "compare_frames_folder", "export_frames", "identify_command",
+    "FramesFolder", "checked_sky", "compare_frames_folder", "export_frames", "identify_command",
     "read_frames_folder", "run_frames_folder",
 ]

@@ -33,6 +33,8 @@ from startrack.io._writer import atomic_text
 SUMMARY_FILE = "summary.csv"
 DB_FILE = "db.csv"
 GROUP_COLUMNS = ["condition", *VARIABLES, "method"]
+#: the fixed names a comparison writes (its plots' names depend on what it sweeps)
+COMPARE_OUTPUTS = r"frames\.csv|summary\.csv|db\.csv|report\.md|run\.json|time_ratio\.csv"
 
 
 @dataclass(frozen=True)
@@ -81,7 +83,8 @@ def run_in_folder(out: str | Path, identity: dict, run, *, resume: bool | None =
     """``run(out)`` (a comparison that cannot resume: ``compare --mode tracking``) in the
     folder ``out``, holding its lock; an earlier run's listed files are removed first, and
     run.json records ``identity`` once it is done. Returns what ``run`` returns."""
-    folder = RunFolder(out, "compare", inputs, overwrite=overwrite)
+    folder = RunFolder(out, "compare", inputs, overwrite=overwrite,
+                       outputs=COMPARE_OUTPUTS)
     folder.check()
     with folder:
         same_or_new(folder.out, identity, resume)
@@ -128,7 +131,8 @@ def run_comparison(spec: RunSpec, out: str | Path, *, jobs: int = 1,
     """
     t0 = time.perf_counter()
     out = Path(out)
-    folder = RunFolder(out, "compare", inputs, overwrite=overwrite)
+    folder = RunFolder(out, "compare", inputs, overwrite=overwrite,
+                       outputs=COMPARE_OUTPUTS)
     folder.check()
     # Load in this process first: a bad method or sky fails before anything is written,
     # and the database load times are measured once, here.

@@ -158,7 +158,8 @@ def _workers(jobs: int | None) -> int:
               help="Continue a matching run in --out (default when there is one) or start "
               "over.")
 @click.option("--overwrite", is_flag=True,
-              help="Use an --out that holds files startrack did not write (they are kept; "
+              help="Use an --out that holds files startrack did not write (they are kept "
+              "and never replaced; a folder of a simulate run is refused; "
               "docs/conventions.md).")
 @click.option("--mode", type=click.Choice(["lost_in_space", "tracking"]),
               default="lost_in_space", show_default=True,

@@ -27,6 +27,7 @@ from startrack.defaults import (
     DEFAULT_FOV_TOLERANCE,
     DEFAULT_METHOD,
     DEFAULT_PRIOR_SIGMA_DEG,
+    DEFAULT_TIMEOUT_MS,
     GAIA_BELOW_FOV_DEG,
 )
 from startrack.errors import InputError
@@ -100,9 +101,10 @@ def _time(ctx, param, value):
                    f"{DEFAULT_SIGMA_PX} px, more for wide star images (a tenth of their "
                    "radius; the record's diagnostics give the value used).")
 @click.option("--timeout-ms", type=Number(SOLVER_BOUNDS["timeout_ms"]),
+              default=DEFAULT_TIMEOUT_MS, show_default=True,
               help="Wall-clock limit per input, over all its stages (the method, the FOV "
                    "refit and search); past it the input is not solved, with reason "
-                   "timeout (the work is bounded without it too).")
+                   "timeout in its record (docs/limits.md).")
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="json: one JSON line per input, in input order.")
 @click.option("--output", type=click.Path(dir_okay=False),

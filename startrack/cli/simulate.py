@@ -42,6 +42,8 @@ if TYPE_CHECKING:  # the camera loads the compiled core: only when a command run
     from startrack.sky import SkySpec
 
 DEFAULT_OUT = Path("out/simulate")
+#: the names simulate writes in --out
+SIMULATE_OUTPUTS = r"truth\.csv|stars\.csv|frame_\d{4,}\.(png|fits|json)"
 
 
 @main.command()
@@ -74,8 +76,9 @@ DEFAULT_OUT = Path("out/simulate")
               help="Camera file (JSON or TOML), overrides the config's [camera]; its "
                    "distortion is rendered.")
 @click.option("--overwrite", is_flag=True,
-              help="Write into a used --out: first remove the files an earlier run listed "
-                   "there (.startrack-files); files startrack did not write are kept.")
+              help="Write into a used --out: first remove the files an earlier simulate "
+                   "listed there (.startrack-files); files startrack did not write are kept "
+                   "and never replaced, and another command's run is refused.")
 @click.option("--time", "obs_time", help="Observation time, ISO 8601: stars are rendered "
               "where they appear from the moving Earth (annual aberration).")
 @verbosity
@@ -115,7 +118,8 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
         obs_time = parse_time(obs_time)
     out = Path(out_dir)
     folder = RunFolder(out, "simulate", [p for p in (config_path, camera_path, profile_path)
-                                         if p], overwrite=overwrite, reuse=False)
+                                         if p], overwrite=overwrite, reuse=False,
+                       outputs=SIMULATE_OUTPUTS)
     folder.check()
     catalog = _apparent(load_sky(spec, camera), obs_time)  # a bad sky leaves no files
     try:

@@ -6,8 +6,14 @@ While a run holds the folder (:class:`RunFolder` as a context manager) it holds
 refused with one line. ``.startrack-files`` lists every file a startrack run wrote in the
 folder; each write (:func:`startrack.io._writer.atomic_path`) is listed before it starts. A
 file that is not listed (a user's ``notes.txt``, ``plot_x.png`` or ``.env.defaults``) makes
-the folder refused without ``--overwrite``, and is never deleted: clean-up removes
-exactly the listed files of an earlier run, never files matched by a pattern.
+the folder refused without ``--overwrite``, and is never deleted nor replaced: clean-up
+removes exactly the listed files of an earlier run, never files matched by a pattern, and a
+run refuses to write a name it would take from the user (even with ``--overwrite``).
+
+The manifest names the command that wrote the files: a folder holding another command's
+run (``compare --out`` onto a ``simulate`` folder) is refused whatever ``--overwrite``
+says, so no run deletes another kind of run's files. The temporaries a killed run left
+(``.truth.csv.<random>.csv``) are removed by the next run that holds the folder.
 """
 
 from __future__ import annotations
@@ -39,9 +45,12 @@ class RunFolder:
     resumes or checks the run's identity; simulate refuses them)."""
 
     def __init__(self, out: str | Path, command: str, inputs: Iterable[str | Path] = (),
-                 overwrite: bool = False, reuse: bool = True, what: str = "--out") -> None:
+                 overwrite: bool = False, reuse: bool = True, what: str = "--out",
+                 outputs: str = "") -> None:
         self.out, self.command, self.what = Path(out), command, what
         self.overwrite, self.reuse = overwrite, reuse
+        #: a regular expression of the fixed names the run writes (checked before any work)
+        self.outputs = re.compile(outputs) if outputs else None
         self.writer = Writer(inputs, overwrite=True)
         self._listed: list[str] = []
         self._fd: int | None = None
@@ -55,6 +64,12 @@ class RunFolder:
             return
         if not os.path.isdir(self.out):  # a symlink to a folder is used, never replaced
             raise OutputError(f"{self.what} {self.out}: exists and is not a folder")
+        other = self.other_command()
+        if other is not None:
+            raise OutputError(f"{self.what} {self.out}: holds a `startrack {other}` run "
+                              f"({MANIFEST_FILE}); {self.command} never replaces another "
+                              "command's files, whatever --overwrite says; choose another "
+                              "folder")
         if not (self.reuse or self.overwrite) and self.earlier():
             raise OutputError(f"{self.what} {self.out}: holds an earlier run's files; give "
                               "--overwrite to replace them, or choose another folder")
@@ -64,20 +79,46 @@ class RunFolder:
             raise OutputError(f"{self.what} {self.out}: holds {len(unlisted)} file(s) startrack "
                               f"did not write ({names}); give --overwrite to write there "
                               "anyway (they are kept), or choose another folder")
+        taken = [n for n in unlisted if self.outputs is not None and self.outputs.fullmatch(n)
+                 and self.writer.input_at(self.out / n) is None]  # an input: register's
+        if taken:
+            raise self._taken(taken[0])
+
+    def _taken(self, name: str) -> OutputError:
+        return OutputError(f"{self.what} {self.out}: holds {name}, which startrack did not "
+                           f"write (it is not in {MANIFEST_FILE}) and {self.command} would "
+                           "replace; startrack never replaces it, even with --overwrite: "
+                           "move it away or choose another folder")
+
+    def _manifest(self) -> dict:
+        """The manifest's content ({} when there is none or it is unreadable)."""
+        try:
+            data = json.loads((self.out / MANIFEST_FILE).read_text())
+        except (OSError, ValueError):
+            return {}
+        return data if isinstance(data, dict) and data.get("format") == MANIFEST_FORMAT else {}
+
+    def other_command(self) -> str | None:
+        """The command of the run whose files the folder lists, when it is another
+        command than this run's and some of its files are still there."""
+        command = self._manifest().get("command")
+        if not isinstance(command, str) or command == self.command or not self.earlier():
+            return None
+        return command
+
+    def _named(self) -> list[str]:
+        """Every plain name the manifest lists, whether or not the file is there."""
+        files = self._manifest().get("files")
+        return [f for f in files if isinstance(f, str) and _plain(f)] \
+            if isinstance(files, list) else []
 
     def earlier(self) -> list[str]:
         """The files an earlier startrack run listed here (and that are still there)."""
-        try:
-            data = json.loads((self.out / MANIFEST_FILE).read_text())
-            files = data["files"] if data.get("format") == MANIFEST_FORMAT else []
-        except (OSError, ValueError, TypeError, KeyError, AttributeError):
-            return []
-        return [f for f in files if isinstance(f, str) and _plain(f)
-                and os.path.lexists(self.out / f)]
+        return [f for f in self._named() if os.path.lexists(self.out / f)]
 
     def unlisted(self) -> list[str]:
         """The names in the folder that no startrack run listed (its own files aside)."""
-        listed = set(self.earlier()) | set(self._listed)
+        listed = set(self._named()) | set(self._listed)
         own = listed | {LOCK_FILE, MANIFEST_FILE}
         return sorted(name for name in os.listdir(self.out)
                       if name not in own and not _temporary_of(name, listed | {MANIFEST_FILE}))
@@ -104,8 +145,9 @@ class RunFolder:
         os.ftruncate(self._fd, 0)
         os.write(self._fd, f"{os.getpid()} {self.command}\n".encode())
         self.check()  # again, under the lock: the folder may have changed meanwhile
+        named = self._named()
         self._listed = self.earlier()
-        self._remove_stale_temporaries()
+        self._remove_stale_temporaries(named)
         _FOLDERS[os.path.realpath(self.out)] = self
         return self
 
@@ -136,6 +178,8 @@ class RunFolder:
                               f"{hit}; refusing to overwrite an input")
         if name in self._listed or name == MANIFEST_FILE:
             return
+        if os.path.lexists(path):  # there, and no startrack run listed it: the user's
+            raise self._taken(name)
         self._listed.append(name)
         self._write_manifest()
 
@@ -167,10 +211,11 @@ class RunFolder:
         self._write_manifest()
         return gone
 
-    def _remove_stale_temporaries(self) -> None:
-        """Temporary files of this folder's listed files that a killed run left (SIGKILL
-        runs no clean-up); safe under the lock."""
-        listed = set(self._listed) | {MANIFEST_FILE}
+    def _remove_stale_temporaries(self, named: Iterable[str] = ()) -> None:
+        """Temporary files of this folder's listed files (``named``: listed whether or not
+        the file itself is there: a killed run's truth.csv never appeared) that a killed
+        run left (SIGKILL runs no clean-up); safe under the lock."""
+        listed = set(self._listed) | set(named) | {MANIFEST_FILE}
         for name in os.listdir(self.out):
             if _temporary_of(name, listed) and os.path.isfile(self.out / name):
                 with contextlib.suppress(FileNotFoundError):

@@ -116,11 +116,23 @@ def atomic_path(path: str | Path, what: str = "output") -> Iterator[Path]:
     except NotADirectoryError:
         raise OutputError(f"{what} {path}: a parent folder is a file") from None
     except OSError as exc:
-        raise OutputError(f"{what} {path}: cannot write ({exc.strerror or exc})") from None
+        reason = exc.strerror or _without(str(exc), tmp, path)
+        raise OutputError(f"{what} {path}: cannot write ({reason})") from None
+    except Exception as exc:  # a writer's own error (libpng's): never name the temporary
+        if tmp is None or str(tmp) not in str(exc):
+            raise
+        raise OutputError(f"{what} {path}: cannot write "
+                          f"({_without(str(exc), tmp, path)})") from None
     finally:
         if tmp is not None:
             with contextlib.suppress(FileNotFoundError):
                 os.unlink(tmp)
+
+
+def _without(message: str, tmp, path: Path) -> str:
+    """``message``'s first line with the temporary file's name replaced by ``path``."""
+    lines = message.strip().splitlines() or [""]
+    return lines[0].replace(str(tmp), str(path)) if tmp is not None else lines[0]
 
 
 @contextlib.contextmanager

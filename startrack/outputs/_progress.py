@@ -77,8 +77,10 @@ def progress(total: int, *, initial: int = 0, desc: str, unit: str, quiet: bool 
 
 
 def iterate(items, *, desc: str, unit: str, quiet: bool = False):
-    """Yield ``items`` while counting them with :func:`progress`."""
-    items = list(items)
+    """Yield ``items`` while counting them with :func:`progress`; a sized iterable (a
+    ``range`` of 100 million frames) is never listed."""
+    if not hasattr(items, "__len__"):
+        items = list(items)
     counter = progress(len(items), desc=desc, unit=unit, quiet=quiet)
     try:
         for item in items:

@@ -64,6 +64,8 @@ def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timi
     diag = solution.diagnostics
     record["diagnostics"] = {"centroids": len(obs), "hypotheses": diag.hypotheses,
                              "candidates": diag.candidates, "pivots": diag.pivots,
+                             **({"refused": diag.extra["refused"]} if "refused" in diag.extra
+                                else {}),
                              **(extra or {})}
     return record
 

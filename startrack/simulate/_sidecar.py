@@ -82,8 +82,10 @@ def read_sidecar(path: str | Path) -> tuple[Camera, SkySpec, Rotation | None]:
     if attitude is not None:
         try:
             q = np.asarray(attitude["quaternion"], dtype=np.float64)
-            if q.shape != (4,) or not np.all(np.isfinite(q)) or np.linalg.norm(q) == 0:
-                raise ValueError("need 4 finite numbers")
+            with np.errstate(over="ignore"):
+                norm = np.sqrt(np.sum(q * q)) if q.shape == (4,) else np.nan
+            if not np.all(np.isfinite(q)) or not 1e-6 < norm < 1e6:
+                raise ValueError("need 4 finite numbers, a unit quaternion")
             rotation = from_quaternion(q)
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"{path}: bad attitude quaternion ({exc})") from None

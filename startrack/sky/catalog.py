@@ -25,6 +25,58 @@ def vectors_to_radec(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ra, dec
 
 
+class BadId(ValueError):
+    """A catalog id that is not an exact 64-bit integer; ``row`` is its 0-based row."""
+
+    def __init__(self, row: int, message: str) -> None:
+        super().__init__(message)
+        self.row = row
+
+
+def exact_ids(values: np.ndarray) -> np.ndarray:
+    """A column of catalog ids (integers, floats or text) as exact int64: never through
+    float64, whose 53-bit mantissa merges Gaia source ids (ids differing by 1 would
+    become repeats). Raises :class:`BadId` naming the first bad row."""
+    values = np.asarray(values)
+    kind = values.dtype.kind
+    if kind == "b":
+        raise BadId(0, "id must be an integer, not true/false")
+    if kind in "iu":
+        big = np.flatnonzero(values > np.iinfo(np.int64).max) if kind == "u" else []
+        if len(big):
+            raise BadId(int(big[0]), f"id {values[big[0]]} is beyond 64-bit integers")
+        return values.astype(np.int64)
+    if kind == "f":  # a float column holds an id exactly only up to 2**53
+        bad = np.flatnonzero(~np.isfinite(values) | (values != np.round(values))
+                             | (np.abs(values) > 2.0**53))
+        if len(bad):
+            raise BadId(int(bad[0]), f"id {values[bad[0]]!r} is not an integer a float "
+                        "column holds exactly (store ids as integers)")
+        return values.astype(np.int64)
+    try:  # text cells, parsed as integers (exact at any size)
+        return np.char.strip(values.astype("U")).astype(np.int64)
+    except (ValueError, OverflowError, TypeError):  # only then, row by row, to name the bad one
+        return np.array([_id_cell(row, cell) for row, cell in enumerate(values)],
+                        dtype=np.int64)
+
+
+def _id_cell(row: int, cell) -> int:
+    text = str(cell).strip()
+    try:
+        value = int(text)
+    except ValueError:
+        try:
+            number = float(text)
+        except ValueError:
+            number = float("nan")
+        if not (np.isfinite(number) and number == round(number) and abs(number) <= 2.0**53):
+            raise BadId(row, f"id {cell!r} is not an integer") from None
+        value = int(number)
+    if not -(2**63) <= value < 2**63:
+        raise BadId(row, f"id {cell!r} is beyond 64-bit integers")
+    return value
+
+
 @dataclass(frozen=True)
 class Catalog:
     """Stars sorted brightest first.
@@ -159,5 +211,5 @@ def kept_in_brightness_order(brighter: np.ndarray, fainter: np.ndarray, n: int) 
             return keep
         keep = ~removed
 
-__all__ = ["Catalog", "cut_magnitude", "kept_in_brightness_order", "merge_close_stars",
-           "radec_to_vectors", "vectors_to_radec"]
+__all__ = ["BadId", "Catalog", "cut_magnitude", "exact_ids", "kept_in_brightness_order",
+           "merge_close_stars", "radec_to_vectors", "vectors_to_radec"]

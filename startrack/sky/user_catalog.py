@@ -17,16 +17,19 @@ import xxhash
 
 from startrack.errors import InputError
 from startrack.io._cache import cached_arrays
-from startrack.sky.catalog import Catalog
+from startrack.sky.catalog import BadId, Catalog, exact_ids
 from startrack.sky.hipparcos import julian_year, propagate
 
-FORMAT_VERSION = 1
+#: 2: ids parsed as exact 64-bit integers (1 passed them through float64)
+FORMAT_VERSION = 2
 SUFFIXES = (".csv", ".fits", ".fit", ".parquet")
 REQUIRED = ("ra", "dec", "mag")
 OPTIONAL = {"pm_ra": 0.0, "pm_dec": 0.0, "epoch": 2000.0}
 #: (column, lowest, highest) a value may take
 RANGES = (("ra", -360.0, 360.0), ("dec", -90.0, 90.0), ("mag", -30.0, 40.0),
-          ("epoch", 1000.0, 3000.0))
+          ("epoch", 1000.0, 3000.0),
+          # ten times Barnard's star's 10.4"/yr: a millennium moves a star at most ~30 deg
+          ("pm_ra", -1e5, 1e5), ("pm_dec", -1e5, 1e5))
 
 
 def is_catalog_path(text: str) -> bool:
@@ -53,6 +56,7 @@ def _read_table(path: Path) -> dict[str, np.ndarray]:
             from astropy.table import Table  # astropy: only for a FITS catalog
 
             table = Table.read(path, format="fits")
+            _check_units(path, table)
             frame = pd.DataFrame({name: np.asarray(table[name]) for name in table.colnames
                                   if table[name].ndim == 1})
     except InputError:
@@ -67,7 +71,29 @@ def _read_table(path: Path) -> dict[str, np.ndarray]:
         key = str(name).strip().lower()
         if key in (*REQUIRED, *OPTIONAL, "id") and key not in columns:
             columns[key] = frame[name].to_numpy()
+            if suffix == ".parquet" and columns[key].dtype == object:
+                columns[key] = _scalars(path, key, columns[key])
     return columns
+
+
+def _scalars(path: Path, name: str, values: np.ndarray) -> np.ndarray:
+    """A Parquet column of objects, refused when a cell is a list or struct (no number)."""
+    bad = np.flatnonzero([np.ndim(v) != 0 or isinstance(v, dict) for v in values])
+    if len(bad):
+        raise InputError(f"{path}: row {int(bad[0]) + 1}: {name} holds a list or struct, "
+                         "not a number")
+    return values
+
+
+def _check_units(path: Path, table) -> None:
+    """Refuse a FITS catalog whose ra or dec column declares another unit than degrees
+    (RA in hours would crowd the sky into 24 degrees: wrong stars, and a dense sky)."""
+    for name in table.colnames:
+        unit = table[name].unit
+        if name.strip().lower() in ("ra", "dec") and unit is not None \
+                and unit.to_string() not in ("deg", ""):
+            raise InputError(f"{path}: column {name} is in {unit.to_string()!r} (TUNIT); "
+                             "startrack reads ra and dec in degrees: convert the column")
 
 
 def _numbers(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -77,8 +103,23 @@ def _numbers(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     text = values.astype(str) if values.dtype == object else None
     empty = np.zeros(len(values), bool) if text is None else np.char.strip(
         text.astype("U")) == ""
-    numbers = pd.to_numeric(pd.Series(values), errors="coerce").to_numpy(np.float64, copy=True)
+    numbers = pd.to_numeric(pd.Series(values), errors="coerce")
+    numbers = numbers.to_numpy(np.float64, copy=True)
     return numbers, empty
+
+
+#: a catalog whose every ra lies in [0, 24] while its dec spans more than this many
+#: degrees gives its ra in hours (a real field that wide is never 24 deg of ra only)
+HOURS_DEC_SPAN_DEG = 90.0
+
+
+def _refuse_hours(path: Path, ra: np.ndarray, dec: np.ndarray) -> None:
+    """Refuse ra in hours: read as degrees it crowds the sky into 24 degrees (wrong
+    stars, and a sky far denser than any real one)."""
+    span = float(dec.max() - dec.min())
+    if len(ra) >= 100 and ra.min() >= 0.0 and ra.max() <= 24.0 and span > HOURS_DEC_SPAN_DEG:
+        raise InputError(f"{path}: every ra lies within 0 to 24 while dec spans {span:.0f} "
+                         "deg: ra in hours? startrack reads ra in degrees (multiply by 15)")
 
 
 def _fail(path: Path, row: int, message: str) -> InputError:
@@ -113,14 +154,13 @@ def parse_catalog(path: Path) -> dict[str, np.ndarray]:
         if len(bad):
             raise _fail(path, bad[0], f"{name} {values[name][bad[0]]:g} is outside "
                         f"[{low:g}, {high:g}]")
+    _refuse_hours(path, values["ra"], values["dec"])
     ids = np.arange(1, n + 1, dtype=np.int64)
     if "id" in columns:
-        numbers, _ = _numbers(columns["id"])
-        bad = np.flatnonzero(~np.isfinite(numbers) | (numbers != np.round(numbers))
-                             | (np.abs(numbers) >= 2.0**63))
-        if len(bad):
-            raise _fail(path, bad[0], f"id {columns['id'][bad[0]]!r} is not an integer")
-        ids = numbers.astype(np.int64)
+        try:
+            ids = exact_ids(columns["id"])
+        except BadId as exc:
+            raise _fail(path, exc.row, str(exc)) from None
         order = np.argsort(ids, kind="stable")
         dup = np.flatnonzero(ids[order][1:] == ids[order][:-1])
         if len(dup):
@@ -151,6 +191,9 @@ def catalog_arrays(path: str | Path) -> dict[str, np.ndarray]:
     path = Path(path)
     if path.suffix.lower() not in SUFFIXES:
         raise InputError(f"{path}: a catalog file must be {', '.join(SUFFIXES)}")
+    if path.exists() and not path.is_file():  # a device (/dev/zero) would be read forever
+        raise InputError(f"{path}: not a regular file (a folder, pipe or device); a catalog "
+                         "is a file")
     key = {"content": content_hash(path), "suffix": path.suffix.lower(),
            "format": FORMAT_VERSION}
     return cached_arrays("usersky", key, lambda: parse_catalog(path))

@@ -20,6 +20,7 @@ from startrack.attitude import from_radec_roll
 from startrack.camera._model import Camera
 from startrack.centroids._table import DEFAULT_SIGMA_PX, Centroids
 from startrack.database import StarDatabase
+from startrack.defaults import DEFAULT_TIMEOUT_MS
 from startrack.errors import InputError
 from startrack.matchers import Matcher, MatcherConfig, get_matcher
 from startrack.simulate._scene import stars_in_view
@@ -115,7 +116,7 @@ class Identifier:
                  max_stars: int | None = None, extra_stars: int | None = None,
                  sigma_px: float = DEFAULT_SIGMA_PX,
                  verify_config: VerifyConfig | None = None,
-                 timeout_ms: float | None = None) -> None:
+                 timeout_ms: float | None = DEFAULT_TIMEOUT_MS) -> None:
         if not (sigma_px > 0 and math.isfinite(sigma_px)):
             raise InputError(f"--sigma-px must be a positive number, got {sigma_px}")
         self.camera = camera

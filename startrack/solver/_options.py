@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from startrack.camera._model import Camera
-from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD
+from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD, DEFAULT_TIMEOUT_MS
 from startrack.sky import SkySpec
 from startrack.solver._hints import Hints
 
@@ -28,8 +28,8 @@ class Options:
     sigma_px: float | None = None
     #: how far the true FOV may be from the given one (a fraction); 0: exactly as given
     fov_tolerance: float = DEFAULT_FOV_TOLERANCE
-    #: wall-clock limit per input, over all its stages (reason "timeout")
-    timeout_ms: float | None = None
+    #: wall-clock limit per input, over all its stages (reason "timeout"); None: none
+    timeout_ms: float | None = DEFAULT_TIMEOUT_MS
     #: observation time (astropy Time) for the aberration correction; None: a FITS
     #: input's DATE-OBS (plus half its EXPTIME), else no correction
     time: object | None = None

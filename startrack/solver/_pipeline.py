@@ -160,6 +160,7 @@ class Pipeline:
         timeout), else the search's ``FovResult``."""
         x, y = frame.centroids.x, frame.centroids.y
         deadline, spent, found = Deadline.after_ms(self.options.timeout_ms), 0.0, None
+        nominal = None
         # the search alone for a scale-free method (its first window holds the nominal FOV)
         # or where the tables do not fit (a deep narrow-field sky)
         if not get_matcher(self.options.method).scale_free and self._tables_fit(camera, sky):
@@ -180,7 +181,23 @@ class Pipeline:
             found = self._search(x, y, camera, sky, deadline)
             if spent:  # the first look's time (none for a scale-free method)
                 found = found.plus_ms(spent)
+            if nominal is not None and not found.solution.solved \
+                    and found.solution.reason != "timeout":
+                found = self._whole_method(frame, nominal, deadline, found)
         return found
+
+    @staticmethod
+    def _whole_method(frame: FrameInput, nominal: Identifier, deadline: Deadline, failed):
+        """The configured method with all its stars at the nominal FOV, its FOV refitted:
+        the last try where the first look (its brightest stars alone: a false star or a
+        missing one among them matches nothing) and the search both failed; else
+        ``failed``, the search's answer."""
+        whole = nominal.solve(frame, identify=lambda obs: nominal.identify(obs, deadline))
+        found = refit_fov(whole, nominal.database, nominal.verify_config, deadline) \
+            if whole.solution.solved else None  # its time counts the whole method's
+        if found is None:
+            return failed.plus_ms(whole.solution.identify_ms)
+        return found.plus_ms(failed.solution.identify_ms)
 
     def _search(self, x, y, camera: Camera, sky: SkySpec, deadline: Deadline):
         """The quad search within the tolerance: on the chosen sky; with the default sky,

@@ -7,6 +7,12 @@ must label at least :data:`MIN_MATCHED` stars, each with a finite residual, and 
 residuals must be those of stars matched through its camera (RMS within the match
 radius). Anything else is reported as not solved, reason ``unverified``: a wrong attitude
 reported as right is the worst outcome, "not solved" is honest.
+
+An answer must also explain the frame's bright stars (:func:`camera_problem`): through a
+camera that does not fit (a principal point at (100, 900) declared centred) a hypothesis
+can be confirmed by a dozen stars near where the two models agree, hundreds of arcsec
+off, while most bright spots and most bright catalog stars in view stay unexplained. Such
+an answer is refused, and its record says why (``diagnostics.refused``).
 """
 
 from __future__ import annotations
@@ -48,20 +54,62 @@ def evidence_problem(solution: Solution, f_px: float, match_radius_px: float) ->
     return None
 
 
-def refuse_without_evidence(solution: Solution, f_px: float,
-                            match_radius_px: float) -> Solution:
-    """``solution`` unchanged, or not solved with reason ``unverified`` when
-    :func:`evidence_problem` finds a problem."""
-    if evidence_problem(solution, f_px, match_radius_px) is None:
-        return solution
-    return Solution(False, solution.method, diagnostics=solution.diagnostics,
+#: the brightest spots, and the brightest catalog stars the answer puts in the image,
+#: that :func:`camera_problem` counts; a frame with fewer spots is not judged
+BRIGHT_STARS = 20
+#: an answer explaining less than this fraction of both is refused: the harsh set's right
+#: answers (1 px, 5 false stars, 20% missing; scripts/harsh_frames.py) explain at least
+#: half of the bright spots, a centred camera for a (100, 900) principal point at most 35%
+MIN_EXPLAINED = 0.4
+
+
+def camera_problem(solution: Solution, obs, camera, catalog) -> str | None:
+    """Why a solved answer does not explain the frame (None when it does): it labels less
+    than :data:`MIN_EXPLAINED` of the :data:`BRIGHT_STARS` brightest spots and of the
+    brightest catalog stars it puts inside the image."""
+    if not solution.solved or solution.rotation is None or len(obs.x) < BRIGHT_STARS:
+        return None
+    spots = int(np.count_nonzero(np.asarray(solution.obs_index) < BRIGHT_STARS))
+    if spots >= MIN_EXPLAINED * BRIGHT_STARS:
+        return None
+    boresight = solution.rotation.apply(np.array([0.0, 0.0, 1.0]))
+    near = np.flatnonzero(catalog.vectors @ boresight > math.cos(
+        math.radians(camera.half_diagonal_deg)))
+    x, y, front = camera.vector_to_pixel(solution.rotation.inv().apply(catalog.vectors[near]))
+    seen = near[front & camera.in_image(x, y)]
+    seen = seen[np.argsort(catalog.mag[seen], kind="stable")][:BRIGHT_STARS]
+    stars = int(np.count_nonzero(np.isin(seen, solution.cat_index)))
+    if len(seen) < BRIGHT_STARS / 2 or stars >= MIN_EXPLAINED * len(seen):
+        return None
+    return (f"explains {spots} of the {BRIGHT_STARS} brightest spots and {stars} of the "
+            f"{len(seen)} brightest catalog stars it puts in the image: the camera does not "
+            "fit the frame (its principal point or focal length?)")
+
+
+def _refused(solution: Solution, why: str | None = None) -> Solution:
+    diagnostics = solution.diagnostics
+    if why is not None:
+        diagnostics = dataclasses.replace(diagnostics,
+                                          extra={**diagnostics.extra, "refused": why})
+    return Solution(False, solution.method, diagnostics=diagnostics,
                     identify_ms=solution.identify_ms, reason="unverified", mode=solution.mode,
                     lock=solution.lock)
 
 
+def refuse_without_evidence(solution: Solution, f_px: float,
+                            match_radius_px: float) -> Solution:
+    """``solution`` unchanged, or not solved with reason ``unverified`` when
+    :func:`evidence_problem` finds a problem."""
+    why = evidence_problem(solution, f_px, match_radius_px)
+    return solution if why is None else _refused(solution, why)
+
+
 def require_evidence(result):
     """``result`` (a :class:`startrack.solver._identifier.FrameResult`) with its solution passed
-    through :func:`refuse_without_evidence`."""
+    through :func:`refuse_without_evidence` and :func:`camera_problem`."""
     sol = refuse_without_evidence(result.solution, result.camera.f_px,
                                   result.match_radius_px)
+    if sol is result.solution:
+        why = camera_problem(sol, result.obs, result.camera, result.catalog)
+        sol = sol if why is None else _refused(sol, why)
     return result if sol is result.solution else dataclasses.replace(result, solution=sol)
