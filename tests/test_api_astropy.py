@@ -53,6 +53,9 @@ def test_astropy_objects_of_a_solved_frame(solved):
     assert np.allclose(solved.rotation.apply([0, 0, 1]),
                        solved.boresight.cartesian.xyz.value, atol=1e-12)
     assert solved.wcs.sip is not None  # 90+ stars: SIP terms fitted
+    assert solved.wcs.pixel_shape == (1024, 768)  # the frame's size, as astropy counts it
+    footprint = solved.wcs.calc_footprint()  # needs the size: the four corners on the sky
+    assert footprint.shape == (4, 2) and np.isfinite(footprint).all()
     assert solved.quality == solved.to_dict()["quality"]
     text = repr(solved)
     assert len(text) < 300 and "solved" in text and "realsky_azi45.png" in text

@@ -105,6 +105,13 @@ def _bench_frame(data: FramesFolder, row, catalog, identifier) -> tuple[int, Ben
                              frame.centroid_ms)
 
 
+def warm_up(data: FramesFolder, catalog, identifier) -> None:
+    """Read the first frame once untimed (its reader imported, an image's extraction
+    warmed), so the first timed frame pays no one-time cost; every identifier solved its
+    own throwaway frame when it was made."""
+    _bench_frame(data, next(data.truth.itertuples(index=False)), catalog, identifier)
+
+
 def run_frames_folder(data: FramesFolder, methods: tuple[str, ...], *, max_stars: int,
                       threshold_arcsec: float, quiet: bool = False):
     """Every method on every frame of the folder: (frames.csv rows, load seconds)."""
@@ -120,6 +127,7 @@ def run_frames_folder(data: FramesFolder, methods: tuple[str, ...], *, max_stars
     for name in methods:
         identifiers[name] = Identifier(data.camera, catalog, name, max_stars=max_stars)
         load[name] = identifiers[name].load_seconds
+    warm_up(data, catalog, identifiers[methods[0]])
     counter = progress(len(data.truth), desc="compare", unit="frame", quiet=quiet)
     rows = []
     try:
@@ -179,6 +187,7 @@ def compare_frames_folder(folder: str | Path, methods: tuple[str, ...], out: str
     compare holds its folder (startrack.io._run_folder); ``finish(result)`` writes report.md
     while it is held. ``out`` must not hold another run; the run is redone whole."""
     from startrack.bench.metrics import summarise
+    from startrack.bench.report_run import frames_dir_description, machine_load
     from startrack.bench.runner import COLUMNS
     from startrack.bench.session import (
         DB_FILE,
@@ -190,7 +199,7 @@ def compare_frames_folder(folder: str | Path, methods: tuple[str, ...], out: str
     from startrack.bench.store import FRAMES_FILE, format_rows, run_identity
     from startrack.io._writer import atomic_text
 
-    t0 = time.perf_counter()
+    t0, load_at_start = time.perf_counter(), machine_load()
     source = Path(folder)
     if Path(out).resolve() == source.resolve():
         raise InputError(f"--out {out}: is the --frames-dir folder; choose another --out")
@@ -216,7 +225,9 @@ def compare_frames_folder(folder: str | Path, methods: tuple[str, ...], out: str
             w.writerows([stage if stage == "sky" else f"{stage} database+prepare",
                          f"{seconds:.4f}"] for stage, seconds in load.items())
         result = RunOutputs(out, out / FRAMES_FILE, out / SUMMARY_FILE, out / DB_FILE, [],
-                            summary, len(data.truth), 0, load, time.perf_counter() - t0)
+                            summary, len(data.truth), 0, load, time.perf_counter() - t0,
+                            frames_dir_description(data, methods, max_stars,
+                                                   threshold_arcsec), load_at_start)
         if finish is not None:
             finish(result)
         return result
