@@ -243,7 +243,7 @@ def write_annotated(frame, path: str | Path) -> dict:
     ax.set_xlim(-0.5, w - 0.5)
     ax.set_ylim(h - 0.5, -0.5)  # row 0 at the top, as in the PNG
     if wcs is not None:
-        draw_grid(ax)
+        draw_grid(ax, wcs, w, h)
         # in the right margin, beside the frame, so it hides no star
         draw_compass(fig, wcs, w, h, centre=(MARGIN_LEFT_PX + w + 0.5 * MARGIN_RIGHT_PX,
                                              _CAPTION_PX + h - 0.5 * MARGIN_RIGHT_PX),
