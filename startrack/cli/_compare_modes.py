@@ -134,7 +134,7 @@ def tracking_run(cfg, spec_sky, names, frames, rates, noise_px, false_stars, mis
 
 def replay_one(spec, text: str) -> None:
     """Run one (condition, frame) unit of ``spec`` and print every method's answer."""
-    from startrack.bench.report import replay_text
+    from startrack.bench.report import condition_text, replay_text
     from startrack.bench.runner import run_unit
 
     try:
@@ -145,6 +145,6 @@ def replay_one(spec, text: str) -> None:
     if not 0 <= condition < len(spec.conditions) or not 0 <= frame < spec.frames:
         raise InputError(f"--replay: this run has conditions 0..{len(spec.conditions) - 1} "
                          f"and frames 0..{spec.frames - 1}, got {text!r}")
-    click.echo(f"condition {condition} ({spec.conditions[condition].to_dict()}), "
-               f"frame {frame}:")
+    click.echo(f"condition {condition} ({condition_text(spec.conditions[condition].to_dict())}"
+               f"), frame {frame}:")
     click.echo(replay_text(run_unit(spec, condition, frame)))
