@@ -7,9 +7,6 @@ STAMP := $(VENV)/.installed
 .PHONY: demo test lint bench clean astrometry astrometry-ci
 
 # The compiled core is built by the install: a changed kernel source reinstalls.
-# The editable install is a path entry (editable_mode=compat), not an import hook: a
-# script run beside a clone folder named `startrack` still imports the package, never
-# the folder.
 $(STAMP): pyproject.toml setup.py $(wildcard startrack/_core/*.pyx startrack/_core/*.pxd startrack/_core/*.pxi)
 	@echo "set-up (once): a virtual environment in $(VENV)/, startrack's dependencies, and its"
 	@echo "compiled core (Cython and C, one module per .pyx). Usually a few minutes on an idle"
@@ -19,7 +16,7 @@ $(STAMP): pyproject.toml setup.py $(wildcard startrack/_core/*.pyx startrack/_co
 	echo "[1/3] creating $(VENV)/" && $(PY) -m venv $(VENV) && \
 	echo "[2/3] upgrading pip" && $(BIN)/pip install --quiet --upgrade pip && \
 	echo "[3/3] installing startrack and its dependencies, compiling the core" && \
-	$(BIN)/pip install --progress-bar off -e '.[dev]' --config-settings editable_mode=compat && \
+	$(BIN)/pip install --progress-bar off -e '.[dev]' && \
 	touch $(STAMP) && echo "set-up done in $$(( $$(date +%s) - start )) s"
 
 demo: $(STAMP)
