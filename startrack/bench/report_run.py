@@ -135,6 +135,6 @@ def frames_dir_description(data, methods, max_stars: int, threshold_arcsec: floa
 
 __all__ = [
     "FIRST_FRAME_RATIO", "HOW_TO_READ", "camera_text", "description_rows",
-    "first_frame_lines", "frames_dir_description", "lost_in_space_description",
+    "first_frame_lines", "frames_dir_description", "load_text", "lost_in_space_description",
     "machine_load",
 ]
