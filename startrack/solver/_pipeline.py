@@ -116,10 +116,10 @@ class Pipeline:
         """:meth:`solve` without the aberration correction: the attitude in the catalog's
         frame (what a tracker predicts from), through the fitted camera when the field
         of view was nominal or unknown; with hints, through :mod:`startrack.solver._hinted`."""
+        self.trail.take()  # an input that failed midway leaves no stage to the next one
         hints = self._hints_used = frame_hints(self, frame)
-        if hints is not None:
-            return solve_hinted(self, frame, hints)
-        return self.identify_unhinted(frame)
+        return (self.identify_unhinted(frame) if hints is None
+                else solve_hinted(self, frame, hints))
 
     def identify_unhinted(self, frame: FrameInput) -> FrameResult:
         """:meth:`identify_frame` with no hint (a hinted child pipeline's own solve)."""
