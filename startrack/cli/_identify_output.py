@@ -6,6 +6,7 @@ import contextlib
 import csv
 import json
 import sys
+from pathlib import Path
 
 import click
 
@@ -52,15 +53,20 @@ def fov_suggestion(record: dict, fov_option: bool) -> str | None:
     return text
 
 
-def say_written(paths: list, quiet: bool, verbose: bool) -> None:
-    """Name the side files written on stderr: -v a line each; else one line (their count
-    and folders when more than four); -q nothing."""
+def say_written(paths: list, quiet: bool, verbose: bool, output=None) -> None:
+    """Name the files written on stderr: -v a line each; else one line for the side files
+    (not ``output``, which was asked for by name): their count and folders when more than
+    four; -q nothing."""
     if quiet or not paths:
         return
     if verbose:
         for path in paths:
             click.echo(f"wrote {path}", err=True)
-    elif len(paths) <= 4:
+        return
+    paths = [p for p in paths if output is None or Path(p) != Path(output)]
+    if not paths:
+        return
+    if len(paths) <= 4:
         click.echo("wrote " + ", ".join(str(p) for p in paths), err=True)
     else:
         folders = sorted({str(p.parent) for p in paths})

@@ -196,7 +196,7 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
             side.finish()
     except NothingAnswered:
         pass
-    say_written(side.written, quiet, verbose)
+    say_written(side.written, quiet, verbose, output)
     sys.exit(worst)
 
 

@@ -251,7 +251,7 @@ class Pipeline:
         return dataclasses.replace(
             result, timing=Timing(t.centroid, t.identify, t.total,
                                   self.setup.take() + frame.setup_ms),
-            request=request_record(self.options, *self.setup_for(frame), hints),
+            request=request_record(self.options, self.setup_for, frame, hints),
             steps=self.trail.take())
 
     def _blind_size(self, frame: FrameInput) -> tuple[int, int]:

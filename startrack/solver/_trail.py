@@ -5,9 +5,9 @@ each answered, so a fallback's answer is never mistaken for the method that was 
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
-from startrack.camera._model import Camera
 from startrack.sky import SkySpec
 
 #: the sky keys that describe only a random sky (its size and seed)
@@ -54,9 +54,13 @@ def hints_dict(hints) -> dict | None:
     return out
 
 
-def request_record(options, camera: Camera | None, sky: SkySpec, hints=None) -> dict:
+def request_record(options, decide, frame, hints=None) -> dict:
     """``requested`` of a record: the method asked for, the sky and field of view this
-    input was given (options, else its sidecar, else the defaults), the hints."""
+    input was given (``decide(frame)``: options, else its sidecar, else the defaults,
+    decided again quietly: its warnings were given when it was first decided), the hints."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        camera, sky = decide(frame)
     out: dict = {"method": options.method, "sky": sky_record(sky)}
     if camera is None:
         out["fov_deg"] = None  # unknown: a blind search
