@@ -66,7 +66,7 @@ def threshold_text(threshold_arcsec: float) -> str:
 def description_rows(description: dict, load_start, load_end) -> list[str]:
     """The "Run" table of report.md: ``description``'s rows, then the machine."""
     rows = list(description.items())
-    rows.append(("machine", f"{os.cpu_count()} CPU core(s) (model: Provenance)"))
+    rows.append(("machine", f"{os.cpu_count()} CPU core(s) (the model: Provenance, below)"))
     rows.append(("load average (1 / 5 / 15 min)",
                  f"{load_text(load_start)} at the start, {load_text(load_end)} at the end "
                  "(times on a loaded machine are slower and vary more)"))
