@@ -8,12 +8,21 @@ STAMP := $(VENV)/.installed
 
 # The compiled core is built by the install: a changed kernel source reinstalls.
 $(STAMP): pyproject.toml setup.py $(wildcard startrack/_core/*.pyx startrack/_core/*.pxd startrack/_core/*.pxi)
-	$(PY) -m venv $(VENV)
-	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev]'
-	touch $(STAMP)
+	@echo "set-up (once): a virtual environment in $(VENV)/, startrack's dependencies, and its"
+	@echo "compiled core (Cython and C, one module per .pyx). Usually a few minutes on an idle"
+	@echo "2-core machine, most of it compiling (pip shows 'Building editable ...' meanwhile);"
+	@echo "longer on a loaded machine or without a pip cache. Later runs skip it."
+	@start=$$(date +%s); \
+	echo "[1/3] creating $(VENV)/" && $(PY) -m venv $(VENV) && \
+	echo "[2/3] upgrading pip" && $(BIN)/pip install --quiet --upgrade pip && \
+	echo "[3/3] installing startrack and its dependencies, compiling the core" && \
+	$(BIN)/pip install --progress-bar off -e '.[dev]' && \
+	touch $(STAMP) && echo "set-up done in $$(( $$(date +%s) - start )) s"
 
 demo: $(STAMP)
+	@echo "demo: startrack compare, the 2011 paper's experiment (angle, triangle and hybrid on"
+	@echo "7 conditions x 1000 frames; about a minute on 2 idle cores). A new folder in"
+	@echo "out/compare/ each run; out/compare/latest/report.md is the newest report."
 	$(BIN)/startrack compare
 
 test: $(STAMP)

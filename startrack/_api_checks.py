@@ -9,6 +9,7 @@ Numbers go through startrack.validate (the same bounds as the options); ``camera
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -25,6 +26,26 @@ from startrack.validate import (
     check_keywords,
     check_number,
 )
+
+#: the command line's options as :class:`startrack.Solver`'s keywords, for the errors that
+#: shared code words for both (an API user never typed ``--size WxH``)
+API_KEYWORDS = {
+    "size": "size=(width, height)", "fov": "fov_deg=", "camera": "camera=",
+    "fov-tolerance": "fov_tolerance", "sky": "sky=", "mag-limit": "mag_limit",
+    "epoch": "epoch", "sigma-px": "sigma_px", "max-stars": "max_stars",
+    "timeout-ms": "timeout_ms", "prior": "prior=(ra, dec, roll)",
+    "prior-sigma-deg": "prior_sigma_deg", "time": "time=", "ra": "ra", "dec": "dec",
+    "radius": "radius", "scale-low": "scale_low", "scale-high": "scale_high",
+    "scale-units": "scale_units", "pixel-size": "pixel_size_um", "downsample": "downsample",
+    "config": "config=", "method": "method=", "no-header-hints": "header_hints=False",
+}
+#: an option and its metavar if one follows ("--size WxH", "--fov DEG", "--camera FILE")
+_OPTION = re.compile(r"--([a-z][a-z0-9-]*)(?: (?:WxH|DEG|FILE|RA,DEC,ROLL|UM|N)\b)?")
+
+
+def keyword_message(text: str) -> str:
+    """An error message with the command line's options named as the API's keywords."""
+    return _OPTION.sub(lambda m: API_KEYWORDS.get(m.group(1), m.group(0)), text)
 
 
 def check_solver_numbers(**values) -> None:

@@ -143,7 +143,10 @@ class SolveResult:
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FITSFixedWarning)
-            return WCS(solved_wcs_header(self.frame))
+            wcs = WCS(solved_wcs_header(self.frame))
+        # the header is a solution, not an image's: give the WCS the frame's size
+        wcs.pixel_shape = (self.frame.camera.width, self.frame.camera.height)
+        return wcs
 
     @property
     def quality(self) -> dict | None:

@@ -12,7 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack._api_checks import api_camera, api_prior, api_size, api_time, check_solver_numbers
+from startrack._api_checks import (
+    api_camera,
+    api_prior,
+    api_size,
+    api_time,
+    check_solver_numbers,
+    keyword_message,
+)
 from startrack._result import STAR_COLUMNS, SolveResult
 from startrack.camera._model import Camera
 from startrack.centroids._table import (
@@ -40,7 +47,10 @@ def _builtin_errors(method):
             return method(*args, **kwargs)
         except InputError as exc:
             raised = as_builtin(exc)
-            if raised is exc:
+            text = keyword_message(str(raised))
+            if text != str(raised):  # the message names keywords, not options
+                raised = type(raised)(text)
+            elif raised is exc:
                 raise
             raise raised from None
     return wrapper

@@ -53,6 +53,9 @@ def test_astropy_objects_of_a_solved_frame(solved):
     assert np.allclose(solved.rotation.apply([0, 0, 1]),
                        solved.boresight.cartesian.xyz.value, atol=1e-12)
     assert solved.wcs.sip is not None  # 90+ stars: SIP terms fitted
+    assert solved.wcs.pixel_shape == (1024, 768)  # the frame's size, as astropy counts it
+    footprint = solved.wcs.calc_footprint()  # needs the size: the four corners on the sky
+    assert footprint.shape == (4, 2) and np.isfinite(footprint).all()
     assert solved.quality == solved.to_dict()["quality"]
     text = repr(solved)
     assert len(text) < 300 and "solved" in text and "realsky_azi45.png" in text
@@ -84,7 +87,8 @@ def test_api_errors_are_built_in_subclasses(tmp_path):
         startrack.Solver(camera=tmp_path / "nope.json")
     with pytest.raises(ValueError) as bad:
         startrack.Solver(fov_deg=11.42, ra=10.0, dec=95.0, radius=1.0)
-    assert isinstance(bad.value, InputError) and "--dec" in str(bad.value)
+    assert isinstance(bad.value, InputError) and str(bad.value).startswith("dec: ")
+    assert "--" not in str(bad.value)  # the keyword, not the command line's option
     not_solved = startrack.solve(np.array([[1.0, 2.0], [3.0, 4.0]]), fov_deg=10,
                                  size=(100, 100), sky="hipparcos")
     assert repr(not_solved) == "<SolveResult: not solved (too_few_stars)>"

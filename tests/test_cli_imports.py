@@ -77,3 +77,23 @@ def test_help_cites_what_users_have():
     assert "interfaces.md" not in text
     calibrate = " ".join(CliRunner().invoke(main, ["calibrate", "--help"]).output.split())
     assert "docs/conventions.md" in calibrate and "interfaces.md" not in calibrate
+
+
+def test_a_script_beside_a_folder_named_startrack_imports_the_package(tmp_path):
+    """Issue 45: run from a clone's parent, where the clone folder is named `startrack`,
+    a script imported that folder (a namespace package) instead: "module 'startrack' has
+    no attribute 'solve'". The editable install is a path entry (pyproject.toml's
+    package-dir), which a regular package found on it wins over."""
+    import subprocess
+    import sys
+
+    clone = tmp_path / "startrack"
+    clone.mkdir()
+    (clone / "README.md").write_text("a clone of startrack\n")
+    script = tmp_path / "use.py"
+    script.write_text("import startrack\nprint(startrack.solve.__module__)\n")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    run = subprocess.run([sys.executable, str(script)], cwd=tmp_path, env=env,
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.strip() == "startrack.api"

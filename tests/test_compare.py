@@ -110,6 +110,36 @@ def test_resume_refuses_a_different_run_unless_told(reference, tmp_path):
     assert json.loads((out / "run.json").read_text())["seed"] == 9
 
 
+def test_runs_without_out_never_meet_and_resume_is_asked_for(tmp_path, monkeypatch):
+    """Issue 45: `make demo` then `compare --methods pyramid,quad --frames 50` failed with
+    "holds a different comparison run". Each run without --out gets its own folder."""
+    monkeypatch.chdir(tmp_path)
+    first = CliRunner().invoke(main, ["compare", *SMALL, "--jobs", "1"])
+    assert first.exit_code == 0, first.output
+    second = CliRunner().invoke(main, ["compare", *SMALL, "--methods", "pyramid,quad",
+                                       "--jobs", "1"])
+    assert second.exit_code == 0, second.output
+    runs = sorted(p for p in (tmp_path / "out" / "compare").iterdir() if p.name != "latest")
+    assert len(runs) == 2 and all((p / "report.md").is_file() for p in runs)
+    assert json.loads((runs[1] / "run.json").read_text())["methods"] == ["pyramid", "quad"]
+    latest = tmp_path / "out" / "compare" / "latest"
+    assert latest.is_symlink() and latest.resolve() == runs[1].resolve()
+    assert f"compare: writing to {runs[1].relative_to(tmp_path)}/" in second.stderr
+    # --resume continues the latest run: nothing is left to do, nothing new is made
+    again = CliRunner().invoke(main, ["compare", *SMALL, "--methods", "pyramid,quad",
+                                      "--jobs", "1", "--resume"])
+    assert again.exit_code == 0, again.output
+    assert "resumed: 15 unit(s) were already done" in again.stderr
+    assert len([p for p in latest.parent.iterdir() if p.name != "latest"]) == 2
+
+
+def test_resume_without_out_and_without_a_run_is_an_input_error(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(main, ["compare", *SMALL, "--resume"])
+    assert result.exit_code == 2 and "no earlier run to resume" in result.output
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.parametrize("args, message", [
     (["--methods", "angle,nosuch"], "unknown method"),
     (["--methods", "angle,,pyramid"], "--methods"),

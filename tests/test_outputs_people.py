@@ -19,13 +19,14 @@ from startrack.cli import main
 from startrack.outputs._annotate import (
     MARGIN_LEFT_PX,
     MARGIN_TOP_PX,
-    _label_sides,
     _nice_magnification,
     star_names,
     stretch,
+    write_annotated,
 )
 from startrack.outputs._annotate_sky import compass
 from startrack.outputs._corr import CORR_COLUMNS
+from startrack.outputs._labels import CIRCLE_RADIUS_PX, place_labels
 from startrack.outputs._wcs import SipTerms, fit_sip, sip_order_for, wcs_header
 
 FRAME = Path(__file__).parent / "data" / "realsky_azi45.png"
@@ -94,9 +95,50 @@ def test_compass_points_north_and_east_on_the_solved_wcs():
         assert np.hypot(*arrows["N"]) == pytest.approx(30.0)
 
 
-def test_labels_near_the_right_edge_go_to_the_left():
-    sides = _label_sides(np.array([10.0, 1020.0]), 1024)
-    assert sides[0][1] == "left" and sides[1][1] == "right" and sides[1][0][0] < 0
+def _overlap(a, b) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def test_labels_in_a_crowd_never_overlap_each_other_a_circle_or_the_edge():
+    rng = np.random.default_rng(11)
+    x, y = rng.uniform(0, 400, 50), rng.uniform(0, 300, 50)
+    boxes = place_labels(x, y, [(56.0, 10.0)] * 50, 400, 300)
+    placed = [b for b in boxes if b is not None]
+    assert boxes[0] is not None and 25 < len(placed) < 50  # crowded: some left out
+    for i, a in enumerate(placed):
+        assert a[0] >= 0 and a[2] <= 400 and a[1] >= 0 and a[3] <= 300
+        assert not any(_overlap(a, b) for b in placed[i + 1:])
+        nx, ny = np.clip(x, a[0], a[2]) - x, np.clip(y, a[1], a[3]) - y
+        assert (np.hypot(nx, ny) >= CIRCLE_RADIUS_PX).all()
+    # alone, a star near the right edge is labelled on its left, one near the top below
+    right, top = place_labels([295.0, 150.0], [100.0, 3.0], [(56.0, 10.0)] * 2, 300, 200)
+    assert right[2] < 295.0 and top[1] > 3.0
+
+
+def test_annotated_real_frame_labels_do_not_overlap_and_the_grid_is_labelled(tmp_path,
+                                                                             monkeypatch):
+    from astropy.visualization.wcsaxes.ticklabels import TickLabels
+
+    import startrack
+
+    grid: dict[str, int] = {}  # the coordinate labels WCSAxes drew, per edge
+    draw = TickLabels.draw
+
+    def counting(self, renderer, *args, **kwargs):
+        draw(self, renderer, *args, **kwargs)
+        for side, drawn in self._axis_bboxes.items():  # astropy drops overlapping ones
+            grid[side] = max(grid.get(side, 0), len(drawn))
+
+    monkeypatch.setattr(TickLabels, "draw", counting)
+    result = startrack.solve(FRAME, fov_deg=11.42, sky="hipparcos", epoch=2019.6)
+    drawn = write_annotated(result.frame, tmp_path / "a.png")
+    boxes = drawn["labels"]
+    assert len(boxes) + drawn["left_out"] == len(result.stars)
+    assert len(boxes) >= 0.9 * len(result.stars)  # nearly every star keeps its label
+    for i, a in enumerate(boxes):
+        assert not any(_overlap(a, b) for b in boxes[i + 1:]), a
+    # the grid labels both coordinates several times (it carried 2 RA and 3 Dec labels)
+    assert grid["b"] >= 4 and grid["l"] >= 4  # RA along the bottom, Dec along the left
 
 
 def test_corr_has_a_row_per_identified_star_with_units_in_plain_names(real):
@@ -127,6 +169,30 @@ def test_batch_writes_one_file_per_input_into_folders(tmp_path):
     assert sorted(p.name for p in (tmp_path / "ann").iterdir()) == ["one.png", "two.png"]
     assert sorted(p.name for p in (tmp_path / "wcs").iterdir()) == ["one.wcs", "two.wcs"]
     assert "one.png: solved" in result.stderr and "wrote" in result.stderr
+
+
+def test_annotate_named_like_a_file_with_several_inputs_writes_files_beside_it(tmp_path):
+    frames = []
+    for name in ("one", "two"):
+        frames.append(tmp_path / f"{name}.png")
+        frames[-1].write_bytes(FRAME.read_bytes())
+    (tmp_path / "out").mkdir()
+    result = CliRunner().invoke(main, ["identify", *map(str, frames), *REAL, "--annotate",
+                                       str(tmp_path / "out" / "ann.png")])
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["ann_one.png",
+                                                                    "ann_two.png"]
+    # without -v one line names what was written
+    wrote = [line for line in result.stderr.splitlines() if line.startswith("wrote ")]
+    assert wrote == [f"wrote {tmp_path / 'out' / 'ann_one.png'}, "
+                     f"{tmp_path / 'out' / 'ann_two.png'}"]
+
+
+def test_identify_says_what_it_wrote(real, tmp_path):
+    result = CliRunner().invoke(main, ["identify", str(FRAME), *REAL, "--annotate",
+                                       str(tmp_path / "x.png")])
+    assert result.exit_code == 0
+    assert f"wrote {tmp_path / 'x.png'}" in result.stderr.splitlines()
 
 
 def test_quiet_prints_nothing_on_stderr_and_bad_target_is_exit_2(tmp_path):

@@ -34,8 +34,9 @@ def readme_commands() -> list[list[str]]:
 
 def demo_command() -> list[str]:
     """What ``make demo`` runs after setting up the venv (the Makefile's demo recipe)."""
-    recipe = (ROOT / "Makefile").read_text().split("\ndemo:", 1)[1].splitlines()[1]
-    words = shlex.split(recipe.strip())
+    recipe = (ROOT / "Makefile").read_text().split("\ndemo:", 1)[1].splitlines()[1:]
+    runs = [line.strip() for line in recipe if line.strip().startswith("$(BIN)/")]
+    words = shlex.split(runs[0])
     assert words[0] == "$(BIN)/startrack"
     return [VENV_STARTRACK, *words[1:]]
 

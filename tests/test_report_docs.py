@@ -27,8 +27,52 @@ def report(tmp_path_factory):
                                        "--missing", "0,0.9"])
     assert result.exit_code == 0, result.output
     header = result.stdout.splitlines()[0]
-    assert "err_med_as" in header and '"' not in header  # no quote characters in names
+    assert "total_med_as" in header and '"' not in header  # no quote characters in names
+    assert "thresh_as" in header and "roll_med_as" in header and "recall" in header
     return out, (out / "report.md").read_text()
+
+
+def _table_rows(text: str) -> list[dict]:
+    """The summary table of report.md as dicts of its cells."""
+    lines = [line for line in text.splitlines() if line.startswith("| cond |")]
+    start = text.splitlines().index(lines[0])
+    head = [c.strip() for c in lines[0].strip("|").split("|")]
+    rows = []
+    for line in text.splitlines()[start + 2:]:
+        if not line.startswith("|"):
+            break
+        rows.append(dict(zip(head, (c.strip() for c in line.strip("|").split("|")),
+                             strict=True)))
+    return rows
+
+
+def test_report_stands_alone(report):
+    """Issue 45: the threshold as a number per condition, boresight, roll and total errors
+    apart, recall beside precision, what the run was and the machine's load, and how to
+    read it, before the table."""
+    out, text = report
+    assert text.index("## How to read this") < text.index("## Run") < text.index("## Summary")
+    for row in ("camera", "sky", "frames", "star budget", "threshold", "warm-up", "workers",
+                "machine", "load average (1 / 5 / 15 min)"):
+        assert f"| {row} |" in text, row
+    assert "1024 x 1024 px, horizontal FOV 17.500 deg" in text
+    assert re.search(r"\| load average [^|]*\| [\d.]+ / [\d.]+ / [\d.]+ at the start, "
+                     r"[\d.]+ / [\d.]+ / [\d.]+ at the end", text)
+    rows = _table_rows(text)
+    assert {"threshold arcsec", "boresight error arcsec (median / p95)", "star recall",
+            "roll error arcsec (median / p95)", "total error arcsec (median / p95)",
+            "star precision"} <= set(rows[0])
+    pixel_arcsec = np.degrees(np.tan(np.radians(17.5) / 2) / 512) * 3600  # 1 / f_px
+    for row in rows:  # max(60", 5 sigma of the per-star noise)
+        expected = max(60.0, 5 * float(row["noise px"]) * pixel_arcsec)
+        assert float(row["threshold arcsec"]) == pytest.approx(expected, abs=1.0)
+        bore, roll, total = (row[f"{k} error arcsec (median / p95)"]
+                             for k in ("boresight", "roll", "total"))
+        if bore != "-":  # boresight and roll are parts of the total rotation
+            assert float(bore.split(" / ")[0]) <= float(total.split(" / ")[0]) + 1e-6
+            assert float(roll.split(" / ")[0]) <= float(total.split(" / ")[0]) + 1e-6
+    assert any(float(r["threshold arcsec"]) > 600 for r in rows)  # noise 2 px: ~615"
+    assert "First timed frames" in text and "- angle: first timed frame" in text
 
 
 def test_report_has_every_method_provenance_plots_and_intervals(report):
@@ -62,6 +106,11 @@ def test_frames_keep_quaternions_and_a_failed_frame_replays(report):
     assert result.exit_code == 0, result.output
     assert "angle:" in result.output and "pyramid:" in result.output
     assert "true quaternion" in result.output
+    # readable: the condition in words, no raw dict, no "nan", and why each failed
+    assert "{" not in result.output and "nan" not in result.output
+    failed = [line for line in result.output.splitlines()
+              if line.startswith(("angle: not solved", "pyramid: not solved"))]
+    assert failed and all(": not solved: " in line for line in failed), result.output
     bad = CliRunner().invoke(main, [*args[:-1], "99,0"])
     assert bad.exit_code == 2
 

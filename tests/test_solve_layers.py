@@ -32,7 +32,8 @@ def test_with_timing_changes_the_timing_alone():
     values = {"input": "a", "solution": Solution(False, "pyramid"), "obs": None,
               "centroids": _centroids(), "timing": Timing(1.0, 2.0, 3.0), "camera": CAMERA,
               "catalog": None, "sigma_px": 0.5, "match_radius_px": 2.0,
-              "image": np.zeros((2, 2)), "time_utc": "2025-01-01T00:00:00.000"}
+              "image": np.zeros((2, 2)), "time_utc": "2025-01-01T00:00:00.000",
+              "request": {"method": "pyramid"}, "steps": ({"stage": "method"},)}
     assert set(values) == {f.name for f in dataclasses.fields(FrameResult)}
     result = FrameResult(**values)
     timing = Timing(1.0, 2.0, 3.0, 4.0)

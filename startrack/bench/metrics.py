@@ -43,6 +43,12 @@ class FrameScore:
     error_arcsec: float  # total attitude error (rotation angle); NaN when not solved
     boresight_error_arcsec: float
     roll_error_arcsec: float
+    #: the boresight error up to which this frame's answer counts as correct
+    threshold_arcsec: float
+    #: why the frame is not correct, in a word: "" (correct), the unsolved frame's reason
+    #: ("no_match", "too_few_stars", "timeout", ...), or for a wrong answer "wrong_star"
+    #: (a reported star misidentified) or "pointing" (boresight beyond the threshold)
+    reason: str
     identify_ms: float  # the identify call: matching, verification, attitude
     # The method's own time, which the summary reports: the identify call for our methods,
     # the peer's solve call alone for a peer solver (its own matching and checks).
@@ -82,14 +88,16 @@ def score_frame(solution: Solution, truth_rows: np.ndarray, truth_rotation: Rota
     n_id_correct = n_id_wrong = 0
     error = boresight = roll = float("nan")
     correct = False
+    limit = threshold_for(threshold_arcsec, sigma_arcsec)
+    reason = solution.reason or "no_match"
     if solution.solved:
         obs_index = np.asarray(solution.obs_index, dtype=np.int64)
         right = truth_rows[obs_index] == np.asarray(solution.cat_index, dtype=np.int64)
         n_id_correct = int(right.sum())
         n_id_wrong = int(len(right) - n_id_correct)
         error, boresight, roll = attitude_errors(truth_rotation, solution.rotation)
-        limit = max(threshold_arcsec, NOISE_SIGMAS * sigma_arcsec)
         correct = boresight <= limit and n_id_wrong == 0
+        reason = "" if correct else "wrong_star" if n_id_wrong else "pointing"
     return FrameScore(
         solved=bool(solution.solved),
         correct=bool(correct),
@@ -103,6 +111,8 @@ def score_frame(solution: Solution, truth_rows: np.ndarray, truth_rotation: Rota
         error_arcsec=error,
         boresight_error_arcsec=boresight,
         roll_error_arcsec=roll,
+        threshold_arcsec=float(limit),
+        reason=reason,
         identify_ms=float(solution.identify_ms),
         method_ms=float(solution.identify_ms if diag.method_ms is None else diag.method_ms),
         centroid_ms=float(centroid_ms),
@@ -110,6 +120,17 @@ def score_frame(solution: Solution, truth_rows: np.ndarray, truth_rotation: Rota
         pivots=int(diag.pivots),
         hypotheses=int(diag.hypotheses),
     )
+
+
+def threshold_for(threshold_arcsec: float, sigma_arcsec: float) -> float:
+    """The boresight error up to which an answer is correct: ``threshold_arcsec``, or
+    :data:`NOISE_SIGMAS` times the centroids' stated 1-sigma error when that is larger."""
+    return max(float(threshold_arcsec), NOISE_SIGMAS * float(sigma_arcsec))
+
+
+def _percentile(values: pd.Series, q: float) -> float:
+    values = values.to_numpy(dtype=float)
+    return float(np.percentile(values, q)) if len(values) else float("nan")
 
 
 def _ratio(num: float, den: float) -> float:
@@ -124,7 +145,6 @@ def _median(values: pd.Series) -> float:
 def _summarise_group(g: pd.DataFrame) -> dict:
     solved = g["solved"].astype(bool)
     ok = g["correct"].astype(bool)
-    errors = g.loc[ok, "error_arcsec"].to_numpy(dtype=float)
     ms = g["method_ms"].to_numpy(dtype=float)
     cms = g["centroid_ms"].to_numpy(dtype=float)
     return {
@@ -137,10 +157,17 @@ def _summarise_group(g: pd.DataFrame) -> dict:
         # observed) stars that were identified right.
         "star_precision": _ratio(g["n_id_correct"].sum(), g["n_identified"].sum()),
         "star_recall": _ratio(g["n_id_correct"].sum(), g["n_real_observed"].sum()),
+        # the correctness threshold (the same for every frame of a condition)
+        "threshold_arcsec": float(g["threshold_arcsec"].max()) if "threshold_arcsec" in g
+        else float("nan"),
+        # total: the whole rotation's angle (roll included); boresight: the pointing, on
+        # which correctness is judged; roll: about the boresight
         "error_median_arcsec": _median(g.loc[ok, "error_arcsec"]),
-        "error_p95_arcsec": float(np.percentile(errors, 95)) if len(errors) else float("nan"),
+        "error_p95_arcsec": _percentile(g.loc[ok, "error_arcsec"], 95),
         "boresight_median_arcsec": _median(g.loc[ok, "boresight_error_arcsec"]),
+        "boresight_p95_arcsec": _percentile(g.loc[ok, "boresight_error_arcsec"], 95),
         "roll_median_arcsec": _median(g.loc[ok, "roll_error_arcsec"]),
+        "roll_p95_arcsec": _percentile(g.loc[ok, "roll_error_arcsec"], 95),
         "time_median_ms": float(np.median(ms)),
         "time_p95_ms": float(np.percentile(ms, 95)),
         "time_mean_ms": float(np.mean(ms)),
@@ -159,5 +186,5 @@ def summarise(frames: pd.DataFrame, key_columns: list[str]) -> pd.DataFrame:
 
 __all__ = [
     "DEFAULT_THRESHOLD_ARCSEC", "FrameScore", "NOISE_SIGMAS", "attitude_errors", "score_frame",
-    "summarise",
+    "summarise", "threshold_for",
 ]

@@ -4,8 +4,9 @@ the canonical frames.csv, summary.csv, db.csv and the plots."""
 from __future__ import annotations
 
 import csv
+import dataclasses
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import pandas as pd
@@ -13,6 +14,7 @@ import pandas as pd
 from startrack.bench.conditions import VARIABLES
 from startrack.bench.metrics import summarise
 from startrack.bench.plots import plot_sweeps
+from startrack.bench.report_run import lost_in_space_description, machine_load
 from startrack.bench.runner import COLUMNS, RunSpec, connect, execute, load_bench, progress_bar
 from startrack.bench.store import (
     FRAMES_FILE,
@@ -51,6 +53,10 @@ class RunOutputs:
     units_resumed: int
     load_seconds: dict[str, float]
     wall_seconds: float
+    #: what the run was, for report.md's "Run" table (startrack.bench.report_run)
+    description: dict = field(default_factory=dict)
+    #: the machine's load average (1, 5, 15 min) when the run started; None: unknown
+    load_at_start: tuple[float, float, float] | None = None
 
 
 def lost_in_space_identity(spec: RunSpec) -> dict:
@@ -129,7 +135,7 @@ def run_comparison(spec: RunSpec, out: str | Path, *, jobs: int = 1,
     ``inputs``: files the run reads, never written (startrack.io._run_folder);
     ``finish(result)`` writes more files (report.md) while the run still holds the folder.
     """
-    t0 = time.perf_counter()
+    t0, load_at_start = time.perf_counter(), machine_load()
     out = Path(out)
     folder = RunFolder(out, "compare", inputs, overwrite=overwrite,
                        outputs=COMPARE_OUTPUTS)
@@ -142,6 +148,11 @@ def run_comparison(spec: RunSpec, out: str | Path, *, jobs: int = 1,
         with folder:
             result = _locked_run(spec, folder, bench, jobs, client, resume, progress, t0,
                                  announce)
+            workers = (f"a Dask cluster ({scheduler})" if client is not None else
+                       f"{jobs} worker process(es)" if jobs > 1 else "1 process, in order")
+            result = dataclasses.replace(
+                result, description=lost_in_space_description(spec, workers),
+                load_at_start=load_at_start)
             if finish is not None:
                 finish(result)
             return result
@@ -196,8 +207,10 @@ def format_table(summary: pd.DataFrame) -> str:
         "wrong": summary["wrong"],
         "prec": summary["star_precision"].map("{:.3f}".format),
         "recall": summary["star_recall"].map("{:.3f}".format),
-        "err_med_as": summary["error_median_arcsec"].map("{:.1f}".format),
+        "thresh_as": summary["threshold_arcsec"].map("{:.0f}".format),
         "bore_med_as": summary["boresight_median_arcsec"].map("{:.1f}".format),
+        "roll_med_as": summary["roll_median_arcsec"].map("{:.1f}".format),
+        "total_med_as": summary["error_median_arcsec"].map("{:.1f}".format),
         "t_med_ms": summary["time_median_ms"].map("{:.2f}".format),
         "t_p95_ms": summary["time_p95_ms"].map("{:.2f}".format),
     })

@@ -8,12 +8,14 @@ list): the issue's sequence, (1, 0.5, 2) deg/s at 10 fps, 0.5 px noise, 2 false 
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from startrack.bench.conditions import parse_values
+from startrack.bench.report_run import first_frame_lines, load_text, machine_load
 from startrack.bench.tracking import (
     VARIABLES,
     TrackCondition,
@@ -158,6 +160,7 @@ def compare_tracking(camera: Camera, sky: SkySpec, *, methods: tuple[str, ...],
         raise InputError(f"--fps must be > 0, got {fps}")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    load_at_start = machine_load()
     catalog = load_sky(sky, camera)
     conditions = oat_conditions(levels)
     peer = peer_available() if with_peer is None else with_peer
@@ -173,11 +176,22 @@ def compare_tracking(camera: Camera, sky: SkySpec, *, methods: tuple[str, ...],
         "", f"Methods: {', '.join(dict.fromkeys(summary['method']))}"
         + ("" if peer else " (tetra3rs not installed here)"), "",
         markdown_table(summary), "", "Lost-in-space time over tracking time, same frames:", "",
-        markdown_table_ratio(time_ratios(summary)), "",
-        *[f"![{p.stem}]({p.name})" for p in plots], ""])
+        markdown_table_ratio(time_ratios(summary)), "", WARM_UP, "",
+        *first_frame_lines(per_frame), "",
+        f"Machine: {os.cpu_count()} CPU core(s); load average (1 / 5 / 15 min) "
+        f"{load_text(load_at_start)} at the start, {load_text(machine_load())} at the end.",
+        "", *[f"![{p.stem}]({p.name})" for p in plots], ""])
     with atomic_text(out / "report.md") as fh:
         fh.write(report)
     return summary, report
+
+
+#: what is warm in a tracking run, and what is not (report.md says it)
+WARM_UP = (
+    "Warm-up: each method's lost-in-space matcher solves a throwaway frame before the first "
+    "timed frame; the tracking step's first use and the tetra3rs peer are not warmed, so "
+    "the first tracked frame (frame 1 of condition 0) may hold a one-time cost; every "
+    "frame's time is in frames.csv. The check below is on each method's first timed frame.")
 
 
 def markdown_table_ratio(ratios: pd.DataFrame) -> str:

@@ -1,14 +1,60 @@
-"""`startrack compare`'s other modes (``--frames-dir``, ``--mode tracking``, ``--replay``)
-and the lines a finished run prints."""
+"""`startrack compare`'s other modes (``--frames-dir``, ``--mode tracking``, ``--replay``),
+the folder a run without ``--out`` gets, and the lines a finished run prints."""
 
 from __future__ import annotations
 
+import contextlib
+import datetime as dt
+import os
 from pathlib import Path
 
 import click
 
 from startrack.defaults import DEFAULT_METHOD
 from startrack.errors import InputError
+
+#: where runs without --out go: one new folder each, ``latest`` pointing at the newest
+RUNS_FOLDER = Path("out/compare")
+LATEST = "latest"
+
+
+def run_folder(out_dir: str | None, resume: bool | None, note=lambda text: None):
+    """The run's folder and ``started()``, to call once the run holds it: ``--out`` as
+    given; without it, ``--resume`` takes the run ``latest`` points at, else a new folder
+    of :data:`RUNS_FOLDER` named after the time (UTC), so that two runs never meet in one
+    folder, which ``started()`` names (``note``) and points ``latest`` at."""
+    if out_dir is not None:
+        return Path(out_dir), lambda: None
+    latest = RUNS_FOLDER / LATEST
+    if resume:
+        if not latest.is_dir():
+            raise InputError(f"--resume: no earlier run to resume ({latest} does not "
+                             "exist); give --out FOLDER")
+        folder = RUNS_FOLDER / os.readlink(latest) if latest.is_symlink() else latest
+        return folder, lambda: note(f"compare: resuming {folder}/")
+    stamp = dt.datetime.now(dt.UTC).strftime("%Y%m%d-%H%M%S")
+    folder, k = RUNS_FOLDER / stamp, 2
+    while os.path.lexists(folder):
+        folder, k = RUNS_FOLDER / f"{stamp}-{k}", k + 1
+
+    def started() -> None:
+        point_latest(folder)
+        note(f"compare: writing to {folder}/ ({latest} points at it)")
+    return folder, started
+
+
+def point_latest(folder: Path) -> None:
+    """Make ``out/compare/latest`` point at ``folder`` (a relative link, replaced in one
+    step); where links cannot be made, nothing (the run's folder is printed anyway)."""
+    latest = folder.parent / LATEST
+    tmp = folder.parent / f".{LATEST}.{os.getpid()}"
+    with contextlib.suppress(OSError):
+        if os.path.lexists(latest) and not latest.is_symlink():
+            return  # a user's own file or folder named latest: left alone
+        os.symlink(folder.name, tmp, target_is_directory=True)
+        os.replace(tmp, latest)
+    with contextlib.suppress(OSError):
+        os.unlink(tmp)
 
 
 def report_writer(ctx, reports: list):
@@ -36,11 +82,13 @@ def print_finished(result, report: Path) -> None:
 
 
 def frames_dir_run(folder, names, out_dir, max_stars, threshold_arcsec, quiet, note, overwrite,
-                finish, reports: list) -> None:
-    """``--frames-dir``: every method on the folder's frames (startrack.bench.frames_dir)."""
+                   finish, reports: list, started=lambda: None) -> None:
+    """``--frames-dir``: every method on the folder's frames (startrack.bench.frames_dir);
+    ``started()`` once the run holds ``out_dir``."""
     from startrack.bench.frames_dir import compare_frames_folder, identify_command
 
     def announce(data) -> None:
+        started()
         note(f"compare: {', '.join(names)} on {len(data.truth)} frame(s) of {folder}")
 
     try:
@@ -86,7 +134,7 @@ def tracking_run(cfg, spec_sky, names, frames, rates, noise_px, false_stars, mis
 
 def replay_one(spec, text: str) -> None:
     """Run one (condition, frame) unit of ``spec`` and print every method's answer."""
-    from startrack.bench.report import replay_text
+    from startrack.bench.report import condition_text, replay_text
     from startrack.bench.runner import run_unit
 
     try:
@@ -97,6 +145,6 @@ def replay_one(spec, text: str) -> None:
     if not 0 <= condition < len(spec.conditions) or not 0 <= frame < spec.frames:
         raise InputError(f"--replay: this run has conditions 0..{len(spec.conditions) - 1} "
                          f"and frames 0..{spec.frames - 1}, got {text!r}")
-    click.echo(f"condition {condition} ({spec.conditions[condition].to_dict()}), "
-               f"frame {frame}:")
+    click.echo(f"condition {condition} ({condition_text(spec.conditions[condition].to_dict())}"
+               f"), frame {frame}:")
     click.echo(replay_text(run_unit(spec, condition, frame)))

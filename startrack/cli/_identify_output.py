@@ -6,6 +6,7 @@ import contextlib
 import csv
 import json
 import sys
+from pathlib import Path
 
 import click
 
@@ -34,6 +35,47 @@ def verbose_notes(quiet: bool, verbose: bool):
         if verbose and not quiet:
             click.echo(text, err=True)
     return note
+
+
+#: the --fov-tolerance a "not solved" at a nominal FOV suggests: a wider search, still bounded
+SUGGESTED_TOLERANCE = 0.4
+
+
+def fov_suggestion(record: dict, fov_option: bool) -> str | None:
+    """What to try when a nominal field of view found no match (None otherwise): a wider
+    --fov-tolerance, naming the range it searches, and (when --fov gave it) no --fov."""
+    request = record.get("requested") or {}
+    fov, tol = request.get("fov_deg"), request.get("fov_tolerance")
+    if record["status"] != "not_solved" or record.get("reason") != "no_match" \
+            or fov is None or tol is None or tol >= SUGGESTED_TOLERANCE:
+        return None
+    lo, hi = fov * (1 - SUGGESTED_TOLERANCE), fov * (1 + SUGGESTED_TOLERANCE)
+    text = (f"no match within {fov:g} deg +-{tol:.0%}; if the field of view may be further "
+            f"off, try --fov-tolerance {SUGGESTED_TOLERANCE:g} (searches {lo:.2f} to "
+            f"{hi:.2f} deg)")
+    if fov_option:
+        text += ", or leave out --fov (a blind search)"
+    return text
+
+
+def say_written(paths: list, quiet: bool, verbose: bool, output=None) -> None:
+    """Name the files written on stderr: -v a line each; else one line for the side files
+    (not ``output``, which was asked for by name): their count and folders when more than
+    four; -q nothing."""
+    if quiet or not paths:
+        return
+    if verbose:
+        for path in paths:
+            click.echo(f"wrote {path}", err=True)
+        return
+    paths = [p for p in paths if output is None or Path(p) != Path(output)]
+    if not paths:
+        return
+    if len(paths) <= 4:
+        click.echo("wrote " + ", ".join(str(p) for p in paths), err=True)
+    else:
+        folders = sorted({str(p.parent) for p in paths})
+        click.echo(f"wrote {len(paths)} files in {', '.join(folders)}", err=True)
 
 
 def summary_line(record: dict) -> str:

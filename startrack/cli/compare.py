@@ -9,17 +9,18 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from pathlib import Path
 
 import click
 
 from startrack.bench.conditions import SOURCES
 from startrack.cli import main
 from startrack.cli._compare_modes import (
+    RUNS_FOLDER,
     frames_dir_run,
     print_finished,
     replay_one,
     report_writer,
+    run_folder,
     tracking_run,
 )
 from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, notes, verbosity
@@ -35,7 +36,7 @@ from startrack.validate import (
     THRESHOLD_ARCSEC,
 )
 
-DEFAULT_OUT = Path("out/compare")
+DEFAULT_OUT = RUNS_FOLDER  # each run without --out: a new folder in it
 DEFAULT_METHODS = "angle,triangle,hybrid"
 # Chosen so the default run (7 conditions x 3 methods) takes about a minute on 2 cores:
 # measured, its 7000 units cost ~70 s of CPU, i.e. ~40 s on 2 idle cores (more on a
@@ -150,13 +151,15 @@ def _workers(jobs: int | None) -> int:
 @click.option("--jobs", type=Number(JOBS), default=None,
               help="Local worker processes [default, and at most: the number of CPUs].")
 @click.option("--scheduler", help="Dask scheduler address (needs startrack[dask]).")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default=str(DEFAULT_OUT),
-              show_default=True, help="Output folder.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False),
+              help=f"Output folder [default: a new {DEFAULT_OUT}/<date>-<time>/ (UTC) for "
+              f"each run, {DEFAULT_OUT}/latest pointing at the newest].")
 @click.option("--seed", type=Number(SEED), default=None, help="Seed of the frames [default: the "
               "config's [frames] seed, 0].")
 @click.option("--resume/--no-resume", default=None,
-              help="Continue a matching run in --out (default when there is one) or start "
-              "over.")
+              help="Continue the run in --out (without --out: the latest run) or start "
+              "over. With --out and neither, a matching run there is continued and a "
+              "different one refused; without --out every run is new.")
 @click.option("--overwrite", is_flag=True,
               help="Use an --out that holds files startrack did not write (they are kept "
               "and never replaced; a folder of a simulate run is refused; "
@@ -195,11 +198,11 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
 
     names = parse_methods(methods)
     note, detail = notes(quiet, verbose)
-    reports: list = []
-    finish = report_writer(click.get_current_context(), reports)
+    finish = report_writer(click.get_current_context(), reports := [])
+    out_dir, started = run_folder(out_dir, resume, note)
     if frames_dir is not None:
         return frames_dir_run(frames_dir, names, out_dir, max_stars, threshold_arcsec, quiet,
-                              note, overwrite, finish, reports)
+                              note, overwrite, finish, reports, started)
     cfg = (load_config(config_path) if config_path
            else config_from_dict(DEFAULT_CONFIG, "default config"))
     inputs = [config_path] if config_path else []
@@ -207,9 +210,10 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     if source == "images":  # frames are rendered at the camera's size
         _check_image_size(cfg, config_path)
     if mode == "tracking":  # frame sequences (startrack.bench.tracking_report)
-        return tracking_run(cfg, spec_sky, names, frames, rates, noise_px, false_stars,
-                            missing, fps, seed, out_dir, threshold_arcsec, note,
-                            dict(resume=resume, overwrite=overwrite, inputs=inputs))
+        tracking_run(cfg, spec_sky, names, frames, rates, noise_px, false_stars,
+                     missing, fps, seed, out_dir, threshold_arcsec, note,
+                     dict(resume=resume, overwrite=overwrite, inputs=inputs))
+        return started()
     levels = _levels(noise_px, false_stars, missing, mag_noise, source, dict(
         fov_error=fov_error, distortion_k1=distortion_k1, modelled_k1=modelled_k1))
     spec = _run_spec(cfg, spec_sky, names, levels, grid, frames, seed, source, max_stars,
@@ -221,6 +225,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     where = f"Dask at {scheduler}" if scheduler else f"{jobs} process(es)"
 
     def announce() -> None:
+        started()
         note(f"compare: {', '.join(names)} on {len(spec.conditions)} condition(s) x "
              f"{frames} frame(s) from {source} ({n_units} units, {where})")
         for k, condition in enumerate(spec.conditions):

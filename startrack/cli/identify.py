@@ -14,8 +14,10 @@ from startrack.cli import main
 from startrack.cli._identify_output import (
     NothingAnswered,
     around_bar,
+    fov_suggestion,
     inputs_with_progress,
     record_writer,
+    say_written,
     summary_line,
     verbose_notes,
 )
@@ -111,10 +113,11 @@ def _time(ctx, param, value):
               help="Write here instead of standard output (only when complete; -: standard "
                    "output).")
 @click.option("--annotate", "annotate_path", type=click.Path(),
-              help="Write the frame as a PNG with the identified stars labelled (a folder "
-                   "with several inputs).")
+              help="Write the frame as a PNG with the identified stars labelled (with "
+                   "several inputs: a folder, or NAME.png for NAME_<input>.png beside it).")
 @click.option("--wcs", "wcs_path", type=click.Path(),
-              help="Write the solved WCS as a FITS header (a folder with several inputs).")
+              help="Write the solved WCS as a FITS header (with several inputs: a folder, "
+                   "or NAME.wcs for NAME_<input>.wcs beside it).")
 @click.option("--corr", "corr_path", type=click.Path(dir_okay=False),
               help="Write matched stars (pixel, flux, catalog magnitude, residual) as CSV.")
 @click.option("--overwrite", is_flag=True,
@@ -183,7 +186,8 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
                     worst = 2
                     continue
                 record = frame_record(result)
-                _report(note, name, record, prior is not None and not (track or quiet))
+                _report(note, name, record, prior is not None and not (track or quiet),
+                        None if quiet else fov_deg is not None)
                 worst = max(worst, EXIT_CODES[record["status"]])
                 for rec in [*pending, record]:
                     emit(rec)
@@ -195,8 +199,7 @@ def identify(inputs, camera_path, fov_deg, fov_tolerance, size, sky, mag_limit, 
             side.finish()
     except NothingAnswered:
         pass
-    for path in side.written:
-        note(f"wrote {path}")
+    say_written(side.written, quiet, verbose, output)
     sys.exit(worst)
 
 
@@ -231,10 +234,14 @@ def _options(camera_path, fov_deg, config_path, hint_values: dict, **given) -> O
                    header_hints=not hint_values["no_header_hints"], **given)
 
 
-def _report(note, name: str, record: dict, prior_alone: bool) -> None:
-    """The -v line of an input, and (a --prior without --track) one stderr line when it
-    was solved lost-in-space instead."""
+def _report(note, name: str, record: dict, prior_alone: bool, fov_option: bool | None) -> None:
+    """The -v line of an input; (a --prior without --track) one stderr line when it was
+    solved lost-in-space instead; and (``fov_option`` not None: not -q) one when a
+    nominal FOV found no match, saying what to try (``fov_option``: --fov gave it)."""
     note(summary_line(record))
+    suggestion = None if fov_option is None else fov_suggestion(record, fov_option)
+    if suggestion:
+        click.echo(f"note: {name}: {suggestion}", err=True)
     if prior_alone and "fallback" in record:
         click.echo(f"note: {name}: not solved near --prior ({record['fallback']}); solved "
                    "lost-in-space", err=True)

@@ -14,6 +14,7 @@ import numpy as np
 from startrack.io._resources import resource_path
 from startrack.io._writer import atomic_path
 from startrack.outputs._annotate_sky import draw_compass, draw_grid
+from startrack.outputs._labels import place_labels
 from startrack.outputs._records import frame_record
 from startrack.outputs._wcs import solved_wcs_header
 
@@ -24,8 +25,6 @@ _CAPTION_PX = 110  # the caption, the legend and the RA labels under the frame
 MARGIN_LEFT_PX = 70
 MARGIN_RIGHT_PX = 100  # also holds the compass
 MARGIN_TOP_PX = 10
-#: a star this close to the right edge is labelled on its left
-LABEL_ROOM_PX = 110
 _ARCSEC_PER_RAD = math.degrees(1.0) * 3600.0
 
 
@@ -126,16 +125,36 @@ def caption(frame) -> str:
             f"identified   rms residual {rms:.2f} arcsec")
 
 
-def _label_sides(x: np.ndarray, width: int) -> list[tuple[tuple[int, int], str]]:
-    """Offset and alignment of each star's label: to the right, or to the left near the
-    right edge, so no label runs off the frame."""
-    return [((-8, -8), "right") if xi > width - LABEL_ROOM_PX else ((8, -8), "left")
-            for xi in x]
+def _draw_labels(ax, frame, x: np.ndarray, y: np.ndarray) -> tuple[list, int]:
+    """Label the identified stars at (x, y), brightest first, each where it overlaps no
+    other label, circle or edge (:func:`startrack.outputs._labels.place_labels`); returns
+    the labels drawn and how many were left out for want of room."""
+    texts = _labels(frame)
+    order = np.argsort(frame.catalog.mag[frame.solution.cat_index], kind="stable")
+    renderer = ax.figure.canvas.get_renderer()
+    artists, sizes = [], []
+    for k in order:  # measured as drawn: the figure is drawn pixel for pixel (dpi 100)
+        text = ax.text(0.0, 0.0, texts[k], color="#b8ffb0", fontsize=7, zorder=5,
+                       ha="left", va="top")
+        extent = text.get_window_extent(renderer)
+        artists.append(text)
+        sizes.append((extent.width, extent.height))
+    h = frame.camera.height
+    boxes = place_labels(x[order], y[order], sizes, frame.camera.width, h)
+    drawn = []
+    for text, box in zip(artists, boxes, strict=True):
+        if box is None:
+            text.remove()
+        else:
+            text.set_position((box[0] - 0.5, box[1] - 0.5))  # pixel centres at integers
+            drawn.append(text)
+    return drawn, len(artists) - len(drawn)
 
 
-def _draw_stars(ax, frame, width: int) -> tuple | None:
-    """Mark the spots; returns the residual scale (factor, bar length drawn in px, what
-    it stands for in px and arcsec), None when nothing is identified.
+def _draw_stars(ax, frame, width: int) -> tuple:
+    """Mark the spots and label the identified stars; returns the residual scale (factor,
+    bar length drawn in px, what it stands for in px and arcsec; None when nothing is
+    identified), the labels drawn and how many were left out.
 
     The other spots are small and faint underneath; the identified stars are drawn on
     top, so a frame of several hundred spots still shows which ones were identified.
@@ -149,14 +168,11 @@ def _draw_stars(ax, frame, width: int) -> tuple | None:
                edgecolors="#ff9f1c", linewidths=0.6, alpha=0.45, zorder=2,
                label="not identified")
     if not sol.solved:
-        return None
+        return None, [], 0
     x, y = obs.x[sol.obs_index], obs.y[sol.obs_index]
     ax.scatter(x, y, s=170, marker="o", facecolors="none", edgecolors="#39ff14",
                linewidths=1.2, zorder=4, label="identified")
-    for xi, yi, text, (offset, align) in zip(x, y, _labels(frame), _label_sides(x, width),
-                                             strict=True):
-        ax.annotate(text, (xi, yi), xytext=offset, textcoords="offset points", ha=align,
-                    color="#b8ffb0", fontsize=7, zorder=5)
+    labels, left_out = _draw_labels(ax, frame, x, y)
     dx, dy = residual_pixels(frame)
     mag = _nice_magnification(float(np.hypot(dx, dy).max(initial=0.0)), 0.04 * width)
     ax.quiver(x, y, dx * mag, dy * mag, angles="xy", scale_units="xy", scale=1.0,
@@ -164,10 +180,10 @@ def _draw_stars(ax, frame, width: int) -> tuple | None:
     arcsec_per_px = _ARCSEC_PER_RAD / frame.camera.f_px
     bar_px = 0.04 * width
     bar_as = bar_px / mag * arcsec_per_px
-    return mag, bar_px, bar_px / mag, bar_as
+    return (mag, bar_px, bar_px / mag, bar_as), labels, left_out
 
 
-def _draw_caption(fig, frame, scale: tuple | None, width: int) -> None:
+def _draw_caption(fig, frame, scale: tuple | None, width: int, left_out: int) -> None:
     """The caption band under the frame: the text, the residual scale bar, the legend."""
     import matplotlib.lines  # matplotlib: only when a PNG is annotated
 
@@ -179,6 +195,8 @@ def _draw_caption(fig, frame, scale: tuple | None, width: int) -> None:
         mag, bar_px, stands_px, stands_as = scale
         text += (f"\nresiduals (observed - catalog) drawn x{mag}: the bar = {stands_px:.2g} "
                  f"px = {stands_as:.2g} arcsec")
+        if left_out:
+            text += f"; {left_out} crowded label(s) left out (--corr lists every star)"
         y_bar = 0.12 * band
         fig.add_artist(matplotlib.lines.Line2D(
             [right - bar_px / fig_w, right], [y_bar, y_bar], color="#ff3864", linewidth=2))
@@ -188,8 +206,10 @@ def _draw_caption(fig, frame, scale: tuple | None, width: int) -> None:
              va="center", family="monospace")
 
 
-def write_annotated(frame, path: str | Path) -> None:
-    """Write the annotated PNG of one :class:`~startrack.solver._identifier.FrameResult`.
+def write_annotated(frame, path: str | Path) -> dict:
+    """Write the annotated PNG of one :class:`~startrack.solver._identifier.FrameResult`;
+    returns ``{"labels": [(x0, y0, x1, y1), ...], "left_out": n}``: each star label's box
+    as drawn (PNG pixels, y up) and the labels left out for want of room.
 
     The frame is drawn pixel for pixel inside margins that hold the RA/Dec labels; a
     solved frame gets an RA/Dec grid and a north/east compass from its solved WCS
@@ -219,19 +239,21 @@ def write_annotated(frame, path: str | Path) -> None:
     ax.set_facecolor("black")
     ax.imshow(shown, cmap="gray", vmin=0.0, vmax=1.0, interpolation="nearest",
               extent=(-0.5, w - 0.5, -0.5, h - 0.5), origin="lower")  # row i at y = i
-    scale = _draw_stars(ax, frame, w)
+    scale, labels, left_out = _draw_stars(ax, frame, w)
     ax.set_xlim(-0.5, w - 0.5)
     ax.set_ylim(h - 0.5, -0.5)  # row 0 at the top, as in the PNG
     if wcs is not None:
-        draw_grid(ax)
+        draw_grid(ax, wcs, w, h)
         # in the right margin, beside the frame, so it hides no star
         draw_compass(fig, wcs, w, h, centre=(MARGIN_LEFT_PX + w + 0.5 * MARGIN_RIGHT_PX,
                                              _CAPTION_PX + h - 0.5 * MARGIN_RIGHT_PX),
                      length_px=0.35 * MARGIN_RIGHT_PX)
-    _draw_caption(fig, frame, scale, w)
+    _draw_caption(fig, frame, scale, w, left_out)
     path = Path(path)
     try:
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=dpi, format="png", facecolor="black")
+        boxes = [tuple(t.get_window_extent().extents) for t in labels]
     finally:
         plt.close(fig)
+    return {"labels": boxes, "left_out": left_out}

@@ -58,15 +58,50 @@ def _arrow(text: str, tip: tuple, tail: tuple):
                       arrowprops=dict(arrowstyle="-|>", color="#ffe066", lw=1.6))
 
 
-def draw_grid(ax) -> None:
-    """RA/Dec grid lines and their labels (WCSAxes), faint so the stars stay in front."""
+#: grid steps tried, the finest first: RA in seconds of time, Dec in arcsec
+RA_STEPS_S = (1, 2, 5, 10, 15, 20, 30, 60, 120, 300, 600, 900, 1200, 1800, 3600, 7200,
+              10800, 14400, 21600)
+DEC_STEPS_AS = (1, 2, 5, 10, 15, 20, 30, 60, 120, 300, 600, 900, 1200, 1800, 3600, 7200,
+                10800, 18000, 36000, 54000, 108000)
+#: grid lines wanted across the edge that carries a coordinate's labels
+GRID_LABELS = 4
+
+
+def _edge_span_deg(wcs, x: np.ndarray, y: np.ndarray, axis: int) -> float:
+    """How far RA (``axis`` 0, unwrapped across 0h) or Dec (1) runs along pixels x, y."""
+    values = np.asarray(wcs.all_pix2world(x, y, 0)[axis], dtype=float)
+    if axis == 0:
+        values = np.degrees(np.unwrap(np.radians(values)))
+    return float(values.max() - values.min())
+
+
+def grid_steps(wcs, width: int, height: int) -> tuple[float, float]:
+    """The RA step (seconds of time) and Dec step (arcsec) that put at least
+    :data:`GRID_LABELS` lines across the bottom edge (RA labels) and the left edge (Dec
+    labels), the coarsest such round steps."""
+    xs, ys = np.linspace(0, width - 1, 64), np.linspace(0, height - 1, 64)
+    ra_span_s = _edge_span_deg(wcs, xs, np.full(64, height - 1.0), 0) * 240.0
+    dec_span_as = _edge_span_deg(wcs, np.zeros(64), ys, 1) * 3600.0
+    ra = [s for s in RA_STEPS_S if ra_span_s / s >= GRID_LABELS]
+    dec = [s for s in DEC_STEPS_AS if dec_span_as / s >= GRID_LABELS]
+    return float(ra[-1] if ra else RA_STEPS_S[0]), float(dec[-1] if dec else DEC_STEPS_AS[0])
+
+
+def draw_grid(ax, wcs, width: int, height: int) -> None:
+    """RA/Dec grid lines and their labels (WCSAxes), faint so the stars stay in front:
+    round steps with at least :data:`GRID_LABELS` lines across each labelled edge."""
+    import astropy.units as u  # astropy: only when a PNG is annotated
+
+    ra_step, dec_step = grid_steps(wcs, width, height)
     ra, dec = ax.coords[0], ax.coords[1]
-    ra.set_major_formatter("hh:mm")
-    dec.set_major_formatter("dd:mm")
+    ra.set_major_formatter("hh:mm" if ra_step % 60 == 0 else "hh:mm:ss")
+    dec.set_major_formatter("dd" if dec_step % 3600 == 0 else
+                            "dd:mm" if dec_step % 60 == 0 else "dd:mm:ss")
+    ra.set_ticks(spacing=ra_step * 15.0 * u.arcsec, color="#9fc5e8")
+    dec.set_ticks(spacing=dec_step * u.arcsec, color="#9fc5e8")
     for coord, label in ((ra, "RA (ICRS)"), (dec, "Dec (ICRS)")):
         coord.grid(color="#6fa8dc", alpha=0.7, linestyle="dashed", linewidth=0.7)
         coord.set_ticklabel(color="#9fc5e8", size=8)
-        coord.set_ticks(color="#9fc5e8", number=6)
         coord.set_axislabel(label, color="#9fc5e8", size=8)
     ra.set_ticks_position("b")
     ra.set_ticklabel_position("b")

@@ -12,6 +12,7 @@ import numpy as np
 
 from startrack.attitude import to_quaternion, to_radec_roll
 from startrack.sky import Catalog
+from startrack.solver._trail import sky_record, sky_text, step_text
 from startrack.types import Observation, Solution, Timing
 
 #: exit code of each record status (docs/conventions.md): a batch exits with the worst
@@ -70,18 +71,6 @@ def solution_record(solution: Solution, obs: Observation, catalog: Catalog, timi
     return record
 
 
-#: the sky keys that describe only a random sky (its size and seed)
-RANDOM_SKY_KEYS = ("n_stars", "seed")
-
-
-def sky_record(source: dict) -> dict:
-    """``diagnostics.sky``: the sky's specification, without a random sky's size and seed
-    for a real catalog."""
-    if source.get("kind", "random") == "random":
-        return source
-    return {k: v for k, v in source.items() if k not in RANDOM_SKY_KEYS}
-
-
 def frame_record(frame, with_input: bool = True) -> dict:
     """The docs/conventions.md solution record of one input's
     :class:`~startrack.solver.FrameResult` (``input`` left out when not ``with_input``)."""
@@ -95,7 +84,24 @@ def frame_record(frame, with_input: bool = True) -> dict:
     quality = frame.quality
     if quality is not None:
         record["quality"] = quality.to_dict()
-    return record
+    return with_request(record, frame.request, frame.steps)
+
+
+def with_request(record: dict, request: dict | None, steps: tuple) -> dict:
+    """``record`` telling what was asked (``requested``: method, sky, field of view,
+    hints) and every stage tried (``steps``, in order). An unsolved record's ``method`` is
+    the one asked for, whatever stage gave up last."""
+    if request is None:
+        return record
+    if record["status"] != "solved":
+        record["method"] = request["method"]
+    out: dict = {}
+    for key, value in record.items():
+        out[key] = value
+        if key == "method":
+            out["requested"] = request
+            out["steps"] = list(steps)
+    return out
 
 
 def _sigma_line(quality: dict | None) -> list[str]:
@@ -104,6 +110,25 @@ def _sigma_line(quality: dict | None) -> list[str]:
         return []
     return [f"1-sigma: boresight {quality['sigma_boresight_arcsec']:.2f} arcsec, roll "
             f"{quality['sigma_roll_arcsec']:.1f} arcsec (from the fit)"]
+
+
+def _request_lines(record: dict) -> list[str]:
+    """The table's lines on the request and the stages tried (when there was more than
+    the one asked for, or it failed)."""
+    request = record.get("requested")
+    if request is None:
+        return []
+    fov = request.get("fov_deg")
+    fov_text = ("FOV unknown (blind search)" if fov is None else
+                f"FOV {fov:g} deg +-{request.get('fov_tolerance', 0):.0%}")
+    line = (f"requested: method {request['method']}, sky {sky_text(request['sky'])}, "
+            f"{fov_text}")
+    if request.get("hints"):
+        line += ", hints " + ", ".join(f"{k} {v}" for k, v in request["hints"].items())
+    steps = record.get("steps") or []
+    if len(steps) <= 1 and record["status"] == "solved":
+        return [line]
+    return [line, *(f"  {k}. {step_text(step)}" for k, step in enumerate(steps, 1))]
 
 
 def error_record(input_name: str, message: str) -> dict:
@@ -135,7 +160,8 @@ def format_table(record: dict) -> str:
     if record["status"] != "solved":
         lock = f", lock {record['lock']}" if "lock" in record else ""
         lines += [f"status: not solved: {record.get('reason', 'no_match')} (method "
-                  f"{record['method']}, {n_cent} centroids{lock})", timing]
+                  f"{record['method']}, {n_cent} centroids{lock})", *_request_lines(record),
+                  timing]
         return "\n".join(lines) + "\n"
     att = record["attitude"]
     res = np.array([s["residual_arcsec"] for s in record["stars"]])
@@ -148,6 +174,9 @@ def format_table(record: dict) -> str:
         f"boresight: RA {att['ra_deg']:.5f} deg, Dec {att['dec_deg']:+.5f} deg, "
         f"roll {att['roll_deg']:.4f} deg",
         *_sigma_line(record.get("quality")),
+        *([f"field of view: {record['fov_deg']:.4f} deg (horizontal, as solved)"]
+          if "fov_deg" in record else []),
+        *_request_lines(record),
         timing,
         f"{'x':>9} {'y':>9} {'catalog_id':>10} {'ra_deg':>10} {'dec_deg':>10} "
         f"{'resid_as':>8}",

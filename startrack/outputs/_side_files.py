@@ -1,6 +1,8 @@
 """The files ``identify`` writes beside its answer: --annotate PNGs, --wcs headers and the
 --corr table. With one input --annotate and --wcs name a file (or an existing folder to
-write it in), with several a folder holding one file per input (named after the input).
+write it in), with several a folder holding one file per input (named after the input),
+or, given a file name with the option's suffix (``out/ann.png``), one file per input
+beside it named after both (``out/ann_frame1.png``): never a folder named like a file.
 Every file name is known before any work, and each is checked then
 (:class:`startrack.io._writer.Writer`): an input inside that folder is never overwritten."""
 
@@ -50,12 +52,16 @@ class SideOutputs:
             base = Path(base)
             setattr(self, option, base)
             into_folder = several or base.is_dir()  # a link to a folder: written inside
-            if several and base.exists() and not base.is_dir():
-                raise InputError(f"--{option} {base}: with several inputs it names a folder, "
-                                 "and this exists as a file")
+            suffix = SUFFIXES[option]
+            # several inputs and a file's name ("ann.png"): one file per input beside it
+            beside = several and not base.is_dir() and base.suffix.lower() == suffix
+            if several and not beside and base.exists() and not base.is_dir():
+                raise InputError(f"--{option} {base}: with several inputs it names a folder "
+                                 f"(or NAME{suffix}), and this exists as a file")
             targets = self._targets.setdefault(option, {})
             for name, stem in zip(self.inputs, stems, strict=True):
-                path = base / f"{stem}{SUFFIXES[option]}" if into_folder else base
+                path = (base.with_name(f"{base.stem}_{stem}{suffix}") if beside else
+                        base / f"{stem}{suffix}" if into_folder else base)
                 self.writer.check(path, f"--{option}")
                 targets.setdefault(name, deque()).append(path)
         if self.corr is not None:

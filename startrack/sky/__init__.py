@@ -198,8 +198,8 @@ def load_sky(spec: SkySpec | str | os.PathLike, camera: Camera | None = None) ->
     """The catalog that ``spec`` describes, magnitude-cut and with close stars merged.
 
     Pass the camera the sky is seen through so that stars it cannot split are merged
-    (:func:`merge_separation_deg`); simulate, identify and compare all do, so the same
-    spec and camera always give the same catalog rows.
+    (:func:`merge_separation_deg`), as every command does. A sky named with a camera
+    takes ``--sky NAME``'s defaults (:func:`resolve_sky`: the default magnitude limit).
 
     Parameters
     ----------
@@ -229,9 +229,11 @@ def load_sky(spec: SkySpec | str | os.PathLike, camera: Camera | None = None) ->
     (500, (500, 3), True)
     >>> len(load_sky("random", Camera.from_fov(1024, 1024, 20.0)))  # two stars merged
     1999
+    >>> float(load_sky("hipparcos", Camera.from_fov(1024, 1024, 20.0)).mag.max()) <= 6.5
+    True
     """
     if not isinstance(spec, SkySpec):
-        spec = sky_spec(spec)
+        spec = resolve_sky(sky_spec(spec), camera)
     _check_spec(spec)
     if spec.kind == "random":
         mag_max = 6.5 if spec.mag_limit is None else spec.mag_limit

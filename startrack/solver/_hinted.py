@@ -84,7 +84,8 @@ def _child(pipeline, frame: FrameInput, hints: Hints):
                              "image size (--size WxH)")
         fov, tol = fov_range_deg(hints.scale, size[0])
         opt = dataclasses.replace(opt, camera=None, fov_deg=fov, fov_tolerance=tol)
-    child = type(pipeline)(opt, catalogs=pipeline.catalogs, setup=pipeline.setup)
+    child = type(pipeline)(opt, catalogs=pipeline.catalogs, setup=pipeline.setup,
+                           trail=pipeline.trail)
     if hints.pointing is not None:
         camera = child.setup_for(frame)[0]
         child.cone = (hints.pointing, cone_radius_deg(

@@ -55,6 +55,10 @@ class FrameResult:
     match_radius_px: float
     image: np.ndarray | None = None
     time_utc: str | None = None  # observation time the attitude is corrected for (ISO)
+    #: what was asked for this input (startrack.solver._trail.request_record); None: not known
+    request: dict | None = None
+    #: every stage tried for it, in order (startrack.solver._trail.Trail)
+    steps: tuple = ()
 
     @property
     def quality(self) -> Quality | None:
@@ -66,7 +70,7 @@ class FrameResult:
         (every answer passes here, :meth:`~startrack.solver._pipeline.Pipeline.solve`)."""
         return FrameResult(self.input, self.solution, self.obs, self.centroids, timing,
                            self.camera, self.catalog, self.sigma_px, self.match_radius_px,
-                           self.image, self.time_utc)
+                           self.image, self.time_utc, self.request, self.steps)
 
 
 def frame_timing(frame: FrameInput, identify_ms: float) -> Timing:

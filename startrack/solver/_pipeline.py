@@ -42,6 +42,7 @@ from startrack.solver._identifier import FrameResult, Identifier, SetupClock, fr
 from startrack.solver._inputs import FrameInput, read_input
 from startrack.solver._options import Options
 from startrack.solver._setup import decide_setup
+from startrack.solver._trail import Trail, request_record
 from startrack.types import Timing
 from startrack.verify._evidence import require_evidence
 
@@ -50,7 +51,7 @@ class Pipeline:
     """Solve many inputs, each with its own camera and sky, sharing loaded databases."""
 
     def __init__(self, options: Options, catalogs: dict | None = None,
-                 setup: SetupClock | None = None) -> None:
+                 setup: SetupClock | None = None, trail: Trail | None = None) -> None:
         if options.camera is not None and options.fov_deg is not None:
             raise InputError("give a camera or a field of view, not both (the camera sets "
                              "the field of view)")
@@ -74,6 +75,8 @@ class Pipeline:
         self._held: dict[str, tuple[Camera, SkySpec, Identifier]] = {}
         #: one-time loads not yet reported (shared with the hinted child pipelines)
         self.setup = setup or SetupClock()
+        self.trail = trail or Trail()  # the current input's stages (shared with children)
+        self._hints_used = None
 
     def setup_for(self, frame: FrameInput) -> tuple[Camera | None, SkySpec]:
         """The camera and sky for one input: options, else sidecar, else defaults. No
@@ -108,9 +111,11 @@ class Pipeline:
         return self._identifiers[key]
 
     def solve(self, frame: FrameInput) -> FrameResult:
-        """Identify one input that is already read (startrack.solver._fov_search: a nominal or
-        unknown field of view), its attitude corrected for aberration when the time is
-        known; its centroid error the option's, else what its star images allow."""
+        """Identify one input that is already read (startrack.solver._fov_search: a nominal
+        or unknown field of view), its attitude corrected for aberration when the time is
+        known; its centroid error the option's, else what its star images allow; its
+        record says what was asked and every stage tried (``request``, ``steps``:
+        startrack.solver._trail)."""
         self.sigma_px = self.frame_sigma(frame)
         return self.correct_aberration(frame, self.identify_frame(frame))
 
@@ -125,10 +130,10 @@ class Pipeline:
         """:meth:`solve` without the aberration correction: the attitude in the catalog's
         frame (what a tracker predicts from), through the fitted camera when the field
         of view was nominal or unknown; with hints, through :mod:`startrack.solver._hinted`."""
-        hints = frame_hints(self, frame)
-        if hints is not None:
-            return solve_hinted(self, frame, hints)
-        return self.identify_unhinted(frame)
+        self.trail.take()  # an input that failed midway leaves no stage to the next one
+        hints = self._hints_used = frame_hints(self, frame)
+        return (self.identify_unhinted(frame) if hints is None
+                else solve_hinted(self, frame, hints))
 
     def identify_unhinted(self, frame: FrameInput) -> FrameResult:
         """:meth:`identify_frame` with no hint (a hinted child pipeline's own solve)."""
@@ -144,7 +149,9 @@ class Pipeline:
             if isinstance(found, FrameResult):
                 return found
         else:
-            return self.identifier(camera, sky).solve(frame)
+            exact = self.identifier(camera, sky).solve(frame)
+            self.trail.add("method", self.options.method, sky, camera.fov_deg, exact.solution)
+            return exact
         sol = found.solution
         return FrameResult(frame.name, sol, found.obs, frame.centroids,
                            frame_timing(frame, sol.identify_ms), found.camera,
@@ -172,10 +179,15 @@ class Pipeline:
             deadline = Deadline.after_ms(self.options.timeout_ms)
             first = nominal.solve(frame, identify=lambda obs: nominal.identify(
                 obs, deadline, first_look=True))
+            self.trail.add("first look (brightest stars)", self.options.method, sky,
+                           camera.fov_deg, first.solution)
             if first.solution.reason in ("too_few_stars", "timeout"):
                 return first
             found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
                      if first.solution.solved else None)
+            if first.solution.solved and found is None:
+                self.trail.add("FOV refit", self.options.method, sky, camera.fov_deg,
+                               result="rejected")
             spent = first.solution.identify_ms  # the first try is part of the answer
         if found is None:
             found = self._search(x, y, camera, sky, deadline)
@@ -208,12 +220,16 @@ class Pipeline:
         default = opt.sky is None and opt.mag_limit is None
         found = None
         deep = search_sky_kind(camera)
+        window = (camera.fov_deg * (1 - tol), camera.fov_deg * (1 + tol))
         if not default or sky.kind != deep:
             found = solve_approximate(self.identifier(camera, sky, "quad"), x, y, tol, deadline)
+            self.trail.add("FOV search", "quad", sky, window, found.solution)
             if not default or found.solution.solved or found.solution.reason == "timeout":
                 return found
-        again = self.blind_solver(SkySpec(kind=deep, epoch=opt.epoch)).solve(
-            x, y, (camera.width, camera.height), deadline, camera, tol)
+        deep_sky = SkySpec(kind=deep, epoch=opt.epoch)
+        again = self.blind_solver(deep_sky).solve(x, y, (camera.width, camera.height),
+                                                  deadline, camera, tol)
+        self.trail.add("FOV search, deeper sky", "quad", deep_sky, window, again.solution)
         if found is None:
             return again
         return again.plus_ms(found.solution.identify_ms)
@@ -253,9 +269,8 @@ class Pipeline:
     def correct_aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
         """``result`` corrected for annual aberration when the time of observation is known
         (``Options.time``, else a FITS input's DATE-OBS): startrack.solver._aberration. Every
-        answer passes here, so here an answer without its evidence is refused
-        (:func:`startrack.verify._evidence.require_evidence`), and given the one-time cost it
-        waited for (``timing_ms.setup``)."""
+        answer passes here: an answer without its evidence is refused (startrack.verify.
+        _evidence), and each is given its setup time, request and stages tried."""
         result = require_evidence(result)
         when = self.options.time
         if when is None and frame.path is not None and self.options.header_hints:
@@ -263,8 +278,12 @@ class Pipeline:
         if when is not None:
             result = correct_result(result, when)
         t = result.timing  # given what it waited for
-        return result.with_timing(Timing(t.centroid, t.identify, t.total,
-                                         self.setup.take() + frame.setup_ms))
+        hints, self._hints_used = self._hints_used, None
+        return dataclasses.replace(
+            result, timing=Timing(t.centroid, t.identify, t.total,
+                                  self.setup.take() + frame.setup_ms),
+            request=request_record(self.options, self.setup_for, frame, hints),
+            steps=self.trail.take())
 
     def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
         size = self.options.size or frame.size
@@ -296,12 +315,16 @@ class Pipeline:
         split = gaia_min_fov(size)
         if self.options.sky is not None or self.options.mag_limit is not None \
                 or sky.kind != "tycho2" or not lo < split < hi:
-            return self.blind_solver(sky).solve(x, y, size, deadline)
-        wide = self.blind_solver(dataclasses.replace(sky, kind="gaia"), (split, hi)).solve(
-            x, y, size, deadline)
+            found = self.blind_solver(sky).solve(x, y, size, deadline)
+            self.trail.add("blind search", "quad", sky, (lo, hi), found.solution)
+            return found
+        gaia = dataclasses.replace(sky, kind="gaia")
+        wide = self.blind_solver(gaia, (split, hi)).solve(x, y, size, deadline)
+        self.trail.add("blind search", "quad", gaia, (split, hi), wide.solution)
         if wide.solution.solved or wide.solution.reason != "no_match":
             return wide
         narrow = self.blind_solver(sky, (lo, split)).solve(x, y, size, deadline)
+        self.trail.add("blind search", "quad", sky, (lo, split), narrow.solution)
         return narrow.plus_ms(wide.solution.identify_ms)
 
     def run(self, path: str | Path) -> FrameResult:
