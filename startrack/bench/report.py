@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from startrack.bench.conditions import set_extras
 from startrack.bench.plots import wilson
 from startrack.io._writer import atomic_text
 
@@ -106,14 +107,18 @@ def summary_table(summary: pd.DataFrame) -> str:
 
     Built here rather than by ``DataFrame.to_markdown``: that needs ``tabulate`` (not a
     dependency) for a table whose cells are formatted strings anyway."""
-    head = ("| cond | noise px | false | missing | mag noise | method | frames | solved "
+    extras = set_extras(summary)  # camera and effect axes, when the run sets them
+    head = ("| cond | noise px | false | missing | mag noise | "
+            + "".join(f"{short} | " for _, short in extras)
+            + "method | frames | solved "
             "[95% CI] | correct [95% CI] | wrong [95% CI] | star precision | error median "
             "arcsec | error p95 arcsec | time median ms | time p95 ms |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for _, r in summary.iterrows():
         n = int(r["frames"])
         cells = [str(r["condition"]), f"{r['noise_px']:g}", f"{int(r['false_stars'])}",
-                 f"{r['missing']:g}", f"{r['mag_noise']:g}", str(r["method"]), str(n)]
+                 f"{r['missing']:g}", f"{r['mag_noise']:g}",
+                 *(f"{r[var]:g}" for var, _ in extras), str(r["method"]), str(n)]
         for column in ("solved_rate", "correct_rate", "wrong_rate"):
             k = round(float(r[column]) * n)
             low, high = wilson(k, n)

@@ -1,0 +1,142 @@
+"""The expected electrons of a frame with effects on: optics (shaped PSFs, tangential
+distortion, vignetting), the detector's fixed patterns, dark current with temperature,
+rolling shutter and blooming, and the space environment (stray light, cosmic rays, a
+bright body). :func:`startrack.simulate._render.render_frame` calls this only when an
+effect is on, so frames without effects are today's, draw for draw.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from startrack._core import effects as ek
+from startrack.camera._model import Camera
+from startrack.simulate._effects import Effects
+from startrack.simulate._scene import Scene
+from startrack.simulate._sensor import SensorModel
+
+_OVERSAMPLE = 4  # sub-samples per pixel side of a shaped spot
+
+
+def _tracks(scene: Scene, camera: Camera, effects: Effects, rate_dps, exposure_s: float,
+            steps: int, movers: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-exposure positions (steps x N) of the moving spots, each row of the detector
+    exposed at its own time (rolling shutter) around the frame's mid-time."""
+    x, y = effects.optics.tangential(camera, scene.x[movers], scene.y[movers])
+    turning = rate_dps is not None and any(rate_dps)
+    if not turning:
+        return x[None, :], y[None, :]
+    steps = max(steps, 1)
+    v0 = camera.pixel_to_vector(scene.x[movers], scene.y[movers])
+    row_t = effects.detector.row_times(scene.y[movers], camera.height)
+    omega = np.radians(np.asarray(rate_dps, dtype=np.float64))
+    xs, ys = [], []
+    for k in range(steps):  # a loop over the few sub-steps, vectorised over stars
+        t = ((k + 0.5) / steps - 0.5) * exposure_s + row_t
+        turned = Rotation.from_rotvec(-t[:, None] * omega[None, :]).apply(v0)
+        px, py, _ = camera.vector_to_pixel(turned.reshape(-1, 3))
+        px, py = effects.optics.tangential(camera, px, py)
+        xs.append(px)
+        ys.append(py)
+    return np.array(xs), np.array(ys)
+
+
+def _deposit(image: np.ndarray, camera: Camera, effects: Effects, x, y, electrons,
+             sigma: float) -> None:
+    from startrack.simulate._render import deposit_gaussians
+
+    optics = effects.optics
+    if not optics.shaped:
+        deposit_gaussians(image, x, y, electrons, sigma)
+        return
+    s = optics.spots(camera, x, y, electrons, sigma)
+    _stamps(image, s)
+
+
+def _stamps(image: np.ndarray, s: dict) -> None:
+    reach = np.where(s["model"] == 1, 4.0 * s["a"],
+                     np.where(s["model"] == 2, s["a"] + 4.0 * s["b"], 4.0 * s["a"]))
+    half = np.ceil(np.maximum(reach, 4.0 * s["b"])).astype(np.int64) + 1
+    ek.deposit_spots(image, *(np.ascontiguousarray(s[k], np.float64)
+                              for k in ("x", "y", "electrons")),
+                     np.ascontiguousarray(s["model"], np.int32),
+                     *(np.ascontiguousarray(s[k], np.float64) for k in ("a", "b", "cos", "sin")),
+                     np.ascontiguousarray(half, np.int64), _OVERSAMPLE)
+
+
+def _body(image: np.ndarray, camera: Camera, sensor: SensorModel, effects: Effects) -> None:
+    disk = effects.environment.body_disk(camera)
+    if disk is None:
+        return
+    x, y, radius = disk
+    e = sensor.electrons_from_mag(effects.environment.body_mag)
+    e = e * float(effects.optics.relative_illumination(camera, x, y))
+    sigma = sensor.psf_sigma_px
+    one = np.ones(1)
+    _stamps(image, {"x": one * x, "y": one * y, "electrons": one * e,
+                    "model": np.full(1, 2 if radius > 0.5 else 0, np.int32),
+                    "a": one * (radius if radius > 0.5 else sigma), "b": one * sigma,
+                    "cos": one, "sin": 0 * one})
+
+
+def expected_with_effects(scene: Scene, camera: Camera, sensor: SensorModel, effects: Effects,
+                          rng: np.random.Generator, *, angular_rate_dps=None,
+                          blur_steps: int = 8, bv: np.ndarray | None = None) -> np.ndarray:
+    """The noiseless electron image (H x W float64) of ``scene`` with ``effects``; ``rng``
+    draws the environment's randomness (cosmic rays) and nothing else. ``bv``: the B-V
+    colour of each scene star (NaN: unknown), for the band model."""
+    shape = (camera.height, camera.width)
+    optics, det, env = effects.optics, effects.detector, effects.environment
+    if env.blinded:  # the source is inside the exclusion angle: the baffle cannot help
+        return np.full(shape, 2.0 * sensor.full_well)
+    image = np.zeros(shape, dtype=np.float64)
+    hot = scene.hot_pixel
+    movers = ~hot
+    xs, ys = _tracks(scene, camera, effects, angular_rate_dps, sensor.exposure_s,
+                     blur_steps, movers)
+    steps = xs.shape[0]
+    electrons = sensor.electrons_from_mag(scene.mag)
+    if bv is not None and not effects.band.is_off:
+        electrons = electrons * effects.band.colour_factor(bv)
+    electrons = electrons[movers] / steps
+    lit = electrons[None, :] * optics.relative_illumination(camera, xs, ys)
+    blob = (scene.is_false & ~hot)[movers]
+    for sel, sigma in ((~blob, sensor.psf_sigma_px),
+                       (blob, sensor.psf_sigma_px * sensor.blob_sigma_factor)):
+        if sel.any():
+            _deposit(image, camera, effects, xs[:, sel].ravel(), ys[:, sel].ravel(),
+                     lit[:, sel].ravel(), sigma)
+    _body(image, camera, sensor, effects)
+    sky = sensor.sky_background * sensor.exposure_s
+    vignetting = optics.illumination_map(camera)
+    image += sky if vignetting is None else vignetting * np.float32(sky)
+    stray = env.stray_map(camera, sensor.exposure_s)
+    if stray is not None:
+        image += stray
+    prnu = det.prnu_map(shape)
+    if prnu is not None:
+        image *= prnu
+    dark = sensor.dark_current * sensor.exposure_s * det.dark_factor()
+    dsnu = det.dsnu_map(shape)
+    image += dark if dsnu is None else dsnu * np.float32(dark)
+    if hot.any():  # detector defects: one pixel, neither vignetted nor moving
+        col = np.floor(scene.x[hot] + 0.5).astype(np.int64)
+        row = np.floor(scene.y[hot] + 0.5).astype(np.int64)
+        ok = (col >= 0) & (col < camera.width) & (row >= 0) & (row < camera.height)
+        np.add.at(image, (row[ok], col[ok]), sensor.electrons_from_mag(scene.mag[hot])[ok])
+    rows, cols, charge = env.cosmic_hits(camera, sensor.exposure_s, rng)
+    np.add.at(image, (rows, cols), charge)
+    if det.blooming:
+        ek.bloom_columns(image, float(sensor.full_well))
+    return image
+
+
+def exposure_note(effects: Effects) -> str:
+    """One line on what is on, for progress messages."""
+    parts = [f"{name} {', '.join(f'{k}={v}' for k, v in table.items())}"
+             for name, table in effects.to_dict().items()]
+    return "; ".join(parts) if parts else "none"
+
+
+__all__ = ["expected_with_effects", "exposure_note"]
