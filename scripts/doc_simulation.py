@@ -6,7 +6,7 @@ Run: .venv/bin/python scripts/doc_simulation.py [--real-dir DIR] [--compare-dir 
 Real frames: tests/data/realsky_azi45.png always; with --real-dir, every *.tif/*.tiff/*.png
 in DIR too (e.g. the four tetra3 frames). Each is solved by startrack (config realsky),
 simulated with configs/blackfly_s_imx265.toml at that attitude and compared
-(startrack.simulate._real_check). --compare-dir: a finished `startrack compare` run whose
+(startrack.bench.real_frames). --compare-dir: a finished `startrack compare` run whose
 report.md summary is quoted. The command and commit are stamped in the document.
 """
 
@@ -70,9 +70,9 @@ def _figure(name: str, real: np.ndarray, sim: np.ndarray) -> str:
 
 def real_frames_section(frames: list[Path]) -> list[str]:
     import startrack
+    from startrack.bench.real_frames import REALSKY_PRESET, check_frame
     from startrack.io._images import read_image
     from startrack.simulate._config import load_config
-    from startrack.simulate._real_check import REALSKY_PRESET, check_frame
     from startrack.sky import load_sky
 
     config = load_config(REALSKY_PRESET)

@@ -26,10 +26,10 @@ def test_temperature_of_a_colour():
 
 def test_red_and_blue_stars_of_one_magnitude_differ_through_the_band():
     red, ref, blue = SILICON.colour_factor(np.array([1.5, REFERENCE_BV, 0.0]))
-    assert ref == pytest.approx(1.0)
+    assert ref == pytest.approx(1.0, rel=1e-4)  # (interpolated in a table of colours)
     assert red > 1.1 > 0.95 > blue  # silicon sees more of a red star's light than V does
     b_red, b_blue = BLUE.colour_factor(np.array([1.5, 0.0]))
-    assert b_blue > 1.5 and b_red < 0.5  # a blue filter turns it round
+    assert b_blue > 1.3 > 0.7 > b_red  # a blue filter turns it round
     assert SILICON.colour_factor(np.array([np.nan]))[0] == 1.0
     assert Band().colour_factor(np.array([1.5]))[0] == 1.0
 

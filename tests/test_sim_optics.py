@@ -81,16 +81,27 @@ def test_defocus_spot_is_a_flat_disk_of_its_radius():
     assert centre.std() / centre.mean() < 0.03
 
 
+def spread(image, x, y, direction, half=12):
+    """Second moment (px^2) of the spot about (x, y) along a unit ``direction``."""
+    r0, c0 = int(round(y)) - half, int(round(x)) - half
+    win = image[r0:r0 + 2 * half + 1, c0:c0 + 2 * half + 1]
+    rows, cols = np.mgrid[r0:r0 + 2 * half + 1, c0:c0 + 2 * half + 1]
+    along = (cols - x) * direction[0] + (rows - y) * direction[1]
+    return float((win * along**2).sum() / win.sum())
+
+
 def test_astigmatism_stretches_spots_radially_off_axis():
     optics = Optics(astigmatism=1.0)
     corner, middle = (220.0, 220.0), (127.5, 127.5)
     image = expected(spots([corner, middle], mag=1.0), optics)
-    _, _, win = moments(image, *corner)
-    _, _, mid = moments(image, *middle)
-    radial = win.diagonal().sum()  # along the diagonal = the radial direction here
-    across = np.fliplr(win).diagonal().sum()
-    assert radial < across  # wider radially: less light on the diagonal through the peak
-    assert abs(mid.diagonal().sum() / np.fliplr(mid).diagonal().sum() - 1.0) < 1e-6
+    radial, tangential = np.array([1.0, 1.0]) / math.sqrt(2), np.array([1.0, -1.0]) / math.sqrt(2)
+    rho = math.hypot(220 - 127.5, 220 - 127.5) / (0.5 * math.hypot(256, 256))
+    stretch = (1.0 + rho**2) ** 2  # sigma x (1 + astigmatism rho^2) along the radius
+    sigma2 = 1.0 + 1.0 / 12.0  # a unit Gaussian integrated over pixels
+    ratio = spread(image, *corner, radial) / spread(image, *corner, tangential)
+    assert ratio == pytest.approx((stretch + 1 / 12) / sigma2, rel=0.03)
+    centre = spread(image, *middle, radial) / spread(image, *middle, tangential)
+    assert centre == pytest.approx(1.0, abs=1e-6)  # round on the axis
 
 
 def test_coma_biases_centroids_outward_growing_with_field():
@@ -101,7 +112,7 @@ def test_coma_biases_centroids_outward_growing_with_field():
     rho = np.array([0.0, 60.0, 110.0]) / (0.5 * math.hypot(256, 256))
     # the tail holds COMA_FRACTION of the light, thrown coma_px rho^3 outward
     np.testing.assert_allclose(shifts, COMA_FRACTION * 3.0 * rho**3, atol=0.02)
-    assert shifts[0] == pytest.approx(0.0, abs=1e-6) and shifts[2] > shifts[1] > 0
+    assert shifts[0] == pytest.approx(0.0, abs=1e-4) and shifts[2] > shifts[1] > 0
 
 
 def test_cos4_vignetting_dims_stars_and_sky_off_axis():

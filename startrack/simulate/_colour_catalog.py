@@ -14,9 +14,12 @@ FORMAT_VERSION = 1
 
 
 def _parse_bv(path: Path) -> dict[str, np.ndarray]:
-    from startrack.sky.hipparcos import _column, _records
+    from startrack._core import parse
+    from startrack.sky.hipparcos import _column
 
-    raw = _records(Path(path).read_bytes())
+    width = _BV_COLUMNS["bv"][1]
+    raw = parse.records(Path(path).read_bytes(), width)
+    raw = np.ascontiguousarray(raw[~parse.blank_rows(raw), :width])
     cols = {name: _column(raw, *span) for name, span in _BV_COLUMNS.items()}
     good = np.isfinite(cols["hip"])
     return {"hip": cols["hip"][good].astype(np.int64), "bv": cols["bv"][good]}

@@ -91,10 +91,9 @@ class Environment:
         expected = self.cosmic_rays * area_cm2 * exposure_s
         if expected <= 0:
             return tuple(np.zeros(0) for _ in range(5))
-        n_max = int(expected + 10.0 * math.sqrt(expected) + 20.0)
-        arrivals = np.cumsum(rng.exponential(size=n_max))
+        arrivals, u = _hit_sequence(expected, rng)
         n = int(np.searchsorted(arrivals, expected))
-        u = rng.random((n_max, 4))[:n]
+        u = u[:n]
         cos_t = np.sqrt(np.maximum(u[:, 2], 1e-6))  # isotropic on a plane: cos^2 uniform
         tan_t = np.sqrt(1.0 - cos_t**2) / cos_t
         length = np.minimum(self.depth_um * tan_t / self.pixel_size_um, MAX_TRACK_PX)
@@ -121,5 +120,20 @@ class Environment:
             return None
         return self.body_x, self.body_y, camera.f_px * math.tan(math.radians(
             self.body_radius_deg))
+
+_BLOCK = 256  # hits drawn at a time: row k of the sequence is the same whatever the flux
+
+
+def _hit_sequence(expected: float, rng: np.random.Generator):
+    """Arrival times (unit rate) and 4 uniforms per hit, block by block until past
+    ``expected``: the first k hits are the same for every flux."""
+    times, uniforms, last = [], [], 0.0
+    while last <= expected:
+        steps = rng.exponential(size=_BLOCK)
+        uniforms.append(rng.random((_BLOCK, 4)))
+        times.append(last + np.cumsum(steps))
+        last = float(times[-1][-1])
+    return np.concatenate(times), np.concatenate(uniforms)
+
 
 __all__ = ["ELECTRONS_PER_UM", "Environment", "LEO_FLUX", "MAX_TRACK_PX", "SAA_FLUX"]
