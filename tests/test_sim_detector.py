@@ -94,3 +94,17 @@ def test_adc_nonlinearity_compresses_near_full_well():
     want = levels[0] * (1.0 - 0.05 * levels[0] / 30000.0)
     np.testing.assert_allclose(bent, want, rtol=2e-3)
     np.testing.assert_allclose(linear, levels[0], rtol=2e-3)
+
+
+@pytest.mark.parametrize("lam", [3.0, 25.0, 400.0, 5000.0])
+def test_field_readout_has_the_sensor_chains_statistics(lam):
+    # a frame whose pixels each expect their own signal goes through the compiled chain
+    from startrack.simulate._render_effects import digitise_field
+
+    sensor = SensorModel(read_noise=3.0, gain=0.5, bias_adu=100.0, full_well=1e5)
+    levels = lam * (1.0 + 1e-9 * np.arange(200_000))  # no common value: the field path
+    adu = digitise_field(levels, sensor, np.random.default_rng(4)).astype(np.float64)
+    e = (adu - 100.0) * 0.5
+    assert e.mean() == pytest.approx(lam, abs=0.02 * np.sqrt(lam) + 0.01)
+    # variance: Poisson + read noise + rounding to ADU (gain^2 / 12)
+    assert e.var() == pytest.approx(lam + 9.0 + 0.25 / 12.0, rel=0.02)

@@ -188,11 +188,11 @@ def render_frame(scene: Scene, camera: Camera, sensor: SensorModel, rng: np.rand
         expected = render_expected(scene, camera, sensor, angular_rate_dps=angular_rate_dps,
                                    blur_steps=blur_steps)
         return digitise(expected, sensor, rng)
-    from startrack.simulate._render_effects import expected_with_effects
+    from startrack.simulate._render_effects import digitise_field, expected_with_effects
 
     if effects_rng is None:
         effects_rng = np.random.default_rng(rng.bit_generator.seed_seq.spawn(1)[0])
     expected = expected_with_effects(scene, camera, sensor, effects, effects_rng,
                                      angular_rate_dps=angular_rate_dps, blur_steps=blur_steps,
                                      bv=bv)
-    return digitise(expected, sensor, rng, effects.detector.adc_nonlinearity)
+    return digitise_field(expected, sensor, rng, effects.detector.adc_nonlinearity)
