@@ -13,6 +13,7 @@ report.md summary is quoted. The command and commit are stamped in the document.
 from __future__ import annotations
 
 import shlex
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -35,10 +36,16 @@ def _commit() -> str:
 
 
 def _frames(real_dir: str | None) -> list[Path]:
+    """The test frame, then the folder's frames but the one the test frame copies."""
+    from startrack.io._images import read_image
+
     frames = [TEST_FRAME]
     if real_dir:
-        frames += sorted(p for p in Path(real_dir).iterdir()
-                         if p.suffix.lower() in (".tif", ".tiff", ".png"))
+        test_pixels = read_image(TEST_FRAME)
+        for path in sorted(Path(real_dir).iterdir()):
+            if path.suffix.lower() in (".tif", ".tiff", ".png") and not np.array_equal(
+                    read_image(path), test_pixels):
+                frames.append(path)
     return frames
 
 
@@ -115,10 +122,16 @@ def compare_section(compare_dir: str | None) -> list[str]:
     report = (Path(compare_dir) / "report.md").read_text().splitlines()
     command = next((ln for ln in report if ln.startswith("| command |")), "")
     commit = next((ln for ln in report if ln.startswith("| git commit |")), "")
-    start = report.index("## Summary")
-    table = [ln for ln in report[start:] if ln.startswith("|")]
+    start, end = report.index("## Summary"), report.index("## Plots")
+    table = [ln for ln in report[start:end] if ln.startswith("|")]
+    plots = []
+    for plot in sorted(Path(compare_dir).glob("plot_*.png")):
+        target = FIGURES / f"simulation_compare_{plot.name}"
+        shutil.copyfile(plot, target)
+        plots.append(f"![{plot.stem}](figures/{target.name})")
     return [f"Run: `{command.split('|')[2].strip()}` at commit "
-            f"{commit.split('|')[2].strip()} (its report.md).", "", *table, ""]
+            f"{commit.split('|')[2].strip()} (its report.md; 95% Wilson intervals).", "",
+            *table, "", *plots, ""]
 
 
 def main() -> None:
