@@ -102,7 +102,7 @@ def frame_stats(image: np.ndarray, camera: Camera, rotation, catalog: Catalog,
                 else adc_max if adc_max is not None else image.max())
     peaks = _peaks(image, found.x, found.y)
     saturated = int(np.count_nonzero((nearest >= 0) & (peaks >= top)))
-    fwhm = _median_fwhm(image, found, nearest, peaks < top, px, py, fwhm_stars)
+    fwhm = _median_fwhm(image, found, nearest, peaks < top, fwhm_stars)
     return FrameStats(tuple(float(e) for e in edges), tuple(int(v) for v in detected),
                       tuple(int(v) for v in in_view), float(np.median(image)),
                       _noise(image), fwhm, saturated)
@@ -119,7 +119,7 @@ def _peaks(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return out
 
 
-def _median_fwhm(image, found, nearest, unsaturated, px, py, count: int) -> float:
+def _median_fwhm(image, found, nearest, unsaturated, count: int) -> float:
     """Median FWHM of the brightest matched, unsaturated stars with no other star within
     the fitted window."""
     tree = cKDTree(np.column_stack([found.x, found.y])) if len(found.x) else None

@@ -192,11 +192,4 @@ def digitise_field(expected: np.ndarray, sensor: SensorModel, rng: np.random.Gen
     return out.reshape(expected.shape)
 
 
-def exposure_note(effects: Effects) -> str:
-    """One line on what is on, for progress messages."""
-    parts = [f"{name} {', '.join(f'{k}={v}' for k, v in table.items())}"
-             for name, table in effects.to_dict().items()]
-    return "; ".join(parts) if parts else "none"
-
-
-__all__ = ["digitise_field", "expected_with_effects", "exposure_note"]
+__all__ = ["digitise_field", "expected_with_effects"]
