@@ -34,17 +34,19 @@ cdef inline double _profile(int model, double u, double v, double a, double b) n
     return 0.5 * erfc((r - a) / (_SQRT2 * b))
 
 
-def deposit_spots(double[:, ::1] image, const double[::1] x, const double[::1] y,
-                  const double[::1] electrons, const int[::1] model, const double[::1] a,
-                  const double[::1] b, const double[::1] cos_axis,
-                  const double[::1] sin_axis, const long[::1] half,
-                  const int[::1] oversample):
-    """Add each spot's electrons to ``image`` in place, spread by its PSF."""
+def deposit_spots(double[:, ::1] image, const double[:, ::1] spots, const int[::1] model,
+                  const long[::1] half, const int[::1] oversample):
+    """Add each spot's electrons to ``image`` in place, spread by its PSF. ``spots`` has a
+    row per spot: x, y, electrons, a, b and the cosine and sine of its axis."""
     cdef Py_ssize_t n, i, j, si, sj, h = image.shape[0], w = image.shape[1]
     cdef long hw, size, x0, y0, row, col
     cdef int os
     cdef double total, value, dx, dy, u, v, step, scale
     cdef long biggest = 0
+    cdef const double[::1] x = spots[:, 0].copy(), y = spots[:, 1].copy()
+    cdef const double[::1] electrons = spots[:, 2].copy(), a = spots[:, 3].copy()
+    cdef const double[::1] b = spots[:, 4].copy(), cos_axis = spots[:, 5].copy()
+    cdef const double[::1] sin_axis = spots[:, 6].copy()
     for n in range(half.shape[0]):
         biggest = max(biggest, half[n])
     cdef double *stamp = <double *> malloc(sizeof(double) * (2 * biggest + 1) ** 2 + 8)
@@ -87,11 +89,12 @@ def deposit_spots(double[:, ::1] image, const double[::1] x, const double[::1] y
         free(stamp)
 
 
-def bloom_columns(double[:, ::1] image, double full_well):
-    """Spill the charge above ``full_well`` along each column, half up and half down,
-    filling each neighbour to full well before passing on; what runs off the edge is lost.
-    Returns the number of pixels that overflowed."""
-    cdef Py_ssize_t r, c, h = image.shape[0], w = image.shape[1]
+def bloom_columns(double[:, ::1] image, double full_well, const int64_t[::1] columns):
+    """Spill the charge above ``full_well`` along each of ``columns`` (those holding an
+    overflowing pixel), half up and half down, filling each neighbour to full well before
+    passing on; what runs off the edge is lost. Returns the number of pixels that
+    overflowed."""
+    cdef Py_ssize_t r, c, k, h = image.shape[0]
     cdef double carry, room, take, excess
     cdef long overflowed = 0
     cdef double *up = <double *> malloc(sizeof(double) * h + 8)
@@ -99,7 +102,8 @@ def bloom_columns(double[:, ::1] image, double full_well):
         raise MemoryError()
     try:
         with nogil:
-            for c in range(w):
+            for k in range(columns.shape[0]):
+                c = columns[k]
                 carry = 0.0
                 for r in range(h):  # downward: half of each overflow, then what is carried
                     excess = image[r, c] - full_well
@@ -183,16 +187,18 @@ cdef inline double _normal(const double[::1] quantiles, uint64_t *s) noexcept no
             return -x if j == 0 else x
 
 
-def field_pixels(const double[::1] expected, uint64_t[::1] state, double full_well,
-                 double read_noise, double gain, double bias, double adc_max,
-                 double nonlinearity, uint16_t[::1] out, double gauss_above,
-                 const double[::1] quantiles, const double[::1] reciprocal):
+def field_pixels(const double[::1] expected, uint64_t[::1] state, const double[::1] chain,
+                 uint16_t[::1] out, const double[::1] quantiles, const double[::1] reciprocal):
     """Read-out values of a frame whose pixels each expect their own electrons (a
     vignetted, stray-lit, PRNU/DSNU-shaped background), in one pass with a compiled
     generator (xoshiro256+, ``state`` seeded by the caller's numpy Generator): shot noise
     exact Poisson below ``gauss_above`` (inverse CDF below 10 e-, PTRS above) and Gaussian
     above, full-well clip, ADC non-linearity, Gaussian read noise (:func:`_normal` on
-    ``quantiles``), gain, bias and ADC clip. ``reciprocal[k] = 1 / k`` for k < 64."""
+    ``quantiles``), gain, bias and ADC clip. ``chain``: full well, read noise, gain,
+    bias, ADC maximum, non-linearity and ``gauss_above``; ``reciprocal[k] = 1 / k``."""
+    cdef double full_well = chain[0], read_noise = chain[1], gain = chain[2]
+    cdef double bias = chain[3], adc_max = chain[4], nonlinearity = chain[5]
+    cdef double gauss_above = chain[6]
     cdef Py_ssize_t i
     cdef double lam, e, p, cdf, u, adu, g0
     cdef long k

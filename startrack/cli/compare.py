@@ -62,9 +62,9 @@ def parse_methods(text: str) -> tuple[str, ...]:
     return tuple(names)
 
 
-def _effect_levels(given: dict, effects, source: str) -> dict[str, tuple]:
-    """The effect axes' levels: the options' lists, else the config's one level; an
-    effect needs rendered frames."""
+def _effect_levels(given: tuple, effects, source: str) -> dict[str, tuple]:
+    """The effect axes' levels from the options' texts (``given``, in EFFECT_OPTIONS'
+    order), else the config's one level; an effect needs rendered frames."""
     from startrack.bench.conditions import is_default, parse_values
     from startrack.cli.effect_options import EFFECT_OPTIONS, effect_bounds
 
@@ -72,10 +72,10 @@ def _effect_levels(given: dict, effects, source: str) -> dict[str, tuple]:
               "stray_light": effects.environment.stray_light,
               "temperature_c": effects.detector.temperature_c}
     levels = {}
-    for option, param, *_ in EFFECT_OPTIONS:
+    for (option, param, *_), text in zip(EFFECT_OPTIONS, given, strict=True):
         bounds = effect_bounds(param)
-        levels[param] = (parse_values(given[param], option, low=bounds.low, high=bounds.high)
-                         if given.get(param) is not None else (config[param],))
+        levels[param] = (parse_values(text, option, low=bounds.low, high=bounds.high)
+                         if text is not None else (config[param],))
         if source != "images" and any(not is_default(param, v) for v in levels[param]):
             raise InputError(f"{option} acts on rendered frames: give --from images")
     return levels
@@ -205,9 +205,8 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
             fps, replay, frames_dir, cosmic_rays, stray_light, temperature_c, quiet,
             verbose) -> None:
     """Compare identification methods on the same frames (random ones, or --frames-dir)
-    under centroid noise, false and missing stars, a wrong camera (FOV error,
-    distortion) and, on rendered frames, sensor and space effects (cosmic rays, stray
-    light, temperature; docs/simulation.md).
+    under centroid noise, false and missing stars, a wrong camera (FOV error, distortion)
+    and, on rendered frames, sensor and space effects (docs/simulation.md).
 
     Writes frames.csv, summary.csv, db.csv, plots and report.md in --out; their columns
     and the other conventions are in docs/conventions.md. Progress goes to stderr: a bar
@@ -233,9 +232,8 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
                             missing, fps, seed, out_dir, threshold_arcsec, note,
                             dict(resume=resume, overwrite=overwrite, inputs=inputs))
     levels = _levels(noise_px, false_stars, missing, mag_noise, source, dict(
-        fov_error=fov_error, distortion_k1=distortion_k1, modelled_k1=modelled_k1))
-    levels.update(_effect_levels(dict(cosmic_rays=cosmic_rays, stray_light=stray_light,
-                                      temperature_c=temperature_c), cfg.effects, source))
+        fov_error=fov_error, distortion_k1=distortion_k1, modelled_k1=modelled_k1)) | \
+        _effect_levels((cosmic_rays, stray_light, temperature_c), cfg.effects, source)
     spec = _run_spec(cfg, spec_sky, names, levels, grid, frames, seed, source, max_stars,
                      threshold_arcsec)
     if replay is not None:

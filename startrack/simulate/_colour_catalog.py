@@ -6,17 +6,16 @@ from pathlib import Path
 
 import numpy as np
 
+from startrack._core import parse
 from startrack.io._cache import cached_parse
 from startrack.sky.catalog import Catalog
+from startrack.sky.hipparcos import _column, catalog_file
 
 _BV_COLUMNS = {"hip": (1, 6), "bv": (153, 158)}  # I/311 ReadMe: B-V, bytes 153-158 (F6.3)
 FORMAT_VERSION = 1
 
 
 def _parse_bv(path: Path) -> dict[str, np.ndarray]:
-    from startrack._core import parse
-    from startrack.sky.hipparcos import _column
-
     width = _BV_COLUMNS["bv"][1]
     raw = parse.records(Path(path).read_bytes(), width)
     raw = np.ascontiguousarray(raw[~parse.blank_rows(raw), :width])
@@ -27,8 +26,6 @@ def _parse_bv(path: Path) -> dict[str, np.ndarray]:
 
 def hipparcos_bv() -> tuple[np.ndarray, np.ndarray]:
     """(HIP numbers ascending, their B-V) from the Hipparcos-2 catalog, cached."""
-    from startrack.sky.hipparcos import catalog_file
-
     arrays = cached_parse("hipparcos_bv", catalog_file(), FORMAT_VERSION, _parse_bv)
     order = np.argsort(arrays["hip"], kind="stable")
     return arrays["hip"][order], arrays["bv"][order]

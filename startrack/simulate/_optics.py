@@ -22,12 +22,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from startrack.camera._model import Camera
 from startrack.simulate._effect_table import changed, choice, curve, number
 from startrack.validate import Bounds
+
+if TYPE_CHECKING:  # the camera loads the compiled core: not for `--help`
+    from startrack.camera._model import Camera
 
 PSF_MODELS = ("gaussian", "airy", "defocus")
 VIGNETTING = ("none", "cos4", "profile")

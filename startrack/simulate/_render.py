@@ -188,6 +188,7 @@ def render_frame(scene: Scene, camera: Camera, sensor: SensorModel, rng: np.rand
         expected = render_expected(scene, camera, sensor, angular_rate_dps=angular_rate_dps,
                                    blur_steps=blur_steps)
         return digitise(expected, sensor, rng)
+    # the effects' renderer (scipy rotations, the effect kernels): when an effect is on
     from startrack.simulate._render_effects import digitise_field, expected_with_effects
 
     if effects_rng is None:

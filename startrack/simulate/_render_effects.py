@@ -11,10 +11,14 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+from scipy.special import ndtri
 
 from startrack._core import effects as ek
+from startrack._core import render as rk
 from startrack.camera._model import Camera
+from startrack.simulate import _noise
 from startrack.simulate._effects import Effects
+from startrack.simulate._render import deposit_gaussians, digitise, readout_chain
 from startrack.simulate._scene import Scene
 from startrack.simulate._sensor import SensorModel
 
@@ -46,8 +50,6 @@ def _tracks(scene: Scene, camera: Camera, effects: Effects, rate_dps, exposure_s
 
 def _deposit(image: np.ndarray, camera: Camera, effects: Effects, x, y, electrons,
              sigma: float) -> None:
-    from startrack.simulate._render import deposit_gaussians
-
     optics = effects.optics
     if not optics.shaped:
         deposit_gaussians(image, x, y, electrons, sigma)
@@ -65,10 +67,10 @@ def _stamps(image: np.ndarray, s: dict) -> None:
     # ~1% per pixel and exact in total, as every spot is normalised)
     sharp = np.minimum(s["a"], s["b"]) < 1.0
     oversample = np.where(sharp | ((s["model"] == 1) & (s["a"] < 3.0)), _OVERSAMPLE, 2)
-    ek.deposit_spots(image, *(np.ascontiguousarray(s[k], np.float64)
-                              for k in ("x", "y", "electrons")),
+    table = np.column_stack([np.asarray(s[k], np.float64) for k in
+                             ("x", "y", "electrons", "a", "b", "cos", "sin")])
+    ek.deposit_spots(image, np.ascontiguousarray(table),
                      np.ascontiguousarray(s["model"], np.int32),
-                     *(np.ascontiguousarray(s[k], np.float64) for k in ("a", "b", "cos", "sin")),
                      np.ascontiguousarray(half, np.int64),
                      np.ascontiguousarray(oversample, np.int32))
 
@@ -152,8 +154,9 @@ def expected_with_effects(scene: Scene, camera: Camera, sensor: SensorModel, eff
         np.add.at(image, (row[ok], col[ok]), sensor.electrons_from_mag(scene.mag[hot])[ok])
     rows, cols, charge = env.cosmic_hits(camera, sensor.exposure_s, rng)
     np.add.at(image, (rows, cols), charge)
-    if det.blooming:
-        ek.bloom_columns(image, float(sensor.full_well))
+    if det.blooming:  # only the columns with an overflowing pixel (row-major search)
+        columns = np.flatnonzero(image.max(axis=0) > sensor.full_well).astype(np.int64)
+        ek.bloom_columns(image, float(sensor.full_well), columns)
     return image
 
 
@@ -161,8 +164,6 @@ def expected_with_effects(scene: Scene, camera: Camera, sensor: SensorModel, eff
 def _tables() -> tuple[np.ndarray, np.ndarray]:
     """The field read-out's tables: normal quantiles at 2^16 + 1 even probabilities (the
     two ends infinite: their cells are drawn exactly), and 1 / k for k < 64."""
-    from scipy.special import ndtri
-
     quantiles = ndtri(np.linspace(0.0, 1.0, 2**16 + 1))
     reciprocal = 1.0 / np.maximum(np.arange(64, dtype=np.float64), 1.0)
     return quantiles, reciprocal
@@ -176,19 +177,15 @@ def digitise_field(expected: np.ndarray, sensor: SensorModel, rng: np.random.Gen
     (:func:`startrack._core.effects.field_pixels`: exact Poisson below 1000 e-, Gaussian of
     the same mean and variance above, as the default chain). Every draw comes from
     ``rng``."""
-    from startrack._core import render as rk
-    from startrack.simulate import _noise
-    from startrack.simulate._render import digitise, readout_chain
-
     flat = np.ascontiguousarray(expected, dtype=np.float64).ravel()
     if _noise.flat_value(flat) is not None:
         return digitise(expected, sensor, rng, nonlinearity)
     out = np.empty(flat.shape, np.uint16)
     state = rng.integers(1, 2**63, size=4, dtype=np.int64).astype(np.uint64)
     chain = readout_chain(sensor, nonlinearity)
-    ek.field_pixels(flat, state, chain.full_well, chain.read_noise, chain.gain, chain.bias,
-                    chain.adc_max, chain.nonlinearity, out, float(rk.GAUSS_ABOVE),
-                    *_tables())
+    constants = np.array([chain.full_well, chain.read_noise, chain.gain, chain.bias,
+                          chain.adc_max, chain.nonlinearity, rk.GAUSS_ABOVE])
+    ek.field_pixels(flat, state, constants, out, *_tables())
     return out.reshape(expected.shape)
 
 
