@@ -26,14 +26,15 @@ ctypedef fused real_t:
 
 cdef class Readout:
     """The read-out chain of a pixel: full-well clip (electrons), read noise (electrons
-    rms), gain (electrons per ADU), bias (ADU) and the ADC's largest value (ADU)."""
+    rms), gain (electrons per ADU), bias (ADU), the ADC's largest value (ADU) and its
+    non-linearity (the signal ``e`` reads as ``e (1 - nonlinearity e / full_well)``)."""
 
-    cdef readonly double full_well, read_noise, gain, bias, adc_max
+    cdef readonly double full_well, read_noise, gain, bias, adc_max, nonlinearity
 
     def __init__(self, double full_well, double read_noise, double gain, double bias,
-                 double adc_max):
+                 double adc_max, double nonlinearity=0.0):
         self.full_well, self.read_noise, self.gain = full_well, read_noise, gain
-        self.bias, self.adc_max = bias, adc_max
+        self.bias, self.adc_max, self.nonlinearity = bias, adc_max, nonlinearity
 
 
 cdef long _poisson_inverse(double lam, double p0, double u) noexcept nogil:
@@ -71,7 +72,10 @@ def readout(const float[::1] electrons, const float[::1] normal, Readout chain,
     cdef double e, adu
     with nogil:
         for i in range(electrons.shape[0]):
-            e = min(<double>electrons[i], chain.full_well) + chain.read_noise * normal[i]
+            e = min(<double>electrons[i], chain.full_well)
+            if chain.nonlinearity != 0.0:
+                e = e * (1.0 - chain.nonlinearity * e / chain.full_well)
+            e = e + chain.read_noise * normal[i]
             adu = rint(e / chain.gain + chain.bias)
             out[where[i]] = <uint16_t>min(max(adu, 0.0), chain.adc_max)
 

@@ -1,4 +1,5 @@
-"""The condition grid of a comparison: noise, false-star, dropout and camera-error levels.
+"""The condition grid of a comparison: noise, false-star, dropout, camera-error and
+sensor/space-effect levels.
 
 A condition fixes every variable. The default "one-at-a-time" design sweeps one variable
 while the others stay at the base condition (the first value of each list), which keeps a
@@ -12,15 +13,19 @@ import math
 from dataclasses import asdict, dataclass
 
 from startrack.errors import InputError
+from startrack.simulate._detector import REFERENCE_C
 
 #: where a frame's centroids come from: the scene's, or extracted from its rendered image
 SOURCES = ("centroids", "images")
 
 # The swept variables, in column order; each is a field of Condition.
 VARIABLES = ("noise_px", "false_stars", "missing", "mag_noise", "fov_error", "distortion_k1",
-             "modelled_k1")
-#: variables a caller may leave out of ``levels`` (the camera is then exact)
-OPTIONAL = {"fov_error": (0.0,), "distortion_k1": (0.0,), "modelled_k1": (0.0,)}
+             "modelled_k1", "cosmic_rays", "stray_light", "temperature_c")
+#: the effect variables: they act on rendered pixels (``--from images``) only
+EFFECT_VARIABLES = ("cosmic_rays", "stray_light", "temperature_c")
+#: variables a caller may leave out of ``levels`` (the camera is then exact, the effects off)
+OPTIONAL = {"fov_error": (0.0,), "distortion_k1": (0.0,), "modelled_k1": (0.0,),
+            "cosmic_rays": (0.0,), "stray_light": (0.0,), "temperature_c": (REFERENCE_C,)}
 GRIDS = ("oat", "full")
 
 
@@ -31,7 +36,10 @@ class Condition:
     camera: ``fov_error`` is the fractional error of the FOV the matcher is told (its
     camera has ``fov * (1 + fov_error)``); the frames are seen through a lens with radial
     distortion ``k1 = distortion_k1 + modelled_k1``, of which the matcher's camera carries
-    only ``modelled_k1`` (so ``distortion_k1`` is the part it does not know about)."""
+    only ``modelled_k1`` (so ``distortion_k1`` is the part it does not know about).
+    The effects (rendered frames only): cosmic-ray hits per cm^2 per s, stray light at
+    the field's centre in e-/px/s, and the detector temperature in C (the sensor's dark
+    current holds at 20 C and doubles every [detector] ``dark_doubling_c``)."""
 
     noise_px: float = 0.0
     false_stars: int = 0
@@ -40,9 +48,30 @@ class Condition:
     fov_error: float = 0.0
     distortion_k1: float = 0.0
     modelled_k1: float = 0.0
+    cosmic_rays: float = 0.0
+    stray_light: float = 0.0
+    temperature_c: float = REFERENCE_C
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+def is_default(variable: str, value: float) -> bool:
+    """True when ``value`` is the variable's off (default) level."""
+    return value == Condition.__dataclass_fields__[variable].default
+
+
+#: the variables past the first four that tables show when a run sets them, with their
+#: short column names
+EXTRA_COLUMNS = {"fov_error": "fov_err", "distortion_k1": "k1", "modelled_k1": "k1_mod",
+                 "cosmic_rays": "cosmic", "stray_light": "stray", "temperature_c": "temp_c"}
+
+
+def set_extras(table) -> list[tuple[str, str]]:
+    """(variable, short name) of the extra variables that ``table`` (a summary with a
+    column per variable) holds at a level other than their default."""
+    return [(var, short) for var, short in EXTRA_COLUMNS.items()
+            if var in table and not all(is_default(var, v) for v in table[var])]
 
 
 def parse_values(text: str, option: str, *, integer: bool = False, low: float = 0.0,
@@ -107,6 +136,6 @@ def sweep(conditions: list[Condition], variable: str) -> list[int]:
     return sorted(picked, key=lambda k: getattr(conditions[k], variable))
 
 __all__ = [
-    "Condition", "GRIDS", "OPTIONAL", "SOURCES", "VARIABLES", "base_condition",
-    "build_conditions", "parse_values", "sweep",
+    "Condition", "EFFECT_VARIABLES", "EXTRA_COLUMNS", "GRIDS", "OPTIONAL", "SOURCES", "VARIABLES",
+    "base_condition", "build_conditions", "is_default", "parse_values", "set_extras", "sweep",
 ]

@@ -28,13 +28,14 @@ from startrack.bench.conditions import SOURCES, Condition
 from startrack.camera._distortion import RadialDistortion
 from startrack.camera._model import Camera
 from startrack.centroids._table import DEFAULT_SIGMA_PX
+from startrack.simulate._effects import Effects
 from startrack.simulate._scene import Scene, add_false_stars, observe, stars_in_view
 from startrack.simulate._sensor import SensorModel
 from startrack.sky import Catalog
 from startrack.types import Observation
 
 # Stream purposes: changing one never changes another's draws.
-_ATTITUDE, _SCENE, _FALSE, _NOISE, _PIXELS = range(5)
+_ATTITUDE, _SCENE, _FALSE, _NOISE, _PIXELS, _EFFECTS = range(6)
 # The sigma the matcher is told for exact centroids (a zero tolerance would be unusable).
 SIGMA_FLOOR_PX = 0.05
 # An extracted centroid this close to a scene star is that star (for scoring only).
@@ -103,15 +104,24 @@ def frame_scene(catalog: Catalog, camera: Camera, condition: Condition, seed: in
     return scene, rows_in_view
 
 
+def frame_effects(effects: Effects | None, condition: Condition) -> Effects:
+    """The run's effects (its config's tables) at ``condition``'s effect levels."""
+    return (effects or Effects()).with_levels(
+        cosmic_rays=condition.cosmic_rays, stray_light=condition.stray_light,
+        temperature_c=condition.temperature_c)
+
+
 def make_frame(catalog: Catalog, camera: Camera, condition: Condition, seed: int,
                index: int, *, source: str = "centroids", sensor: SensorModel | None = None,
-               hot_pixel_fraction: float = 0.5) -> BenchFrame:
+               hot_pixel_fraction: float = 0.5, effects: Effects | None = None) -> BenchFrame:
     """Frame ``index`` of a run under ``condition``, as observed stars brightest first.
 
     ``source="centroids"``: the true positions plus Gaussian noise of ``noise_px``.
     ``source="images"``: the frame is rendered with ``sensor`` and the centroids are
     extracted from the pixels (the noise then comes from the sensor; ``noise_px`` is
-    ignored). The observation carries :func:`matcher_camera`.
+    ignored), with ``effects`` at the condition's levels (:func:`frame_effects`; their
+    randomness has its own stream, so the pixel noise is the same at every level). The
+    observation carries :func:`matcher_camera`.
     """
     seen = true_camera(camera, condition)
     scene, rows_in_view = frame_scene(catalog, seen, condition, seed, index,
@@ -121,7 +131,7 @@ def make_frame(catalog: Catalog, camera: Camera, condition: Condition, seed: int
         return _from_centroids(scene, rows_in_view, told, condition, seed, index)
     if source == "images":
         return _from_image(scene, rows_in_view, seen, told, sensor or SensorModel(), seed,
-                           index)
+                           index, frame_effects(effects, condition))
     raise ValueError(f"source must be one of {SOURCES}, got {source!r}")
 
 
@@ -143,11 +153,13 @@ def _from_centroids(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
 
 
 def _from_image(scene: Scene, rows_in_view: np.ndarray, camera: Camera, told: Camera,
-                sensor: SensorModel, seed: int, index: int) -> BenchFrame:
+                sensor: SensorModel, seed: int, index: int,
+                effects: Effects | None = None) -> BenchFrame:
     from startrack.centroids._extract import extract_centroids
     from startrack.simulate._render import render_frame
 
-    image = render_frame(scene, camera, sensor, _rng(seed, index, _PIXELS))
+    image = render_frame(scene, camera, sensor, _rng(seed, index, _PIXELS), effects=effects,
+                         effects_rng=_rng(seed, index, _EFFECTS))
     t0 = time.perf_counter()
     found = extract_centroids(image)
     centroid_ms = (time.perf_counter() - t0) * 1000.0
@@ -170,6 +182,7 @@ def label_spots(x: np.ndarray, y: np.ndarray, star_x: np.ndarray, star_y: np.nda
     return truth
 
 __all__ = [
-    "BenchFrame", "SIGMA_FLOOR_PX", "TRUTH_RADIUS_PX", "frame_attitude", "frame_scene",
+    "BenchFrame", "SIGMA_FLOOR_PX", "TRUTH_RADIUS_PX", "frame_attitude", "frame_effects",
+    "frame_scene",
     "label_spots", "make_frame", "matcher_camera", "true_camera",
 ]

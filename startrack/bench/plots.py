@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from startrack.bench.conditions import VARIABLES, Condition, sweep
+from startrack.bench.conditions import VARIABLES, Condition, is_default, sweep
 from startrack.bench.stats import wilson
 from startrack.io._writer import atomic_path
 
@@ -26,10 +26,14 @@ LABELS = {
     "fov_error": "FOV error told to the method (fraction)",
     "distortion_k1": "lens distortion k1, not modelled",
     "modelled_k1": "lens distortion k1, modelled",
+    "cosmic_rays": "cosmic rays (hits / cm^2 / s)",
+    "stray_light": "stray light at the centre (e- / px / s)",
+    "temperature_c": "detector temperature (C)",
 }
 SHORT = {"noise_px": "noise px", "false_stars": "false stars", "missing": "missing",
          "mag_noise": "mag noise", "fov_error": "FOV error", "distortion_k1": "k1 unmodelled",
-         "modelled_k1": "k1 modelled"}
+         "modelled_k1": "k1 modelled", "cosmic_rays": "cosmic rays", "stray_light": "stray light",
+         "temperature_c": "temperature C"}
 #: variables a plot names as held even at zero
 ALWAYS_SHOWN = ("noise_px", "false_stars", "missing")
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
@@ -105,7 +109,7 @@ def held_text(conditions: list[Condition], varied: tuple[str, ...]) -> str:
         if var in varied:
             continue
         values = {getattr(c, var) for c in conditions}
-        if var in ALWAYS_SHOWN or values != {0.0}:
+        if var in ALWAYS_SHOWN or any(not is_default(var, v) for v in values):
             parts.append(f"{SHORT[var]} {getattr(base, var):g}")
     return "held: " + ", ".join(parts) if parts else ""
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from startrack.bench.conditions import VARIABLES
+from startrack.bench.conditions import EXTRA_COLUMNS, VARIABLES, is_default
 from startrack.bench.plots import SHORT, wilson
 from startrack.bench.report_run import (
     HOW_TO_READ,
@@ -115,9 +115,10 @@ def _pair(median: float, p95: float) -> str:
 
 
 def condition_columns(summary: pd.DataFrame) -> list[str]:
-    """The swept variables a table shows: the first four always, the others where set."""
+    """The swept variables a table shows: the first four always, the others (the camera's
+    and the sensor and space effects) where a level is not their default."""
     return [v for v in VARIABLES if v in summary and (
-        v in VARIABLES[:4] or (summary[v].astype(float) != 0).any())]
+        v in VARIABLES[:4] or not all(is_default(v, x) for x in summary[v]))]
 
 
 def summary_table(summary: pd.DataFrame) -> str:
@@ -128,7 +129,7 @@ def summary_table(summary: pd.DataFrame) -> str:
     Built here rather than by ``DataFrame.to_markdown``: that needs ``tabulate`` (not a
     dependency) for a table whose cells are formatted strings anyway."""
     variables = condition_columns(summary)
-    head = ("| cond | " + " | ".join(SHORT.get(v, v) for v in variables)
+    head = ("| cond | " + " | ".join(SHORT.get(v) or EXTRA_COLUMNS.get(v, v) for v in variables)
             + " | method | frames | solved [95% CI] | correct [95% CI] | wrong [95% CI] | "
             "threshold arcsec | boresight error arcsec (median / p95) | roll error arcsec "
             "(median / p95) | total error arcsec (median / p95) | star precision | "

@@ -23,6 +23,7 @@ from startrack.bench.frames import make_frame
 from startrack.bench.metrics import FrameScore, score_frame
 from startrack.camera._model import Camera
 from startrack.errors import InputError
+from startrack.simulate._effects import Effects
 from startrack.simulate._sensor import SensorModel
 from startrack.sky import SkySpec
 
@@ -52,9 +53,13 @@ class RunSpec:
     extra_stars: int | None = None  # None: the matchers' default (MatcherConfig)
     hot_pixel_fraction: float = 0.5
     threshold_arcsec: float = 60.0
+    effects: Effects = field(default_factory=Effects)  # the config's; conditions set levels
 
     def to_json(self) -> dict:
-        """The run's identity, as stored in run.json and compared on resume."""
+        """The run's identity, as stored in run.json and compared on resume (the effects
+        only when a config turns one on: a run without them keeps its identity)."""
+        effects = ({"effects": self.effects.to_dict()}
+                   if self.source == "images" and not self.effects.is_off else {})
         return {
             "methods": list(self.methods),
             "conditions": [c.to_dict() for c in self.conditions],
@@ -66,6 +71,7 @@ class RunSpec:
                        "f_px": self.camera.f_px, "cx": self.camera.cx, "cy": self.camera.cy},
             "sky": self.sky.to_dict(),
             "sensor": self.sensor.to_dict() if self.source == "images" else None,
+            **effects,
         }
 
     def units(self) -> list[tuple[int, int]]:
@@ -126,7 +132,7 @@ def load_bench(spec: RunSpec) -> LoadedBench:
             if spec.source == "images":  # the extraction's kernels, before it is timed
                 make_frame(catalog, spec.camera, spec.conditions[0], spec.seed, 0,
                            source=spec.source, sensor=spec.sensor,
-                           hot_pixel_fraction=spec.hot_pixel_fraction)
+                           hot_pixel_fraction=spec.hot_pixel_fraction, effects=spec.effects)
             _LOADED[key] = LoadedBench(spec, identifiers, seconds)
         return _LOADED[key]
 
@@ -138,7 +144,7 @@ def bench_frame(spec: RunSpec, condition_index: int, frame: int):
     some = bench.identifiers[spec.methods[0]]
     bf = make_frame(some.catalog, spec.camera, condition, spec.seed, frame,
                     source=spec.source, sensor=spec.sensor,
-                    hot_pixel_fraction=spec.hot_pixel_fraction)
+                    hot_pixel_fraction=spec.hot_pixel_fraction, effects=spec.effects)
     return bench, condition, bf
 
 

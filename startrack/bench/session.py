@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from startrack.bench.conditions import VARIABLES
+from startrack.bench.conditions import VARIABLES, set_extras
 from startrack.bench.metrics import summarise
 from startrack.bench.plots import plot_sweeps
 from startrack.bench.report_run import lost_in_space_description, machine_load
@@ -197,9 +197,7 @@ def format_table(summary: pd.DataFrame) -> str:
         "false": summary["false_stars"],
         "miss": summary["missing"].map("{:g}".format),
         "magn": summary["mag_noise"].map("{:g}".format),
-        **{short: summary[var].map("{:g}".format) for var, short in
-           (("fov_error", "fov_err"), ("distortion_k1", "k1"), ("modelled_k1", "k1_mod"))
-           if var in summary and (summary[var] != 0).any()},
+        **{short: summary[var].map("{:g}".format) for var, short in set_extras(summary)},
         "method": summary["method"],
         "n": summary["frames"],
         "solved": summary["solved_rate"].map("{:.1%}".format),

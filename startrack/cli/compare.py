@@ -23,6 +23,7 @@ from startrack.cli._compare_modes import (
     run_folder,
     tracking_run,
 )
+from startrack.cli.effect_options import effect_levels_options
 from startrack.cli.options import SKY_HELP, SKY_NAME, Number, index_dir_option, notes, verbosity
 from startrack.errors import InputError
 from startrack.validate import (
@@ -60,6 +61,25 @@ def parse_methods(text: str) -> tuple[str, ...]:
     for name in names:
         get_matcher(name)  # raises InputError naming the choices
     return tuple(names)
+
+
+def _effect_levels(given: tuple, effects, source: str) -> dict[str, tuple]:
+    """The effect axes' levels from the options' texts (``given``, in EFFECT_OPTIONS'
+    order), else the config's one level; an effect needs rendered frames."""
+    from startrack.bench.conditions import is_default, parse_values
+    from startrack.cli.effect_options import EFFECT_OPTIONS, effect_bounds
+
+    config = {"cosmic_rays": effects.environment.cosmic_rays,
+              "stray_light": effects.environment.stray_light,
+              "temperature_c": effects.detector.temperature_c}
+    levels = {}
+    for (option, param, *_), text in zip(EFFECT_OPTIONS, given, strict=True):
+        bounds = effect_bounds(param)
+        levels[param] = (parse_values(text, option, low=bounds.low, high=bounds.high)
+                         if text is not None else (config[param],))
+        if source != "images" and any(not is_default(param, v) for v in levels[param]):
+            raise InputError(f"{option} acts on rendered frames: give --from images")
+    return levels
 
 
 def _levels(noise_px, false_stars, missing, mag_noise, source: str,
@@ -181,14 +201,16 @@ def _workers(jobs: int | None) -> int:
               help="Run every method on this folder's frames (images or centroid CSVs) "
               "instead of generated ones, scored against its truth.csv, stars.csv and "
               "sidecars (the format simulate writes); the levels options do not apply.")
+@effect_levels_options
 @verbosity
 def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars, missing,
             mag_noise, fov_error, distortion_k1, modelled_k1, grid, max_stars, source,
             threshold_arcsec, jobs, scheduler, out_dir, seed, resume, overwrite, mode, rates,
-            fps, replay, frames_dir, quiet, verbose) -> None:
+            fps, replay, frames_dir, cosmic_rays, stray_light, temperature_c, quiet,
+            verbose) -> None:
     """Compare identification methods on the same frames (random ones, or --frames-dir)
-    under centroid noise, false and missing stars and a wrong camera (FOV error,
-    distortion).
+    under centroid noise, false and missing stars, a wrong camera (FOV error, distortion)
+    and, on rendered frames, sensor and space effects (docs/simulation.md).
 
     Writes frames.csv, summary.csv, db.csv, plots and report.md in --out; their columns
     and the other conventions are in docs/conventions.md. Progress goes to stderr: a bar
@@ -215,7 +237,8 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
                      dict(resume=resume, overwrite=overwrite, inputs=inputs))
         return started()
     levels = _levels(noise_px, false_stars, missing, mag_noise, source, dict(
-        fov_error=fov_error, distortion_k1=distortion_k1, modelled_k1=modelled_k1))
+        fov_error=fov_error, distortion_k1=distortion_k1, modelled_k1=modelled_k1)) | \
+        _effect_levels((cosmic_rays, stray_light, temperature_c), cfg.effects, source)
     spec = _run_spec(cfg, spec_sky, names, levels, grid, frames, seed, source, max_stars,
                      threshold_arcsec)
     if replay is not None:
@@ -259,7 +282,8 @@ def _run_spec(cfg, spec_sky, names, levels, grid, frames, seed, source, max_star
         methods=names, conditions=conditions, frames=frames,
         seed=cfg.frames.seed if seed is None else seed, camera=cfg.camera, sky=spec_sky,
         sensor=cfg.sensor, source=source, grid=grid, max_stars=max_stars,
-        hot_pixel_fraction=cfg.frames.hot_pixel_fraction, threshold_arcsec=threshold_arcsec)
+        hot_pixel_fraction=cfg.frames.hot_pixel_fraction, threshold_arcsec=threshold_arcsec,
+        effects=cfg.effects)
 
 __all__ = [
     "DEFAULT_FRAMES", "DEFAULT_LEVELS", "DEFAULT_METHODS", "DEFAULT_OUT", "MAX_UNITS",

@@ -11,6 +11,7 @@ import click
 import numpy as np
 
 from startrack.cli import Terminated, main
+from startrack.cli.effect_options import effect_options
 from startrack.cli.options import (
     SKY_HELP,
     SKY_NAME,
@@ -81,14 +82,17 @@ SIMULATE_OUTPUTS = r"truth\.csv|stars\.csv|frame_\d{4,}\.(png|fits|json)"
                    "and never replaced, and another command's run is refused.")
 @click.option("--time", "obs_time", help="Observation time, ISO 8601: stars are rendered "
               "where they appear from the moving Earth (annual aberration).")
+@effect_options
 @verbosity
 def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_stars,
              missing, mag_noise, rate, fps, profile_path, write_fits_too, camera_path,
-             overwrite, obs_time, quiet, verbose) -> None:
+             overwrite, obs_time, cosmic_rays, stray_light, temperature_c, quiet,
+             verbose) -> None:
     """Render frames of a sky, with truth.csv, stars.csv and a JSON sidecar per frame.
     --out must be empty or new (or give --overwrite); frames are at most
     STARTRACK_MAX_IMAGE_PIXELS (default 8192 x 8192).
-    Conventions (pixels, attitude, sidecar units): docs/conventions.md."""
+    Conventions (pixels, attitude, sidecar units): docs/conventions.md; the optics,
+    detector and space effects (config tables, the options below): docs/simulation.md."""
     # scipy.spatial (startrack.sky, its rotations) loads only when the command runs.
     from startrack.simulate._config import DEFAULT_CONFIG, config_from_dict, load_config
     from startrack.sky import load_sky, resolve_sky, with_sky
@@ -125,7 +129,9 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
     try:
         with folder:
             _run(camera, catalog, spec, cfg.sensor, opts, folder, attitude, write_fits_too,
-                 trajectory, obs_time, quiet, notes(quiet, verbose)[1])
+                 trajectory, obs_time, quiet, notes(quiet, verbose)[1],
+                 cfg.effects.with_levels(cosmic_rays=cosmic_rays, stray_light=stray_light,
+                                         temperature_c=temperature_c))
     except InputError:
         raise
     except OSError as exc:  # every file is atomic, so nothing half-written is left behind
@@ -136,7 +142,8 @@ def simulate(config_path, sky, mag_limit, count, seed, out_dir, attitude, false_
 
 def _run(camera: Camera, catalog, spec: SkySpec, sensor: SensorModel, opts: FrameOptions,
          folder: RunFolder, attitude: tuple[float, float, float] | None, with_fits: bool,
-         trajectory=None, obs_time=None, quiet: bool = False, detail=None) -> int:
+         trajectory=None, obs_time=None, quiet: bool = False, detail=None,
+         effects=None) -> int:
     """Render the frames one at a time, each written as soon as it is made, its rows
     appended to truth.csv and stars.csv (which appear, complete, at the end). Stopped by
     SIGINT or SIGTERM, the frames written so far are kept and listed; the frame in the
@@ -148,7 +155,7 @@ def _run(camera: Camera, catalog, spec: SkySpec, sensor: SensorModel, opts: Fram
     folder.remove_earlier()  # an earlier run's frames must not outlive it (--overwrite)
     out = folder.out
     frame = FrameWriter(camera, spec, sensor, opts, out, attitude, with_fits, trajectory,
-                        obs_time, catalog)
+                        obs_time, catalog, effects)
     done = 0
     stopped: BaseException | None = None
     with atomic_text(out / "truth.csv") as truth_fh, atomic_text(out / "stars.csv") as stars_fh:

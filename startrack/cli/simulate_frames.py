@@ -21,12 +21,18 @@ class FrameWriter:
     """Renders and writes frame i (image, FITS, sidecar) and gives its CSV rows."""
 
     def __init__(self, camera, spec, sensor, opts, out, attitude, with_fits, trajectory,
-                 obs_time, catalog) -> None:
+                 obs_time, catalog, effects=None) -> None:
         from startrack.attitude import from_radec_roll
 
         self.camera, self.spec, self.sensor, self.opts = camera, spec, sensor, opts
         self.out, self.with_fits, self.trajectory = out, with_fits, trajectory
         self.catalog = catalog
+        self.effects = effects
+        self.bv = None  # the catalog's colours, when the band model needs them
+        if effects is not None and not effects.band.is_off:
+            from startrack.simulate._colour_catalog import catalog_bv
+
+            self.bv = catalog_bv(catalog)
         self.when = None if obs_time is None else obs_time.utc.isot
         self.fixed = from_radec_roll(*attitude) if attitude is not None else None
         self._block: tuple[int, object] | None = None
@@ -70,7 +76,12 @@ class FrameWriter:
         scene = observe(self.catalog, camera, rotation, rng, missing=opts.missing,
                         false_stars=opts.false_stars, mag_noise=opts.mag_noise,
                         hot_pixel_fraction=opts.hot_pixel_fraction)
-        image = render_frame(scene, camera, sensor, rng, angular_rate_dps=rate_dps)
+        # the effects' own stream: the frame's pixel noise is the same with or without them
+        image = render_frame(scene, camera, sensor, rng, angular_rate_dps=rate_dps,
+                             effects=self.effects,
+                             effects_rng=np.random.default_rng([opts.seed, i, 1]),
+                             bv=None if self.bv is None else np.where(
+                                 scene.catalog_row >= 0, self.bv[scene.catalog_row], np.nan))
         png, *_, sidecar_path = self.files(i)
         written: list[Path] = []
         self._partial = (i, written)
@@ -93,6 +104,8 @@ class FrameWriter:
             "frames": {"missing": opts.missing, "false_stars": opts.false_stars,
                        "mag_noise": opts.mag_noise, "rate_dps": rate_dps},
         }
+        if self.effects is not None and not self.effects.is_off:
+            sidecar["effects"] = self.effects.to_dict()
         if self.trajectory is not None:
             sidecar["time_s"] = float(i / self.trajectory.fps)
         with atomic_text(sidecar_path) as fh:

@@ -1,16 +1,19 @@
-"""Simulation configs: the TOML presets in configs/ ([camera], [sky], [sensor], [frames])."""
+"""Simulation configs: the TOML presets in configs/ ([camera], [sky], [sensor], [frames],
+and the effects: [optics], [detector], [environment])."""
 
 from __future__ import annotations
 
 import dataclasses
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from startrack.camera._file import camera_from_dict
 from startrack.camera._model import Camera
 from startrack.errors import InputError
 from startrack.io._resources import resource_path
+from startrack.simulate._effects import TABLES as EFFECT_TABLES
+from startrack.simulate._effects import Effects, effects_from_dict
 from startrack.simulate._sensor import SensorModel, sensor_from_dict
 from startrack.sky import SkySpec
 from startrack.validate import (
@@ -24,7 +27,7 @@ from startrack.validate import (
     check_number,
 )
 
-TABLES = ("camera", "sky", "sensor", "frames")
+TABLES = ("camera", "sky", "sensor", "frames", *EFFECT_TABLES)
 
 
 @dataclass(frozen=True)
@@ -46,6 +49,7 @@ class SimConfig:
     sky: SkySpec
     sensor: SensorModel
     frames: FrameOptions
+    effects: Effects = field(default_factory=Effects)
 
 
 # The 2011 paper's experiment (configs/paper2011.toml says the same).
@@ -86,6 +90,7 @@ def config_from_dict(data: dict, where: str = "config") -> SimConfig:
         sky=SkySpec.from_dict(data.get("sky", DEFAULT_CONFIG["sky"]), f"{where} [sky]"),
         sensor=sensor_from_dict(data.get("sensor", {}), where=f"{where} [sensor]"),
         frames=_frames_from_dict(data.get("frames", {}), f"{where} [frames]"),
+        effects=effects_from_dict(data, where),
     )
 
 

@@ -33,14 +33,18 @@ def flat_value(expected: np.ndarray) -> float | None:
 
 
 def adu_table(lam: float, full_well: float, read_noise: float, gain: float, bias: float,
-              adc_max: float) -> tuple[np.ndarray, np.ndarray, int] | None:
+              adc_max: float, nonlinearity: float = 0.0
+              ) -> tuple[np.ndarray, np.ndarray, int] | None:
     """CDF over ADU values a0, a0 + 1, ... of a pixel expecting ``lam`` electrons, its
-    guide table and a0; None when the table would be too large to pay off."""
+    guide table and a0; None when the table would be too large to pay off.
+    ``nonlinearity``: the ADC's compression at full well (startrack._core.render.Readout)."""
     lam = max(lam, 0.0)
     spread = 12.0 * math.sqrt(lam) + 30.0  # Poisson mass beyond: < 1e-30
     k = np.arange(max(0, math.floor(lam - spread)), math.ceil(lam + spread) + 1)
     weight = np.exp(k * math.log(lam) - lam - gammaln(k + 1.0)) if lam > 0 else (k == 0) * 1.0
     e = np.minimum(k, full_well).astype(np.float64)
+    if nonlinearity:
+        e = e * (1.0 - nonlinearity * e / full_well)
     if read_noise > 0:
         half = math.ceil(_TAIL_SIGMA * read_noise / gain) + 2
         if len(k) * (2 * half + 1) > _MAX_TERMS:

@@ -11,6 +11,7 @@ from scipy.special import erf
 from startrack._core import render as rk
 from startrack.camera._model import Camera
 from startrack.simulate import _noise as render_noise
+from startrack.simulate._effects import Effects
 from startrack.simulate._scene import Scene
 from startrack.simulate._sensor import SensorModel
 
@@ -112,32 +113,35 @@ def render_expected(scene: Scene, camera: Camera, sensor: SensorModel, *,
     return image
 
 
-def digitise(expected: np.ndarray, sensor: SensorModel, rng: np.random.Generator) -> np.ndarray:
+def digitise(expected: np.ndarray, sensor: SensorModel, rng: np.random.Generator,
+             nonlinearity: float = 0.0) -> np.ndarray:
     """Shot noise, full-well clip, read noise, gain, bias and ADC: electrons to counts.
 
     Pixels at the frame's common sky value draw their count from its exact distribution
     (``render_noise.adu_table``, one compiled uniform draw each); for the others shot noise is exact
     Poisson up to ``startrack._core.render.GAUSS_ABOVE`` expected electrons and Gaussian (same
     mean and variance) above, plus Gaussian read noise. Every draw comes from ``rng``.
+    ``nonlinearity``: the ADC's compression at full well (0: linear).
     """
     expected = np.asarray(expected)
     if expected.dtype not in (np.float32, np.float64):
         expected = expected.astype(np.float64)
     flat = np.ascontiguousarray(expected).ravel()
     out = np.empty(flat.shape, np.uint16)
-    chain = readout_chain(sensor)
+    chain = readout_chain(sensor, nonlinearity)
     lam = render_noise.flat_value(flat)
     table = None if lam is None else render_noise.adu_table(
-        lam, chain.full_well, chain.read_noise, chain.gain, chain.bias, chain.adc_max)
+        lam, chain.full_well, chain.read_noise, chain.gain, chain.bias, chain.adc_max,
+        chain.nonlinearity)
     others = np.arange(flat.size) if table is None else _sky_pixels(flat, lam, table, rng, out)
     _pixel_chain(flat[others], others, chain, rng, out)
     return out.reshape(expected.shape)
 
 
-def readout_chain(sensor: SensorModel) -> rk.Readout:
+def readout_chain(sensor: SensorModel, nonlinearity: float = 0.0) -> rk.Readout:
     """The sensor's read-out constants as the compiled noise kernels take them."""
     return rk.Readout(float(sensor.full_well), float(sensor.read_noise), float(sensor.gain),
-                      float(sensor.bias_adu), float(sensor.adc_max))
+                      float(sensor.bias_adu), float(sensor.adc_max), float(nonlinearity))
 
 
 _CHUNK = 1 << 18  # pixels per call: the index scratch stays small whatever the frame
@@ -171,8 +175,25 @@ def _pixel_chain(lam, where, chain, rng, out) -> None:
 
 def render_frame(scene: Scene, camera: Camera, sensor: SensorModel, rng: np.random.Generator,
                  *, angular_rate_dps: tuple[float, float, float] | None = None,
-                 blur_steps: int = 8) -> np.ndarray:
-    """A noisy frame (uint16, H x W) of the scene as the sensor reads it out."""
-    expected = render_expected(scene, camera, sensor, angular_rate_dps=angular_rate_dps,
-                               blur_steps=blur_steps)
-    return digitise(expected, sensor, rng)
+                 blur_steps: int = 8, effects: Effects | None = None,
+                 effects_rng: np.random.Generator | None = None,
+                 bv: np.ndarray | None = None) -> np.ndarray:
+    """A noisy frame (uint16, H x W) of the scene as the sensor reads it out.
+
+    ``effects`` (optics, band, detector, environment; none by default) draw their
+    randomness from ``effects_rng`` (default: a stream of ``rng``'s), never from ``rng``
+    itself, so a frame's pixel noise is the same with and without them. ``bv``: each
+    scene star's B-V colour for the [band] model (NaN or None: a Sun-like star)."""
+    if effects is None or effects.is_off:
+        expected = render_expected(scene, camera, sensor, angular_rate_dps=angular_rate_dps,
+                                   blur_steps=blur_steps)
+        return digitise(expected, sensor, rng)
+    # the effects' renderer (scipy rotations, the effect kernels): when an effect is on
+    from startrack.simulate._render_effects import digitise_field, expected_with_effects
+
+    if effects_rng is None:
+        effects_rng = np.random.default_rng(rng.bit_generator.seed_seq.spawn(1)[0])
+    expected = expected_with_effects(scene, camera, sensor, effects, effects_rng,
+                                     angular_rate_dps=angular_rate_dps, blur_steps=blur_steps,
+                                     bv=bv)
+    return digitise_field(expected, sensor, rng, effects.detector.adc_nonlinearity)
