@@ -105,7 +105,8 @@ def save_tables(folder: Path, record: dict, tables: dict[str, pd.DataFrame],
     the record goes last, so a section is never stamped with tables it does not have."""
     folder.mkdir(parents=True, exist_ok=True)
     for name, table in tables.items():
-        table.to_csv(folder / f"{name}.csv", index=False, float_format="%.6g")
+        # ten digits: a number typed from a paper (108.4258) comes back as typed
+        table.to_csv(folder / f"{name}.csv", index=False, float_format="%.10g")
     save_run(folder, record, tables=sorted(tables), **extra)
 
 
@@ -258,8 +259,9 @@ def render(doc: Path = DOC) -> Path:
     """Write docs/results.md from every section's saved tables."""
     sys.path.insert(0, str(Path(__file__).parent))
     import _doc_papers
+    import _verdicts
 
-    parts = [_doc_papers.HEADER, _doc_papers.CLAIMS,
+    parts = [_doc_papers.TITLE, _verdicts.RULES, _doc_papers.HEADER, _doc_papers.CLAIMS,
              *(render_section(s) for s in SECTIONS), _doc_papers.LIMITS]
     text = "\n".join(p.rstrip("\n") + "\n" for p in parts)
     tmp = doc.with_suffix(".md.tmp")

@@ -52,6 +52,7 @@ class RunSpec:
     extra_stars: int | None = None  # None: the matchers' default (MatcherConfig)
     hot_pixel_fraction: float = 0.5
     threshold_arcsec: float = 60.0
+    false_mags: str = "uniform"  # startrack.bench.frames.FALSE_MAGS
 
     def to_json(self) -> dict:
         """The run's identity, as stored in run.json and compared on resume."""
@@ -62,6 +63,8 @@ class RunSpec:
             "grid": self.grid, "max_stars": self.max_stars, "extra_stars": self.extra_stars,
             "hot_pixel_fraction": self.hot_pixel_fraction,
             "threshold_arcsec": self.threshold_arcsec,
+            # named only when not the default, so that older runs still resume
+            **({"false_mags": self.false_mags} if self.false_mags != "uniform" else {}),
             "camera": {"width": self.camera.width, "height": self.camera.height,
                        "f_px": self.camera.f_px, "cx": self.camera.cx, "cy": self.camera.cy},
             "sky": self.sky.to_dict(),
@@ -126,7 +129,8 @@ def load_bench(spec: RunSpec) -> LoadedBench:
             if spec.source == "images":  # the extraction's kernels, before it is timed
                 make_frame(catalog, spec.camera, spec.conditions[0], spec.seed, 0,
                            source=spec.source, sensor=spec.sensor,
-                           hot_pixel_fraction=spec.hot_pixel_fraction)
+                           hot_pixel_fraction=spec.hot_pixel_fraction,
+                           false_mags=spec.false_mags)
             _LOADED[key] = LoadedBench(spec, identifiers, seconds)
         return _LOADED[key]
 
@@ -138,7 +142,8 @@ def bench_frame(spec: RunSpec, condition_index: int, frame: int):
     some = bench.identifiers[spec.methods[0]]
     bf = make_frame(some.catalog, spec.camera, condition, spec.seed, frame,
                     source=spec.source, sensor=spec.sensor,
-                    hot_pixel_fraction=spec.hot_pixel_fraction)
+                    hot_pixel_fraction=spec.hot_pixel_fraction,
+                    false_mags=spec.false_mags)
     return bench, condition, bf
 
 
