@@ -224,7 +224,10 @@ def size_note(command: str) -> str:
     if len(words) < 2 or not words[1].endswith(".py"):
         return ""
     sys.path.insert(0, str(Path(__file__).parent))
-    script = importlib.import_module(Path(words[1]).stem)
+    try:
+        script = importlib.import_module(Path(words[1]).stem)
+    except ImportError:  # not a script of this checkout: nothing to compare with
+        return ""
     given, full = script.parse_args(words[2:]), script.parse_args([])
     smaller = [f"`--{k.replace('_', '-')} {getattr(given, k)}` (full size "
                f"{getattr(full, k)})" for k in SIZE_OPTIONS
