@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint bench clean astrometry astrometry-ci
+.PHONY: demo test lint bench clean astrometry astrometry-ci results
 
 # The compiled core is built by the install: a changed kernel source reinstalls.
 $(STAMP): pyproject.toml setup.py $(wildcard startrack/_core/*.pyx startrack/_core/*.pxd startrack/_core/*.pxi)
@@ -31,6 +31,16 @@ test: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
+
+# Both papers' experiments re-run at the code as it is (docs/results.md, docs/data/), then
+# the README's roll-up of their verdicts. Full size unless told, e.g.
+# make results RADIAL_SIZE="--frames 250 --raw-frames 120 --label-frames 80"
+PAPER2011_SIZE ?=
+RADIAL_SIZE ?=
+results: $(STAMP)
+	$(BIN)/python scripts/paper2011.py --jobs 2 $(PAPER2011_SIZE)
+	$(BIN)/python scripts/radial_features.py --jobs 2 $(RADIAL_SIZE)
+	$(BIN)/python scripts/readme_results.py --papers-only
 
 # astrometry.net (the `astrometry` peer) and every Tycho-2 index file (the tycho2 sky),
 # from Debian's packages: about 190 MB to download, 300 MB installed. Needs root.

@@ -1,7 +1,14 @@
 """The fixed prose of docs/results.md: what the two papers say (their numbers, not ours)."""
 
-HEADER = """\
+TITLE = """\
 # Results: the two papers' comparisons, re-run on the startrack bench
+
+Every claim of the two papers below is quoted and judged by the rules of the next
+section, the same for both papers; the README's roll-up is made from the same verdicts.
+"""
+
+HEADER = """\
+## How this page is made
 
 This page is written by `scripts/_results_doc.py` from the small tables each paper's
 script saves in the repository under `docs/data/<section>/`, each with a `run.json` that
@@ -11,13 +18,17 @@ is always rebuilt from every section's saved tables, so re-running one paper's s
 leaves the other's section as it was. To regenerate it:
 
 ```
-.venv/bin/python scripts/paper2011.py --jobs 2      # --frames ...: run size
-.venv/bin/python scripts/radial_features.py --jobs 2 # --frames, --raw-frames, --label-frames
+make results                                        # both papers, then the README's roll-up
+make results RADIAL_SIZE="--frames 250 --raw-frames 120 --label-frames 80"  # a smaller run
 .venv/bin/python scripts/_results_doc.py            # re-render from the saved tables alone
 .venv/bin/python scripts/_results_doc.py --check    # exit 1: a section unsaved or stale
 ```
 
-Each section below gives the exact command, and so the frame counts, of the run shown.
+`make results` runs `scripts/paper2011.py --jobs 2` and `scripts/radial_features.py
+--jobs 2` at their full default sizes unless told a size, then
+`scripts/readme_results.py --papers-only`. Each section below gives the exact command,
+and so the frame counts, of the run shown, and the commit it ran at: a commit after it
+that changes `startrack/` makes the section stale for `--check`.
 
 The frames are the bench's deterministic frames (`startrack.bench.frames`): frame *i* is
 the same sky patch in every condition and every method sees the same frames. Each
@@ -26,8 +37,9 @@ script makes these measurements on them:
 * **verified** (`run_comparison`): the answer `identify()` returns after the shared
   verification. *correct* = every reported identity right and the boresight within
   max(60", 5 sigma); *wrong* = accepted but not correct.
-* **verified, five stars** (`top5`): the same, when `identify()` sees only the five
-  brightest spots: the papers' budget, with no other star to confirm with.
+* **verified, five stars** (`top5`, the 2011 section's third grid): the same, when
+  `identify()` sees only the five brightest spots: the papers' budget, with no other
+  star to confirm with.
 * **raw** (`startrack/bench/raw.py`): the first hypothesis each matcher yields,
   unverified, scored against the truth, and how many wrong hypotheses come before the
   first right one. The papers had no separate verification stage, so their "accuracy"
@@ -54,17 +66,19 @@ The copy we have ends at Figure 9 (the flowchart of the triangle method). **It c
 no results section: no table or figure of time, accuracy, noise levels or false-star
 results, and no number to quote.** What it does say:
 
-* Setup (introduction, translated): "We take a sky with a random distribution of 2000
+* Setup (introduction, reassembled from the stored text's scrambled lines and
+  translated by us): "We take a sky with a random distribution of 2000
   stars, assume the camera's field of view (0.025 x 0.025), select the five larger
   [brighter] stars and evaluate them. These stars are identified by the angle method,
   the triangle method and the new hybrid method, and compared with one another in time
-  required, accuracy and the effect of noise." The unit of 0.025 is not given. If it is
-  radians (1.43 deg) over the whole sky, a 2000-star random sky would put almost no star
-  in the field; its section below reads it two ways (a wider field, and 0.025 rad over
-  a 2000-star patch) and says what each implies.
-* Every claim the paper makes about the three methods is quoted in full (the English
-  abstract as printed, the Persian sentences with a translation) in its section below,
-  each with its verdict and paired tests.
+  required, accuracy and the effect of noise." The unit of 0.025 is not given; its
+  section below says what it most likely means (0.025 rad over a 2000-star patch) and
+  why our wider field stands for that reading.
+* Every claim the paper makes about the three methods is quoted in full in its section
+  below, each with its verdict and paired tests: the English abstract as printed; the
+  Persian sentences reassembled from the stored text, whose right-to-left lines come out
+  in scrambled order (the word order is ours, every word as the text has it), each with
+  our translation.
 
 ### Radial features + triangles (2017 or after)
 
@@ -73,7 +87,7 @@ Force University of Engineering, Xi'an; it builds on the radial features of Zhan
 Jiang 2008).
 
 
-* Camera (section 2, translated): "a star sensor with a 4 deg x 4 deg field of view,
+* Camera (section 2, our translation): "a star sensor with a 4 deg x 4 deg field of view,
   CCD resolution 4096 x 4096, pixel size 9 um", several star images "shot on the ground".
   The catalog is "the navigation stars of the field-of-view region": the identification
   is within a known sky patch (RA 107-111 deg, Dec 33-36 deg in the tables), not lost in
@@ -88,7 +102,7 @@ Jiang 2008).
   3464.10) px both as (108.4258, 33.2400) deg; (1575.91, 1644.82) and (3284.58, 2239.62)
   px both as (109.7102, 34.1462) deg.
 * Figure 6 ("number of misidentified stars", plain triangle vs improved, over several
-  images) is an image; its values are not in the text. The claim (translated): "compared
+  images) is an image; its values are not in the text. The claim (our translation): "compared
   with the triangle algorithm, the improved triangle algorithm based on radial features
   reduces the misidentification of star points and improves the correctness", and
   (section 1.2) it needs m1 m2 m3 candidate triangles instead of C(m, 3), which "reduces

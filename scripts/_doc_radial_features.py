@@ -3,11 +3,13 @@
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
+import _radial_claims
+import _verdicts
+import numpy as np
 import pandas as pd
-from _radial_claims import CLAIMS, paired_verdict
+from _radial_claims import CLAIMS
 from _radial_plot import LABEL_COLUMNS
 from _radial_tables_doc import our_tables_text, paper_tables_text
 from _results_doc import fmt_table, run_block
@@ -23,6 +25,7 @@ BENCH_COLUMNS = [("noise", "noise_px", "{:g}"), ("false", "false_stars", None),
                  ("t_seq", "seq_ms_median", "{:.1f}"),
                  ("p95", "seq_ms_p95", "{:.1f}"), ("t_match", "matcher_ms_median", "{:.1f}"),
                  ("cand", "cand_median", "{:.0f}"), ("short", "shortlist_mean", "{:.1f}")]
+RATES = [("recall", "recall", "{:.3f}"), ("precision", "precision", "{:.3f}")]
 METHOD = """\
 **What is compared.** The paper's baseline is the classic side-side-side triangle test
 (its equation 5) over every navigation star: `sss` (lost in space, through the catalog's
@@ -32,8 +35,13 @@ is the same test over each star's radial shortlist: ours, `radial` and `radial_p
 star occupies, ring edges tolerant of noise, at most 10 candidates), and the paper's as
 written, `radial_paper` and `radial_paper_patch` (R and dr the largest and smallest
 separation among the observed and the navigation stars, l >= 3/4 Nq over every ring,
-bits as measured; at most 50 candidates, a bound on memory). `triangle` is our planar
-triangle matcher, a different method, shown for scale.
+bits as measured; at most 50 candidates, a bound on memory). Our `sss` adds to equation
+5 a mirror check, a fourth star ordering the hypotheses and at most 8 catalog triangles
+per observed one; `sss_paper_patch` is equation 5 alone (every catalog triangle whose
+three sides lie within eps, in catalog order), the paper's baseline as written, beside
+`sss_patch` in the paper's setting; every star labelled, the two are one method (the
+labelling rule below is equation 5), so only `sss_patch` is labelled. `triangle` is our
+planar triangle matcher, a different method, shown for scale.
 
 **Every star identified** (the paper's Figures 5 and 6, Tables 3 and 4): each observed
 star forms triangles with pairs of its 4 nearest observed stars; a triangle matching
@@ -67,90 +75,115 @@ def _ci(k: pd.Series, n: pd.Series) -> pd.Series:
 def _identified(labels: pd.DataFrame, method: str) -> str:
     r = labels[labels["method"] == method]
     if r.empty:
-        return f"`{method}` not run"
-    return (f"`{method}` identifies {format_rate(int(r['identified'].sum()), int(r['real'].sum()))}"
-            f" of the real stars, {int(r['misidentified'].sum())} misidentified "
-            f"({int(r['false_labelled'].sum())} of them false stars)")
+        return f"`{method}` not labelled"
+    ident, right = int(r["identified"].sum()), int(r["right"].sum())
+    return (f"`{method}` labels {format_rate(right, int(r['real'].sum()))} of the real "
+            f"stars right (recall), {int(r['misidentified'].sum())} stars wrongly "
+            f"({int(r['false_labelled'].sum())} of them false stars; precision "
+            f"{format_rate(right, ident) if ident else '-'})")
 
 
 SETTINGS = {"radial": "lost in space", "radial_patch": "in the paper's setting, a known patch"}
+TEST_HEAD = ("| test | per frame | a vs b | frames | a [95% CI] | b [95% CI] | "
+             "a only / b only | pooled p | verdict |\n" + "|---" * 9 + "|\n")
 
 
-def _misid(pairs, labels, paired) -> list[str]:
-    lines = [f"Every star labelled, {SETTINGS.get(a, a)}: "
-             + paired_verdict(paired, "no misidentified star", a, b) + "; "
-             + _identified(labels, a) + "; " + _identified(labels, b) for a, b in pairs]
-    return lines + [f"After the shared verification, {SETTINGS.get(a, a)}: "
-                    + paired_verdict(paired, "verified correct", a, b) for a, b in pairs]
+def _test_line(k: int, test, paired: pd.DataFrame) -> str:
+    v = _radial_claims.judge(paired, test)
+    found = _radial_claims.test_rows(paired, test)
+    if found is None:
+        return f"| {k} | {test.measure} | `{test.a}` vs `{test.b}` | - | - | - | - | - | " \
+               f"**{v.word}** ({v.detail}) |\n"
+    _, pooled = found
+    n = int(pooled.frames)
+    sense = " (as good)" if test.sense == "as good" else ""
+    return (f"| {k} | {test.measure}{sense} | `{test.a}` vs `{test.b}` | {n} | "
+            f"{format_rate(int(pooled.a_ok), n)} | {format_rate(int(pooled.b_ok), n)} | "
+            f"{int(pooled.only_a)} / {int(pooled.only_b)} | {format_p(pooled.p)} | "
+            f"**{v.word}** ({v.detail}) |\n")
 
 
-def _shortlist(claim, t, labels) -> list[str]:
-    short = t.groupby("method")["shortlist_mean"].mean() if "shortlist_mean" in t else {}
-    ours, literal = ("radial_patch", "radial_paper_patch")
-    if claim.kind == "literal":
-        head = ("**not reproduced**: a star with k neighbours sets at most k rings, so "
-                "l >= 3/4 Nq needs k >= 3/4 R/dr; with R and dr from equation 3 (the "
-                "largest and smallest separation) the literal rule's shortlists are empty "
-                "for every star here")
-    elif ours in short and literal in short and short[ours] > 0 and short[literal] == 0:
-        head = ("**reproduced only with our threshold** (l over the rings the star "
-                "occupies, ring edges tolerant of noise): the literal rule gives no "
-                "candidate at all")
-    else:
-        head = "**not reproduced**: no shortlists were measured"
-    lines = [head] + [_identified(labels, m) for pair in claim.pairs for m in pair]
-    return lines + ["mean shortlist per star: " + ", ".join(
-        f"`{m}` {short[m]:.2f}" for m in ("radial", ours, literal) if m in short)]
+def _per_condition(tests, paired: pd.DataFrame) -> str:
+    lines = []
+    for k, test in enumerate(tests, 1):
+        found = _radial_claims.test_rows(paired, test)
+        if found is None:
+            continue
+        cond, _ = found
+        holm = _verdicts.holm(cond["p"].to_numpy())
+        lines.append(f"* test {k}: " + "; ".join(
+            f"{c} {int(a)}/{int(b)} {format_p(q)}" for c, a, b, q in
+            zip(cond["condition"], cond["only_a"], cond["only_b"], holm, strict=True)))
+    return ("<details><summary>per condition: a only / b only, Holm-corrected p</summary>"
+            "\n\n" + "\n".join(lines) + "\n\n</details>\n") if lines else ""
 
 
-def _table3(ours: pd.DataFrame) -> list[str]:
+def _table3(ours: pd.DataFrame) -> _verdicts.Verdict:
     t2, t3 = ours[ours["table"] == 2], ours[ours["table"] == 3]
     several = int((t2.groupby("star").size() > 1).sum()) if len(t2) else 0
     doubtful = int((~t2.groupby("star")["true"].all()).sum()) if len(t2) else 0
     given = t3[t3["ra"].notna()]
     wrong = int((~given["true"].astype(bool)).sum())
+    said = (f"after the radial step (our Table 2) {several} of the ten brightest stars "
+            f"have several candidates and {doubtful} have a wrong one; the triangle step "
+            f"(our Table 3) labels {len(given)} stars, {wrong} wrongly")
     if doubtful == 0:
-        verdict = ("**not shown on our frame**: the radial step leaves no wrong candidate "
-                   "to remove")
-    elif wrong < doubtful:
-        verdict = "**reproduced on our frame**"
+        return _verdicts.Verdict(_verdicts.NOT_TESTABLE, said + "; the radial step leaves "
+                                 "no wrong candidate to remove: a frame whose shortlists "
+                                 "hold wrong candidates would test it (the per-image "
+                                 "counts over every frame are C8's)")
+    if wrong < doubtful:
+        return _verdicts.Verdict(_verdicts.ONLY_UNDER, "our one frame: " + said)
+    return _verdicts.Verdict(_verdicts.NOT_REPRODUCED, said)
+
+
+def claim_verdicts(claim, t: pd.DataFrame, paired: pd.DataFrame,
+                   ours: pd.DataFrame) -> tuple[str, list[_verdicts.Verdict]]:
+    """(the claim's word, its tests' verdicts) by the rules of scripts/_verdicts.py."""
+    if claim.tests:
+        found = [_radial_claims.judge(paired, test) for test in claim.tests]
+    elif claim.kind in ("shortlist", "literal"):
+        found = [_radial_claims.shortlist_verdict(t, claim.kind)]
     else:
-        verdict = "**not reproduced on our frame**"
-    return [f"{verdict}: after the radial step (our Table 2) {several} of the ten brightest "
-            f"stars have several candidates and {doubtful} have a wrong one; the "
-            f"triangle step (our Table 3) labels {len(given)} stars, {wrong} wrongly. The "
-            "per-image counts over every frame are claim 8's"]
+        found = [_table3(ours)]
+    return _verdicts.judge_claim([v.word for v in found]), found
 
 
 def _evidence(claim, t, labels, paired, ours) -> str:
-    if claim.kind == "misid":
-        lines = _misid(claim.pairs, labels, paired)
-    elif claim.kind == "duplicates":
-        lines = [f"{SETTINGS.get(a, a)}: "
-                 + paired_verdict(paired, "no star given twice", a, b) + "; duplicates "
-                 + ", ".join(f"`{m}` {int(labels.loc[labels['method'] == m, 'duplicates'].sum())}"
-                             for m in (a, b)) for a, b in claim.pairs]
-    elif claim.kind == "time":
-        med = t.groupby("method")["matcher_ms_median"].median()
-        lines = [f"{SETTINGS.get(a, a)}: " + paired_verdict(paired, "matcher faster", a, b)
-                 + (f"; median over conditions of the median matcher time `{a}` "
-                    f"{med[a]:.1f} ms, `{b}` {med[b]:.1f} ms" if a in med and b in med
-                    else "") for a, b in claim.pairs]
-    elif claim.kind in ("shortlist", "literal"):
-        lines = _shortlist(claim, t, labels)
+    word, found = claim_verdicts(claim, t, paired, ours)
+    text = ""
+    if claim.tests:
+        text += "\n" + TEST_HEAD + "".join(
+            _test_line(k, test, paired) for k, test in enumerate(claim.tests, 1))
+        text += "\n" + _per_condition(claim.tests, paired)
+        methods = dict.fromkeys(m for test in claim.tests for m in (test.a, test.b))
+        if claim.kind in ("misid", "duplicates"):
+            text += "\n" + "".join(f"* {_identified(labels, m)}\n" for m in methods
+                                   if m in set(labels["method"]))
+        if claim.kind == "time":
+            med = t.groupby("method")["matcher_ms_median"].median()
+            text += "\n* median over conditions of the median matcher time: " + ", ".join(
+                f"`{m}` {med[m]:.1f} ms" for m in methods if m in med) + "\n"
     else:
-        lines = _table3(ours)
-    return "".join(f"   * {line}\n" for line in lines)
+        text += "\n" + "".join(f"* {v.detail}\n" for v in found)
+        if claim.kind in ("shortlist", "literal"):
+            text += "".join(f"* {_identified(labels, m)}\n"
+                            for m in ("radial_patch", "radial_paper_patch", "sss_patch")
+                            if m in set(labels["method"]))
+    return text + f"\n**Verdict: {word}**.\n"
 
 
 def claims_text(t, labels, paired, ours) -> str:
-    out = ["### Every claim and its verdict\n\nA verdict's \"A only / B only\" are the "
-           "frames where one method succeeds and the other does not (the exact McNemar "
-           "test uses only those); \"matcher faster\" is a sign test of the matcher's time "
-           "frame by frame.\n\n"]
+    out = ["### Every claim and its verdict\n\nEach test compares `a` with `b` on the same "
+           "frames, per condition and pooled (\"a only / b only\": the frames where one "
+           "succeeds and the other does not; for counts and times, where one's value beats "
+           "the other's: a sign test); verdicts by the rules at the top of this page, the "
+           f"closest condition to the paper's being {_radial_claims.CLOSEST}. A claim of "
+           "fewer misidentified stars carries the stars labelled right beside it (\"as "
+           "good\"). The translations are ours.\n\n"]
     for k, c in enumerate(CLAIMS, 1):
-        out.append(f"{k}. **C{k}, {c.where}.** 「{c.original}」\n   \"{c.english}\"\n"
-                   + _evidence(c, t, labels, paired, ours) + "\n")
+        out.append(f"#### C{k}. {c.where}\n\n> 「{c.original}」\n\n*Translation (ours):* "
+                   f"\"{c.english}\"\n" + _evidence(c, t, labels, paired, ours) + "\n")
     return "".join(out)
 
 
@@ -163,15 +196,28 @@ def _paired_table(paired: pd.DataFrame) -> str:
                          ("only B", "only_b", None), ("p", "p_text", None)])
 
 
+def _arcsec_per_px() -> float:
+    """The preset camera's scale at the principal point."""
+    from startrack.simulate._config import load_config
+
+    camera = load_config(Path(__file__).resolve().parents[1] / "configs"
+                         / "radial_triangles.toml").camera
+    return float(np.degrees(1.0 / camera.f_px) * 3600.0)
+
+
 def section(folder: Path, run: dict) -> str:
     """The markdown of the section (the renderer writes its title)."""
     read = {n: pd.read_csv(folder / f"{n}.csv") for n in run["tables"]}
     t, labels, paired = read["table"], read["labels"], read["paired"]
     t["correct_ci"] = _ci(t["correct"], t["frames"])
     t["raw_ci"] = _ci(t["first_right"], t["raw_frames"])
+    labels = labels.assign(recall=labels["right"] / labels["real"].where(labels["real"] > 0),
+                           precision=labels["right"]
+                           / labels["identified"].where(labels["identified"] > 0))
     intro = (f"configs/radial_triangles.toml (the paper's camera: 4 x 4 deg, 4096 x 4096 "
-             f"px of 9 um; Hipparcos Hp <= 8, {run['view_mean']:.1f} stars in view on "
-             f"average, {run['view_min']} to {run['view_max']}), simulated centroids over "
+             f"px of 9 um, {_arcsec_per_px():.2f} arcsec per pixel at the centre; "
+             f"Hipparcos Hp <= 8, {run['view_mean']:.1f} stars in view on average, "
+             f"{run['view_min']} to {run['view_max']}), simulated centroids over "
              f"a full grid of centroid noise x false stars. Verified: {run['frames']} "
              f"frames per condition; raw: the first {run['raw_frames']}; every star "
              f"labelled: the first {run['label_frames']}. Lost in space unless the name "
@@ -184,7 +230,10 @@ def section(folder: Path, run: dict) -> str:
             + f"```\n{_paired_table(paired)}\n```\n\n"
             + "Per condition: `docs/data/radial-features/paired.csv`.\n\n"
             + "### Misidentified stars per image (the paper's Figure 6)\n\n"
-            + f"```\n{fmt_table(labels, LABEL_COLUMNS)}\n```\n\n"
+            + "Every misidentification count beside the stars labelled right: `recall` "
+              "(right over the real stars) and `precision` (right over the stars "
+              "labelled).\n\n"
+            + f"```\n{fmt_table(labels, LABEL_COLUMNS + RATES)}\n```\n\n"
             + "![misidentified stars per image](figures/radial_features_misid.png)\n\n"
             + "### Verified and raw, every condition\n\n"
             + f"```\n{fmt_table(t, BENCH_COLUMNS)}\n```\n\n{LEGEND}\n"
@@ -192,19 +241,12 @@ def section(folder: Path, run: dict) -> str:
 
 
 def summary(folder: Path, run: dict) -> str:
-    """One sentence for the README: each claim's verdicts (per setting), as the section
-    gives them."""
+    """One sentence for the README: each claim's verdict, as the section gives it (the
+    same words, grouped by scripts/_verdicts.py)."""
     read = {n: pd.read_csv(folder / f"{n}.csv") for n in run["tables"]}
-    said = []
-    for k, c in enumerate(CLAIMS, 1):
-        text = _evidence(c, read["table"], read["labels"], read["paired"], read["our_tables"])
-        parts = []
-        for line in text.splitlines():
-            found = re.match(r"\s*\* (.*?)\*\*(.+?)\*\*", line)
-            if found:
-                where = found.group(1).rstrip(": ").lower()
-                parts.append(found.group(2) + (f" ({where})" if where else ""))
-        said.append(f"C{k} {c.short}: " + "; ".join(parts))
+    words = [(f"{c.short} (C{k})", claim_verdicts(c, read["table"], read["paired"],
+                                                  read["our_tables"])[0])
+             for k, c in enumerate(CLAIMS, 1)]
     return (f"{len(CLAIMS)} claims quoted in full, judged on {run['frames']} verified, "
             f"{run['raw_frames']} raw and {run['label_frames']} every-star frames per "
-            f"condition ({'. '.join(said)})")
+            f"condition: {_verdicts.roll_up(words)}")

@@ -6,19 +6,23 @@ from __future__ import annotations
 from pathlib import Path
 
 import _paper2011_claims as claims
+import _verdicts
 import pandas as pd
+from _doc_triangle_setup import MAIN, arcsec_per_px, false_rule, field_width
+from _doc_triangle_setup import rate as _rate
 from _results_doc import run_block
 
-from startrack.bench.stats import format_p, wilson
+from startrack.bench.stats import format_p
 from startrack.matchers import get_matcher
 
-MAIN = ("angle", "triangle", "hybrid", "angle_open", "triangle_first", "hybrid_single")
 WHAT = {
     "angle": "ours: pair lookups, pivots until one answer, up to 4 ambiguous answers and 5 "
              "skipped stars per chain handed to verification",
     "angle_closed": "ours with every closing angle looked up",
-    "angle_open": "the paper's chain: each pivot shares one star with the last pair, no "
-                  "closing angle, no skipped star, an unfinished chain is indeterminate",
+    "angle_open": "the paper's chain: one chain from the three brightest stars, each pivot "
+                  "shares one star with the last pair, no closing angle, no skipped star; "
+                  "a chain that does not end with one answer is indeterminate; two stars "
+                  "answer when their angle's window holds one catalog pair",
     "triangle": "ours (Cole and Crassidis): area and polar moment, pivots along the chain, "
                 "at least one pivot",
     "triangle_nopivot": "ours without the forced pivot on a unique triangle",
@@ -27,8 +31,11 @@ WHAT = {
     "hybrid": "ours: angle votes shortlist, triangles over the shortlist, vote relaxation "
               "passes, a fourth-star check, 5 hypotheses per triangle",
     "hybrid_nofourth": "ours without the fourth-star check",
-    "hybrid_single": "the paper's hybrid: one shortlist pass, each triangle's best catalog "
-                     "triangle, no pivot or fourth star",
+    "hybrid_single": "the paper's hybrid and nothing more: a catalog star is a candidate "
+                     "of an observed star when any of that star's angle lookups holds it "
+                     "(the paper gives no voting rule: the simplest reading), then area and "
+                     "polar moment over the candidates; a triangle answers only when one "
+                     "catalog triangle passes; no pivot, no fourth star, no mirror check",
 }
 NO_TREE = """\
 * **The binary test tree is not built.** The paper's triangle section names it in one
@@ -41,15 +48,17 @@ NO_TREE = """\
 """
 
 
-def _rate(k, n) -> str:
-    if not n or pd.isna(n):
-        return "-"
-    low, high = wilson(k, n)
-    return f"{k / n:.1%} [{100 * float(low):.1f}, {100 * float(high):.1f}]"
-
-
 def _cond(r) -> str:
     return f"{r['noise_px']:g} px, {int(r['false_stars'])} false"
+
+
+def _wrong(pooled) -> str:
+    """The wrong answers beside the right ones: "a / b" rates, "-" for a measure with no
+    right or wrong answer."""
+    if "wrong_a" not in pooled or pd.isna(pooled["wrong_a"]):
+        return "-"
+    n = int(pooled["n"])
+    return f"{_rate(pooled['wrong_a'], n)} / {_rate(pooled['wrong_b'], n)}"
 
 
 def _test_line(rows: pd.DataFrame) -> tuple[str, str]:
@@ -58,27 +67,58 @@ def _test_line(rows: pd.DataFrame) -> tuple[str, str]:
     cites = f"{rows['row'].iloc[-1]}; {rows['row'].iloc[0]} to {rows['row'].iloc[-2]}"
     n = int(pooled["n"])
     line = (f"| {pooled['test']} | {claims.MEASURES[pooled['measure']]} | `{pooled['a']}` "
-            f"vs `{pooled['b']}` | {pooled['scope']} | {n} | "
-            f"{_rate(pooled['k_a'], n)} | {_rate(pooled['k_b'], n)} | "
-            f"{int(pooled['only_a'])} / {int(pooled['only_b'])} | {format_p(pooled['p'])} | "
+            f"vs `{pooled['b']}` | {pooled['scope']} ({claims.CLOSEST[pooled['scope']]}) | "
+            f"{n} | {_rate(pooled['k_a'], n)} | {_rate(pooled['k_b'], n)} | {_wrong(pooled)} "
+            f"| {int(pooled['only_a'])} / {int(pooled['only_b'])} | {format_p(pooled['p'])} | "
             f"**{word}** ({detail}) | {cites} |\n")
     return line, word
 
 
-def _claim_block(claim: claims.Claim, table: pd.DataFrame, extra: str) -> str:
+def _per_condition(rows: pd.DataFrame) -> str:
+    """Every test's per-condition counts and Holm-corrected p-values, one line a test."""
+    lines = []
+    for _, g in rows.groupby("test", sort=True):
+        cond = g.iloc[:-1]
+        holm = _verdicts.holm(cond["p"].to_numpy())
+        cells = [f"{c} {int(a)}/{int(b)} {format_p(q)}" for c, a, b, q in
+                 zip(cond["condition"], cond["only_a"], cond["only_b"], holm, strict=True)]
+        lines.append(f"* test {g['test'].iloc[0]}: " + "; ".join(cells))
+    return ("<details><summary>per condition: a only / b only, Holm-corrected p</summary>"
+            "\n\n" + "\n".join(lines) + "\n\n</details>\n")
+
+
+def claim_words(folder: Path) -> dict[str, tuple[str, str]]:
+    """Each claim's (verdict, what it rests on) from the saved tables: its paired tests',
+    or for C9 (no two methods compared) the count's."""
+    table = pd.read_csv(folder / "claims.csv")
+    out = {}
+    for c in claims.CLAIMS:
+        rows = table[table["claim"] == c.key]
+        if len(rows):
+            out[c.key] = (claims.claim_verdict(rows), "paired tests")
+        else:
+            v = hundreds_verdict(pd.read_csv(folder / "table.csv"))
+            out[c.key] = (v.word, v.detail)
+    return out
+
+
+def _claim_block(claim: claims.Claim, table: pd.DataFrame, extra: str,
+                 word: str = "") -> str:
     quote = f"> {claim.original}\n"
     if claim.english:
-        quote += f"\n*Translation:* \"{claim.english}\"\n"
+        quote += (f"\n*Reassembled from the stored text; translation (ours):* "
+                  f"\"{claim.english}\"\n")
     text = f"#### {claim.key}. {claim.where}\n\n{quote}\n"
     rows = table[table["claim"] == claim.key]
     if len(rows):
-        text += ("| test | per frame | a vs b | scope | frames | a [95% CI] | b [95% CI] "
-                 "| a only / b only | McNemar p | verdict | rows |\n"
-                 + "|---" * 11 + "|\n")
+        text += ("| test | per frame | a vs b | scope (closest) | frames | a [95% CI] | "
+                 "b [95% CI] | wrong a / b | a only / b only | pooled p | verdict | rows |\n"
+                 + "|---" * 12 + "|\n")
         for _, g in rows.groupby("test", sort=True):
             text += _test_line(g)[0]
-    overall = claims.claim_verdict(rows) or "see below"
-    if overall == "reproduced only under":
+        text += "\n" + _per_condition(rows)
+    overall = word or claims.claim_verdict(rows)
+    if overall == _verdicts.ONLY_UNDER and len(rows):
         overall += " the conditions and for the methods named above"
     note = f" ({claim.note})" if claim.note else ""
     return text + f"\n**Verdict: {overall}**{note}.\n{extra}\n"
@@ -159,16 +199,26 @@ def _pivots(t: pd.DataFrame) -> str:
             f"noise {_join(s['noise_px'], '{:g}')} px (no false star).\n")
 
 
-def _hundreds(t: pd.DataFrame) -> tuple[str, str]:
+def hundreds_verdict(t: pd.DataFrame) -> _verdicts.Verdict:
+    """C9 ("hundreds of answers for every triangle"): the median catalog triangles one
+    lookup keeps after area and polar moment together, as the paper's triangle test
+    applies them, per noise level (no false star); at least 100 meets "hundreds"."""
     tri = _pick(t[t["false_stars"] == 0], "triangle")
-    area = tri["area_per_lookup"]
-    word = ("reproduced" if (area >= 100).all() else "not reproduced"
-            if not (area >= 100).any() else "reproduced only at noise "
-            + _join(tri.loc[area >= 100, "noise_px"], "{:g}") + " px")
-    return word, (f"* Median catalog triangles in one lookup's area window at noise "
-                  f"{_join(tri['noise_px'], '{:g}')} px: {_join(area, '{:,.0f}')} "
-                  f"(\"hundreds\" means at least 100 here); after the polar-moment filter "
-                  f"{_join(tri['kept_per_lookup'], '{:,.1f}')}.\n")
+    holds = {f"{n:g} px/0 false": bool(k >= 100)
+             for n, k in zip(tri["noise_px"], tri["kept_per_lookup"], strict=True)}
+    return _verdicts.judge_count(holds, [claims.CLOSEST["noise"]],
+                                 "a median of at least 100 after the polar-moment filter")
+
+
+def _hundreds(t: pd.DataFrame) -> str:
+    tri = _pick(t[t["false_stars"] == 0], "triangle")
+    v = hundreds_verdict(t)
+    return f"* The count: **{v.word}** ({v.detail}).\n" + (
+        f"* Median catalog triangles in one lookup after the area and polar-moment tests "
+        f"together (the paper's triangle test) at noise {_join(tri['noise_px'], '{:g}')} "
+        f"px: {_join(tri['kept_per_lookup'], '{:,.1f}')} (\"hundreds\" means at least 100 "
+        f"here); in the area window alone, before the polar-moment filter, "
+        f"{_join(tri['area_per_lookup'], '{:,.0f}')}.\n")
 
 
 def _grid(t: pd.DataFrame, count: str, trials: str) -> str:
@@ -192,37 +242,15 @@ def _timing(timing: pd.DataFrame) -> str:
     return grid.to_string()
 
 
-def _fov(fov: pd.DataFrame, run: dict) -> str:
-    if fov.empty:
-        return ""
-    base = fov[(fov["noise_px"] == 0) & (fov["false_stars"] == 0)]
-    lines = [f"* {w:g} deg ({g['view_mean'].iloc[0]:.1f} stars in view on average, "
-             f"{int(g['view_min'].iloc[0])} to {int(g['view_max'].iloc[0])}): "
-             + "; ".join(f"`{r['method']}` {_rate(r['correct'], r['frames'])}"
-                         for _, r in g.iterrows())
-             for w, g in base.groupby("fov_deg")]
-    r = run["reading"]
-    return ("### Field width\n\nThe same sky, 1024 px, five brightest stars, "
-            f"{run['fov_frames']} frames per condition (`fov.csv` has noise 0 and 1 px x "
-            "0 and 3 false stars). Verified and right with exact centroids:\n\n"
-            + "\n".join(lines) + "\n\n"
-            f"* **\"0.025 x 0.025\" read as {r['fov_rad']:g} rad** ({r['fov_deg']:.2f} deg): "
-            f"over the whole sphere 2000 stars give {r['whole_sky_in_view']:.2f} star per "
-            f"field, so the 2000 stars must fill a patch; for the {r['view_mean']:.1f} "
-            f"stars per field of the base run it is {r['patch_side_deg']:.1f} deg square "
-            f"({r['patch_fraction_of_sky']:.2%} of the sky): the same problem as ours "
-            f"scaled down, not simulated here.\n")
-
-
 def _intro(run: dict, t: pd.DataFrame) -> str:
     methods = [m for m in dict.fromkeys(t["method"])]
     rows = "\n".join(f"* `{m}`: {WHAT.get(m, get_matcher(m).description)}."
                      for m in methods)
-    return (f"configs/paper2011.toml: a random 2000-star sky, 1024 x 1024 px over 17.5 deg "
-            f"({run['view_mean']:.1f} stars in view on average, {run['view_min']} to "
-            f"{run['view_max']} over the base frames), patterns from the 5 brightest spots, "
-            f"no fainter star added. Conditions: every combination of centroid noise "
-            f"{_join(sorted(t['noise_px'].unique()), '{:g}')} px and "
+    return (f"configs/paper2011.toml: a random 2000-star sky, 1024 x 1024 px over 17.5 deg"
+            f"{arcsec_per_px(run)} ({run['view_mean']:.1f} stars in view on average, "
+            f"{run['view_min']} to {run['view_max']} over the base frames), patterns from "
+            f"the 5 brightest spots, no fainter star added. Conditions: every combination "
+            f"of centroid noise {_join(sorted(t['noise_px'].unique()), '{:g}')} px and "
             f"{_join(sorted(t['false_stars'].unique()), '{:d}')} false stars. Verified: "
             f"{run['frames']} frames per condition; raw: the first {run['raw_frames']}; "
             f"timing: the first {run['timing_frames']} of the two one-axis sweeps. Every "
@@ -238,25 +266,37 @@ def section(folder: Path, run: dict) -> str:
     table = pd.read_csv(folder / "claims.csv")
     fov = pd.read_csv(folder / "fov.csv") if (folder / "fov.csv").stat().st_size > 1 \
         else pd.DataFrame()
-    tree_word, hundreds = _hundreds(t)
+    hundreds = _hundreds(t)
     extra = {"C1": "", "C2": _narrowing(t), "C3": _speed(timing), "C4": "",
              "C5": _pivots(t), "C6": _false(t), "C7": "", "C8": "",
-             "C9": f"\n**Verdict on the count: {tree_word}.**\n" + hundreds}
-    blocks = "".join(_claim_block(c, table, extra[c.key]) for c in claims.CLAIMS)
+             "C9": hundreds}
+    words = claim_words(folder)
+    blocks = "".join(_claim_block(c, table, extra[c.key], words[c.key][0])
+                     for c in claims.CLAIMS)
     load = run["timing_load"]
     return (run_block(run, "scripts/paper2011.py") + "\n" + _intro(run, t)
             + "\n### Claims and verdicts\n\nEach test asks whether `a` does better than "
-              "`b` on the frames of its scope (the verdict reads the pooled row and the "
-              "per-condition rows of `claims.csv`; significant means p < "
-              f"{claims.ALPHA:g}). `a only / b only`: the frames where one succeeds "
-              "and the other does not, the only ones a paired test reads. `rows`: the "
-              "pooled row, then the per-condition rows, of "
+              "`b` on the frames of its scope, judged by the rules at the top of this page "
+              "from the pooled row and the per-condition rows of `claims.csv` (Holm-"
+              f"corrected over the scope's conditions; significant means p < "
+              f"{claims.ALPHA:g}). `scope (closest)`: the conditions, and the one closest "
+              "to the paper's stated setting (the paper names no noise level or false-star "
+              "count for its claims: the least of both in the scope). `wrong a / b`: beside "
+              "a rate of right answers, the frames answered wrongly (verified: accepted but "
+              "wrong; raw: a first hypothesis that is wrong). `a only / b only`: the frames "
+              "where one succeeds and the other does not, the only ones a paired test "
+              "reads. `rows`: the pooled row, then the per-condition rows, of "
               "`docs/data/triangle-base-2011/claims.csv`. The Persian sentences are the "
-              "paper's abstract and triangle section.\n\n" + blocks + NO_TREE
+              "paper's abstract and triangle section, reassembled from the stored text's "
+              "scrambled lines (the word order is ours, every word as the text has it); "
+              "the translations are ours.\n\n" + blocks + NO_TREE
             + "\n### Rates over the grid\n\nVerified and right, `frames` per cell:\n\n"
               f"```\n{_grid(t, 'correct', 'frames')}\n```\n\nFirst hypothesis right, "
               f"unverified, `raw_frames` per cell:\n\n```\n"
               f"{_grid(t, 'first_right', 'raw_frames')}\n```\n\n"
+              "Verified and right when `identify()` sees only the five brightest spots "
+              "(`top5`: the papers' budget, no other star to confirm with), over the raw "
+              f"frames:\n\n```\n{_grid(t, 'top5', 'raw_frames')}\n```\n\n"
               f"![rates]({run['figure'].removeprefix('docs/')})\n\n"
             + "### Timing\n\nMedian / p95 ms of the fastest of "
               f"{run['repeats']} identify() runs per frame (verification included), and "
@@ -264,20 +304,15 @@ def section(folder: Path, run: dict) -> str:
               f"interleaved frame by frame, after {run['warmup']} untimed frames per "
               f"method; on {run['CPU']} ({run['cpus']} CPUs shared with other work), load "
               f"average {load[0]:g} at the start and {load[3]:g} at the end of the "
-              f"timing:\n\n```\n{_timing(timing)}\n```\n\n" + _fov(fov, run))
+              f"timing:\n\n```\n{_timing(timing)}\n```\n\n" + field_width(fov, run)
+            + false_rule(folder, run))
 
 
 def summary(folder: Path, run: dict) -> str:
-    """One sentence for the README: each claim's verdict, as the section gives it."""
-    table = pd.read_csv(folder / "claims.csv")
-    verdicts = {c: claims.claim_verdict(table[table["claim"] == c.key])
-                for c in claims.CLAIMS}
-    groups = {}
-    for c, word in verdicts.items():
-        if word:
-            groups.setdefault(word, []).append(f"{c.short} ({c.key})")
-    said = "; ".join(f"{word.replace('under', 'under named conditions')}: "
-                     f"{', '.join(keys)}" for word, keys in groups.items())
-    return (f"{len(verdicts)} claims quoted in full, {sum(map(bool, verdicts.values()))} "
-            f"judged by paired tests on {run['frames']} verified and {run['raw_frames']} "
-            f"raw frames per condition ({said})")
+    """One sentence for the README: each claim's verdict, as the section gives it (the
+    same words, grouped by scripts/_verdicts.py)."""
+    words = claim_words(folder)
+    said = _verdicts.roll_up([(f"{c.short} ({c.key})", words[c.key][0])
+                              for c in claims.CLAIMS])
+    return (f"{len(claims.CLAIMS)} claims quoted in full, judged on {run['frames']} "
+            f"verified and {run['raw_frames']} raw frames per condition: {said}")

@@ -5,20 +5,24 @@ Every test compares two methods on the same frames of the same conditions: per f
 outcome for each (right or not, answered or not, faster or not, ...), and the exact
 McNemar test on the frames where the two differ (for "faster" and "fewer", the exact
 sign test: the same binomial). One row per condition of the test's scope and one pooled
-row; the verdict rule (:func:`verdict`) reads those rows only.
+row; the verdict (:func:`verdict`, the rules of scripts/_verdicts.py) reads those rows only.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import _verdicts
 import numpy as np
 import pandas as pd
 
 from startrack.bench.stats import mcnemar_exact
 
-#: a difference is called significant below this two-sided p-value
-ALPHA = 0.05
+ALPHA = _verdicts.ALPHA
+#: per scope, the condition closest to the paper's stated setting: the paper names no
+#: noise level and no false-star count for its claims, so the least of both in the scope
+CLOSEST = {"grid": "0 px/0 false", "noise": "0 px/0 false", "false": "0 px/1 false",
+           "fov10": "0 px/0 false"}
 
 
 @dataclass(frozen=True)
@@ -26,13 +30,16 @@ class Test:
     """``a`` is claimed better than ``b`` on ``measure`` ("better"), or at least as good
     ("as good": the claim holds unless ``b`` is significantly better somewhere), over the
     conditions of ``scope``: "grid" (every noise x false-star condition), "false" (those
-    with false stars), "noise" (no false star), "fov10" (the 10 deg field)."""
+    with false stars), "noise" (no false star), "fov10" (the 10 deg field).
+    ``construction``: why the variants meet the claim by construction and what would
+    test it ("" when they do not)."""
 
     measure: str
     a: str
     b: str
     scope: str
     sense: str = "better"
+    construction: str = ""
 
 
 @dataclass(frozen=True)
@@ -70,21 +77,24 @@ HYBRID_EN = ("Second, by triangle method in fewer time identification completed,
              "than angle method and we do not pivoting the same as each method.")
 FALSE_EN = ("In addition, Simulation results show the performance of the new method as "
             "well as its robustness with respect to including false stars.")
-# The Persian sentences as printed, reassembled from the PDF's text, whose lines come out
-# in scrambled order (one sentence per constant).
-SPEED_FA = ("اين تركيب باعث افزايش سرعت الگوريتم جستجو نسبت به روش مثلثي مي‌شود زيرا حجم "
+# The Persian sentences, reassembled: the stored text's lines come out in scrambled order
+# (right-to-left runs reversed), so the word order is restored by us, every word as the
+# text has it (its spellings, no zero-width joiners), one sentence per constant; the page
+# says so, and tests/test_paper_quotes.py checks every word against the text. One word
+# is split across the text's runs: REASSEMBLED_WORDS.
+SPEED_FA = ("اين تركيب باعث افزايش سرعت الگوريتم جستجو نسبت به روش مثلثي مي شود زيرا حجم "
             "محاسبات را بسيار كاهش داده و دقت آن نيز به مراتب نسبت به روش زاويه بالاتر است.")
 SPEED_EN = ("This combination makes the search algorithm faster than the triangle method, "
             "because it greatly reduces the amount of computation, and its accuracy is also "
             "far higher than the angle method's.")
-FALSE_FA = ("اين روش در مقابل ستاره‌هاي اشتباه در ميدان ديد نيز مقاومت بيشتري نسبت به "
-            "هركدام از روش‌ها دارد.")
+FALSE_FA = ("اين روش در مقابل ستاره هاي اشتباه در ميدان ديد نيز مقاومت بيشتري نسبت به "
+            "هركدام از روش ها دارد.")
 FALSE_FA_EN = ("This method is also more robust against false stars in the field of view "
                "than either of the methods.")
 STARS_FA = ("يك نكتة منفي اين روش عدم كارايي آن با كمتر از 3 ستاره در ميدان ديد آن است، در "
-            "حالي كه در روش زاويه به دو ستاره نياز است. بعد از خطاي اندازه‌گيري جستجوگر، "
-            "معمولاً بيشتر از دو ستاره در روش زاويه مورد نياز است. چيزي كه مشاهده مي‌شود "
-            "اين است كه در روش مثلثي ستاره‌هاي مشترك كمتري مورد نياز است كه در نهايت نسبت "
+            "حالي كه در روش زاويه به دو ستاره نياز است. بعد از خطاي اندازه گيري جستجوگر، "
+            "معمولأ بيشتر از دو ستاره در روش زاويه مورد نياز است. چيزي كه مشاهده مي شود "
+            "اين است كه در روش مثلثي ستاره هاي مشترك كمتري مورد نياز است كه در نهايت نسبت "
             "به روش زاويه به تعداد كمتري ستاره براي رسيدن به پاسخ صحيح نياز دارد.")
 STARS_EN = ("One drawback of this method is that it does not work with fewer than 3 stars in "
             "its field of view, while the angle method needs two stars. After the tracker's "
@@ -92,13 +102,20 @@ STARS_EN = ("One drawback of this method is that it does not work with fewer tha
             "What is observed is that the triangle method needs fewer shared stars, so that "
             "in the end it needs fewer stars than the angle method to reach the correct "
             "answer.")
-HUNDREDS_FA = ("تست هر پاسخ ممكن با مثلث اول به‌جاي مقايسه با اشتراك، كار زمان‌بري است كه "
+HUNDREDS_FA = ("تست هر پاسخ ممكن با مثلث اول به جاي مقايسه با اشتراك، كار زمان بري است كه "
                "صدها پاسخ به ازاي هر مثلث در ميدان ديد وجود دارد. براي كاهش تعداد تركيبات "
-               "در 3 تست، درخت تست دودويي ايجاد مي‌شود.")
+               "در 3 تست، درخت تست دودويي ايجاد مي شود.")
+#: words of the Persian quotes split across the stored text's runs: the word, and the
+#: fragment the text has in its place
+REASSEMBLED_WORDS = {"نكتة": "ةيك نكت"}
 HUNDREDS_EN = ("Testing each possible answer against the first triangle instead of comparing "
                "by pivoting is time-consuming, since there are hundreds of answers for every "
                "triangle in the field of view. To reduce the number of combinations in 3 "
                "tests, a binary test tree is created.")
+
+NO_PIVOT_BUILT = ("`hybrid_single` is built without a pivot, so it never pivots; what "
+                  "tests the claim is a hybrid that may pivot, counted: test 1, our "
+                  "`hybrid`, whose fourth-star checks are its pivots")
 
 #: each method's first-hypothesis variant (no pivoting on past its first hypothesis): the
 #: paper's raw comparisons are made again between the variants
@@ -140,7 +157,9 @@ CLAIMS = (
            Test("verified", "hybrid", "angle", "grid"))),
     Claim("C5", "the hybrid needs no pivoting",
           "Abstract (English, as printed): no pivoting", HYBRID_EN, "",
-          (*with_variants("no_pivots", "grid", [("hybrid", "triangle")]),
+          (Test("no_pivots", "hybrid", "triangle", "grid"),
+           Test("no_pivots", "hybrid_single", "triangle_first", "grid",
+                construction=NO_PIVOT_BUILT),
            Test("raw_right", "hybrid_single", "hybrid", "grid", "as good")),
           note="the last test asks what leaving the pivots out costs"),
     Claim("C6", "the hybrid is robust to false stars",
@@ -192,7 +211,26 @@ def outcomes(frames: pd.DataFrame, measure: str, a: str, b: str) -> pd.DataFrame
         oa, ob = both["va"] == 0, both["vb"] == 0
     else:
         oa, ob = both["va"].astype(bool), both["vb"].astype(bool)
-    return conds.join(pd.DataFrame({"oa": oa, "ob": ob}), how="inner").reset_index()
+    out = pd.DataFrame({"oa": oa, "ob": ob})
+    wrong = _wrong(frames, measure)
+    if wrong is not None:  # beside "right": the frames answered wrongly, per method
+        for col, m in (("wa", a), ("wb", b)):
+            out[col] = wrong[(frames["method"] == m).to_numpy()].reindex(out.index)
+            out[col] = out[col].fillna(False).astype(bool)
+    return conds.join(out, how="inner").reset_index()
+
+
+def _wrong(frames: pd.DataFrame, measure: str) -> pd.Series | None:
+    """Per frame row (indexed by condition and frame): answered and wrong (verified:
+    accepted but not correct; raw: a first hypothesis that is not right); None for the
+    measures with no right or wrong answer."""
+    if measure == "verified" and "wrong" in frames:
+        wrong = frames["wrong"].astype(bool)
+    elif measure == "raw_right" and "yielded" in frames:
+        wrong = frames["yielded"].astype(bool) & ~frames["first_right"].astype(bool)
+    else:
+        return None
+    return pd.Series(wrong.to_numpy(), index=pd.MultiIndex.from_frame(frames[KEY]))
 
 
 def _in_scope(frame: pd.DataFrame, scope: str) -> pd.DataFrame:
@@ -220,7 +258,9 @@ def paired_rows(claim: Claim, number: int, test: Test, sources: dict) -> list[di
                      "condition": "pooled" if pooled else f"{noise:g} px/{int(false)} false",
                      "noise_px": noise, "false_stars": false, "n": res.frames,
                      "k_a": int(g["oa"].sum()), "k_b": int(g["ob"].sum()),
-                     "only_a": res.only_a, "only_b": res.only_b, "p": res.p})
+                     "only_a": res.only_a, "only_b": res.only_b, "p": res.p,
+                     "wrong_a": int(g["wa"].sum()) if "wa" in g else np.nan,
+                     "wrong_b": int(g["wb"].sum()) if "wb" in g else np.nan})
     return rows
 
 
@@ -232,58 +272,25 @@ def claims_table(sources: dict) -> pd.DataFrame:
     rows = []
     for claim in CLAIMS:
         for number, test in enumerate(claim.tests, start=1):
-            rows += paired_rows(claim, number, test, sources)
-    return pd.DataFrame(rows)
-
-
-def _conditions(picked: pd.DataFrame, every: pd.DataFrame) -> str:
-    """The conditions ``picked`` among ``every``, named; "all but ..." when shorter."""
-    if len(picked) > len(every) / 2:
-        rest = every[~every["row"].isin(picked["row"])]
-        return (f"all {len(every)} conditions" if rest.empty else
-                f"{len(picked)} of {len(every)} conditions, all but "
-                + ", ".join(rest["condition"]))
-    return ", ".join(picked["condition"])
+            part = pd.DataFrame(paired_rows(claim, number, test, sources))
+            part["p_holm"] = np.append(_verdicts.holm(part["p"].to_numpy()[:-1]),
+                                       part["p"].iloc[-1])  # the pooled row: uncorrected
+            part["construction"] = test.construction
+            rows.append(part)
+    return pd.concat(rows, ignore_index=True)
 
 
 def verdict(rows: pd.DataFrame) -> tuple[str, str]:
-    """(verdict, detail) of one test from its rows (the pooled row last), read from the
-    p-values: "reproduced" when the pooled row and at least half the conditions show
-    ``a`` significantly better and none ``b``; "reproduced only under" the conditions
-    that show it (the reverse named too); else "not reproduced". With ``sense`` "as
-    good": reproduced unless ``b`` is significantly better somewhere."""
+    """(verdict, detail) of one test from its rows (the pooled row last), by the rules of
+    scripts/_verdicts.py; the closest condition to the paper's is :data:`CLOSEST`'s."""
     cond, pooled = rows.iloc[:-1], rows.iloc[-1]
-    sig = cond["p"] < ALPHA
-    a_sig = cond[sig & (cond["only_a"] > cond["only_b"])]
-    b_sig = cond[sig & (cond["only_b"] > cond["only_a"])]
-    pooled_a = pooled["p"] < ALPHA and pooled["only_a"] > pooled["only_b"]
-    pooled_b = pooled["p"] < ALPHA and pooled["only_b"] > pooled["only_a"]
-    named = _conditions(b_sig if len(b_sig) else a_sig, cond)
-    if pooled["sense"] == "as good":
-        if not len(b_sig) and not pooled_b:
-            return "reproduced", "no condition where the second is significantly better"
-        return "not reproduced", f"the second is significantly better at {named or 'pooled'}"
-    reverse = f"; the reverse at {_conditions(b_sig, cond)}" if len(b_sig) else ""
-    if pooled_a and not len(b_sig) and len(a_sig) >= len(cond) / 2:
-        return "reproduced", f"significant in {len(a_sig)} of {len(cond)} conditions"
-    if len(a_sig):
-        return "reproduced only under", _conditions(a_sig, cond) + reverse
-    if pooled_a:
-        return "reproduced only under", "the conditions pooled, in none alone" + reverse
-    if pooled_b or len(b_sig):
-        return "not reproduced", f"the reverse is significant at {named or 'pooled'}"
-    return "not reproduced", "no significant difference"
+    construction = pooled.get("construction", "")
+    closest = [c for c in [CLOSEST[pooled["scope"]]] if c in set(cond["condition"])]
+    v = _verdicts.judge_test(cond, pooled, pooled["sense"], closest or ["(not run)"],
+                             construction if isinstance(construction, str) else "")
+    return v.word, v.detail
 
 
 def claim_verdict(rows: pd.DataFrame) -> str:
-    """A claim's verdict from its tests' rows: "reproduced" when every test is,
-    "not reproduced" when none is even in part, else "reproduced only under" the
-    conditions and for the methods its tests name; "" when it has no test."""
-    words = [verdict(g)[0] for _, g in rows.groupby("test", sort=True)]
-    if not words:
-        return ""
-    if all(w == "reproduced" for w in words):
-        return "reproduced"
-    if all(w == "not reproduced" for w in words):
-        return "not reproduced"
-    return "reproduced only under"
+    """A claim's verdict from its tests' rows (scripts/_verdicts.py); "" with no test."""
+    return _verdicts.judge_claim([verdict(g)[0] for _, g in rows.groupby("test", sort=True)])

@@ -10,16 +10,23 @@ from startrack.bench.raw import summarise_raw
 from startrack.bench.stats import mcnemar_exact
 
 KEYS = ["condition", "noise_px", "false_stars", "method"]
-#: (A, B, what the pair tests): the paper's comparison lost in space and inside a known
-#: patch, its literal method in the patch, and ours against the planar triangles
+#: (A, B): the paper's comparison lost in space and inside a known patch (against our
+#: side-side-side and against its equation 5 alone), its literal method in the patch, and
+#: ours against the planar triangles
 PAIRS = (("radial", "sss"), ("radial_patch", "sss_patch"), ("radial_paper_patch", "sss_patch"),
+         ("radial_patch", "sss_paper_patch"), ("radial_paper_patch", "sss_paper_patch"),
          ("radial", "triangle"))
-#: measure name -> (table, per-frame success as a function of the table's rows)
+#: measure name -> (table, per-frame success as a function of the table's rows): A's
+#: frame is a success where B's is not (McNemar); for a count, "lower"/"higher" compares
+#: the two methods' values on the frame (a sign test: A's success is A's value beating B's)
 MEASURES = {
     "verified correct": ("frames", lambda t: t["correct"].astype(bool)),
     "raw first hypothesis right": ("raw", lambda t: t["first_right"].astype(bool)),
     "no misidentified star": ("labels", lambda t: t["misidentified"] == 0),
     "no star given twice": ("labels", lambda t: t["duplicates"] == 0),
+    "fewer misidentified stars": ("labels", ("lower", "misidentified")),
+    "more stars labelled right": ("labels", ("higher", "right")),
+    "matcher faster": ("raw", ("lower", "matcher_ms")),
 }
 
 
@@ -62,6 +69,18 @@ def label_summary(labels: pd.DataFrame) -> pd.DataFrame:
 
 
 def _one_test(measure: str, cond, part: pd.DataFrame, success, a: str, b: str) -> dict | None:
+    if isinstance(success, tuple):  # a count compared frame by frame
+        sense, column = success
+        wide = part.pivot_table(index=["condition", "frame"], columns="method",
+                                values=column, aggfunc="first")
+        if a not in wide or b not in wide:
+            return None
+        wide = wide[[a, b]].dropna()
+        va, vb = (wide[a], wide[b]) if sense == "lower" else (wide[b], wide[a])
+        t = mcnemar_exact((va < vb).to_numpy(), (vb < va).to_numpy())
+        return {"measure": measure, "condition": cond, "a": a, "b": b, "frames": t.frames,
+                "a_ok": t.only_a, "b_ok": t.only_b, "only_a": t.only_a,
+                "only_b": t.only_b, "p": t.p}
     wide = part.assign(ok=success(part)).pivot_table(
         index=["condition", "frame"], columns="method", values="ok", aggfunc="first")
     if a not in wide or b not in wide:
@@ -75,7 +94,8 @@ def _one_test(measure: str, cond, part: pd.DataFrame, success, a: str, b: str) -
 
 def paired_tests(frames: pd.DataFrame, raw: pd.DataFrame, labels: pd.DataFrame) -> pd.DataFrame:
     """Exact McNemar of every claim pair on every measure, per condition and pooled over all
-    conditions (condition -1); the time pair is a sign test: A faster than B on a frame."""
+    conditions (condition -1); a count (time, misidentified or right stars) is a sign test
+    of the two methods' values frame by frame."""
     sources = {"frames": frames, "raw": raw, "labels": labels}
     rows = []
     for measure, (source, success) in MEASURES.items():
@@ -86,14 +106,6 @@ def paired_tests(frames: pd.DataFrame, raw: pd.DataFrame, labels: pd.DataFrame) 
                 row = _one_test(measure, int(cond), part, success, a, b)
                 if row is not None:
                     rows.append(row)
-    for a, b in PAIRS:  # the sign test of matcher time, pooled
-        wide = raw.pivot_table(index=["condition", "frame"], columns="method",
-                               values="matcher_ms", aggfunc="first")
-        if a in wide and b in wide:
-            t = mcnemar_exact((wide[a] < wide[b]).to_numpy(), (wide[b] < wide[a]).to_numpy())
-            rows.append({"measure": "matcher faster", "condition": -1, "a": a, "b": b,
-                         "frames": t.frames, "a_ok": t.only_a, "b_ok": t.only_b,
-                         "only_a": t.only_a, "only_b": t.only_b, "p": t.p})
     out = pd.DataFrame(rows)
     cond = frames.drop_duplicates("condition").set_index("condition")
     out["noise_px"] = out["condition"].map(cond["noise_px"])

@@ -105,7 +105,8 @@ def save_tables(folder: Path, record: dict, tables: dict[str, pd.DataFrame],
     the record goes last, so a section is never stamped with tables it does not have."""
     folder.mkdir(parents=True, exist_ok=True)
     for name, table in tables.items():
-        table.to_csv(folder / f"{name}.csv", index=False, float_format="%.6g")
+        # ten digits: a number typed from a paper (108.4258) comes back as typed
+        table.to_csv(folder / f"{name}.csv", index=False, float_format="%.10g")
     save_run(folder, record, tables=sorted(tables), **extra)
 
 
@@ -211,6 +212,33 @@ def variant_lines(table: pd.DataFrame, pairs: list[tuple[str, str, str]]) -> str
     return "".join(lines)
 
 
+#: the options that set a paper script's run size (frames per condition of each pass)
+SIZE_OPTIONS = ("frames", "raw_frames", "timing_frames", "fov_frames", "faint_frames",
+                "label_frames")
+
+
+def size_note(command: str) -> str:
+    """Whether ``command`` (a paper script's, as its run record has it) ran at the
+    script's full default size; when not, each smaller pass and its full size."""
+    words = shlex.split(command)
+    if len(words) < 2 or not words[1].endswith(".py"):
+        return ""
+    sys.path.insert(0, str(Path(__file__).parent))
+    try:
+        script = importlib.import_module(Path(words[1]).stem)
+    except ImportError:  # not a script of this checkout: nothing to compare with
+        return ""
+    given, full = script.parse_args(words[2:]), script.parse_args([])
+    smaller = [f"`--{k.replace('_', '-')} {getattr(given, k)}` (full size "
+               f"{getattr(full, k)})" for k in SIZE_OPTIONS
+               if hasattr(full, k) and getattr(given, k) < getattr(full, k)]
+    if not smaller:
+        return "This is the full-size run.\n"
+    return ("**This is not the full-size run**: " + ", ".join(smaller) + ", the largest "
+            "that finished in the time the shared machine left (its load is in the stamp); "
+            "`make results` runs the full size.\n")
+
+
 def run_block(run: dict | None, name: str) -> str:
     """The lines that say how a section's tables were made."""
     if run is None:
@@ -224,7 +252,8 @@ def run_block(run: dict | None, name: str) -> str:
             f"{run.get('date (UTC)', run.get('started'))} to {run.get('finished', '?')} UTC, "
             f"{run.get('wall_s', float('nan')):.0f} s wall, on {run.get('CPU', run.get('cpu'))}"
             f", load average {load} at the start and {load_end} at the end; Python {python}"
-            f"{', ' + run['libraries'] if 'libraries' in run else ''}.\n")
+            f"{', ' + run['libraries'] if 'libraries' in run else ''}.\n\n"
+            + size_note(run["command"]))
 
 
 def render_section(section: Section) -> str:
@@ -258,8 +287,9 @@ def render(doc: Path = DOC) -> Path:
     """Write docs/results.md from every section's saved tables."""
     sys.path.insert(0, str(Path(__file__).parent))
     import _doc_papers
+    import _verdicts
 
-    parts = [_doc_papers.HEADER, _doc_papers.CLAIMS,
+    parts = [_doc_papers.TITLE, _verdicts.RULES, _doc_papers.HEADER, _doc_papers.CLAIMS,
              *(render_section(s) for s in SECTIONS), _doc_papers.LIMITS]
     text = "\n".join(p.rstrip("\n") + "\n" for p in parts)
     tmp = doc.with_suffix(".md.tmp")

@@ -13,7 +13,10 @@ Four measurements on the same deterministic frames (startrack.bench.frames), eve
 3. timing (``--timing-frames`` per condition of the two one-axis sweeps, in this one
    process): after ``--warmup`` untimed frames per method, the fastest of ``--repeats``
    identify() runs per frame, methods interleaved frame by frame; median and p95;
-4. the bench at other field widths (``--fov``, ``--fov-frames``).
+4. the bench at other field widths (``--fov``, ``--fov-frames``);
+5. the false-star magnitude rule's sensitivity (``--faint-frames``): the bench again at
+   noise 0 and 1 px x 1, 3, 5 false stars, each false star fainter than the fifth
+   brightest real star (``false_mags="faint"``) instead of uniform over the stars in view.
 
 Then every claim's paired tests (scripts/_paper2011_claims.py). Saves the small tables
 (table.csv, timing.csv, fov.csv, claims.csv) and run.json in docs/data/triangle-base-2011/,
@@ -161,6 +164,24 @@ def fov_runs(fovs, frames: int, jobs: int, out: Path) -> tuple[pd.DataFrame, pd.
     return pd.concat(tables, ignore_index=True), narrow[1]
 
 
+def faint_run(frames: int, jobs: int, out: Path) -> pd.DataFrame:
+    """The false-star rule's sensitivity: the same conditions under both rules (uniform,
+    faint), verified counts per (rule, condition, method), and the frames whose five
+    brightest spots hold at least 3 real stars."""
+    methods = METHODS + ("angle_open", "triangle_first", "hybrid_single")
+    tables = []
+    for rule in ("uniform", "faint"):
+        spec = dataclasses.replace(make_spec(frames, methods, noise=(0.0, 1.0),
+                                             false=(1, 3, 5)), false_mags=rule)
+        res = run_comparison(spec, out / f"false_{rule}", jobs=jobs, resume=False)
+        f = pd.read_csv(res.frames_csv)
+        t = f.groupby(GROUP, sort=False).agg(frames=("correct", "size"),
+                                             correct=("correct", "sum"),
+                                             wrong=("wrong", "sum")).reset_index()
+        tables.append(t.assign(rule=rule))
+    return pd.concat(tables, ignore_index=True)
+
+
 def patch_reading(n_stars: int, fov_rad: float, view_mean: float) -> dict:
     """The "0.025 x 0.025" read as radians: stars in view on the whole sphere, and the
     patch that 2000 stars must fill for the field to hold ``view_mean`` stars."""
@@ -195,6 +216,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                     help="field widths (deg) of the field-width runs ('' to skip)")
     ap.add_argument("--fov-frames", type=int, default=200,
                     help="bench frames per condition of the field-width runs")
+    ap.add_argument("--faint-frames", type=int, default=200,
+                    help="bench frames per condition of the false-star rule's sensitivity "
+                         "run (0 to skip)")
     ap.add_argument("--reuse", action="store_true",
                     help="no measuring: the per-frame tables of the last run in --out, "
                          "stamped with that run's record (give the same sizes)")
@@ -223,17 +247,27 @@ def measure(args, spec: RunSpec) -> dict[str, pd.DataFrame]:
     fov, fov10 = fov_runs(fovs, args.fov_frames, args.jobs, args.out) if fovs else (
         pd.DataFrame(), pd.DataFrame(columns=verified.columns))
     print(f"field widths: {time.perf_counter() - t0:.0f} s", flush=True)
-    data = {"verified": verified, "raw": raw, "timing": timing, "fov": fov, "fov10": fov10}
+    t0 = time.perf_counter()
+    faint = faint_run(args.faint_frames, args.jobs, args.out) if args.faint_frames \
+        else pd.DataFrame()
+    print(f"false-star rule: {time.perf_counter() - t0:.0f} s", flush=True)
+    data = {"verified": verified, "raw": raw, "timing": timing, "fov": fov, "fov10": fov10,
+            "faint": faint}
     for name, frame in data.items():  # the per-frame tables, for --reuse
         frame.to_csv(args.out / f"{name}_frames.csv", index=False)
     (args.out / "timing_load.json").write_text(json.dumps(timing.attrs["load"]))
     return data
 
 
+def _read(path: Path) -> pd.DataFrame:
+    """A saved per-frame table; an empty one for a pass that was skipped."""
+    return pd.read_csv(path) if path.stat().st_size > 1 else pd.DataFrame()
+
+
 def reuse(out: Path) -> dict[str, pd.DataFrame]:
     """The per-frame tables a previous run saved in ``out`` (``--reuse``)."""
-    data = {name: pd.read_csv(out / f"{name}_frames.csv")
-            for name in ("verified", "raw", "timing", "fov", "fov10")}
+    data = {name: _read(out / f"{name}_frames.csv")
+            for name in ("verified", "raw", "timing", "fov", "fov10", "faint")}
     data["timing"].attrs["load"] = json.loads((out / "timing_load.json").read_text())
     return data
 
@@ -258,14 +292,17 @@ def main(argv: list[str] | None = None) -> int:
     view = data["verified"].query("condition == 0")["n_true_in_view"]
     extra = dict(frames=args.frames, raw_frames=min(args.raw_frames, args.frames),
                  timing_frames=min(args.timing_frames, args.frames), repeats=args.repeats,
-                 warmup=args.warmup, fov_frames=args.fov_frames, jobs=args.jobs,
+                 warmup=args.warmup, fov_frames=args.fov_frames,
+                 faint_frames=args.faint_frames, jobs=args.jobs,
                  timing_load=data["timing"].attrs["load"], cpus=os.cpu_count(),
                  view_mean=float(view.mean()), view_min=int(view.min()),
                  view_max=int(view.max()),
-                 reading=patch_reading(spec.sky.n_stars, 0.025, float(view.mean())))
+                 reading=patch_reading(spec.sky.n_stars, 0.025, float(view.mean())),
+                 arcsec_per_px=float(np.degrees(1.0 / spec.camera.f_px) * 3600.0))
     figure = plot(table, args.figures / "paper2011_rates.png", {**record, **extra})
     results_doc.save_tables(args.data, record, {
-        "table": table, "timing": timing, "fov": data["fov"], "claims": claim_rows},
+        "table": table, "timing": timing, "fov": data["fov"], "claims": claim_rows,
+        "false_rule": data["faint"]},
         wall_s=time.perf_counter() - t_start, figure=str(figure.relative_to(ROOT)), **extra)
     print(claim_rows[claim_rows["condition"] == "pooled"].to_string(index=False))
     print(f"\nwrote {args.data}/, {figure} and {results_doc.render()}")

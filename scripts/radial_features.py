@@ -46,8 +46,9 @@ CONFIG = ROOT / "configs" / "radial_triangles.toml"
 SLUG = "radial-features"
 #: ours and the paper's baseline (lost in space), then the literal and known-patch variants
 METHODS = ("triangle", "radial", "sss", "radial_noise", "radial_paper", "radial_patch",
-           "radial_paper_patch", "sss_patch")
-#: the radial family, whose every star can be labelled (the triangle matcher cannot)
+           "radial_paper_patch", "sss_patch", "sss_paper_patch")
+#: the radial family, whose every star can be labelled (the triangle matcher cannot; the
+#: labels of `sss_paper_patch` are `sss_patch`'s: the labelling rule is equation 5 already)
 LABEL_METHODS = ("radial", "sss", "radial_paper", "radial_patch", "radial_paper_patch",
                  "sss_patch")
 #: noise x false stars, every combination (grid="full")
@@ -109,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
                    jobs=args.jobs)
     frames = pd.read_csv(result.frames_csv)
     for name, table in (("raw", raw), ("labels", labels)):
-        table.to_csv(args.out / f"{name}.csv", index=False, float_format="%.6g")
+        table.to_csv(args.out / f"{name}.csv", index=False, float_format="%.10g")
     summary = label_summary(labels)
     worst = labels["condition"] == _radial_plot.worst_condition(summary)
     tables = {"table": combine(result.summary, raw, frames), "labels": summary,

@@ -53,9 +53,13 @@ def papers_section() -> str:
 
     lines = [f"* {_results_doc.section_summary(s)}" for s in _results_doc.SECTIONS]
     return (f"{PAPERS_START}\n`docs/results.md` re-runs the two papers' experiments, their "
-            "literal variants beside ours, and judges each claim with paired tests; it is "
-            "rendered by `scripts/_results_doc.py` from the tables each paper's script saves "
-            "in `docs/data/` (written here by `scripts/readme_results.py`):\n\n"
+            "literal variants beside ours, and judges each claim with paired tests by the "
+            "rules it opens with (`scripts/_verdicts.py`): *reproduced*, *reproduced only "
+            "under* named conditions (never counted as reproduced), *not reproduced*, "
+            "*reversed*, *not testable here*. It is rendered by `scripts/_results_doc.py` "
+            "from the tables each paper's script saves in `docs/data/`; these lines, from "
+            "the same verdicts, by `scripts/readme_results.py --papers-only` (`make "
+            "results` runs all three):\n\n"
             + "\n".join(lines) + f"\n{PAPERS_END}")
 
 

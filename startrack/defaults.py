@@ -15,8 +15,8 @@ DEFAULT_METHOD = "pyramid"
 BUILTIN_METHODS = ("angle", "angle_closed", "angle_open", "astrometry", "hybrid",
                    "hybrid_nofourth", "hybrid_single", "pyramid", "quad", "radial",
                    "radial_noise", "radial_paper", "radial_paper_patch", "radial_patch",
-                   "sss", "sss_patch", "tetra3", "tetra3rs", "triangle", "triangle_first",
-                   "triangle_nopivot")
+                   "sss", "sss_paper", "sss_paper_patch", "sss_patch", "tetra3", "tetra3rs",
+                   "triangle", "triangle_first", "triangle_nopivot")
 #: default ``--fov-tolerance``: the true FOV may be this fraction above or below nominal
 DEFAULT_FOV_TOLERANCE = 0.10
 #: the horizontal FOVs (degrees) searched when none is given: down to 0.8 deg, where the

@@ -122,3 +122,21 @@ def first_hypothesis(matcher: Matcher, db: StarDatabase):
     first = next(iter(matcher.hypotheses(frame.obs, diag)))
     assert np.all(frame.truth_rows[first.obs_index] == first.cat_index)
     return first, diag
+
+
+def two_star_frame(db: StarDatabase) -> tuple[Observation, np.ndarray]:
+    """Two stars of an exact frame of ``db``'s sky whose angle's window (as the angle
+    matcher looks it up) holds exactly one catalog pair, and their catalog rows."""
+    from startrack.matching.pairs import pair_index
+
+    matcher = prepared_matcher("angle", db)
+    index = pair_index(matcher._table(), len(db.vectors))
+    for frame in frames(db.catalog, db.camera, 10, seed=3):
+        obs = frame.obs
+        for i in range(8):
+            for j in range(i + 1, 8):
+                two = Observation.from_pixels(obs.x[[i, j]], obs.y[[i, j]], obs.camera, 0.05)
+                w = matcher._windows(index, two.vectors, matcher.angle_tolerance(two))[0, 1]
+                if w[1] - w[0] == 1:
+                    return two, frame.truth_rows[[i, j]]
+    raise AssertionError("no two-star frame with a unique catalog pair")

@@ -40,19 +40,48 @@ def test_rows_per_condition_and_pooled_count_discordant_frames():
     assert pooled["only_a"] == pooled["k_a"] - pooled["k_b"] and pooled["only_b"] == 0
 
 
-def test_verdicts_follow_the_p_values():
+def test_verdicts_follow_the_written_rules():
+    """scripts/_verdicts.py's rules on the claims' rows; the closest condition to the
+    paper's is 0 px/0 false (the first)."""
     assert claims.verdict(_rows(_frames([0.95, 0.95], [0.3, 0.3])))[0] == "reproduced"
+    # holds at the closest condition only: still reproduced (no reverse anywhere)
     assert claims.verdict(_rows(_frames([0.95, 0.5], [0.3, 0.5])))[0] == "reproduced"
-    word, detail = claims.verdict(_rows(_frames([0.95, 0.5, 0.5], [0.3, 0.5, 0.5])))
-    assert word == "reproduced only under" and detail == "0 px/0 false"
+    word, detail = claims.verdict(_rows(_frames([0.5, 0.95, 0.5], [0.5, 0.3, 0.5])))
+    assert word == "reproduced only under" and detail.startswith("1 px/0 false")
+    assert "not at the closest" in detail
     word, detail = claims.verdict(_rows(_frames([0.3, 0.3], [0.95, 0.95])))
-    assert word == "not reproduced" and "reverse" in detail
+    assert word == "reversed" and "reverse" in detail
     assert claims.verdict(_rows(_frames([0.5, 0.5], [0.5, 0.5])))[0] == "not reproduced"
     # "as good": holds unless the second is significantly better
     assert claims.verdict(_rows(_frames([0.5, 0.5], [0.5, 0.5]), "as good"))[0] == \
         "reproduced"
     assert claims.verdict(_rows(_frames([0.3, 0.3], [0.95, 0.95]), "as good"))[0] == \
-        "not reproduced"
+        "reversed"
+
+
+def test_a_claim_with_a_reversed_test_is_reversed():
+    """The README's C4 said "reproduced under named conditions" while its speed test was
+    reversed: a claim is reversed when any of its tests is."""
+    good = _rows(_frames([0.95, 0.95], [0.3, 0.3]))
+    bad = _rows(_frames([0.3, 0.3], [0.95, 0.95])).assign(test=2)
+    assert claims.claim_verdict(pd.concat([good, bad])) == "reversed"
+    assert claims.claim_verdict(good) == "reproduced"
+
+
+def test_a_variant_built_to_meet_the_claim_is_not_testable():
+    built = _rows(_frames([0.95, 0.95], [0.3, 0.3])).assign(construction="built so")
+    assert claims.verdict(built) == ("not testable here", "built so")
+    no_pivot = [t for c in claims.CLAIMS for t in c.tests if t.construction]
+    assert [(t.a, t.measure) for t in no_pivot] == [("hybrid_single", "no_pivots")]
+
+
+def test_wrong_answers_are_counted_beside_the_right_ones():
+    frames = _frames([0.9, 0.5], [0.5, 0.5])
+    frames["wrong"] = ~frames["correct"] & (frames["frame"] % 2 == 0)
+    rows = _rows(frames)
+    pooled = rows.iloc[-1]
+    expect = frames[frames["method"] == "a"]["wrong"].sum()
+    assert pooled["wrong_a"] == expect and pooled["wrong_b"] > 0
 
 
 def test_faster_compares_times_frame_by_frame():

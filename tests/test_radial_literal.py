@@ -141,3 +141,26 @@ def test_map_units_runs_every_condition_and_frame_in_canonical_order():
         (0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (1, 2)]
     assert table["value"].tolist() == [0, 10, 20, 10, 20, 30]
     assert len(map_units(_unit, spec, 9, scale=1)) == 10  # capped at the run's frames
+
+
+def test_equation_5_alone_yields_every_matching_triangle(random_db):
+    """`sss_paper`: every catalog triangle within eps of the observed sides, three stars
+    each, no cap; ours caps at ``max_matches`` and orders by a fourth star."""
+    from startrack.types import MatchDiagnostics
+
+    frame = _frame(random_db, seed=8, noise_px=2.0, sigma_px=20.0)  # wide windows
+    literal = list(prepared_matcher("sss_paper", random_db).hypotheses(
+        frame.obs, MatchDiagnostics()))
+    ours = list(prepared_matcher("sss", random_db).hypotheses(frame.obs, MatchDiagnostics()))
+    assert all(len(h.obs_index) == 3 for h in literal)
+    per_triangle = np.unique([tuple(h.obs_index) for h in literal], axis=0,
+                             return_counts=True)[1]
+    assert per_triangle.max() > 8, "the wide windows hold more than our cap"
+    assert len(literal) > len(ours)
+    assert any(len(h.obs_index) == 4 for h in ours)
+
+
+def test_equation_5_alone_in_the_patch_identifies_an_exact_frame(random_db):
+    frame = _frame(random_db, seed=8)
+    matcher = _pointed("sss_paper_patch", random_db, frame, patch_deg=15.0)
+    assert_correct(identify(frame.obs, matcher), frame.truth_rows)

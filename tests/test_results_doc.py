@@ -60,3 +60,12 @@ def test_readme_says_what_the_page_shows():
 
     text = (ROOT / "README.md").read_text()
     assert readme_results.papers_section() in text
+
+
+def test_the_stamp_says_when_a_run_is_not_full_size():
+    full = _results_doc.size_note(".venv/bin/python scripts/radial_features.py --jobs 2")
+    assert full == "This is the full-size run.\n"
+    small = _results_doc.size_note(".venv/bin/python scripts/radial_features.py --jobs 2 "
+                                   "--frames 80 --raw-frames 40 --label-frames 25")
+    assert small.startswith("**This is not the full-size run**")
+    assert "`--frames 80` (full size 1000)" in small and "make results" in small

@@ -40,6 +40,8 @@ _ATTITUDE, _SCENE, _FALSE, _NOISE, _PIXELS, _EFFECTS = range(6)
 SIGMA_FLOOR_PX = 0.05
 # An extracted centroid this close to a scene star is that star (for scoring only).
 TRUTH_RADIUS_PX = 2.0
+#: how a false star's magnitude is drawn (see :func:`frame_scene`)
+FALSE_MAGS = ("uniform", "faint")
 
 
 @dataclass(frozen=True)
@@ -86,9 +88,14 @@ def frame_attitude(seed: int, index: int) -> Rotation:
 
 
 def frame_scene(catalog: Catalog, camera: Camera, condition: Condition, seed: int,
-                index: int, hot_pixel_fraction: float = 0.5) -> tuple[Scene, np.ndarray]:
+                index: int, hot_pixel_fraction: float = 0.5,
+                false_mags: str = "uniform") -> tuple[Scene, np.ndarray]:
     """The scene of frame ``index`` under ``condition`` (no position noise yet), and the
-    catalog rows in view before dropout (ascending, i.e. brightest first)."""
+    catalog rows in view before dropout (ascending, i.e. brightest first).
+
+    ``false_mags`` (:data:`FALSE_MAGS`): a false star's magnitude is uniform between the
+    brightest and the faintest star in view ("uniform"), or between the fifth brightest
+    real star observed and the faintest ("faint": the five brightest spots stay real)."""
     rotation = frame_attitude(seed, index)
     rows_in_view, _, _ = stars_in_view(catalog, camera, rotation)
     # observe() thresholds one uniform per star in view and scales one normal per star,
@@ -99,8 +106,13 @@ def frame_scene(catalog: Catalog, camera: Camera, condition: Condition, seed: in
     # used, so K=3 contains K=1's star (observe() draws each attribute as a block of K).
     u = _rng(seed, index, _FALSE).random((int(condition.false_stars), 4))
     mags = catalog.mag[rows_in_view] if len(rows_in_view) >= 2 else catalog.mag
-    scene = add_false_stars(real, u, camera, (float(mags.min()), float(mags.max())),
-                            hot_pixel_fraction)
+    low, high = float(mags.min()), float(mags.max())
+    if false_mags == "faint" and len(real.mag):
+        low = float(np.sort(real.mag)[min(4, len(real.mag) - 1)])
+        high = max(high, low)
+    elif false_mags not in FALSE_MAGS:
+        raise ValueError(f"false_mags must be one of {FALSE_MAGS}, got {false_mags!r}")
+    scene = add_false_stars(real, u, camera, (low, high), hot_pixel_fraction)
     return scene, rows_in_view
 
 
@@ -113,7 +125,8 @@ def frame_effects(effects: Effects | None, condition: Condition) -> Effects:
 
 def make_frame(catalog: Catalog, camera: Camera, condition: Condition, seed: int,
                index: int, *, source: str = "centroids", sensor: SensorModel | None = None,
-               hot_pixel_fraction: float = 0.5, effects: Effects | None = None) -> BenchFrame:
+               hot_pixel_fraction: float = 0.5, effects: Effects | None = None,
+               false_mags: str = "uniform") -> BenchFrame:
     """Frame ``index`` of a run under ``condition``, as observed stars brightest first.
 
     ``source="centroids"``: the true positions plus Gaussian noise of ``noise_px``.
@@ -125,7 +138,7 @@ def make_frame(catalog: Catalog, camera: Camera, condition: Condition, seed: int
     """
     seen = true_camera(camera, condition)
     scene, rows_in_view = frame_scene(catalog, seen, condition, seed, index,
-                                      hot_pixel_fraction)
+                                      hot_pixel_fraction, false_mags)
     told = matcher_camera(camera, condition)
     if source == "centroids":
         return _from_centroids(scene, rows_in_view, told, condition, seed, index)
@@ -182,7 +195,7 @@ def label_spots(x: np.ndarray, y: np.ndarray, star_x: np.ndarray, star_y: np.nda
     return truth
 
 __all__ = [
-    "BenchFrame", "SIGMA_FLOOR_PX", "TRUTH_RADIUS_PX", "frame_attitude", "frame_effects",
-    "frame_scene",
-    "label_spots", "make_frame", "matcher_camera", "true_camera",
+    "BenchFrame", "FALSE_MAGS", "SIGMA_FLOOR_PX", "TRUTH_RADIUS_PX", "frame_attitude",
+    "frame_effects", "frame_scene", "label_spots", "make_frame", "matcher_camera",
+    "true_camera",
 ]

@@ -54,6 +54,7 @@ class RunSpec:
     hot_pixel_fraction: float = 0.5
     threshold_arcsec: float = 60.0
     effects: Effects = field(default_factory=Effects)  # the config's; conditions set levels
+    false_mags: str = "uniform"  # startrack.bench.frames.FALSE_MAGS
 
     def to_json(self) -> dict:
         """The run's identity, as stored in run.json and compared on resume (the effects
@@ -67,6 +68,8 @@ class RunSpec:
             "grid": self.grid, "max_stars": self.max_stars, "extra_stars": self.extra_stars,
             "hot_pixel_fraction": self.hot_pixel_fraction,
             "threshold_arcsec": self.threshold_arcsec,
+            # named only when not the default, so that older runs still resume
+            **({"false_mags": self.false_mags} if self.false_mags != "uniform" else {}),
             "camera": {"width": self.camera.width, "height": self.camera.height,
                        "f_px": self.camera.f_px, "cx": self.camera.cx, "cy": self.camera.cy},
             "sky": self.sky.to_dict(),
@@ -132,7 +135,8 @@ def load_bench(spec: RunSpec) -> LoadedBench:
             if spec.source == "images":  # the extraction's kernels, before it is timed
                 make_frame(catalog, spec.camera, spec.conditions[0], spec.seed, 0,
                            source=spec.source, sensor=spec.sensor,
-                           hot_pixel_fraction=spec.hot_pixel_fraction, effects=spec.effects)
+                           hot_pixel_fraction=spec.hot_pixel_fraction, effects=spec.effects,
+                           false_mags=spec.false_mags)
             _LOADED[key] = LoadedBench(spec, identifiers, seconds)
         return _LOADED[key]
 
@@ -144,7 +148,8 @@ def bench_frame(spec: RunSpec, condition_index: int, frame: int):
     some = bench.identifiers[spec.methods[0]]
     bf = make_frame(some.catalog, spec.camera, condition, spec.seed, frame,
                     source=spec.source, sensor=spec.sensor,
-                    hot_pixel_fraction=spec.hot_pixel_fraction, effects=spec.effects)
+                    hot_pixel_fraction=spec.hot_pixel_fraction, effects=spec.effects,
+                    false_mags=spec.false_mags)
     return bench, condition, bf
 
 

@@ -12,8 +12,16 @@ pivots go on until one hypothesis remains or the stars run out.
 looked up: "until_one" (ours: until one hypothesis is left, so the last star's other
 angles may go unchecked), "all" (every one), "none" (the paper's literal chain: each
 pivot shares one star with the last pair, no closing angle). The variant ``angle_closed``
-is "all"; ``angle_open`` is the paper's chain whole: "none", no star skipped
-(``max_skips=0``) and an ambiguous end refused (``max_ambiguous=1``).
+is "all"; ``angle_open`` is the paper's chain whole: one chain (``max_chains=1``, from
+the three brightest stars on through the others by brightness), "none", no star skipped
+(``max_skips=0``), and a chain that ends with several answers, or runs out of stars
+before one is left, is indeterminate (``max_ambiguous=1``).
+
+Two stars are enough, as the paper says of the angle method ("in the angle method two
+stars are needed"): their one angle is an answer when its window holds at most
+``max_ambiguous`` catalog pairs (one, in the paper's words "if an angle can be matched to
+one pair of stars"), each pair handed on both ways round, since one angle cannot tell
+which star is which.
 
 The on-board catalog the pairs are looked up in is the pattern stars' pair table (stars
 with fewer than ``pattern_per_region`` brighter ones within half the FOV, as Pyramid's
@@ -83,6 +91,8 @@ class AngleMatcher(PatternPairMatcher):
     def hypotheses(self, obs: Observation, diag: MatchDiagnostics,
                    screen_rad: float | None = None) -> Iterator[Hypothesis]:
         n = self.star_count(obs)
+        if n == 2:
+            yield from self._one_angle(obs, diag)
         if n < 3:
             return
         first = min(self.config.max_stars, n)
@@ -106,6 +116,21 @@ class AngleMatcher(PatternPairMatcher):
             for row in slot_rows[rows] if t < len(triples) else ():
                 yield Hypothesis(cols.copy(), row)
             t += 1
+
+    def _one_angle(self, obs: Observation, diag: MatchDiagnostics) -> Iterator[Hypothesis]:
+        """Two stars: the catalog pairs in their angle's window, each both ways round,
+        when there are at least one and at most ``max_ambiguous``."""
+        index = pair_index(self._table(), len(self.database.vectors))
+        windows = self._windows(index, obs.vectors[:2], self.angle_tolerance(obs))
+        start, stop = (int(v) for v in windows[0, 1])
+        diag.candidates += max(stop - start, 0)
+        diag.extra["lookups"] = diag.extra.get("lookups", 0) + 1
+        if not 1 <= stop - start <= max(self.max_ambiguous, 1):
+            return
+        for e in range(start, stop):
+            i, j = int(index.pi[e]), int(index.pj[e])
+            for rows in ((i, j), (j, i)):
+                yield Hypothesis(np.array([0, 1], np.int64), np.array(rows, np.int64))
 
     @property
     def _limits(self) -> core.AngleLimits:
@@ -150,11 +175,12 @@ def _count(frame: core.AngleFrame, base: tuple, diag: MatchDiagnostics) -> None:
 
 register_variant(AngleMatcher, "angle_closed",
                  "angle method, every closing angle checked (variant)", closing="all")
-# The paper's chain: each pivot shares one star with the last pair, no star is left out,
-# and a chain that ends with more than one answer is "indeterminate" (no hypothesis).
+# The paper's chain: one chain, each pivot shares one star with the last pair, no star is
+# left out, and a chain that does not end with one answer is "indeterminate" (none).
 register_variant(AngleMatcher, "angle_open",
-                 "angle method, the 2011 paper's chain: no closing angle, no skipped star, "
-                 "one answer or none (variant)", closing="none", max_skips=0, max_ambiguous=1)
+                 "angle method, the 2011 paper's chain: one chain, no closing angle, no "
+                 "skipped star, one answer or none (variant)", closing="none", max_skips=0,
+                 max_ambiguous=1, max_chains=1)
 
 __all__ = [
     "AngleMatcher",

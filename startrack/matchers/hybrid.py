@@ -16,8 +16,17 @@ chance triangles are common). That fourth-star check is what the Pyramid matcher
 as a pivot, and it is counted so here. Triangles no other star confirms (the rest may be
 false stars) are tried last in each pass. ``fourth_star=False`` (the variant
 ``hybrid_nofourth``) leaves the check out, as the paper does: each passing triangle goes
-to verification as it is. ``hybrid_single`` is the paper's hybrid whole: no check, one
-pass (no vote relaxation, no second round), each triangle's best catalog triangle only.
+to verification as it is.
+
+``hybrid_single`` is the paper's hybrid and nothing more. Where the paper is silent it
+takes the simplest reading: its one line on the shortlist ("first, with the angle
+method, we make some catalog stars candidates for the stars in the field of view") says
+nothing of how many angles must agree, so a catalog star is a candidate of an observed
+star when any one of that star's angle lookups holds it (``min_votes=1``, one pass); the
+triangle test is the paper's area and polar moment alone (``mirror_check=False``); and,
+as it "does not pivot", a triangle answers only when exactly one catalog triangle passes
+(``unique=True``: the paper's triangle method pivots when there are several), each
+triangle of the five brightest stars on its own, no fourth star, no second round.
 
 The angle lookups are in the pattern stars' pair table (as the angle matcher's: see
 there): at 1 px noise on Hipparcos the first pass's shortlists then hold tens of stars,
@@ -85,9 +94,15 @@ class HybridMatcher(PatternPairMatcher):
 
     def __init__(self, database: StarDatabase, config: MatcherConfig | None = None, *,
                  max_false: int = 3, max_per_triangle: int = 5,
-                 max_unconfirmed: int = 10, fourth_star: bool = True, **pattern) -> None:
+                 max_unconfirmed: int = 10, fourth_star: bool = True,
+                 min_votes: int | None = None, unique: bool = False,
+                 mirror_check: bool = True, **pattern) -> None:
         super().__init__(database, config, **pattern)  # pattern stars and extra_stars
         self.fourth_star = bool(fourth_star)
+        # None: ours, passes from n - 1 votes down; k: one pass asking for k votes
+        self.min_votes = None if min_votes is None else int(min_votes)
+        self.unique = bool(unique)  # a triangle answers only with one catalog triangle
+        self.mirror_check = bool(mirror_check)  # handedness beside area and moment
         self.max_unconfirmed = max_unconfirmed  # per pass, best first
         self.max_false = max_false  # votes the last pass may miss (false partners)
         self.max_per_triangle = max_per_triangle
@@ -101,7 +116,7 @@ class HybridMatcher(PatternPairMatcher):
         yield from self._round(obs, first, self.max_false, diag)
         # False stars crowd the brightest: the fainter ones join, and more votes may miss.
         n = self.star_count(obs)
-        if n > first:
+        if n > first and self.min_votes is None:
             yield from self._round(obs, n, self.max_false + n - first, diag)
 
     def _round(self, obs: Observation, n: int, max_false: int,
@@ -120,7 +135,13 @@ class HybridMatcher(PatternPairMatcher):
         hands = np.where(feats[:, 0] > k * feats[:, 2],
                          handedness(vec[tri[:, 0]], vec[tri[:, 1]], vec[tri[:, 2]]),
                          0).astype(np.int64)
+        if not self.mirror_check:
+            hands[:] = 0  # 0: no handedness asked of the catalog triangle
         frame = kernels.HybridFrame(tri, feats, hands, angle_table(vec), tol, k)
+        if self.min_votes is not None:
+            diag.extra["passes"] += 1
+            yield from self._triangles(frame, tri, windows, votes >= self.min_votes, diag)
+            return
         for missed in range(min(max_false, n - 3) + 1):
             diag.extra["passes"] += 1
             yield from self._triangles(frame, tri, windows, votes >= n - 1 - missed, diag)
@@ -142,7 +163,7 @@ class HybridMatcher(PatternPairMatcher):
             # The compiled search passes over the triples without a catalog triangle.
             t, trip, err = search.next_triangles(t)
             diag.extra["triangles_tested"] = search.tested
-            if t < len(tri):
+            if t < len(tri) and not (self.unique and len(trip) > 1):
                 for r in np.argsort(err, kind="stable")[: self.max_per_triangle]:
                     yield Hypothesis(tri[t].copy(), trip[r])
             t += 1
@@ -176,11 +197,13 @@ class HybridMatcher(PatternPairMatcher):
 
 register_variant(HybridMatcher, "hybrid_nofourth",
                  "hybrid without the fourth-star check (variant)", fourth_star=False)
-# The paper's hybrid as written: one shortlist (every angle of a star must vote for its
-# catalog star), then each triangle's best catalog triangle, no pivot, no second pass.
+# The paper's hybrid as written (the module's last paragraph): a catalog star any angle
+# lookup of a star holds is its candidate; a triangle answers when one catalog triangle
+# passes area and polar moment; no pivot, no fourth star, no second pass.
 register_variant(HybridMatcher, "hybrid_single",
-                 "hybrid in one pass, one hypothesis per triangle, no fourth star (2011 "
-                 "paper literal, variant)", fourth_star=False, max_false=0,
+                 "hybrid as the 2011 paper writes it: any angle's lookup shortlists, a "
+                 "triangle answers with one catalog triangle only, no pivot (variant)",
+                 fourth_star=False, min_votes=1, unique=True, mirror_check=False,
                  max_per_triangle=1, extra_stars=0)
 
 __all__ = [

@@ -19,7 +19,10 @@ ring (equation 4), a neighbour's ring taken as measured [radial_paper];
 the catalog to a known sky patch around ``patch_center`` (set per frame by the caller), as
 the paper's experiment did [radial_patch, radial_paper_patch]; ``prefilter=False`` drops
 the radial shortlist, so the side-side-side test runs over every catalog star (through the
-pair table) or every star of the patch: the paper's baseline [sss, sss_patch].
+pair table) or every star of the patch: the paper's baseline [sss, sss_patch], with our
+mirror check, fourth-star ordering and ``max_matches``; ``literal=True`` is equation 5
+alone: every catalog triangle whose three sides lie within eps of the observed ones, in
+catalog order, no mirror check, no fourth star, no cap [sss_paper, sss_paper_patch].
 """
 
 from __future__ import annotations
@@ -82,8 +85,10 @@ class RadialMatcher(Matcher):
                  ring_sigma: float | None = None, frac: float = 0.75, cap: int = 10,
                  min_rings: int = 4, max_matches: int = 8, rings: str = "fixed",
                  prefilter: bool = True, patch_deg: float | None = None,
-                 threshold: str = "occupied", edge_tolerance: bool = True) -> None:
+                 threshold: str = "occupied", edge_tolerance: bool = True,
+                 literal: bool = False) -> None:
         super().__init__(database, config)
+        self.literal = bool(literal)  # equation 5 alone (see the module)
         if rings not in RINGS:
             raise ValueError(f"rings must be one of {', '.join(RINGS)}, got {rings!r}")
         if threshold not in THRESHOLDS:
@@ -204,6 +209,10 @@ class RadialMatcher(Matcher):
             if found is None:
                 continue
             (ia, ib, ic), (ra, rb, rc) = found
+            if self.literal:
+                for tri in zip(ra, rb, rc, strict=True):
+                    yield Hypothesis(np.array([a, b, c], np.int64), np.array(tri, np.int64))
+                continue
             # Side-side-side cannot tell a triangle from its mirror image; a rotation can.
             keep = (ra != rb) & (rb != rc) & (ra != rc)
             triple = float(triple_products(ov[a], ov[b], ov[c]))
@@ -270,3 +279,9 @@ register_variant(RadialMatcher, "sss", "side-side-side over every catalog star, 
 register_variant(RadialMatcher, "sss_patch", "side-side-side over a known sky patch's "
                  "catalog stars (the improved triangle paper's baseline, variant)",
                  prefilter=False, patch_deg=PATCH_DEG)
+register_variant(RadialMatcher, "sss_paper", "side-side-side by the improved triangle "
+                 "paper's equation 5 alone: no mirror check, fourth star or cap (variant)",
+                 prefilter=False, literal=True)
+register_variant(RadialMatcher, "sss_paper_patch", "sss_paper over a known sky patch's "
+                 "catalog stars, as the paper ran its baseline (variant)",
+                 prefilter=False, literal=True, patch_deg=PATCH_DEG)
