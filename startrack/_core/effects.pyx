@@ -12,7 +12,11 @@ and added to the image.
 from libc.math cimport cos, erfc, exp, fabs, floor, lgamma, log, rint, sqrt
 from libc.stdint cimport int64_t, uint16_t, uint64_t
 from libc.stdlib cimport free, malloc
-from scipy.special.cython_special cimport j1
+
+# The C library's Bessel function of the first kind (POSIX <math.h>): scipy's Cython
+# declarations are not in the install's build environment, which has Cython and numpy only.
+cdef extern from "math.h" nogil:
+    double j1(double x)
 
 cdef double _SQRT2 = sqrt(2.0)
 cdef double _AIRY_ZERO = 3.8317059702075125  # first zero of J1
