@@ -188,3 +188,19 @@ def test_close_stars_merge_greedily_in_brightness_order():
             if want[a[i]]:
                 want[b[i]] = False
         np.testing.assert_array_equal(kept_in_brightness_order(a, b, n), want)
+
+
+def test_too_few_stars_are_answered_without_loading_a_sky(monkeypatch):
+    """A blank frame at a narrow FOV once built a deep sky's tables (minutes, GBs) before
+    saying "too_few_stars"; now no sky is loaded at all."""
+    import startrack
+    from startrack.solver import _pipeline
+
+    def no_sky(*_args, **_kwargs):
+        raise AssertionError("a sky was loaded for two stars")
+
+    monkeypatch.setattr(_pipeline, "load_sky", no_sky)
+    for fov in (0.3, None):
+        result = startrack.solve(np.array([[10.0, 20.0, 5.0], [50.0, 60.0, 4.0]]),
+                                 fov_deg=fov, size=(1024, 1024))
+        assert not result.solved and result.reason == "too_few_stars"

@@ -22,14 +22,16 @@ from startrack.sky.tycho2 import (
 SCALE = 2.0**31 - 1  # tree units per data unit over [-1, 1], as the Debian files have
 
 
-def write_index(path, ra_deg, dec_deg, mag) -> None:
+def write_index(path, ra_deg, dec_deg, mag, *, scale=SCALE, endian="04:03:02:01",
+                trim=0) -> None:
     """A minimal index file as astrometry.net writes one: the star tree's data (u32
-    triples, as raw bytes), its range table and the MAG_VT tag-along table."""
+    triples, as raw bytes), its range table and the MAG_VT tag-along table (``scale``,
+    ``endian`` and ``trim``, bytes cut off each star's data, make a damaged one)."""
     from astropy.io import fits
 
     v = radec_to_vectors(np.asarray(ra_deg), np.asarray(dec_deg))
     codes = np.round((v + 1.0) * SCALE).astype("<u4")
-    box = np.array([-1, -1, -1, 1, 1, 1, SCALE], "<f8")
+    box = np.array([-1, -1, -1, 1, 1, 1, scale], "<f8")
 
     def raw(name, data, width):  # bytes columns (the Debian files say 'A': astropy pads those)
         col = fits.Column(name=name, format=f"{width}B",
@@ -37,11 +39,12 @@ def write_index(path, ra_deg, dec_deg, mag) -> None:
         return fits.BinTableHDU.from_columns([col])
 
     primary = fits.PrimaryHDU()
-    primary.header["ENDIAN"] = "04:03:02:01"
+    primary.header["ENDIAN"] = endian
     mags = fits.BinTableHDU.from_columns([fits.Column(name="MAG_VT", format="E",
                                                       array=np.asarray(mag, "f4"))])
     fits.HDUList([primary, raw("kdtree_range_stars", box, 8),
-                  raw("kdtree_data_stars", codes, 12), mags]).writeto(path)
+                  raw("kdtree_data_stars", codes.view(np.uint8).reshape(-1, 12)[:, trim:],
+                      12 - trim), mags]).writeto(path)
 
 
 def test_reader_recovers_positions_and_magnitudes(tmp_path):
@@ -54,6 +57,18 @@ def test_reader_recovers_positions_and_magnitudes(tmp_path):
     sep = np.degrees(np.arccos(np.clip(np.sum(vectors * radec_to_vectors(ra, dec), 1), -1, 1)))
     assert sep.max() * 3600 < 0.01
     np.testing.assert_allclose(vt, mag, atol=1e-3)
+
+
+@pytest.mark.parametrize(("damage", "said"), [
+    ({"scale": 0.0}, "scale"), ({"scale": float("nan")}, "scale"),
+    ({"endian": "12:34:56:78"}, "ENDIAN"), ({"trim": 5}, "cannot read the index file"),
+])
+def test_a_damaged_index_file_is_one_line_naming_it(tmp_path, damage, said):
+    path = tmp_path / "index-tycho2-98.fits"
+    write_index(path, [10.0, 20.0, 30.0], [0.0, 5.0, 10.0], [5.0, 6.0, 7.0], **damage)
+    with pytest.raises(InputError, match=said) as caught:
+        read_index_stars(path)
+    assert str(path) in str(caught.value) and "\n" not in str(caught.value)
 
 
 def test_union_of_files_is_deduplicated_with_stable_ids(tmp_path, monkeypatch):

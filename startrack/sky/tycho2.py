@@ -36,6 +36,7 @@ TYCHO2_EPOCH = 2000.0
 #: where Debian's packages put the index files, then astrometry.net's own default
 DEFAULT_INDEX_DIRS = ("/usr/share/astrometry", "/usr/local/astrometry/data")
 INDEX_DIR_ENV = "STARTRACK_INDEX_DIR"
+LITTLE_ENDIAN, BIG_ENDIAN = "04:03:02:01", "01:02:03:04"  # astrometry.net's ENDIAN card
 INDEX_NAME = re.compile(r"^index-(tycho2-\d+|41\d\d).*\.fits$")
 DEDUP_ARCSEC = 1.0
 HIP_MATCH_ARCSEC = 1.0
@@ -93,18 +94,27 @@ def read_index_stars(path: Path) -> tuple[np.ndarray, np.ndarray]:
             if data.header.get("KDT_DATA", "u32").strip() != "u32":
                 raise InputError(f"{path}: star tree data type {data.header['KDT_DATA']!r} "
                                  "is not u32")
-            little = hdus[0].header.get("ENDIAN", "04:03:02:01") == "04:03:02:01"
-            order = "<" if little else ">"
+            endian = str(hdus[0].header.get("ENDIAN", LITTLE_ENDIAN)).strip()
+            if endian not in (LITTLE_ENDIAN, BIG_ENDIAN):
+                raise InputError(f"{path}: ENDIAN card {endian!r} is neither "
+                                 f"{LITTLE_ENDIAN} nor {BIG_ENDIAN}")
+            order = "<" if endian == LITTLE_ENDIAN else ">"
             # The tree columns are raw bytes to astropy ('12A'); their dtype is the tree's.
             codes = np.frombuffer(data.data.tobytes(), f"{order}u4").reshape(-1, 3)
             low_high_scale = np.frombuffer(box.data.tobytes(), f"{order}f8")
             mag = np.asarray(mag_hdu.data["MAG_VT"], dtype=np.float64)
     except KeyError as exc:
         raise InputError(f"{path}: not an astrometry.net index file (no {exc} table)") from None
-    except OSError as exc:
+    # ValueError, TypeError: a truncated or altered table whose bytes do not make whole
+    # stars, or columns of the wrong kind
+    except (OSError, ValueError, TypeError) as exc:
         raise InputError(f"{path}: cannot read the index file ({exc})") from None
     if len(codes) != len(mag) or len(low_high_scale) != 7:
         raise InputError(f"{path}: star table and magnitudes disagree in length")
+    scale = low_high_scale[6]
+    if not (np.isfinite(low_high_scale).all() and scale > 0):
+        raise InputError(f"{path}: the star tree's box or scale is not a positive finite "
+                         f"number (scale {scale!r})")
     vectors = low_high_scale[:3] + codes / low_high_scale[6]
     vectors /= np.linalg.norm(vectors, axis=1, keepdims=True)
     return vectors, np.round(mag, 3)

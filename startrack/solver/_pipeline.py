@@ -15,8 +15,11 @@ every stage of its identification (the configured method, the FOV refit, the FOV
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 from pathlib import Path
+
+import numpy as np
 
 from startrack.camera._model import Camera
 from startrack.centroids import frame_sigma_px
@@ -43,8 +46,12 @@ from startrack.solver._inputs import FrameInput, read_input
 from startrack.solver._options import Options
 from startrack.solver._setup import decide_setup
 from startrack.solver._trail import Trail, request_record
-from startrack.types import Timing
+from startrack.types import Observation, Solution, Timing
 from startrack.verify._evidence import require_evidence
+from startrack.verify._verification import VerifyConfig
+
+#: fewer stars than this make no pattern of any matcher: not solved, with nothing loaded
+MIN_STARS = 3
 
 
 class Pipeline:
@@ -139,6 +146,8 @@ class Pipeline:
         """:meth:`identify_frame` with no hint (a hinted child pipeline's own solve)."""
         camera, sky = self.setup_for(frame)
         x, y = frame.centroids.x, frame.centroids.y
+        if len(x) < MIN_STARS:
+            return self._too_few_stars(frame, camera, sky)
         # One deadline for every stage below; it starts with the configured stage loaded
         # (tables loaded later, for the FOV search, count against it).
         if camera is None:
@@ -156,6 +165,24 @@ class Pipeline:
         return FrameResult(frame.name, sol, found.obs, frame.centroids,
                            frame_timing(frame, sol.identify_ms), found.camera,
                            found.catalog, self.sigma_px, found.match_radius_px,
+                           frame.image)
+
+    def _too_few_stars(self, frame: FrameInput, camera: Camera | None,
+                       sky: SkySpec) -> FrameResult:
+        """Not solved, "too_few_stars", with no sky loaded and no table built: fewer stars
+        than any pattern holds identify nothing, and a deep sky's first use for a new
+        camera costs minutes and GBs (a blank frame at a narrow FOV)."""
+        if camera is None:
+            camera = Camera.from_fov(*self._blind_size(frame),
+                                     math.sqrt(BLIND_FOV_RANGE[0] * BLIND_FOV_RANGE[1]))
+        obs = Observation.from_pixels(frame.centroids.x, frame.centroids.y, camera,
+                                      self.sigma_px)
+        sol = Solution(False, self.options.method, reason="too_few_stars")
+        self.trail.add("method", self.options.method, sky, camera.fov_deg, sol)
+        empty = Catalog(ids=np.zeros(0, np.int64), ra_deg=np.zeros(0), dec_deg=np.zeros(0),
+                        mag=np.zeros(0), source=sky.to_dict())
+        return FrameResult(frame.name, sol, obs, frame.centroids, frame_timing(frame, 0.0),
+                           camera, empty, self.sigma_px, VerifyConfig().radius_px(obs),
                            frame.image)
 
     def _approximate(self, frame: FrameInput, camera: Camera, sky: SkySpec):
