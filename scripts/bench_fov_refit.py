@@ -2,7 +2,7 @@
 
 A frame solved at a nominal field of view has its focal length fitted to its identified
 stars and its pointing verified again through the fitted camera
-(:func:`startrack.solver._fov_search.refit_fov`, the fit
+(:func:`startrack.solver._fov_refit.refit_fov`, the fit
 :func:`startrack.solver._fov_fit.fit_camera`). The
 frames are scripts/bench_identify.py's, simulated with the true camera and solved with a
 camera whose FOV is ``--fov-error`` off. Each step is warmed up on the first frame before
@@ -27,7 +27,7 @@ from bench_identify import make_frames  # noqa: E402
 from startrack.camera import Camera  # noqa: E402
 from startrack.sky import UNRESOLVED_PIXELS, SkySpec, load_sky  # noqa: E402
 from startrack.solver._fov_fit import fit_camera  # noqa: E402
-from startrack.solver._fov_search import refit_fov  # noqa: E402
+from startrack.solver._fov_refit import refit_fov  # noqa: E402
 from startrack.solver._identifier import Identifier  # noqa: E402
 from startrack.types import Observation  # noqa: E402
 

@@ -25,7 +25,8 @@ from startrack.outputs._records import frame_record
 from startrack.simulate._scene import stars_in_view
 from startrack.sky import SkySpec, load_sky
 from startrack.solver._deadline import Deadline
-from startrack.solver._fov_search import BlindSolver, refit_fov, solve_approximate
+from startrack.solver._fov_refit import refit_fov
+from startrack.solver._fov_search import BlindSolver, solve_approximate
 from startrack.solver._identifier import Identifier
 from startrack.solver._pipeline import FrameInput, Options, Pipeline
 

@@ -121,6 +121,12 @@ def condition_columns(summary: pd.DataFrame) -> list[str]:
         v in VARIABLES[:4] or not all(is_default(v, x) for x in summary[v]))]
 
 
+def _column_name(variable: str) -> str:
+    """A swept variable's column head: the effects' and camera's short names (their
+    columns sit beside many), the others' plain ones."""
+    return EXTRA_COLUMNS.get(variable) or SHORT.get(variable, variable)
+
+
 def summary_table(summary: pd.DataFrame) -> str:
     """A Markdown table: one row per (condition, method), rates with 95% intervals, the
     correctness threshold, the boresight, roll and total errors apart, precision and
@@ -129,7 +135,7 @@ def summary_table(summary: pd.DataFrame) -> str:
     Built here rather than by ``DataFrame.to_markdown``: that needs ``tabulate`` (not a
     dependency) for a table whose cells are formatted strings anyway."""
     variables = condition_columns(summary)
-    head = ("| cond | " + " | ".join(SHORT.get(v) or EXTRA_COLUMNS.get(v, v) for v in variables)
+    head = ("| cond | " + " | ".join(_column_name(v) for v in variables)
             + " | method | frames | solved [95% CI] | correct [95% CI] | wrong [95% CI] | "
             "threshold arcsec | boresight error arcsec (median / p95) | roll error arcsec "
             "(median / p95) | total error arcsec (median / p95) | star precision | "

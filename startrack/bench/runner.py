@@ -1,15 +1,17 @@
 """Running a comparison: work units on local processes or a Dask cluster, with resume.
 
 A work unit is one frame in one condition, run through every method. Units are
-deterministic (frames.py), so where a unit runs changes only its timings. Each finished
-unit's rows are appended to frames.csv and flushed; a rerun with the same options skips
-the units already there, and the final files are rewritten in canonical order, so an
-interrupted-and-resumed run ends with the same files as an uninterrupted one.
-"""
+deterministic (frames.py), so where a unit runs changes only its timings. Finished units'
+rows are appended to frames.csv and flushed; a rerun skips the units already there, and
+the final files are rewritten in canonical order (a resumed run ends as an uninterrupted
+one)."""
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import os
+import signal
 import sys
 import threading
 import time
@@ -29,8 +31,7 @@ from startrack.sky import SkySpec
 
 KEY_COLUMNS = ["condition", *VARIABLES, "frame", "method"]
 SCORE_COLUMNS = list(FrameScore.__dataclass_fields__)
-# Per-frame attitudes (scalar-first quaternions, camera to ICRS): the truth, and the
-# method's answer (empty when not solved), so a failure can be looked at and replayed.
+# Per-frame attitudes (scalar-first, camera to ICRS): the truth and the answer (if any).
 ATTITUDE_COLUMNS = [f"{who}_q{c}" for who in ("true", "solved") for c in "wxyz"]
 COLUMNS = KEY_COLUMNS + SCORE_COLUMNS + ATTITUDE_COLUMNS
 TIMING_COLUMNS = ("identify_ms", "method_ms", "centroid_ms")
@@ -133,10 +134,7 @@ def load_bench(spec: RunSpec) -> LoadedBench:
                 identifiers[name] = ident
                 seconds[name] = ident.load_seconds
             if spec.source == "images":  # the extraction's kernels, before it is timed
-                make_frame(catalog, spec.camera, spec.conditions[0], spec.seed, 0,
-                           source=spec.source, sensor=spec.sensor,
-                           hot_pixel_fraction=spec.hot_pixel_fraction, effects=spec.effects,
-                           false_mags=spec.false_mags)
+                run_frame(spec, catalog, spec.conditions[0], 0)
             _LOADED[key] = LoadedBench(spec, identifiers, seconds)
         return _LOADED[key]
 
@@ -145,12 +143,15 @@ def bench_frame(spec: RunSpec, condition_index: int, frame: int):
     """The loaded bench, the condition and frame ``frame`` of it, as every method sees it."""
     bench = load_bench(spec)
     condition = spec.conditions[condition_index]
-    some = bench.identifiers[spec.methods[0]]
-    bf = make_frame(some.catalog, spec.camera, condition, spec.seed, frame,
-                    source=spec.source, sensor=spec.sensor,
-                    hot_pixel_fraction=spec.hot_pixel_fraction, effects=spec.effects,
-                    false_mags=spec.false_mags)
-    return bench, condition, bf
+    return bench, condition, run_frame(spec, bench.identifiers[spec.methods[0]].catalog,
+                                       condition, frame)
+
+
+def run_frame(spec: RunSpec, catalog, condition: Condition, frame: int):
+    """Frame ``frame`` of ``condition`` as the run makes it (:func:`make_frame`)."""
+    return make_frame(catalog, spec.camera, condition, spec.seed, frame, source=spec.source,
+                      sensor=spec.sensor, hot_pixel_fraction=spec.hot_pixel_fraction,
+                      effects=spec.effects, false_mags=spec.false_mags)
 
 
 def point_patch(matcher, bf) -> None:
@@ -201,10 +202,6 @@ def _die_with_parent(parent_pid: int) -> None:
     """Make this worker end when the process that started it does, even by SIGKILL
     (which runs no clean-up): the kernel's parent-death signal on Linux, and a thread
     watching for re-parenting everywhere."""
-    import ctypes
-    import os
-    import signal
-
     if sys.platform.startswith("linux"):  # PR_SET_PDEATHSIG = 1; else the thread watches
         with contextlib.suppress(OSError, AttributeError):
             ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)
@@ -220,8 +217,6 @@ def _die_with_parent(parent_pid: int) -> None:
 
 
 def _init_worker(spec: RunSpec, parent_pid: int) -> None:
-    import signal
-
     # The parent handles SIGTERM (and stops the pool); a worker just ends on it.
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _die_with_parent(parent_pid)

@@ -135,6 +135,15 @@ def _workers(jobs: int | None) -> int:
     return min(jobs or cores, cores)
 
 
+def _config(config_path):
+    """The run's configuration (the file's, else the default) and the input files it read."""
+    from startrack.simulate._config import DEFAULT_CONFIG, config_from_dict, load_config
+
+    if config_path:
+        return load_config(config_path), [config_path]
+    return config_from_dict(DEFAULT_CONFIG, "default config"), []
+
+
 @main.command()
 @click.option("--methods", default=DEFAULT_METHODS, show_default=True,
               help="Comma-separated methods to compare.")
@@ -216,7 +225,6 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     and the other conventions are in docs/conventions.md. Progress goes to stderr: a bar
     on a terminal, a line every few seconds otherwise (-q: none)."""
     from startrack.bench.session import run_comparison
-    from startrack.simulate._config import DEFAULT_CONFIG, config_from_dict, load_config
 
     names = parse_methods(methods)
     note, detail = notes(quiet, verbose)
@@ -225,9 +233,7 @@ def compare(methods, config_path, sky, mag_limit, frames, noise_px, false_stars,
     if frames_dir is not None:
         return frames_dir_run(frames_dir, names, out_dir, max_stars, threshold_arcsec, quiet,
                               note, overwrite, finish, reports, started)
-    cfg = (load_config(config_path) if config_path
-           else config_from_dict(DEFAULT_CONFIG, "default config"))
-    inputs = [config_path] if config_path else []
+    cfg, inputs = _config(config_path)
     spec_sky = _sky(cfg, sky, mag_limit)
     if source == "images":  # frames are rendered at the camera's size
         _check_image_size(cfg, config_path)

@@ -17,27 +17,25 @@ at most ``$STARTRACK_CACHE_MAX_MB`` (default :data:`DEFAULT_CACHE_MAX_MB`).
 
 from __future__ import annotations
 
-import concurrent.futures
 import contextlib
 import hashlib
 import json
-import math
 import os
 import re
-import struct
 import sys
 import threading
 import time
 import warnings
-import zipfile
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-import xxhash
 from platformdirs import user_cache_dir
 
 from startrack.errors import StartrackWarning
+from startrack.io._npz import CHECKSUM_KEY, ENTRY_KEY, arrays_checksum
+from startrack.io._npz import read_npz as _read_npz
+from startrack.io._npz import write_npz as _write_npz
 from startrack.io._writer import atomic_path
 from startrack.validate import CACHE_MAX_MB, env_number
 
@@ -45,7 +43,6 @@ CACHE_VERSION = 4  # 2: a checksum; 3: XXH3-128 instead of SHA-256; 4: the key i
 # room for a blind search's Gaia pattern tables and a deep sky's (Tycho-2's narrow levels,
 # ~0.1 to 0.7 GB each, mapped) beside the rest: a cap below them rebuilds them every run
 DEFAULT_CACHE_MAX_MB = 4096
-CHECKSUM_KEY = "__xxh3_128__"
 #: an entry this large (a deep catalog, its pattern tables) is mapped, not read: a process
 #: touches only the pages its lookups need, and loading costs milliseconds. Its hash is
 #: checked when it is written; on load, the key, every member's size and the zip
@@ -80,7 +77,6 @@ def _built(kind: str, build: Callable[[], dict[str, np.ndarray]]) -> dict[str, n
         return build()
     finally:
         timer.cancel()
-ENTRY_KEY = "__key__"  # the member holding the entry's own key (what the entry is)
 # What the cache writes: kind-<20 hex>.suffix; anything else in the folder is left alone.
 ENTRY_NAME = re.compile(r"^[a-z0-9_]+-[0-9a-f]{20}(\.[A-Za-z0-9]+)+$")
 TEMP_NAME = re.compile(r"^\.[a-z0-9_]+-[0-9a-f]{20}\.")
@@ -111,64 +107,6 @@ def cache_key(kind: str, params: dict) -> str:
     return f"{kind}-{hashlib.sha256(key_text(kind, params).encode()).hexdigest()[:20]}"
 
 
-def arrays_checksum(arrays: dict[str, np.ndarray]) -> str:
-    """XXH3-128 over each array's name, dtype, shape and bytes, in name order."""
-    digest = xxhash.xxh3_128()
-    for name in sorted(arrays):
-        arr = np.ascontiguousarray(arrays[name])
-        digest.update(f"{name}\0{arr.dtype.str}\0{arr.shape}\0".encode())
-        digest.update(arr.reshape(-1).view(np.uint8))  # the bytes, without a copy
-    return digest.hexdigest()
-
-
-def _read_member(fh, info: zipfile.ZipInfo, mapped: bool = False) -> np.ndarray | None:
-    """One stored .npy member, read straight into an array of its own (aligned and
-    writable, one copy from the page cache), or with ``mapped`` a read-only map of the
-    file's bytes; None when it is not a plain .npy."""
-    fh.seek(info.header_offset)
-    local = fh.read(30)
-    if local[:4] != b"PK\x03\x04":
-        raise ValueError("bad local header")
-    name_len, extra_len = struct.unpack("<HH", local[26:30])
-    start = info.header_offset + 30 + name_len + extra_len
-    fh.seek(start)
-    version = np.lib.format.read_magic(fh)
-    if version not in ((1, 0), (2, 0)):
-        return None
-    read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                   else np.lib.format.read_array_header_2_0)
-    shape, fortran, dtype = read_header(fh)
-    if dtype.hasobject:
-        raise ValueError("object arrays are never cached")
-    nbytes = math.prod(shape) * dtype.itemsize
-    if fh.tell() - start + nbytes != info.file_size:
-        raise ValueError("member size does not match its header")
-    if mapped and nbytes:
-        return np.memmap(fh.name, dtype, "r", fh.tell(), shape, "F" if fortran else "C")
-    raw = np.empty(nbytes, np.uint8)
-    if fh.readinto(raw) != nbytes:
-        raise ValueError("truncated member")
-    return raw.view(dtype).reshape(shape, order="F" if fortran else "C")
-
-
-def _read_npz(path: Path, mapped: bool = False) -> dict[str, np.ndarray]:
-    """The arrays of a .npz: its stored members read directly (np.load decompresses and
-    CRCs through a stream, several times slower; the caller checks the hash anyway), or
-    with ``mapped`` mapped read-only; anything else by np.load."""
-    with zipfile.ZipFile(path) as zf, open(path, "rb") as fh:
-        arrays: dict[str, np.ndarray] = {}
-        for info in zf.infolist():
-            arr = None
-            if info.compress_type == zipfile.ZIP_STORED and info.filename.endswith(".npy"):
-                arr = _read_member(fh, info, mapped and info.filename != f"{CHECKSUM_KEY}.npy"
-                                   and info.filename != f"{ENTRY_KEY}.npy")
-            if arr is None:
-                with np.load(path, allow_pickle=False) as data:
-                    return {name: data[name] for name in data.files}
-            arrays[info.filename[:-4]] = arr
-    return arrays
-
-
 def _load_checked(path: Path, key: str) -> dict[str, np.ndarray] | None:
     """The arrays of a cache entry, or None when it is damaged, altered or another entry
     (its stored ``key`` differs: what the file name says is not what the entry holds)."""
@@ -184,32 +122,6 @@ def _load_checked(path: Path, key: str) -> dict[str, np.ndarray] | None:
     if stored_key is None or stored_key.shape != () or str(stored_key) != key or not arrays:
         return None
     return arrays
-
-
-def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """What ``np.savez(path, **arrays, __xxh3_128__=checksum)`` writes, without its chunked
-    copies, and with the checksum hashed in a thread while the arrays are written (both
-    xxhash and the zip's CRC release the GIL on large buffers)."""
-    with concurrent.futures.ThreadPoolExecutor(1) as pool:
-        checksum = pool.submit(arrays_checksum, arrays)
-        with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
-            for name, arr in arrays.items():
-                with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
-                    _write_member(fh, np.asanyarray(arr))
-            with zf.open(f"{CHECKSUM_KEY}.npy", "w", force_zip64=True) as fh:
-                _write_member(fh, np.array(checksum.result()))
-
-
-def _write_member(fh, arr: np.ndarray) -> None:
-    if not arr.flags.c_contiguous or arr.dtype.hasobject:
-        np.lib.format.write_array(fh, arr, allow_pickle=False)
-        return
-    header = np.lib.format.header_data_from_array_1_0(arr)
-    try:
-        np.lib.format.write_array_header_1_0(fh, header)
-    except ValueError:  # too long a header for format 1.0, as np.save would find
-        np.lib.format.write_array_header_2_0(fh, header)
-    fh.write(arr.reshape(-1).view(np.uint8))
 
 
 def _touch(path: Path) -> None:

@@ -8,6 +8,8 @@ import numpy as np
 import xxhash
 from scipy.spatial import cKDTree
 
+from startrack.io._cache import cached_arrays
+
 
 def radec_to_vectors(ra_deg: np.ndarray, dec_deg: np.ndarray) -> np.ndarray:
     """ICRS unit vectors (N x 3) from RA/Dec in degrees."""
@@ -177,8 +179,6 @@ def merge_close_stars(catalog: Catalog, min_separation_deg: float) -> Catalog:
     if len(catalog) < CACHED_MERGE_STARS:
         keep = _kept_apart(catalog.vectors, min_separation_deg)
     else:
-        from startrack.io._cache import cached_arrays  # the cache's module: on use
-
         keep = cached_arrays("merged", {"catalog": catalog.fingerprint(),
                                         "separation_deg": round(float(min_separation_deg), 12)},
                              lambda: {"keep": _kept_apart(catalog.vectors,

@@ -170,7 +170,7 @@ class Identifier:
         self.warmed_up = True
 
     def warm_refit(self, refit: Callable) -> None:
-        """The first use of ``refit`` (:func:`startrack.solver._fov_search.refit_fov`, a nominal
+        """The first use of ``refit`` (:func:`startrack.solver._fov_refit.refit_fov`, a nominal
         FOV's refit: its kernels) and of :attr:`first_look` on the throwaway frame of
         :meth:`warm_up`."""
         if self._warm_centroids is not None:

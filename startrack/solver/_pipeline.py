@@ -15,11 +15,8 @@ every stage of its identification (the configured method, the FOV refit, the FOV
 from __future__ import annotations
 
 import dataclasses
-import math
 import sys
 from pathlib import Path
-
-import numpy as np
 
 from startrack.camera._model import Camera
 from startrack.centroids import frame_sigma_px
@@ -32,23 +29,22 @@ from startrack.simulate._sidecar import find_sidecar, read_sidecar
 from startrack.sky import (
     Catalog,
     SkySpec,
-    check_pair_budget,
     load_sky,
 )
-from startrack.sky.default import gaia_min_fov, search_sky_kind
+from startrack.sky.default import gaia_min_fov
 from startrack.solver._aberration import correct_result
 from startrack.solver._deadline import Deadline
-from startrack.solver._fov_search import BlindSolver, refit_fov, solve_approximate
+from startrack.solver._fov_search import BlindSolver
 from startrack.solver._hinted import frame_hints, solve_hinted
 from startrack.solver._hints import cut_to_cone, header_time
 from startrack.solver._identifier import FrameResult, Identifier, SetupClock, frame_timing
 from startrack.solver._inputs import FrameInput, read_input
+from startrack.solver._nominal import approximate, too_few_stars
 from startrack.solver._options import Options
 from startrack.solver._setup import decide_setup
 from startrack.solver._trail import Trail, request_record
-from startrack.types import Observation, Solution, Timing
+from startrack.types import Timing
 from startrack.verify._evidence import require_evidence
-from startrack.verify._verification import VerifyConfig
 
 #: fewer stars than this make no pattern of any matcher: not solved, with nothing loaded
 MIN_STARS = 3
@@ -147,14 +143,14 @@ class Pipeline:
         camera, sky = self.setup_for(frame)
         x, y = frame.centroids.x, frame.centroids.y
         if len(x) < MIN_STARS:
-            return self._too_few_stars(frame, camera, sky)
+            return too_few_stars(self, frame, camera, sky)
         # One deadline for every stage below; it starts with the configured stage loaded
         # (tables loaded later, for the FOV search, count against it).
         if camera is None:
             found = self._blind_search(x, y, self._blind_size(frame), sky,
                                        Deadline.after_ms(self.options.timeout_ms))
         elif self.options.fov_tolerance > 0:
-            found = self._approximate(frame, camera, sky)
+            found = approximate(self, frame, camera, sky)
             if isinstance(found, FrameResult):
                 return found
         else:
@@ -166,113 +162,6 @@ class Pipeline:
                            frame_timing(frame, sol.identify_ms), found.camera,
                            found.catalog, self.sigma_px, found.match_radius_px,
                            frame.image)
-
-    def _too_few_stars(self, frame: FrameInput, camera: Camera | None,
-                       sky: SkySpec) -> FrameResult:
-        """Not solved, "too_few_stars", with no sky loaded and no table built: fewer stars
-        than any pattern holds identify nothing, and a deep sky's first use for a new
-        camera costs minutes and GBs (a blank frame at a narrow FOV)."""
-        if camera is None:
-            camera = Camera.from_fov(*self._blind_size(frame),
-                                     math.sqrt(BLIND_FOV_RANGE[0] * BLIND_FOV_RANGE[1]))
-        obs = Observation.from_pixels(frame.centroids.x, frame.centroids.y, camera,
-                                      self.sigma_px)
-        sol = Solution(False, self.options.method, reason="too_few_stars")
-        self.trail.add("method", self.options.method, sky, camera.fov_deg, sol)
-        empty = Catalog(ids=np.zeros(0, np.int64), ra_deg=np.zeros(0), dec_deg=np.zeros(0),
-                        mag=np.zeros(0), source=sky.to_dict())
-        return FrameResult(frame.name, sol, obs, frame.centroids, frame_timing(frame, 0.0),
-                           camera, empty, self.sigma_px, VerifyConfig().radius_px(obs),
-                           frame.image)
-
-    def _approximate(self, frame: FrameInput, camera: Camera, sky: SkySpec):
-        """A nominal FOV: the configured method's first look (its brightest stars,
-        :attr:`~startrack.solver._identifier.Identifier.first_look`), its FOV refitted and
-        the pointing verified through the fitted camera; else (and at once for a
-        scale-free method) the quad search within the tolerance. A
-        :class:`FrameResult` when the configured method's answer stands (too few stars, a
-        timeout), else the search's ``FovResult``."""
-        x, y = frame.centroids.x, frame.centroids.y
-        deadline, spent, found = Deadline.after_ms(self.options.timeout_ms), 0.0, None
-        nominal = None
-        # the search alone for a scale-free method (its first window holds the nominal FOV)
-        # or where the tables do not fit (a deep narrow-field sky)
-        if not get_matcher(self.options.method).scale_free and self._tables_fit(camera, sky):
-            fresh = (camera, sky, self.options.method, self.sigma_px) not in self._identifiers
-            nominal = self.identifier(camera, sky)
-            if fresh:  # the refit's first use too, before this input's deadline starts
-                with self.setup.counting():
-                    nominal.warm_refit(refit_fov)
-            deadline = Deadline.after_ms(self.options.timeout_ms)
-            first = nominal.solve(frame, identify=lambda obs: nominal.identify(
-                obs, deadline, first_look=True))
-            self.trail.add("first look (brightest stars)", self.options.method, sky,
-                           camera.fov_deg, first.solution)
-            if first.solution.reason in ("too_few_stars", "timeout"):
-                return first
-            found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
-                     if first.solution.solved else None)
-            if first.solution.solved and found is None:
-                self.trail.add("FOV refit", self.options.method, sky, camera.fov_deg,
-                               result="rejected")
-            spent = first.solution.identify_ms  # the first try is part of the answer
-        if found is None:
-            found = self._search(x, y, camera, sky, deadline)
-            if spent:  # the first look's time (none for a scale-free method)
-                found = found.plus_ms(spent)
-            if nominal is not None and not found.solution.solved \
-                    and found.solution.reason != "timeout":
-                found = self._whole_method(frame, nominal, deadline, found)
-        return found
-
-    @staticmethod
-    def _whole_method(frame: FrameInput, nominal: Identifier, deadline: Deadline, failed):
-        """The configured method with all its stars at the nominal FOV, its FOV refitted:
-        the last try where the first look (its brightest stars alone: a false star or a
-        missing one among them matches nothing) and the search both failed; else
-        ``failed``, the search's answer."""
-        whole = nominal.solve(frame, identify=lambda obs: nominal.identify(obs, deadline))
-        found = refit_fov(whole, nominal.database, nominal.verify_config, deadline) \
-            if whole.solution.solved else None  # its time counts the whole method's
-        if found is None:
-            return failed.plus_ms(whole.solution.identify_ms)
-        return found.plus_ms(failed.solution.identify_ms)
-
-    def _search(self, x, y, camera: Camera, sky: SkySpec, deadline: Deadline):
-        """The quad search within the tolerance: on the chosen sky; with the default sky,
-        also (or, when that is the same, only) over the whole of the search sky
-        (:func:`startrack.sky.default.search_sky_kind`: Tycho-2 where the field needs it,
-        else Gaia) cut per window, its brightest stars ordered by its own magnitudes."""
-        tol, opt = self.options.fov_tolerance, self.options
-        default = opt.sky is None and opt.mag_limit is None
-        found = None
-        deep = search_sky_kind(camera)
-        window = (camera.fov_deg * (1 - tol), camera.fov_deg * (1 + tol))
-        if not default or sky.kind != deep:
-            found = solve_approximate(self.identifier(camera, sky, "quad"), x, y, tol, deadline)
-            self.trail.add("FOV search", "quad", sky, window, found.solution)
-            if not default or found.solution.solved or found.solution.reason == "timeout":
-                return found
-        deep_sky = SkySpec(kind=deep, epoch=opt.epoch)
-        again = self.blind_solver(deep_sky).solve(x, y, (camera.width, camera.height),
-                                                  deadline, camera, tol)
-        self.trail.add("FOV search, deeper sky", "quad", deep_sky, window, again.solution)
-        if found is None:
-            return again
-        return again.plus_ms(found.solution.identify_ms)
-
-    def _tables_fit(self, camera: Camera, sky: SkySpec) -> bool:
-        """Whether the configured method's pair table for ``camera`` fits the pair budget
-        (:func:`startrack.sky.check_pair_budget`); a Gaia sky for a 1.5 to 4 deg field
-        does not, and the quad search, which tables no pairs, then answers alone."""
-        if not get_matcher(self.options.method).tables or (
-                camera, sky, self.options.method, self.sigma_px) in self._identifiers:
-            return True
-        try:
-            check_pair_budget(self.catalog(sky, camera), camera)
-        except InputError:
-            return False
-        return True
 
     def database_of(self, catalog: Catalog) -> StarDatabase | None:
         """The database an identifier already holds for ``catalog``, if any."""

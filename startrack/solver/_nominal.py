@@ -1,0 +1,132 @@
+"""A nominal field of view (``--fov`` within ``--fov-tolerance``): the configured method's
+first look and its FOV refit, then the quad search within the tolerance; and the frame
+with too few stars for any of it, answered before a sky is loaded. Functions of a
+:class:`~startrack.solver._pipeline.Pipeline`, as :mod:`startrack.solver._hinted`'s are."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from startrack.camera._model import Camera
+from startrack.defaults import BLIND_FOV_RANGE
+from startrack.errors import InputError
+from startrack.matchers import get_matcher
+from startrack.sky import Catalog, SkySpec, check_pair_budget
+from startrack.sky.default import search_sky_kind
+from startrack.solver._deadline import Deadline
+from startrack.solver._fov_refit import refit_fov
+from startrack.solver._fov_search import solve_approximate
+from startrack.solver._identifier import FrameResult, Identifier, frame_timing
+from startrack.solver._inputs import FrameInput
+from startrack.types import Observation, Solution
+from startrack.verify._verification import VerifyConfig
+
+
+def too_few_stars(pipeline, frame: FrameInput, camera: Camera | None,
+                   sky: SkySpec) -> FrameResult:
+    """Not solved, "too_few_stars", with no sky loaded and no table built: fewer stars
+    than any pattern holds identify nothing, and a deep sky's first use for a new
+    camera costs minutes and GBs (a blank frame at a narrow FOV)."""
+    if camera is None:
+        camera = Camera.from_fov(*pipeline._blind_size(frame),
+                                 math.sqrt(BLIND_FOV_RANGE[0] * BLIND_FOV_RANGE[1]))
+    obs = Observation.from_pixels(frame.centroids.x, frame.centroids.y, camera,
+                                  pipeline.sigma_px)
+    sol = Solution(False, pipeline.options.method, reason="too_few_stars")
+    pipeline.trail.add("method", pipeline.options.method, sky, camera.fov_deg, sol)
+    empty = Catalog(ids=np.zeros(0, np.int64), ra_deg=np.zeros(0), dec_deg=np.zeros(0),
+                    mag=np.zeros(0), source=sky.to_dict())
+    return FrameResult(frame.name, sol, obs, frame.centroids, frame_timing(frame, 0.0),
+                       camera, empty, pipeline.sigma_px, VerifyConfig().radius_px(obs),
+                       frame.image)
+
+def approximate(pipeline, frame: FrameInput, camera: Camera, sky: SkySpec):
+    """A nominal FOV: the configured method's first look (its brightest stars,
+    :attr:`~startrack.solver._identifier.Identifier.first_look`), its FOV refitted and
+    the pointing verified through the fitted camera; else (and at once for a
+    scale-free method) the quad search within the tolerance. A
+    :class:`FrameResult` when the configured method's answer stands (too few stars, a
+    timeout), else the search's ``FovResult``."""
+    x, y = frame.centroids.x, frame.centroids.y
+    deadline, spent, found = Deadline.after_ms(pipeline.options.timeout_ms), 0.0, None
+    nominal = None
+    # the search alone for a scale-free method (its first window holds the nominal FOV)
+    # or where the tables do not fit (a deep narrow-field sky)
+    if not get_matcher(pipeline.options.method).scale_free and _tables_fit(pipeline, camera, sky):
+        key = (camera, sky, pipeline.options.method, pipeline.sigma_px)
+        fresh = key not in pipeline._identifiers
+        nominal = pipeline.identifier(camera, sky)
+        if fresh:  # the refit's first use too, before this input's deadline starts
+            with pipeline.setup.counting():
+                nominal.warm_refit(refit_fov)
+        deadline = Deadline.after_ms(pipeline.options.timeout_ms)
+        first = nominal.solve(frame, identify=lambda obs: nominal.identify(
+            obs, deadline, first_look=True))
+        pipeline.trail.add("first look (brightest stars)", pipeline.options.method, sky,
+                       camera.fov_deg, first.solution)
+        if first.solution.reason in ("too_few_stars", "timeout"):
+            return first
+        found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
+                 if first.solution.solved else None)
+        if first.solution.solved and found is None:
+            pipeline.trail.add("FOV refit", pipeline.options.method, sky, camera.fov_deg,
+                           result="rejected")
+        spent = first.solution.identify_ms  # the first try is part of the answer
+    if found is None:
+        found = _search(pipeline, x, y, camera, sky, deadline)
+        if spent:  # the first look's time (none for a scale-free method)
+            found = found.plus_ms(spent)
+        if nominal is not None and not found.solution.solved \
+                and found.solution.reason != "timeout":
+            found = _whole_method(frame, nominal, deadline, found)
+    return found
+
+def _whole_method(frame: FrameInput, nominal: Identifier, deadline: Deadline, failed):
+    """The configured method with all its stars at the nominal FOV, its FOV refitted:
+    the last try where the first look (its brightest stars alone: a false star or a
+    missing one among them matches nothing) and the search both failed; else
+    ``failed``, the search's answer."""
+    whole = nominal.solve(frame, identify=lambda obs: nominal.identify(obs, deadline))
+    found = refit_fov(whole, nominal.database, nominal.verify_config, deadline) \
+        if whole.solution.solved else None  # its time counts the whole method's
+    if found is None:
+        return failed.plus_ms(whole.solution.identify_ms)
+    return found.plus_ms(failed.solution.identify_ms)
+
+def _search(pipeline, x, y, camera: Camera, sky: SkySpec, deadline: Deadline):
+    """The quad search within the tolerance: on the chosen sky; with the default sky,
+    also (or, when that is the same, only) over the whole of the search sky
+    (:func:`startrack.sky.default.search_sky_kind`: Tycho-2 where the field needs it,
+    else Gaia) cut per window, its brightest stars ordered by its own magnitudes."""
+    tol, opt = pipeline.options.fov_tolerance, pipeline.options
+    default = opt.sky is None and opt.mag_limit is None
+    found = None
+    deep = search_sky_kind(camera)
+    window = (camera.fov_deg * (1 - tol), camera.fov_deg * (1 + tol))
+    if not default or sky.kind != deep:
+        found = solve_approximate(pipeline.identifier(camera, sky, "quad"), x, y, tol, deadline)
+        pipeline.trail.add("FOV search", "quad", sky, window, found.solution)
+        if not default or found.solution.solved or found.solution.reason == "timeout":
+            return found
+    deep_sky = SkySpec(kind=deep, epoch=opt.epoch)
+    again = pipeline.blind_solver(deep_sky).solve(x, y, (camera.width, camera.height),
+                                              deadline, camera, tol)
+    pipeline.trail.add("FOV search, deeper sky", "quad", deep_sky, window, again.solution)
+    if found is None:
+        return again
+    return again.plus_ms(found.solution.identify_ms)
+
+def _tables_fit(pipeline, camera: Camera, sky: SkySpec) -> bool:
+    """Whether the configured method's pair table for ``camera`` fits the pair budget
+    (:func:`startrack.sky.check_pair_budget`); a Gaia sky for a 1.5 to 4 deg field
+    does not, and the quad search, which tables no pairs, then answers alone."""
+    if not get_matcher(pipeline.options.method).tables or (
+            camera, sky, pipeline.options.method, pipeline.sigma_px) in pipeline._identifiers:
+        return True
+    try:
+        check_pair_budget(pipeline.catalog(sky, camera), camera)
+    except InputError:
+        return False
+    return True
