@@ -155,3 +155,21 @@ def test_compiled_spots_match_their_psf_at_every_sub_sample(model, a, b, c, s, h
     got = image[y0:y0 + 2 * half + 1, x0:x0 + 2 * half + 1]
     assert image.sum() == pytest.approx(1000.0, rel=1e-12)
     np.testing.assert_allclose(got, 1000.0 * want, atol=1e-5 * 1000.0 * want.max())
+
+
+@pytest.mark.parametrize("path", ["gaussian", "poisson"])
+def test_field_readout_bends_faint_pixels_as_the_chain_does(path):
+    # the ADC non-linearity on faint pixels: drawn with the read noise as one Gaussian
+    # (read noise 15 e-) or exactly (read noise 1 e-), the mean is lam - b (lam^2 + lam)
+    # and the variance lam (1 - 2 b lam)^2 + read noise^2 (to first order in b)
+    from startrack.simulate._render_effects import digitise_field
+
+    read_noise, lam, full_well, bend = (15.0 if path == "gaussian" else 1.0), 100.0, 300.0, 0.05
+    sensor = SensorModel(read_noise=read_noise, gain=0.5, bias_adu=100.0, full_well=full_well)
+    levels = lam * (1.0 + 1e-9 * np.arange(200_000))
+    adu = digitise_field(levels, sensor, np.random.default_rng(5), bend).astype(np.float64)
+    e, b = (adu - 100.0) * 0.5, bend / full_well
+    assert e.mean() == pytest.approx(lam - b * (lam**2 + lam),
+                                     abs=4.0 * np.sqrt((lam + read_noise**2) / e.size))
+    assert e.var() == pytest.approx(lam * (1 - 2 * b * lam) ** 2 + read_noise**2 + 0.25 / 12,
+                                    rel=0.02)

@@ -234,11 +234,11 @@ cdef inline long _poisson_ptrs(double lam, uint64_t *s) noexcept nogil:
             return k
 
 
-cdef inline double _normal(const double[::1] quantiles, uint64_t *s) noexcept nogil:
+cdef inline double _normal(const double *quantiles, Py_ssize_t m, uint64_t *s) noexcept nogil:
     """A standard normal draw: the normal quantile function, tabulated at m + 1 evenly
     spaced probabilities, interpolated at one uniform; the two outer cells (the tails
     beyond 1/m) are drawn exactly by Marsaglia's (1964) tail method."""
-    cdef Py_ssize_t m = quantiles.shape[0] - 1, j
+    cdef Py_ssize_t j
     cdef double u = _uniform(s) * m, f, x, a = quantiles[m - 1]
     j = <Py_ssize_t>u
     if 0 < j < m - 1:
@@ -250,9 +250,9 @@ cdef inline double _normal(const double[::1] quantiles, uint64_t *s) noexcept no
             return -x if j == 0 else x
 
 
-cdef inline long _poisson_split(double lam, double step, const double[::1] cdf,
-                                const int64_t[::1] start, const int32_t[::1] guide,
-                                Py_ssize_t buckets, const double[::1] reciprocal,
+cdef inline long _poisson_split(double lam, double step, const double *cdf,
+                                const int64_t *start, const int32_t *guide,
+                                Py_ssize_t buckets, const double *reciprocal,
                                 uint64_t *s) noexcept nogil:
     """Poisson(lam) for lam below the tabulated levels, exactly, as Poisson(l) +
     Poisson(lam - l) with l the level below lam on a grid of ``1 / step`` (independent
@@ -286,7 +286,9 @@ def field_pixels(const double[::1] expected, uint64_t[::1] state, const double[:
     Shot noise: a Gaussian of the same mean and variance (unclipped at zero and unrounded:
     neither may shift the mean) wherever the read-out's skewness
     lam / (lam + read_noise^2)^1.5 is below ``skewness`` (the read noise hides the Poisson
-    shape; this holds for every lam above 1 / skewness^2), else exact Poisson
+    shape; this holds for every lam above 1 / skewness^2), drawn together with the read
+    noise (one normal; the non-linearity's mean and slope at lam) for the faint pixels
+    (below the tables' reach), else exact Poisson
     (:func:`_poisson_split` on the tables of levels 0, 1 / step, ... below L / step, PTRS
     above). Then full-well clip, ADC non-linearity, Gaussian read noise (:func:`_normal`
     on ``quantiles``), gain, bias and ADC clip. ``chain``: full well, read noise, gain,
@@ -300,18 +302,38 @@ def field_pixels(const double[::1] expected, uint64_t[::1] state, const double[:
     cdef double top = (start.shape[0] - 1) / step, inv_gain = 1.0 / gain
     cdef double bend = nonlinearity / full_well, rn2 = read_noise * read_noise
     cdef Py_ssize_t i, buckets = guide.shape[0] // (start.shape[0] - 1)
-    cdef double lam, e, adu, g0
+    cdef Py_ssize_t m = quantiles.shape[0] - 1
+    cdef const double *q = &quantiles[0]
+    cdef const double *c = &cdf[0]
+    cdef const double *rec = &reciprocal[0]
+    cdef const int64_t *first = &start[0]
+    cdef const int32_t *g = &guide[0]
+    cdef double lam, e, adu, g0, total, slope
+    # below ``faint`` e- (the Poisson tables' reach, at most half the full well) the
+    # full-well clip cannot bite
+    cdef double faint = top if top < 0.5 * full_well else 0.5 * full_well
     cdef uint64_t s[4]
     s[0], s[1], s[2], s[3] = state[0], state[1], state[2], state[3]
     with nogil:
         for i in range(expected.shape[0]):
             lam = expected[i] if expected[i] > 0.0 else 0.0
-            g0 = read_noise * _normal(quantiles, s) if read_noise > 0.0 else 0.0
-            if lam * skew_scale < (lam + rn2) * sqrt(lam + rn2):
-                e = lam + sqrt(lam) * _normal(quantiles, s)
+            total = sqrt(lam + rn2)
+            if lam < faint and lam * skew_scale < (lam + rn2) * total:
+                # shot and read noise as one Gaussian: the non-linearity's mean
+                # lam - bend (lam^2 + lam) and slope 1 - 2 bend lam (unclipped: the full
+                # well is out of reach)
+                if bend != 0.0:
+                    slope = 1.0 - 2.0 * bend * lam
+                    total = sqrt(lam * slope * slope + rn2)
+                e = lam - bend * (lam * lam + lam) + total * _normal(q, m, s)
+                adu = rint(e * inv_gain + bias)
+                out[i] = <uint16_t>(adu if adu < adc_max else adc_max) if adu > 0.0 else 0
+                continue
+            g0 = read_noise * _normal(q, m, s) if read_noise > 0.0 else 0.0
+            if lam * skew_scale < (lam + rn2) * total:
+                e = lam + sqrt(lam) * _normal(q, m, s)
             elif lam < top:
-                e = <double>_poisson_split(lam, step, cdf, start, guide, buckets, reciprocal,
-                                           s)
+                e = <double>_poisson_split(lam, step, c, first, g, buckets, rec, s)
             else:
                 e = <double>_poisson_ptrs(lam, s)
             e = e if e < full_well else full_well
