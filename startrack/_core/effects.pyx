@@ -152,6 +152,16 @@ def deposit_spots(double[:, ::1] image, const double[:, ::1] spots, const int[::
         free(radial)
 
 
+def shade_and_add(double[:, ::1] image, const float[:, ::1] gain, const float[:, ::1] add):
+    """``image = image * gain + add`` in one pass (the stars through the PRNU, then the
+    frame's background)."""
+    cdef Py_ssize_t r, c
+    with nogil:
+        for r in range(image.shape[0]):
+            for c in range(image.shape[1]):
+                image[r, c] = image[r, c] * gain[r, c] + add[r, c]
+
+
 def bloom_columns(double[:, ::1] image, double full_well, const int64_t[::1] columns):
     """Spill the charge above ``full_well`` along each of ``columns`` (those holding an
     overflowing pixel), half up and half down, filling each neighbour to full well before

@@ -143,10 +143,14 @@ def expected_with_effects(scene: Scene, camera: Camera, sensor: SensorModel, eff
             _deposit(image, camera, effects, xs[:, sel].ravel(), ys[:, sel].ravel(),
                      lit[:, sel].ravel(), sigma)
     _body(image, camera, sensor, effects)
-    prnu = det.prnu_map(shape)
-    if prnu is not None:
-        image *= prnu
-    image += _background(camera, sensor, effects)
+    prnu, background = det.prnu_map(shape), _background(camera, sensor, effects)
+    if all(isinstance(m, np.ndarray) and m.dtype == np.float32 and m.flags.c_contiguous
+           for m in (prnu, background)):  # one pass over the frame, not two
+        ek.shade_and_add(image, prnu, background)
+    else:
+        if prnu is not None:
+            image *= prnu
+        image += background
     if hot.any():  # detector defects: one pixel, neither vignetted nor moving
         col = np.floor(scene.x[hot] + 0.5).astype(np.int64)
         row = np.floor(scene.y[hot] + 0.5).astype(np.int64)
