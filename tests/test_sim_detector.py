@@ -96,15 +96,80 @@ def test_adc_nonlinearity_compresses_near_full_well():
     np.testing.assert_allclose(linear, levels[0], rtol=2e-3)
 
 
-@pytest.mark.parametrize("lam", [3.0, 25.0, 400.0, 5000.0])
-def test_field_readout_has_the_sensor_chains_statistics(lam):
+@pytest.mark.parametrize(("lam", "read_noise"), [
+    (0.37, 3.0), (3.0, 3.0), (7.3, 3.0), (25.0, 3.0), (57.6, 3.0),  # Poisson tables
+    (127.9, 3.0), (400.0, 3.0),  # tables' last level, PTRS
+    (5000.0, 3.0), (0.6, 10.0), (30.7, 10.0), (80.0, 10.0),  # Gaussian: low skewness
+])
+def test_field_readout_has_the_sensor_chains_statistics(lam, read_noise):
     # a frame whose pixels each expect their own signal goes through the compiled chain
     from startrack.simulate._render_effects import digitise_field
 
-    sensor = SensorModel(read_noise=3.0, gain=0.5, bias_adu=100.0, full_well=1e5)
+    sensor = SensorModel(read_noise=read_noise, gain=0.5, bias_adu=100.0, full_well=1e5)
     levels = lam * (1.0 + 1e-9 * np.arange(200_000))  # no common value: the field path
     adu = digitise_field(levels, sensor, np.random.default_rng(4)).astype(np.float64)
     e = (adu - 100.0) * 0.5
-    assert e.mean() == pytest.approx(lam, abs=0.02 * np.sqrt(lam) + 0.01)
+    # mean: within 4 standard errors (plus the ADU rounding's share)
+    error = 4.0 * np.sqrt((lam + read_noise**2) / e.size) + 0.01
+    assert e.mean() == pytest.approx(levels.mean(), abs=error)
     # variance: Poisson + read noise + rounding to ADU (gain^2 / 12)
-    assert e.var() == pytest.approx(lam + 9.0 + 0.25 / 12.0, rel=0.02)
+    assert e.var() == pytest.approx(lam + read_noise**2 + 0.25 / 12.0, rel=0.02)
+
+
+def _direct_stamp(x, y, a, b, c, s, model, half, oversample):
+    """A spot's normalised stamp by evaluating its PSF at every sub-sample."""
+    from scipy.special import erfc, j1
+
+    size, x0, y0 = 2 * half + 1, int(np.floor(x + 0.5)) - half, int(np.floor(y + 0.5)) - half
+    off = (np.arange(oversample) + 0.5) / oversample - 0.5
+    dy = (y0 + np.arange(size)[:, None] + off[None, :] - y).ravel()[:, None]
+    dx = (x0 + np.arange(size)[:, None] + off[None, :] - x).ravel()[None, :]
+    u, v = dx * c + dy * s, -dx * s + dy * c
+    if model == 0:
+        p = np.exp(-0.5 * ((u / a) ** 2 + (v / b) ** 2))
+    elif model == 1:
+        z = np.maximum(3.8317059702075125 * np.hypot(u, v) / a, 1e-12)
+        p = (2.0 * j1(z) / z) ** 2
+    else:
+        p = 0.5 * erfc((np.hypot(u, v) - a) / (np.sqrt(2.0) * b))
+    p = p.reshape(size, oversample, size, oversample).sum(axis=(1, 3))
+    return p / p.sum(), x0, y0
+
+
+@pytest.mark.parametrize(("model", "a", "b", "c", "s", "half", "oversample"), [
+    (0, 2.5, 1.0, 0.6, 0.8, 11, 2), (0, 0.4, 0.3, 1.0, 0.0, 3, 4),
+    (0, 0.05, 0.05, 1.0, 0.0, 2, 4), (1, 2.0, 1.0, 1.0, 0.0, 9, 4),
+    (2, 1.5, 1.0, 0.6, 0.8, 7, 2), (2, 30.0, 1.0, 1.0, 0.0, 35, 2),
+])
+def test_compiled_spots_match_their_psf_at_every_sub_sample(model, a, b, c, s, half,
+                                                             oversample):
+    # the kernel's shortcuts (Gaussian rows by recurrence, round profiles tabulated over
+    # the radius) against the PSF evaluated directly
+    from startrack._core import effects as ek
+
+    image, x, y = np.zeros((100, 100)), 50.3, 49.8
+    ek.deposit_spots(image, np.array([[x, y, 1000.0, a, b, c, s]]),
+                     np.array([model], np.int32), np.array([half]),
+                     np.array([oversample], np.int32))
+    want, x0, y0 = _direct_stamp(x, y, a, b, c, s, model, half, oversample)
+    got = image[y0:y0 + 2 * half + 1, x0:x0 + 2 * half + 1]
+    assert image.sum() == pytest.approx(1000.0, rel=1e-12)
+    np.testing.assert_allclose(got, 1000.0 * want, atol=1e-5 * 1000.0 * want.max())
+
+
+@pytest.mark.parametrize("path", ["gaussian", "poisson"])
+def test_field_readout_bends_faint_pixels_as_the_chain_does(path):
+    # the ADC non-linearity on faint pixels: drawn with the read noise as one Gaussian
+    # (read noise 15 e-) or exactly (read noise 1 e-), the mean is lam - b (lam^2 + lam)
+    # and the variance lam (1 - 2 b lam)^2 + read noise^2 (to first order in b)
+    from startrack.simulate._render_effects import digitise_field
+
+    read_noise, lam, full_well, bend = (15.0 if path == "gaussian" else 1.0), 100.0, 300.0, 0.05
+    sensor = SensorModel(read_noise=read_noise, gain=0.5, bias_adu=100.0, full_well=full_well)
+    levels = lam * (1.0 + 1e-9 * np.arange(200_000))
+    adu = digitise_field(levels, sensor, np.random.default_rng(5), bend).astype(np.float64)
+    e, b = (adu - 100.0) * 0.5, bend / full_well
+    assert e.mean() == pytest.approx(lam - b * (lam**2 + lam),
+                                     abs=4.0 * np.sqrt((lam + read_noise**2) / e.size))
+    assert e.var() == pytest.approx(lam * (1 - 2 * b * lam) ** 2 + read_noise**2 + 0.25 / 12,
+                                    rel=0.02)

@@ -10,7 +10,7 @@ and added to the image.
 """
 
 from libc.math cimport cos, erfc, exp, fabs, floor, lgamma, log, rint, sqrt
-from libc.stdint cimport int64_t, uint16_t, uint64_t
+from libc.stdint cimport int32_t, int64_t, uint16_t, uint64_t
 from libc.stdlib cimport free, malloc
 
 # The C library's Bessel function of the first kind (POSIX <math.h>): scipy's Cython
@@ -38,15 +38,58 @@ cdef inline double _profile(int model, double u, double v, double a, double b) n
     return 0.5 * erfc((r - a) / (_SQRT2 * b))
 
 
+cdef enum:
+    _RADIAL_CELLS = 4096  # a round PSF's profile, tabulated over radius on the spot's window
+
+
+cdef void _gaussian_stamp(double *stamp, long size, int os, double fx, double fy, double a,
+                          double b, double c, double sn) noexcept nogil:
+    """An elliptical Gaussian's sub-samples summed per pixel into ``stamp`` (zeroed), its
+    first sub-sample at (fx, fy) from the centre. Along a row of sub-samples the exponent
+    is quadratic, so each value is the previous times a ratio that itself changes by a
+    constant factor: two exps a row instead of one a sub-sample (rows whose first value
+    would underflow are evaluated directly)."""
+    cdef double qa = -0.5 * (c * c / (a * a) + sn * sn / (b * b))
+    cdef double qb = -c * sn * (1.0 / (a * a) - 1.0 / (b * b))
+    cdef double qc = -0.5 * (sn * sn / (a * a) + c * c / (b * b))
+    cdef double h = 1.0 / os, dy, q0, value, ratio, grow = exp(2.0 * qa * h * h), dx
+    cdef long i, si, j, sj, t
+    for i in range(size):
+        for si in range(os):
+            dy = fy + i + si * h
+            q0 = qa * fx * fx + qb * fx * dy + qc * dy * dy
+            if q0 > -600.0:
+                value = exp(q0)
+                ratio = exp(2.0 * qa * fx * h + qa * h * h + qb * h * dy)
+                for j in range(size):
+                    for sj in range(os):
+                        stamp[i * size + j] += value
+                        value *= ratio
+                        ratio *= grow
+            else:
+                t = 0
+                for j in range(size):
+                    for sj in range(os):
+                        dx = fx + t * h
+                        stamp[i * size + j] += exp(qa * dx * dx + qb * dx * dy + qc * dy * dy)
+                        t += 1
+
+
 def deposit_spots(double[:, ::1] image, const double[:, ::1] spots, const int[::1] model,
                   const long[::1] half, const int[::1] oversample):
     """Add each spot's electrons to ``image`` in place, spread by its PSF. ``spots`` has a
-    row per spot: x, y, electrons, a, b and the cosine and sine of its axis."""
+    row per spot: x, y, electrons, a, b and the cosine and sine of its axis. Round
+    profiles (Airy, defocus) are tabulated over the radius once for each run of spots
+    sharing model, sizes and window, and interpolated linearly (within ~1e-5 of the
+    peak)."""
     cdef Py_ssize_t n, i, j, si, sj, h = image.shape[0], w = image.shape[1]
-    cdef long hw, size, x0, y0, row, col
+    cdef long hw, size, x0, y0, row, col, cell
     cdef int os
-    cdef double total, value, dx, dy, u, v, step, scale
+    cdef double total, value, dx, dy, step, scale, to_cell = 0.0, f, r
     cdef long biggest = 0
+    cdef int table_model = -1
+    cdef double table_a = -1.0, table_b = -1.0
+    cdef long table_half = -1
     cdef const double[::1] x = spots[:, 0].copy(), y = spots[:, 1].copy()
     cdef const double[::1] electrons = spots[:, 2].copy(), a = spots[:, 3].copy()
     cdef const double[::1] b = spots[:, 4].copy(), cos_axis = spots[:, 5].copy()
@@ -54,7 +97,10 @@ def deposit_spots(double[:, ::1] image, const double[:, ::1] spots, const int[::
     for n in range(half.shape[0]):
         biggest = max(biggest, half[n])
     cdef double *stamp = <double *> malloc(sizeof(double) * (2 * biggest + 1) ** 2 + 8)
-    if stamp == NULL:
+    cdef double *radial = <double *> malloc(sizeof(double) * (_RADIAL_CELLS + 2))
+    if stamp == NULL or radial == NULL:
+        free(stamp)
+        free(radial)
         raise MemoryError()
     try:
         with nogil:
@@ -65,19 +111,35 @@ def deposit_spots(double[:, ::1] image, const double[:, ::1] spots, const int[::
                 size = 2 * hw + 1
                 x0 = <long>floor(x[n] + 0.5) - hw
                 y0 = <long>floor(y[n] + 0.5) - hw
-                total = 0.0
-                for i in range(size):
-                    for j in range(size):
-                        value = 0.0
+                for i in range(size * size):
+                    stamp[i] = 0.0
+                if model[n] == 0:
+                    _gaussian_stamp(stamp, size, os, x0 - 0.5 + 0.5 * step - x[n],
+                                    y0 - 0.5 + 0.5 * step - y[n], a[n], b[n], cos_axis[n],
+                                    sin_axis[n])
+                else:
+                    if (model[n] != table_model or a[n] != table_a or b[n] != table_b
+                            or hw != table_half):
+                        # sub-samples lie within (hw + 1) * sqrt(2) of the centre
+                        to_cell = _RADIAL_CELLS / (_SQRT2 * (hw + 1.0))
+                        for cell in range(_RADIAL_CELLS + 2):
+                            radial[cell] = _profile(model[n], cell / to_cell, 0.0, a[n], b[n])
+                        table_model, table_a, table_b, table_half = model[n], a[n], b[n], hw
+                    for i in range(size):
                         for si in range(os):
                             dy = y0 + i - 0.5 + (si + 0.5) * step - y[n]
-                            for sj in range(os):
-                                dx = x0 + j - 0.5 + (sj + 0.5) * step - x[n]
-                                u = dx * cos_axis[n] + dy * sin_axis[n]
-                                v = -dx * sin_axis[n] + dy * cos_axis[n]
-                                value += _profile(model[n], u, v, a[n], b[n])
-                        stamp[i * size + j] = value
-                        total += value
+                            for j in range(size):
+                                value = 0.0
+                                for sj in range(os):
+                                    dx = x0 + j - 0.5 + (sj + 0.5) * step - x[n]
+                                    r = sqrt(dx * dx + dy * dy) * to_cell
+                                    cell = <long>r
+                                    f = r - cell
+                                    value += radial[cell] + f * (radial[cell + 1] - radial[cell])
+                                stamp[i * size + j] += value
+                total = 0.0
+                for i in range(size * size):
+                    total += stamp[i]
                 if total <= 0.0:
                     continue
                 scale = electrons[n] / total
@@ -91,6 +153,17 @@ def deposit_spots(double[:, ::1] image, const double[:, ::1] spots, const int[::
                             image[row, col] += stamp[i * size + j] * scale
     finally:
         free(stamp)
+        free(radial)
+
+
+def shade_and_add(double[:, ::1] image, const float[:, ::1] gain, const float[:, ::1] add):
+    """``image = image * gain + add`` in one pass (the stars through the PRNU, then the
+    frame's background)."""
+    cdef Py_ssize_t r, c
+    with nogil:
+        for r in range(image.shape[0]):
+            for c in range(image.shape[1]):
+                image[r, c] = image[r, c] * gain[r, c] + add[r, c]
 
 
 def bloom_columns(double[:, ::1] image, double full_well, const int64_t[::1] columns):
@@ -137,98 +210,4 @@ def bloom_columns(double[:, ::1] image, double full_well, const int64_t[::1] col
     return overflowed
 
 
-cdef double _TO_UNIT = 2.0 ** -53
-cdef double _TWO_PI = 6.283185307179586
-
-
-cdef inline double _uniform(uint64_t *s) noexcept nogil:
-    """xoshiro256+ in [0, 1): the state's four words, stepped in place."""
-    cdef uint64_t result = s[0] + s[3], t = s[1] << 17
-    s[2] ^= s[0]
-    s[3] ^= s[1]
-    s[1] ^= s[2]
-    s[0] ^= s[3]
-    s[2] ^= t
-    s[3] = (s[3] << 45) | (s[3] >> 19)
-    return <double>(result >> 11) * _TO_UNIT
-
-
-cdef inline long _poisson_ptrs(double lam, uint64_t *s) noexcept nogil:
-    """Poisson(lam) for lam >= 10 by Hoermann's transformed rejection (PTRS, 1993; numpy's
-    method too): exact, about 1.2 pairs of uniforms a draw."""
-    cdef double slam = sqrt(lam), loglam = log(lam)
-    cdef double b = 0.931 + 2.53 * slam, a = -0.059 + 0.02483 * b
-    cdef double invalpha = 1.1239 + 1.1328 / (b - 3.4), vr = 0.9277 - 3.6224 / (b - 2.0)
-    cdef double u, v, us
-    cdef long k
-    while True:
-        u = _uniform(s) - 0.5
-        v = _uniform(s)
-        us = 0.5 - fabs(u)
-        k = <long>floor((2.0 * a / us + b) * u + lam + 0.43)
-        if us >= 0.07 and v <= vr:
-            return k
-        if k < 0 or (us < 0.013 and v > us):
-            continue
-        if (log(v) + log(invalpha) - log(a / (us * us) + b)
-                <= -lam + k * loglam - lgamma(k + 1.0)):
-            return k
-
-
-cdef inline double _normal(const double[::1] quantiles, uint64_t *s) noexcept nogil:
-    """A standard normal draw: the normal quantile function, tabulated at m + 1 evenly
-    spaced probabilities, interpolated at one uniform; the two outer cells (the tails
-    beyond 1/m) are drawn exactly by Marsaglia's (1964) tail method."""
-    cdef Py_ssize_t m = quantiles.shape[0] - 1, j
-    cdef double u = _uniform(s) * m, f, x, a = quantiles[m - 1]
-    j = <Py_ssize_t>u
-    if 0 < j < m - 1:
-        f = u - j
-        return quantiles[j] + f * (quantiles[j + 1] - quantiles[j])
-    while True:  # the normal beyond a, exactly: x = sqrt(a^2 - 2 log u1) if u2 x < a
-        x = sqrt(a * a - 2.0 * log(1.0 - _uniform(s)))
-        if _uniform(s) * x < a:
-            return -x if j == 0 else x
-
-
-def field_pixels(const double[::1] expected, uint64_t[::1] state, const double[::1] chain,
-                 uint16_t[::1] out, const double[::1] quantiles, const double[::1] reciprocal):
-    """Read-out values of a frame whose pixels each expect their own electrons (a
-    vignetted, stray-lit, PRNU/DSNU-shaped background), in one pass with a compiled
-    generator (xoshiro256+, ``state`` seeded by the caller's numpy Generator): shot noise
-    exact Poisson below ``gauss_above`` (inverse CDF below 10 e-, PTRS above) and Gaussian
-    above, full-well clip, ADC non-linearity, Gaussian read noise (:func:`_normal` on
-    ``quantiles``), gain, bias and ADC clip. ``chain``: full well, read noise, gain,
-    bias, ADC maximum, non-linearity and ``gauss_above``; ``reciprocal[k] = 1 / k``."""
-    cdef double full_well = chain[0], read_noise = chain[1], gain = chain[2]
-    cdef double bias = chain[3], adc_max = chain[4], nonlinearity = chain[5]
-    cdef double gauss_above = chain[6]
-    cdef Py_ssize_t i
-    cdef double lam, e, p, cdf, u, adu, g0
-    cdef long k
-    cdef uint64_t s[4]
-    s[0], s[1], s[2], s[3] = state[0], state[1], state[2], state[3]
-    with nogil:
-        for i in range(expected.shape[0]):
-            lam = expected[i] if expected[i] > 0.0 else 0.0
-            g0 = _normal(quantiles, s) if read_noise > 0.0 else 0.0
-            if lam < 10.0:
-                u = _uniform(s)
-                p = exp(-lam)
-                cdf, k = p, 0
-                while cdf < u and k < 63:
-                    k += 1
-                    p *= lam * reciprocal[k]
-                    cdf += p
-                e = <double>k
-            elif lam < gauss_above:
-                e = <double>_poisson_ptrs(lam, s)
-            else:
-                e = rint(lam + sqrt(lam) * _normal(quantiles, s))
-                e = e if e > 0.0 else 0.0
-            e = e if e < full_well else full_well
-            if nonlinearity != 0.0:
-                e = e * (1.0 - nonlinearity * e / full_well)
-            adu = rint((e + read_noise * g0) / gain + bias)
-            out[i] = <uint16_t>(adu if adu < adc_max else adc_max) if adu > 0.0 else 0
-    state[0], state[1], state[2], state[3] = s[0], s[1], s[2], s[3]
+include "_field_readout.pxi"

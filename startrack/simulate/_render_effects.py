@@ -11,7 +11,7 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.spatial.transform import Rotation
-from scipy.special import ndtri
+from scipy.special import ndtri, pdtr
 
 from startrack._core import effects as ek
 from startrack._core import render as rk
@@ -143,10 +143,14 @@ def expected_with_effects(scene: Scene, camera: Camera, sensor: SensorModel, eff
             _deposit(image, camera, effects, xs[:, sel].ravel(), ys[:, sel].ravel(),
                      lit[:, sel].ravel(), sigma)
     _body(image, camera, sensor, effects)
-    prnu = det.prnu_map(shape)
-    if prnu is not None:
-        image *= prnu
-    image += _background(camera, sensor, effects)
+    prnu, background = det.prnu_map(shape), _background(camera, sensor, effects)
+    if all(isinstance(m, np.ndarray) and m.dtype == np.float32 and m.flags.c_contiguous
+           for m in (prnu, background)):  # one pass over the frame, not two
+        ek.shade_and_add(image, prnu, background)
+    else:
+        if prnu is not None:
+            image *= prnu
+        image += background
     if hot.any():  # detector defects: one pixel, neither vignetted nor moving
         col = np.floor(scene.x[hot] + 0.5).astype(np.int64)
         row = np.floor(scene.y[hot] + 0.5).astype(np.int64)
@@ -160,13 +164,35 @@ def expected_with_effects(scene: Scene, camera: Camera, sensor: SensorModel, eff
     return image
 
 
+_STEP = 8  # Poisson levels per electron tabulated for the field read-out
+_LEVELS = 128 * _STEP  # up to 128 e- (brighter pixels: PTRS)
+_BUCKETS = 256  # guide-table buckets per level: mostly no search step
+# the skewness of a pixel's read-out (Poisson shot plus Gaussian read noise) below which
+# its shot noise is drawn Gaussian: the bound the default chain accepts above 1000 e-
+# (1 / sqrt(1000)), where the read noise cannot hide it
+_SKEWNESS = 1.0 / np.sqrt(rk.GAUSS_ABOVE)
+
+
 @lru_cache(maxsize=1)
-def _tables() -> tuple[np.ndarray, np.ndarray]:
-    """The field read-out's tables: normal quantiles at 2^16 + 1 even probabilities (the
-    two ends infinite: their cells are drawn exactly), and 1 / k for k < 64."""
-    quantiles = ndtri(np.linspace(0.0, 1.0, 2**16 + 1))
+def _tables() -> tuple[np.ndarray, ...]:
+    """The field read-out's tables: normal quantiles at 2^12 + 1 even probabilities (the
+    two ends infinite: their cells are drawn exactly; the interpolated inner cells give
+    the variance within 1e-4), 1 / k for k < 64, and the Poisson CDF of each level
+    n / ``_STEP`` (k up to lam + 12 sqrt(lam) + 30, beyond which the mass is below 1e-30;
+    the last value infinite so every draw stops), their starts in the flat CDF array and
+    their guide tables."""
+    quantiles = ndtri(np.linspace(0.0, 1.0, 2**12 + 1))
     reciprocal = 1.0 / np.maximum(np.arange(64, dtype=np.float64), 1.0)
-    return quantiles, reciprocal
+    cdfs, guides = [], []
+    for n in range(_LEVELS):  # once per process
+        lam = n / _STEP
+        cdf = pdtr(np.arange(int(lam + 12.0 * np.sqrt(lam) + 30.0) + 1.0), lam)
+        cdf[-1] = np.inf
+        cdfs.append(cdf)
+        guides.append(np.searchsorted(cdf, np.arange(_BUCKETS) / _BUCKETS, side="right"))
+    start = np.concatenate(([0], np.cumsum([len(c) for c in cdfs]))).astype(np.int64)
+    return (quantiles, reciprocal, np.concatenate(cdfs), start,
+            np.concatenate(guides).astype(np.int32))
 
 
 def digitise_field(expected: np.ndarray, sensor: SensorModel, rng: np.random.Generator,
@@ -174,9 +200,10 @@ def digitise_field(expected: np.ndarray, sensor: SensorModel, rng: np.random.Gen
     """:func:`startrack.simulate._render.digitise` for frames with effects: a frame whose
     pixels share one sky value takes its exact table; one whose pixels each expect their
     own (vignetting, stray light, PRNU, DSNU) is read out in one compiled pass
-    (:func:`startrack._core.effects.field_pixels`: exact Poisson below 1000 e-, Gaussian of
-    the same mean and variance above, as the default chain). Every draw comes from
-    ``rng``."""
+    (:func:`startrack._core.effects.field_pixels`: exact Poisson, but a Gaussian of the same
+    mean and variance where the read-out's skewness is below ``_SKEWNESS``: above 1000 e-,
+    as the default chain, and wherever the read noise hides the Poisson shape). Every
+    draw comes from ``rng``."""
     flat = np.ascontiguousarray(expected, dtype=np.float64).ravel()
     if _noise.flat_value(flat) is not None:
         return digitise(expected, sensor, rng, nonlinearity)
@@ -184,7 +211,7 @@ def digitise_field(expected: np.ndarray, sensor: SensorModel, rng: np.random.Gen
     state = rng.integers(1, 2**63, size=4, dtype=np.int64).astype(np.uint64)
     chain = readout_chain(sensor, nonlinearity)
     constants = np.array([chain.full_well, chain.read_noise, chain.gain, chain.bias,
-                          chain.adc_max, chain.nonlinearity, rk.GAUSS_ABOVE])
+                          chain.adc_max, chain.nonlinearity, _SKEWNESS, _STEP])
     ek.field_pixels(flat, state, constants, out, *_tables())
     return out.reshape(expected.shape)
 
