@@ -245,6 +245,8 @@ def main() -> None:
                     help="JSON of solve-field's runs: read where it holds a frame and mode, "
                          "written with the new ones (solve-field does not change with "
                          "startrack's commit)")
+    ap.add_argument("--cached-peer-only", action="store_true",
+                    help="solve-field's rows from --peer-cache alone (none run here)")
     ap.add_argument("--modes", default="fov,blind")
     ap.add_argument("--only", default="", help="a substring of the frames to run")
     ap.add_argument("--timeout", type=float, default=300.0, help="seconds per run")
@@ -266,6 +268,8 @@ def main() -> None:
                 runs[(mode, "startrack")] = startrack_run(frame, mode == "fov", args.timeout)
             if "solve-field" in solvers:
                 key = f"{frame.path.name}/{mode}"
+                if key not in peer_cache and args.cached_peer_only:
+                    continue
                 if key not in peer_cache:
                     run = solve_field_run(frame, mode == "fov", args.timeout)
                     peer_cache[key] = {k: getattr(run, k) for k in
