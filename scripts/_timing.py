@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import statistics
 import time
 
 import numpy as np
@@ -17,3 +18,16 @@ def median_us(call, repeats: int) -> float:
         call()
         times.append(time.perf_counter() - t0)
     return float(np.median(times)) * 1e6
+
+
+def wall_cpu_ms(call, repeats: int) -> tuple[float, float]:
+    """Median wall and CPU milliseconds of ``repeats`` calls of ``call``, after one untimed
+    call (imports, compiled kernels, the allocator)."""
+    call()
+    wall, cpu = [], []
+    for _ in range(repeats):
+        t0, c0 = time.perf_counter(), time.process_time()
+        call()
+        wall.append((time.perf_counter() - t0) * 1e3)
+        cpu.append((time.process_time() - c0) * 1e3)
+    return statistics.median(wall), statistics.median(cpu)

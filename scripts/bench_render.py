@@ -9,11 +9,9 @@ machine does not inflate).
 
 from __future__ import annotations
 
-import statistics
-import time
-
 import numpy as np
 from _cli import add_repeats, script_parser
+from _timing import wall_cpu_ms
 
 from startrack.attitude import from_radec_roll
 from startrack.camera._model import Camera
@@ -33,14 +31,8 @@ def synthetic_scene(camera: Camera, n: int, rng: np.random.Generator) -> Scene:
 
 def median_ms(fn, repeats: int) -> str:
     """Median wall and CPU ms of ``fn``, as "wall (cpu)"."""
-    fn()  # warm-up (imports, compiled kernels, allocator)
-    wall, cpu = [], []
-    for _ in range(repeats):
-        t0, c0 = time.perf_counter(), time.process_time()
-        fn()
-        wall.append((time.perf_counter() - t0) * 1e3)
-        cpu.append((time.process_time() - c0) * 1e3)
-    return f"{statistics.median(wall):.1f} ({statistics.median(cpu):.1f})"
+    wall, cpu = wall_cpu_ms(fn, repeats)
+    return f"{wall:.1f} ({cpu:.1f})"
 
 
 def main() -> None:

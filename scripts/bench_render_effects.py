@@ -15,12 +15,11 @@ time, so the CPU ratio is the figure to quote.
 from __future__ import annotations
 
 import os
-import statistics
 import subprocess
-import time
 
 import numpy as np
 from _cli import add_repeats, script_parser
+from _timing import wall_cpu_ms
 from bench_render import synthetic_scene
 
 from startrack.camera._model import Camera
@@ -44,18 +43,6 @@ EVERY_EFFECT = Effects(
 )
 
 
-def timed(fn, repeats: int) -> tuple[float, float]:
-    """Median wall and CPU ms of ``fn`` (after one warm-up call)."""
-    fn()
-    wall, cpu = [], []
-    for _ in range(repeats):
-        t0, c0 = time.perf_counter(), time.process_time()
-        fn()
-        wall.append((time.perf_counter() - t0) * 1e3)
-        cpu.append((time.process_time() - c0) * 1e3)
-    return statistics.median(wall), statistics.median(cpu)
-
-
 def main() -> None:
     parser = script_parser(__doc__)
     add_repeats(parser, 7)
@@ -76,7 +63,7 @@ def main() -> None:
         render_frame(scene, camera, sensor, np.random.default_rng(2), angular_rate_dps=RATE,
                      effects=EVERY_EFFECT, effects_rng=np.random.default_rng(3), bv=bv)
 
-    base, full = timed(plain, args.repeats), timed(everything, args.repeats)
+    base, full = wall_cpu_ms(plain, args.repeats), wall_cpu_ms(everything, args.repeats)
     print(f"render {args.size}x{args.size}, {args.stars} stars, rate {RATE} deg/s, median of "
           f"{args.repeats}; commit {commit}; load average {os.getloadavg()[0]:.2f} on "
           f"{os.cpu_count()} CPUs")
