@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 .PHONY: demo test lint bench clean astrometry astrometry-ci results
 
 # The compiled core is built by the install: a changed kernel source reinstalls.
-$(STAMP): pyproject.toml setup.py $(wildcard startrack/_core/*.pyx startrack/_core/*.pxd startrack/_core/*.pxi)
+$(STAMP): pyproject.toml setup.py $(shell find startrack/_core -name '*.pyx' -o -name '*.pxd' -o -name '*.pxi')
 	@echo "set-up (once): a virtual environment in $(VENV)/, startrack's dependencies, and its"
 	@echo "compiled core (Cython and C, one module per .pyx). Usually a few minutes on an idle"
 	@echo "2-core machine, most of it compiling (pip shows 'Building editable ...' meanwhile);"
@@ -38,9 +38,9 @@ lint: $(STAMP)
 PAPER2011_SIZE ?=
 RADIAL_SIZE ?=
 results: $(STAMP)
-	$(BIN)/python scripts/paper2011.py --jobs 2 $(PAPER2011_SIZE)
-	$(BIN)/python scripts/radial_features.py --jobs 2 $(RADIAL_SIZE)
-	$(BIN)/python scripts/readme_results.py --papers-only
+	$(BIN)/python scripts/papers/paper2011.py --jobs 2 $(PAPER2011_SIZE)
+	$(BIN)/python scripts/papers/radial_features.py --jobs 2 $(RADIAL_SIZE)
+	$(BIN)/python scripts/docs/readme_results.py --papers-only
 
 # astrometry.net (the `astrometry` peer) and every Tycho-2 index file (the tycho2 sky),
 # from Debian's packages: about 190 MB to download, 300 MB installed. Needs root.

@@ -1,5 +1,6 @@
-"""Build startrack's compiled core: every ``startrack/_core/*.pyx`` becomes one extension
-module, compiled by Cython and the system's C compiler when the package is installed
+"""Build startrack's compiled core: every ``startrack/_core/**/*.pyx`` (one folder per stage)
+becomes one extension module, compiled by Cython and the system's C compiler when the package is
+installed
 (``pip install -e .``), so no kernel is compiled while a user waits.
 
 Everything else about the package (metadata, dependencies, data files) is in
@@ -31,14 +32,14 @@ DIRECTIVES = {
 
 
 # Built for the machine that runs it (as numba compiled for it): its vector instructions
-# make the pixel loops markedly faster (scripts/bench_centroid.py). STARTRACK_PORTABLE=1
+# make the pixel loops markedly faster (scripts/bench/bench_centroid.py). STARTRACK_PORTABLE=1
 # builds for any CPU of the architecture instead.
 _NATIVE = [] if os.environ.get("STARTRACK_PORTABLE") else ["-march=native"]
 
 
 def _extension(source: Path) -> Extension:
     return Extension(
-        f"startrack._core.{source.stem}",
+        ".".join(source.with_suffix("").parts),
         [str(source)],
         include_dirs=[np.get_include(), str(CORE)],
         define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
@@ -51,7 +52,7 @@ def _extension(source: Path) -> Extension:
 
 setup(
     ext_modules=cythonize(
-        [_extension(p) for p in sorted(CORE.glob("*.pyx"))],
+        [_extension(p) for p in sorted(CORE.rglob("*.pyx"))],
         compiler_directives=DIRECTIVES,
         include_path=[str(CORE)],
         nthreads=JOBS if JOBS > 1 else 0,

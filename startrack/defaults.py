@@ -5,10 +5,10 @@ values import them from here."""
 
 from __future__ import annotations
 
-from startrack.validate import PAIRS, env_number
+from startrack.input_checks import PAIRS, env_number
 
-# The most reliable method measured (scripts/bench_identify.py, the real-sky frames and
-# scripts/false_positives.py; docs/results.md has the figures).
+# The most reliable method measured (scripts/bench/bench_identify.py, the real-sky frames and
+# scripts/validation/false_positives.py; docs/results.md has the figures).
 DEFAULT_METHOD = "pyramid"
 #: the matchers startrack ships (startrack.matchers registers them; a test holds the two
 #: equal); plugins add theirs

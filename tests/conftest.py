@@ -5,7 +5,7 @@ import os
 
 import pytest
 
-from startrack.camera._model import Camera
+from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.sky import SkySpec, load_sky, random_sky
 

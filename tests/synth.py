@@ -10,13 +10,12 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from startrack.attitude import random_attitudes
-from startrack.camera._model import Camera
+from startrack.camera import Camera, stars_in_view
 from startrack.database import StarDatabase
+from startrack.match_records import MatchDiagnostics, Observation
 from startrack.matchers import Matcher, MatcherConfig, get_matcher
-from startrack.simulate._scene import stars_in_view
 from startrack.sky import Catalog
-from startrack.solver._lost_in_space import identify
-from startrack.types import MatchDiagnostics, Observation
+from startrack.solver import identify
 
 
 @dataclass(frozen=True)
@@ -127,7 +126,7 @@ def first_hypothesis(matcher: Matcher, db: StarDatabase):
 def two_star_frame(db: StarDatabase) -> tuple[Observation, np.ndarray]:
     """Two stars of an exact frame of ``db``'s sky whose angle's window (as the angle
     matcher looks it up) holds exactly one catalog pair, and their catalog rows."""
-    from startrack.matching.pairs import pair_index
+    from startrack.matchers._shared.pair_joins import pair_index
 
     matcher = prepared_matcher("angle", db)
     index = pair_index(matcher._table(), len(db.vectors))

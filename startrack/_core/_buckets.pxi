@@ -1,4 +1,4 @@
-# The bucket sort behind the database builds (included by database.pyx and close_pairs.pyx):
+# The bucket sort behind the database builds (included by builds.pyx and close_pairs.pyx):
 # values counted into buckets of about PER_BUCKET each, then each bucket sorted in place,
 # stably. The including module cimports merge_sort from startrack._core._stable.
 

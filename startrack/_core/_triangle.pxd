@@ -85,7 +85,7 @@ cdef inline Features features(const double* v1, const double* v2, const double* 
                               double sigma) noexcept nogil:
     """(area, polar, sigma_area, sigma_polar) of one observed triple: first-order
     propagation of ``sigma`` per tangent axis by central differences, the numbers of
-    startrack.database.triangles.feature_sigmas."""
+    startrack.database._triangles.feature_sigmas."""
     cdef double verts[3][3]
     cdef double v[3]
     cdef double basis[2][3]

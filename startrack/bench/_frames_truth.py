@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from startrack.errors import InputError
-from startrack.sky.catalog import BadId, exact_ids
+from startrack.sky import BadId, exact_ids
 
 #: truth and stars disagree when a frame's drawn stars lie, in the median, farther than
 #: this from where its truth attitude puts them (aberration and proper motion stay far

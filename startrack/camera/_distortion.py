@@ -3,7 +3,7 @@
 Coordinates here are normalised: ``u = (x - cx) / f``, ``v = (y - cy) / f``. The model maps
 the ideal pinhole point to the observed one, ``u_obs = u * (1 + k1 r2 + k2 r2^2 + k3 r2^3)``
 with ``r2 = u^2 + v^2``; the inverse is found by Newton's method on the radius. Both are
-computed by the compiled core (:class:`startrack._core.camera.RadialLens`).
+computed by the compiled core (:class:`startrack._core.camera.optics.RadialLens`).
 (FITS TAN-SIP terms of this model: :func:`startrack.outputs._wcs.sip_from_camera`.)
 """
 
@@ -15,9 +15,9 @@ from functools import cached_property
 
 import numpy as np
 
-from startrack._core.camera import RadialLens
+from startrack._core.camera.optics import RadialLens
 from startrack.errors import InputError
-from startrack.validate import check_number
+from startrack.input_checks import check_number
 
 MODELS = ("radial",)
 _KEYS = {"model", "k1", "k2", "k3"}

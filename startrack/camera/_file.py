@@ -15,7 +15,7 @@ from pathlib import Path
 from startrack.camera._distortion import distortion_from_dict
 from startrack.camera._model import Camera
 from startrack.errors import InputError, InputFileNotFoundError
-from startrack.validate import FOV_DEG, IMAGE_SIDE_PX, check_number, check_table
+from startrack.input_checks import FOV_DEG, IMAGE_SIDE_PX, check_number, check_table
 
 CAMERA_KEYS = {"width", "height", "fov_deg", "focal_length_mm", "pixel_size_um", "cx", "cy",
                "distortion", "uncertainty"}  # uncertainty: calibrate's report, not read

@@ -2,7 +2,7 @@
 
 A pinhole with optional Brown-Conrady radial distortion (:mod:`startrack.camera._distortion`);
 every pixel -> direction and direction -> pixel in startrack goes through this class, and
-it through the compiled model (:class:`startrack._core.camera.Optics`).
+it through the compiled model (:class:`startrack._core.camera.optics.Optics`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
-from startrack._core.camera import Optics
+from startrack._core.camera.optics import Optics
 from startrack.camera._distortion import RadialDistortion
 from startrack.errors import InputError
 
@@ -102,7 +102,7 @@ class Camera:
             return self._with(self.f_px, None)
         # in scalars, not arrays: a fitted lens is checked in every FOV refit; squares
         # as products, the arithmetic of the compiled fit's own check
-        # (startrack._core.fov_fit), which refuses the same lenses
+        # (startrack._core.camera.fit), which refuses the same lenses
         ex = max(abs(-0.5 - self.cx), abs(self.width - 0.5 - self.cx))
         ey = max(abs(-0.5 - self.cy), abs(self.height - 0.5 - self.cy))
         rd2 = (ex * ex + ey * ey) / (self.f_px * self.f_px)

@@ -7,8 +7,9 @@ intensity-weighted centroids of the unsmoothed pixels, background removed; hot p
 oversized blobs rejected; saturated spots flagged. Pixels as docs/conventions.md says.
 
 The frame is read twice in full, in its own dtype: once for the block means
-(``startrack._core.sky_blocks``, from which the sky model is made; ``sky_grid`` cleans
-its tiles) and once, row by row, for detection and moments (``startrack._core.extract``,
+(``startrack._core.centroids.background_blocks``, from which the sky model is made; ``sky_grid``
+cleans
+its tiles) and once, row by row, for detection and moments (``startrack._core.centroids.extract``,
 which evaluates the sky model on the fly; ``blobs`` joins the runs and picks the stars).
 
 Threads: the passes over the pixels run on bands of rows at once, on
@@ -27,8 +28,10 @@ import math
 
 import numpy as np
 
-from startrack._core import blobs, sky_blocks, sky_grid
-from startrack._core import extract as kern
+from startrack._core.centroids import background_blocks as sky_blocks
+from startrack._core.centroids import background_grid as sky_grid
+from startrack._core.centroids import blobs
+from startrack._core.centroids import extract as kern
 from startrack.centroids import _threads as par
 from startrack.centroids._config import FAST, CentroidConfig  # noqa: F401 (FAST re-exported)
 from startrack.centroids._table import Centroids

@@ -11,7 +11,7 @@ import numpy as np
 from startrack.errors import InputError, InputFileNotFoundError, StartrackWarning
 
 # 1-sigma centroid error assumed when none is given: rendered and real frames centroid to
-# a few tenths of a pixel (scripts/bench_centroid.py); 0.5 px also leaves room for small
+# a few tenths of a pixel (scripts/bench/bench_centroid.py); 0.5 px also leaves room for small
 # lens distortion. identify, the Python API and compare --from images all assume it.
 DEFAULT_SIGMA_PX = 0.5
 # A wide star image (defocus, bloom, seeing in a long exposure, a lens's coma) is

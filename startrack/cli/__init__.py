@@ -9,12 +9,10 @@ import sys
 import click
 
 from startrack import __version__
-from startrack.cli.quiet import library_noise_captured
+from startrack.cli._quiet import library_noise_captured
 from startrack.defaults import max_pairs
 from startrack.errors import InputError
-from startrack.io._cache import cache_max_bytes
-from startrack.io._headers import max_image_pixels
-from startrack.io._writer import OutputClosed
+from startrack.io import OutputClosed, cache_max_bytes, max_image_pixels
 
 
 class Terminated(Exception):
@@ -130,12 +128,12 @@ def main() -> None:
 
 def _add_commands() -> None:
     # Each command lives in its own module; importing it registers it on the group.
-    from startrack.cli import (
-        cache,  # noqa: F401
-        calibrate,  # noqa: F401
-        compare,  # noqa: F401
-        identify,  # noqa: F401
-        simulate,  # noqa: F401
+    from startrack.cli import (  # noqa: F401
+        _cache,
+        _calibrate,
+        _compare,
+        _identify,
+        _simulate,
     )
 
 

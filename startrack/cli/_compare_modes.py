@@ -10,6 +10,7 @@ from pathlib import Path
 
 import click
 
+from startrack.cli._compare_request import CompareRun
 from startrack.defaults import DEFAULT_METHOD
 from startrack.errors import InputError
 
@@ -61,7 +62,7 @@ def report_writer(ctx, reports: list):
     """``finish(result, replay_for=None)``: writes report.md (while the run holds --out)
     and appends its path to ``reports``."""
     def finish(result, replay_for=None) -> None:
-        from startrack.bench.report import NOT_REPLAYED, command_line, write_report
+        from startrack.bench import NOT_REPLAYED, command_line, write_report
 
         reports.append(write_report(result, command_line(ctx),
                                     command_line(ctx, drop=NOT_REPLAYED), replay_for))
@@ -70,7 +71,7 @@ def report_writer(ctx, reports: list):
 
 def print_finished(result, report: Path) -> None:
     """Print the tables and where the files are (``report``: report.md, written)."""
-    from startrack.bench.session import format_table
+    from startrack.bench import format_table
 
     click.echo(format_table(result.summary))
     loads = ", ".join(f"{k} {v:.2f} s" for k, v in result.load_seconds.items())
@@ -81,61 +82,68 @@ def print_finished(result, report: Path) -> None:
                f"in {result.out}/ ({result.wall_seconds:.1f} s)")
 
 
-def frames_dir_run(folder, names, out_dir, max_stars, threshold_arcsec, quiet, note, overwrite,
-                   finish, reports: list, started=lambda: None) -> None:
-    """``--frames-dir``: every method on the folder's frames (startrack.bench.frames_dir);
-    ``started()`` once the run holds ``out_dir``."""
-    from startrack.bench.frames_dir import compare_frames_folder, identify_command
+def frames_dir_run(run: CompareRun) -> None:
+    """``--frames-dir``: every method on the folder's frames (startrack.bench's
+    ``compare_frames_folder``), once the run holds its folder."""
+    from startrack.bench import compare_frames_folder, identify_command
+
+    folder, request = run.request.frames_dir, run.request
 
     def announce(data) -> None:
-        started()
-        note(f"compare: {', '.join(names)} on {len(data.truth)} frame(s) of {folder}")
+        run.started()
+        run.note(f"compare: {', '.join(run.methods)} on {len(data.truth)} frame(s) of "
+                 f"{folder}")
 
     try:
-        result = compare_frames_folder(folder, names, out_dir, max_stars=max_stars,
-                                       threshold_arcsec=threshold_arcsec, quiet=quiet,
-                                       announce=announce, overwrite=overwrite,
-                                       finish=lambda r: finish(r, identify_command(folder)))
+        result = compare_frames_folder(
+            folder, run.methods, run.out_dir, max_stars=request.max_stars,
+            threshold_arcsec=request.threshold_arcsec, quiet=request.quiet,
+            announce=announce, overwrite=request.folder.overwrite,
+            finish=lambda r: run.finish(r, identify_command(folder)))
     except InputError:
         raise
     except OSError as exc:
-        raise InputError(f"--out {out_dir}: cannot write ({exc.strerror or exc})") from None
-    print_finished(result, reports[0])
+        raise InputError(f"--out {run.out_dir}: cannot write ({exc.strerror or exc})") \
+            from None
+    print_finished(result, run.reports[0])
 
 
-def tracking_run(cfg, spec_sky, names, frames, rates, noise_px, false_stars, missing, fps,
-              seed, out_dir, threshold_arcsec, note, folder: dict) -> None:
+def tracking_run(run: CompareRun, cfg, spec_sky, inputs: list) -> None:
     """``--mode tracking``: the options as given (unset ones take the tracking defaults)."""
     from click.core import ParameterSource
 
-    from startrack.bench import tracking_report as tr
+    from startrack.bench import (
+        TRACKING_FRAMES,
+        compare_tracking,
+        markdown_table,
+        parse_tracking_levels,
+        run_identity,
+        run_in_folder,
+    )
 
-    ctx = click.get_current_context()
+    ctx, request, lv = click.get_current_context(), run.request, run.request.levels
     given = {n: ctx.get_parameter_source(n) == ParameterSource.COMMANDLINE
              for n in ("methods", "frames")}
-    names = names if given["methods"] else (DEFAULT_METHOD,)
-    levels = tr.parse_levels({"rate_dps": rates, "noise_px": noise_px,
-                              "false_stars": false_stars, "missing": missing})
-    from startrack.bench.session import run_in_folder
-    from startrack.bench.store import run_identity
-
-    run = dict(methods=names, levels=levels,
-               frames=frames if given["frames"] else tr.DEFAULT_FRAMES, fps=fps,
-               seed=cfg.frames.seed if seed is None else seed,
-               threshold_arcsec=threshold_arcsec)
+    names = run.methods if given["methods"] else (DEFAULT_METHOD,)
+    levels = parse_tracking_levels({"rate_dps": lv.rates, "noise_px": lv.noise_px,
+                                    "false_stars": lv.false_stars, "missing": lv.missing})
+    spec = dict(methods=names, levels=levels,
+                frames=request.frames if given["frames"] else TRACKING_FRAMES,
+                fps=request.fps, seed=cfg.frames.seed if request.seed is None
+                else request.seed, threshold_arcsec=request.threshold_arcsec)
     identity = run_identity({"mode": "tracking", "camera": cfg.camera.to_dict(),
-                             "sky": spec_sky.to_dict(), **run})
-    summary, _ = run_in_folder(out_dir, identity, lambda out: tr.compare_tracking(
-        cfg.camera, spec_sky, out=out, **run, progress=note), **folder)
-    click.echo(tr.markdown_table(summary))
+                             "sky": spec_sky.to_dict(), **spec})
+    summary, _ = run_in_folder(run.out_dir, identity, lambda out: compare_tracking(
+        cfg.camera, spec_sky, out=out, **spec, progress=run.note),
+        resume=request.folder.resume, overwrite=request.folder.overwrite, inputs=inputs)
+    click.echo(markdown_table(summary))
     click.echo(f"wrote frames.csv, summary.csv, time_ratio.csv, report.md and plots in "
-               f"{out_dir}/")
+               f"{run.out_dir}/")
 
 
 def replay_one(spec, text: str) -> None:
     """Run one (condition, frame) unit of ``spec`` and print every method's answer."""
-    from startrack.bench.report import condition_text, replay_text
-    from startrack.bench.runner import run_unit
+    from startrack.bench import condition_text, replay_text, run_unit
 
     try:
         condition, frame = (int(p) for p in text.split(","))

@@ -92,7 +92,7 @@ def inputs_with_progress(inputs, quiet: bool, stack: contextlib.ExitStack):
     if quiet or len(inputs) < PROGRESS_MIN_INPUTS:
         return inputs
     if not sys.stderr.isatty():
-        from startrack.outputs._progress import iterate
+        from startrack.outputs import iterate
 
         return iterate(inputs, desc="identify", unit="input")
     from tqdm import tqdm
@@ -107,7 +107,7 @@ class NothingAnswered(Exception):
 
 def record_writer(fh, fmt: str, several: bool):
     """A function writing one record to ``fh`` in ``fmt`` (the CSV header first)."""
-    from startrack.outputs._records import CSV_HEADER, csv_rows, format_table  # as in identify()
+    from startrack.outputs import CSV_HEADER, csv_rows, format_table  # as in identify()
 
     writer = csv.writer(fh, lineterminator="\n") if fmt == "csv" else None
     if writer is not None:

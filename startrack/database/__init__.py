@@ -13,19 +13,20 @@ from functools import cached_property
 
 import numpy as np
 
-from startrack.camera._model import Camera
-from startrack.database import triangles as tri
-from startrack.database.cone import ConeIndex
-from startrack.database.kvector import KVector
-from startrack.database.pairs import (
+from startrack._lazy import lazy_exports
+from startrack.camera import Camera
+from startrack.database import _triangles as tri
+from startrack.database._cone import ConeIndex
+from startrack.database._kvector import KVector
+from startrack.database._pairs import (
     PairTable,
     build_pair_arrays,
     pair_table_from_arrays,
     select_pair_arrays,
 )
-from startrack.database.radial import build_radial_arrays, radial_table_from_arrays
-from startrack.database.triangles import brighter_neighbours
-from startrack.io._cache import cached_arrays
+from startrack.database._radial import build_radial_arrays, radial_table_from_arrays
+from startrack.database._triangles import brighter_neighbours
+from startrack.io import cached_arrays
 from startrack.sky import Catalog
 
 
@@ -67,7 +68,7 @@ class StarDatabase:
                       region_radius_deg: float | None = None) -> PairTable:
         """The pairs among pattern stars only: stars with fewer than ``max_per_region``
         brighter stars within ``region_radius_deg`` (default half the FOV), the thinning
-        of :func:`startrack.database.triangles.brighter_neighbours`. None: every pair."""
+        of :func:`startrack.database._triangles.brighter_neighbours`. None: every pair."""
         if max_per_region is None:
             return self.pairs
         radius = math.radians(region_radius_deg or self.camera.fov_deg / 2.0)
@@ -93,7 +94,7 @@ class StarDatabase:
                        region_radius_deg: float | None = None):
         """Triangles of the stars with fewer than ``max_per_region`` brighter stars within
         ``region_radius_deg`` (default half the FOV); "auto" fits a budget, None: all
-        stars. See :mod:`startrack.database.triangles`."""
+        stars. See :mod:`startrack.database._triangles`."""
         radius = math.radians(region_radius_deg or self.camera.fov_deg / 2.0)
         arrays = self._cached(
             "triangles", {"max_per_region": max_per_region, "radius": round(radius, 9),
@@ -113,7 +114,7 @@ class StarDatabase:
 
     def radial(self, radius_rad: float, ring_width_rad: float):
         """Radial features of every catalog star (rings of ``ring_width_rad`` out to
-        ``radius_rad``, at most the image diagonal); see :mod:`startrack.database.radial`."""
+        ``radius_rad``, at most the image diagonal); see :mod:`startrack.database._radial`."""
         radius_rad = min(float(radius_rad), self.max_angle_rad)
         key = (round(radius_rad, 12), round(float(ring_width_rad), 12))
         tables = self.__dict__.setdefault("_radial_tables", {})
@@ -125,4 +126,31 @@ class StarDatabase:
         return tables[key]
 
 
-__all__ = ["StarDatabase", "PairTable", "KVector"]
+__all__ = [
+    "BIN", "binary_search_range", "build_threads", "EDGES", "feature_sigmas", "K_NEAREST",
+    "KVector", "level_for", "level_stars", "LEVEL_STEP", "MAX_PATTERN_SIZE", "NBINS",
+    "observed_masks", "PairTable", "PATTERN_SIZE", "quad_level", "QuadLevel", "RadialTable",
+    "RATIO_STEPS", "StarDatabase", "triangle_features",
+]
+
+# Other stages' entry points, each imported on first use.
+__getattr__, __dir__ = lazy_exports(__name__, {
+    "BIN": "_quads",
+    "EDGES": "_quads",
+    "K_NEAREST": "_quads",
+    "LEVEL_STEP": "_quads",
+    "MAX_PATTERN_SIZE": "_quads",
+    "NBINS": "_quads",
+    "PATTERN_SIZE": "_quads",
+    "QuadLevel": "_quads",
+    "RATIO_STEPS": "_quads",
+    "level_for": "_quads",
+    "level_stars": "_quads",
+    "quad_level": "_quads",
+    "binary_search_range": "_kvector",
+    "build_threads": "_pairs",
+    "feature_sigmas": "_triangles",
+    "observed_masks": "_radial",
+    "RadialTable": "_radial",
+    "triangle_features": "_triangles",
+})

@@ -33,11 +33,11 @@ import numpy as np
 from platformdirs import user_cache_dir
 
 from startrack.errors import StartrackWarning
+from startrack.input_checks import CACHE_MAX_MB, env_number
 from startrack.io._npz import CHECKSUM_KEY, ENTRY_KEY, arrays_checksum
 from startrack.io._npz import read_npz as _read_npz
 from startrack.io._npz import write_npz as _write_npz
 from startrack.io._writer import atomic_path
-from startrack.validate import CACHE_MAX_MB, env_number
 
 CACHE_VERSION = 4  # 2: a checksum; 3: XXH3-128 instead of SHA-256; 4: the key inside
 # room for a blind search's Gaia pattern tables and a deep sky's (Tycho-2's narrow levels,

@@ -14,7 +14,7 @@ import struct
 from pathlib import Path
 
 from startrack.errors import InputError
-from startrack.validate import IMAGE_PIXELS, env_number
+from startrack.input_checks import IMAGE_PIXELS, env_number
 
 DEFAULT_MAX_IMAGE_PIXELS = 8192 * 8192
 _JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}

@@ -1,5 +1,6 @@
-"""Matchers, registered by name: each module in this package adds one method, and other
-packages add theirs through the ``startrack.matchers`` entry point group."""
+"""Matchers, registered by name: each module of this package adds one method (the shared
+machinery sits in ``_shared/``), and other packages add theirs through the
+``startrack.matchers`` entry point group."""
 
 from __future__ import annotations
 
@@ -8,8 +9,9 @@ import pkgutil
 import warnings
 from importlib.metadata import entry_points
 
+from startrack._lazy import lazy_exports
 from startrack.errors import InputError, StartrackWarning
-from startrack.matchers.base import Matcher, MatcherConfig, register, registry
+from startrack.matchers._base import Matcher, MatcherConfig, register, registry
 
 #: the entry point group a package declares its matchers in (docs/conventions.md)
 ENTRY_POINT_GROUP = "startrack.matchers"
@@ -22,7 +24,7 @@ def _load_all() -> None:
     if _loaded:
         return
     for info in pkgutil.iter_modules(__path__):
-        if info.name != "base" and not info.name.startswith("_"):
+        if not info.ispkg and info.name != "_base":  # a method's module registers it
             importlib.import_module(f"{__name__}.{info.name}")
     _loaded = True  # before the plugins: a plugin importing this package must not recurse
     _load_plugins()
@@ -64,5 +66,27 @@ def get_matcher(name: str) -> type[Matcher]:
                          f"{', '.join(available_methods())})") from None
 
 
-__all__ = ["ENTRY_POINT_GROUP", "Matcher", "MatcherConfig", "available_methods",
-           "get_matcher", "register"]
+__all__ = [
+    "angle_table", "attitude_from_tetra3", "attitude_from_tetra3rs", "available_methods",
+    "ENTRY_POINT_GROUP", "get_matcher", "INSTALL", "Matcher", "MatcherConfig",
+    "positions_to_indices", "QuadMatcher", "register", "ScaledHypothesis", "solve_field",
+    "solve_field_available", "tetra3_centroids", "tetra3rs_centroids", "write_gaia_binary",
+    "write_hip_main",
+]
+
+# Other stages' entry points, each imported on first use.
+__getattr__, __dir__ = lazy_exports(__name__, {
+    "angle_table": "_shared.geometry",
+    "attitude_from_tetra3": "_tetra3",
+    "attitude_from_tetra3rs": "_tetra3rs",
+    "INSTALL": "_astrometry",
+    "positions_to_indices": "_shared.peer",
+    "QuadMatcher": "_quad",
+    "ScaledHypothesis": "_quad",
+    "solve_field": "_astrometry",
+    "solve_field_available": "_astrometry",
+    "tetra3_centroids": "_tetra3",
+    "tetra3rs_centroids": "_tetra3rs",
+    "write_gaia_binary": "_shared.peer",
+    "write_hip_main": "_shared.peer",
+})

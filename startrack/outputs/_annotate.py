@@ -11,8 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.io._resources import resource_path
-from startrack.io._writer import atomic_path
+from startrack.io import atomic_path, resource_path
 from startrack.outputs._annotate_sky import draw_compass, draw_grid
 from startrack.outputs._labels import place_labels
 from startrack.outputs._records import frame_record

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.io._writer import atomic_text
+from startrack.io import atomic_text
 from startrack.outputs._annotate import residual_pixels
-from startrack.sky.catalog import vectors_to_radec
+from startrack.sky import vectors_to_radec
 
 #: Columns; units are in the names (px: pixels as in docs/conventions.md, deg, arcsec).
 CORR_COLUMNS = [

@@ -11,9 +11,9 @@ import math
 import numpy as np
 
 from startrack.attitude import to_quaternion, to_radec_roll
+from startrack.match_records import Observation, Solution, Timing
 from startrack.sky import Catalog
-from startrack.solver._trail import sky_record, sky_text, step_text
-from startrack.types import Observation, Solution, Timing
+from startrack.solver import sky_record, sky_text, step_text
 
 #: exit code of each record status (docs/conventions.md): a batch exits with the worst
 EXIT_CODES = {"solved": 0, "not_solved": 1, "error": 2}

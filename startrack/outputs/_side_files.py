@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from startrack.errors import InputError
-from startrack.io._writer import Writer
+from startrack.io import Writer
 
 SUFFIXES = {"annotate": ".png", "wcs": ".wcs"}
 

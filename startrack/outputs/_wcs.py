@@ -16,10 +16,9 @@ from astropy.wcs import WCS
 from scipy.spatial.transform import Rotation
 
 from startrack import __version__
-from startrack.camera._model import Camera
-from startrack.io._headers import date_obs_of
-from startrack.io._writer import atomic_path
-from startrack.sky.catalog import vectors_to_radec
+from startrack.camera import Camera
+from startrack.io import atomic_path, date_obs_of
+from startrack.sky import vectors_to_radec
 
 
 @dataclass(frozen=True)
@@ -120,7 +119,7 @@ def fit_sip(camera: Camera, rotation: Rotation, x: np.ndarray, y: np.ndarray,
     Kept rather than ``astropy.wcs.utils.fit_wcs_from_points(..., sip_degree=order)``:
     that is a nonlinear least-squares fit (it also moves CRPIX) and, on the real test
     frame, tens of times slower for residuals within a few percent of these, and it
-    writes no AP/BP inverse for other tools (scripts/bench_library_fits.py prints both).
+    writes no AP/BP inverse for other tools (scripts/bench/bench_library_fits.py prints both).
     """
     ra, dec, cd0 = _cd_matrix(camera, rotation)
     if order < 2:

@@ -6,10 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack._core import parse
-from startrack.io._cache import cached_parse
-from startrack.sky.catalog import Catalog
-from startrack.sky.hipparcos import _column, catalog_file
+from startrack._core.sky import parse
+from startrack.io import cached_parse
+from startrack.sky import Catalog, catalog_file, fixed_width_column
 
 _BV_COLUMNS = {"hip": (1, 6), "bv": (153, 158)}  # I/311 ReadMe: B-V, bytes 153-158 (F6.3)
 FORMAT_VERSION = 1
@@ -19,7 +18,7 @@ def _parse_bv(path: Path) -> dict[str, np.ndarray]:
     width = _BV_COLUMNS["bv"][1]
     raw = parse.records(Path(path).read_bytes(), width)
     raw = np.ascontiguousarray(raw[~parse.blank_rows(raw), :width])
-    cols = {name: _column(raw, *span) for name, span in _BV_COLUMNS.items()}
+    cols = {name: fixed_width_column(raw, *span) for name, span in _BV_COLUMNS.items()}
     good = np.isfinite(cols["hip"])
     return {"hip": cols["hip"][good].astype(np.int64), "bv": cols["bv"][good]}
 

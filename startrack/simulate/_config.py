@@ -8,15 +8,9 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from startrack.camera._file import camera_from_dict
-from startrack.camera._model import Camera
+from startrack.camera import Camera, camera_from_dict
 from startrack.errors import InputError
-from startrack.io._resources import resource_path
-from startrack.simulate._effects import TABLES as EFFECT_TABLES
-from startrack.simulate._effects import Effects, effects_from_dict
-from startrack.simulate._sensor import SensorModel, sensor_from_dict
-from startrack.sky import SkySpec
-from startrack.validate import (
+from startrack.input_checks import (
     FALSE_STARS,
     FRACTION,
     FRAMES,
@@ -26,6 +20,11 @@ from startrack.validate import (
     check_keys,
     check_number,
 )
+from startrack.io import resource_path
+from startrack.simulate._effects import TABLES as EFFECT_TABLES
+from startrack.simulate._effects import Effects, effects_from_dict
+from startrack.simulate._sensor import SensorModel, sensor_from_dict
+from startrack.sky import SkySpec
 
 TABLES = ("camera", "sky", "sensor", "frames", *EFFECT_TABLES)
 

@@ -21,8 +21,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from startrack.input_checks import Bounds
 from startrack.simulate._effect_table import changed, number
-from startrack.validate import Bounds
 
 #: the temperature at which a sensor's ``dark_current`` is given, C
 REFERENCE_C = 20.0

@@ -12,7 +12,7 @@ from dataclasses import field
 from typing import Any, TypeVar
 
 from startrack.errors import InputError
-from startrack.validate import Bounds, check_number, check_table
+from startrack.input_checks import Bounds, check_number, check_table
 
 T = TypeVar("T")
 

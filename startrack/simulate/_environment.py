@@ -25,11 +25,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from startrack.input_checks import Bounds
 from startrack.simulate._effect_table import changed, number
-from startrack.validate import Bounds
 
 if TYPE_CHECKING:  # the camera loads the compiled core: not for `--help`
-    from startrack.camera._model import Camera
+    from startrack.camera import Camera
 
 #: hits per cm^2 per s: galactic cosmic rays and trapped protons in a quiet low orbit
 #: (Hubble's detectors count about 1 to 5; JWST's about 5)

@@ -37,7 +37,8 @@ def adu_table(lam: float, full_well: float, read_noise: float, gain: float, bias
               ) -> tuple[np.ndarray, np.ndarray, int] | None:
     """CDF over ADU values a0, a0 + 1, ... of a pixel expecting ``lam`` electrons, its
     guide table and a0; None when the table would be too large to pay off.
-    ``nonlinearity``: the ADC's compression at full well (startrack._core.render.Readout)."""
+    ``nonlinearity``: the ADC's compression at full well
+    (startrack._core.simulate.render.Readout)."""
     lam = max(lam, 0.0)
     spread = 12.0 * math.sqrt(lam) + 30.0  # Poisson mass beyond: < 1e-30
     k = np.arange(max(0, math.floor(lam - spread)), math.ceil(lam + spread) + 1)

@@ -26,11 +26,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from startrack.input_checks import Bounds
 from startrack.simulate._effect_table import changed, choice, curve, number
-from startrack.validate import Bounds
 
 if TYPE_CHECKING:  # the camera loads the compiled core: not for `--help`
-    from startrack.camera._model import Camera
+    from startrack.camera import Camera
 
 PSF_MODELS = ("gaussian", "airy", "defocus")
 VIGNETTING = ("none", "cos4", "profile")

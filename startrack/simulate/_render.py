@@ -8,8 +8,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 from scipy.special import erf
 
-from startrack._core import render as rk
-from startrack.camera._model import Camera
+from startrack._core.simulate import render as rk
+from startrack.camera import Camera
 from startrack.simulate import _noise as render_noise
 from startrack.simulate._effects import Effects
 from startrack.simulate._scene import Scene
@@ -119,7 +119,8 @@ def digitise(expected: np.ndarray, sensor: SensorModel, rng: np.random.Generator
 
     Pixels at the frame's common sky value draw their count from its exact distribution
     (``render_noise.adu_table``, one compiled uniform draw each); for the others shot noise is exact
-    Poisson up to ``startrack._core.render.GAUSS_ABOVE`` expected electrons and Gaussian (same
+    Poisson up to ``startrack._core.simulate.render.GAUSS_ABOVE`` expected electrons and
+    Gaussian (same
     mean and variance) above, plus Gaussian read noise. Every draw comes from ``rng``.
     ``nonlinearity``: the ADC's compression at full well (0: linear).
     """

@@ -13,9 +13,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 from scipy.special import ndtri, pdtr
 
-from startrack._core import effects as ek
-from startrack._core import render as rk
-from startrack.camera._model import Camera
+from startrack._core.simulate import effects as ek
+from startrack._core.simulate import render as rk
+from startrack.camera import Camera
 from startrack.simulate import _noise
 from startrack.simulate._effects import Effects
 from startrack.simulate._render import deposit_gaussians, digitise, readout_chain
@@ -200,7 +200,8 @@ def digitise_field(expected: np.ndarray, sensor: SensorModel, rng: np.random.Gen
     """:func:`startrack.simulate._render.digitise` for frames with effects: a frame whose
     pixels share one sky value takes its exact table; one whose pixels each expect their
     own (vignetting, stray light, PRNU, DSNU) is read out in one compiled pass
-    (:func:`startrack._core.effects.field_pixels`: exact Poisson, but a Gaussian of the same
+    (:func:`startrack._core.simulate.effects.field_pixels`: exact Poisson, but a Gaussian of the
+    same
     mean and variance where the read-out's skewness is below ``_SKEWNESS``: above 1000 e-,
     as the default chain, and wherever the read noise hides the Poisson shape). Every
     draw comes from ``rng``."""

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from startrack.camera._model import Camera
-from startrack.sky.catalog import Catalog
+from startrack.camera import Camera, stars_in_view
+from startrack.sky import Catalog
 
 
 @dataclass(frozen=True)
@@ -36,19 +35,6 @@ class Scene:
     @property
     def n_real(self) -> int:
         return int(np.count_nonzero(~self.is_false))
-
-
-def stars_in_view(catalog: Catalog, camera: Camera, rotation: Rotation,
-                  margin_px: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Catalog rows of the stars that land in the image, with their pixel (x, y)."""
-    boresight = rotation.apply([0.0, 0.0, 1.0])
-    # Cone pre-filter: a cheap dot product discards almost the whole sky before projecting.
-    cos_cone = math.cos(math.radians(min(camera.half_diagonal_deg + 0.1, 179.0)))
-    rows = np.flatnonzero(catalog.vectors @ boresight > cos_cone)
-    v_cam = rotation.inv().apply(catalog.vectors[rows]).reshape(-1, 3)
-    x, y, front = camera.vector_to_pixel(v_cam)
-    keep = front & camera.in_image(x, y, margin_px)
-    return rows[keep], x[keep], y[keep]
 
 
 def observe(catalog: Catalog, camera: Camera, rotation: Rotation, rng: np.random.Generator,

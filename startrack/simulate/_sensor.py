@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from startrack.errors import InputError
-from startrack.validate import check_table
+from startrack.input_checks import check_table
 
 
 @dataclass(frozen=True)

@@ -6,77 +6,34 @@ import dataclasses
 import functools
 import math
 import os
-from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
-from startrack.camera._model import Camera
+from startrack._lazy import lazy_exports
+from startrack.camera import Camera
 from startrack.defaults import max_pairs
 from startrack.errors import InputError
-from startrack.sky.catalog import (
+from startrack.io import FILE_KIND, SKY_KINDS, SkySpec
+from startrack.sky._catalog import (
     Catalog,
     cut_magnitude,
     merge_close_stars,
     radec_to_vectors,
     vectors_to_radec,
 )
-from startrack.sky.default import (
+from startrack.sky._default import (
     GAIA_BELOW_FOV_DEG,
     GAIA_MAG_MAX,
     TYCHO2_MAG_MAX,
     deeper_sky_note,
     default_sky_kind,
 )
-from startrack.sky.gaia import gaia_arrays, load_gaia
-from startrack.sky.hipparcos import hipparcos_arrays, load_hipparcos
-from startrack.sky.random_sky import random_sky
-from startrack.sky.tycho2 import load_tycho2, tycho2_arrays
-from startrack.sky.user_catalog import is_catalog_path, load_user_catalog
-from startrack.validate import EPOCH_YEAR, MAG_LIMIT, check_keys, check_number
-
-SKY_KINDS = ("random", "hipparcos", "gaia", "tycho2")
-#: the kind of a user's catalog file (``--sky FILE``): its path is the spec's ``path``
-FILE_KIND = "file"
-
-
-@dataclass(frozen=True)
-class SkySpec:
-    """Everything needed to rebuild a catalog exactly; written into frame sidecars."""
-
-    kind: str = "random"
-    n_stars: int = 2000
-    seed: int = 0
-    mag_limit: float | None = None
-    epoch: float | None = None  # Julian year for proper motion (Hipparcos and Gaia)
-    # Closer stars are merged into the brighter one. None: two pixels of the camera the
-    # sky is loaded for (the optics cannot split them), or no merging without a camera.
-    min_separation_deg: float | None = None
-    path: str | None = None  # the catalog file of a "file" sky (absolute)
-
-    def to_dict(self) -> dict:
-        data = asdict(self)
-        if data["path"] is None:  # the skies without a file keep their sidecar keys
-            del data["path"]
-        return data
-
-    @classmethod
-    def from_dict(cls, data: dict, where: str = "sky") -> SkySpec:
-        """A spec from a config table or sidecar; unknown keys and bad values are errors."""
-        check_keys(data, cls.__dataclass_fields__, where)
-        kind = data.get("kind", "random")
-        if kind not in (*SKY_KINDS, FILE_KIND):
-            raise InputError(f"{where}: kind must be one of {', '.join(SKY_KINDS)}, "
-                             f"or {FILE_KIND} with a path")
-        if (kind == FILE_KIND) != isinstance(data.get("path"), str):
-            raise InputError(f"{where}: path (a string) goes with kind {FILE_KIND} only")
-        rules = {"n_stars": dict(integer=True, low=1), "seed": dict(integer=True, low=0),
-                 "mag_limit": dict(bounds=MAG_LIMIT), "epoch": dict(bounds=EPOCH_YEAR),
-                 "min_separation_deg": dict(low=0)}
-        for key, rule in rules.items():
-            if data.get(key) is not None:
-                check_number(data[key], f"{where}: {key}", **rule)
-        return cls(**data)
+from startrack.sky._gaia import gaia_arrays, load_gaia
+from startrack.sky._hipparcos import hipparcos_arrays, load_hipparcos
+from startrack.sky._random_sky import random_sky
+from startrack.sky._tycho2 import load_tycho2, tycho2_arrays
+from startrack.sky._user_catalog import is_catalog_path, load_user_catalog
 
 
 def with_sky(spec: SkySpec, name: str) -> SkySpec:
@@ -257,24 +214,27 @@ def load_sky(spec: SkySpec | str | os.PathLike, camera: Camera | None = None) ->
 
 
 __all__ = [
-    "Catalog",
-    "SkySpec",
-    "load_sky",
-    "resolve_sky",
-    "default_sky_kind",
-    "deeper_sky_note",
-    "sky_spec",
+    "BadId", "Catalog", "CATALOG_EPOCH", "catalog_file", "check_pair_budget", "cut_magnitude",
+    "deeper_sky_note", "default_mag_limit", "default_sky_kind", "estimated_pairs", "exact_ids",
+    "FILE_KIND", "fixed_width_column", "GAIA_BELOW_FOV_DEG", "gaia_min_fov", "HIP2_COLUMNS",
+    "index_files", "load_sky", "merge_close_stars", "merge_separation_deg", "parse_hip2",
+    "propagate", "radec_to_vectors", "random_sky", "resolve_sky", "search_sky_kind",
+    "set_index_dir", "sky_spec", "SkySpec", "UNRESOLVED_PIXELS", "vectors_to_radec",
     "with_sky",
-    "FILE_KIND",
-    "GAIA_BELOW_FOV_DEG",
-    "default_mag_limit",
-    "merge_separation_deg",
-    "check_pair_budget",
-    "estimated_pairs",
-    "UNRESOLVED_PIXELS",
-    "random_sky",
-    "cut_magnitude",
-    "merge_close_stars",
-    "radec_to_vectors",
-    "vectors_to_radec",
 ]
+
+# Other stages' entry points, each imported on first use.
+__getattr__, __dir__ = lazy_exports(__name__, {
+    "BadId": "_catalog",
+    "CATALOG_EPOCH": "_hipparcos",
+    "catalog_file": "_hipparcos",
+    "exact_ids": "_catalog",
+    "fixed_width_column": "_hipparcos",
+    "gaia_min_fov": "_default",
+    "HIP2_COLUMNS": "_hipparcos",
+    "index_files": "_tycho2",
+    "parse_hip2": "_hipparcos",
+    "propagate": "_hipparcos",
+    "search_sky_kind": "_default",
+    "set_index_dir": "_tycho2",
+})

@@ -23,11 +23,11 @@ from pathlib import Path
 import numpy as np
 
 from startrack.attitude import solve_wahba
-from startrack.io._headers import date_obs_of
-from startrack.sky.catalog import Catalog, vectors_to_radec
+from startrack.input_checks import EPOCH_YEAR, NumberError, check_number
+from startrack.io import date_obs_of
+from startrack.match_records import Timing
+from startrack.sky import Catalog, vectors_to_radec
 from startrack.solver._lost_in_space import residuals_arcsec
-from startrack.types import Timing
-from startrack.validate import EPOCH_YEAR, NumberError, check_number
 
 FITS_SUFFIXES = (".fits", ".fit", ".fts")
 C_KM_S = 299792.458
@@ -37,7 +37,7 @@ def parse_time(text, where: str = "--time"):
     """An astropy ``Time`` (UTC) from ISO 8601 text such as ``2019-07-29T20:47:26Z``; an
     offset such as ``+02:00`` is honoured, no offset means UTC. A leap second
     (``2016-12-31T23:59:60.5``) and the old FITS date form ``DD/MM/YY`` (1900-1999) are
-    read too; the year must lie in startrack.validate.EPOCH_YEAR."""
+    read too; the year must lie in startrack.input_checks.EPOCH_YEAR."""
     from astropy.time import Time  # astropy: loaded only when a time is given
 
     raw = str(text).strip()
@@ -111,7 +111,7 @@ def aberrate(vectors: np.ndarray, beta: np.ndarray) -> np.ndarray:
 
     Kept rather than astropy's ICRS to GCRS transform, which adds light deflection (up to
     ~1.5 arcsec near the Sun) but takes several times as long, per frame inside
-    identify's timed call (scripts/bench_library_fits.py)."""
+    identify's timed call (scripts/bench/bench_library_fits.py)."""
     u = np.asarray(vectors, dtype=np.float64)
     b = np.asarray(beta, dtype=np.float64)
     gamma = 1.0 / np.sqrt(1.0 - b @ b)

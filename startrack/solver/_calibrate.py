@@ -22,13 +22,11 @@ from scipy.optimize import least_squares
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from startrack.camera._distortion import RadialDistortion
-from startrack.camera._model import Camera
-from startrack.simulate._scene import stars_in_view
+from startrack.camera import Camera, RadialDistortion, stars_in_view
 from startrack.sky import Catalog
 from startrack.solver._calibrate_sigma import parameters, with_final
 from startrack.solver._identifier import Identifier
-from startrack.verify._verification import VerifyConfig
+from startrack.verify import VerifyConfig
 
 # Fractional FOV offsets tried, nearest first: +-2% steps out to +-10%.
 SWEEP_STEPS = (0.0, -0.02, 0.02, -0.04, 0.04, -0.06, 0.06, -0.08, 0.08, -0.10, 0.10)

@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from startrack.camera._model import Camera
+from startrack.camera import Camera
 
 #: a fitted value within this many sigma of the nominal one keeps the nominal value
 SIGNIFICANCE = 3.0

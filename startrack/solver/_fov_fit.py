@@ -8,25 +8,23 @@ import math
 
 import numpy as np
 
-from startrack._core.fitted_rounds import FittedRounds
-from startrack._core.fov_fit import BAD_FOCAL
-from startrack._core.fov_fit import fit_focal as fit_focal_kernel
-from startrack.camera._distortion import RadialDistortion
-from startrack.camera._model import Camera
+from startrack._core.camera.fit import BAD_FOCAL
+from startrack._core.camera.fit import fit_focal as fit_focal_kernel
+from startrack._core.solver.fitted_rounds import FittedRounds
+from startrack.camera import Camera, RadialDistortion
 from startrack.database import StarDatabase
+from startrack.match_records import Hypothesis, Observation
 from startrack.solver._calibrate_sigma import SIGNIFICANCE
-from startrack.types import Hypothesis, Observation
-from startrack.verify._frame import (
+from startrack.verify import (
     CAPTURE,
     CONE_LOOKUP_MARGIN,
     CONE_MARGIN,
     CONE_REUSE_FRACTION,
     MAX_REFINEMENTS,
-)
-from startrack.verify._labelling import LabelConfig, label_params
-from startrack.verify._verification import (
+    LabelConfig,
     Verification,
     VerifyConfig,
+    label_params,
     verify,
     wrapped_hypothesis,
 )
@@ -70,7 +68,7 @@ def fit_camera(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.nda
     ``x``, ``y`` to the catalog directions: the least squares of ``pixel - centre = f *
     D(tangent-plane position)`` (D the lens model) over the attitude and the focal length
     together, from Wahba's attitude at the given focal length, in at most ``iterations``
-    Gauss-Newton steps (compiled: :func:`startrack._core.fov_fit.fit_focal`).
+    Gauss-Newton steps (compiled: :func:`startrack._core.camera.fit.fit_focal`).
     With ``lens``, a pinhole ``camera`` and at least ``LENS_MIN_STARS`` stars reaching
     ``LENS_MIN_R2``, the radial ``k1`` too, where it lowers the residuals by more than
     ``LENS_K1_CHI2`` variances: a lens nobody described still has its wide-field stars
@@ -161,7 +159,7 @@ def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
                      accepted: Verification | None,
                      ) -> tuple[Verification, Camera, Observation] | int | None:
     """:func:`_verify_fitted`'s answer from one compiled call
-    (:class:`startrack._core.fitted_rounds.FittedRounds`); None where the compiled check
+    (:class:`startrack._core.solver.fitted_rounds.FittedRounds`); None where the compiled check
     refuses a hypothesis index (to wrap, or refuse, as :func:`startrack.verify.verify`
     does)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)  # from_pixels's

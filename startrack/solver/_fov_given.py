@@ -9,9 +9,10 @@ import math
 
 import numpy as np
 
-from startrack._core.fov_fit import SETTLED, fit_against, squared_residuals
-from startrack.camera._model import Camera
+from startrack._core.camera.fit import SETTLED, fit_against, squared_residuals
+from startrack.camera import Camera
 from startrack.database import StarDatabase
+from startrack.match_records import Hypothesis, Observation
 from startrack.solver._calibrate_sigma import SIGNIFICANCE
 from startrack.solver._fov_fit import (
     FIT_ITERATIONS,
@@ -20,8 +21,7 @@ from startrack.solver._fov_fit import (
     LENS_MIN_R2,
     LENS_MIN_STARS,
 )
-from startrack.types import Hypothesis, Observation
-from startrack.verify._verification import Verification, VerifyConfig, verify
+from startrack.verify import Verification, VerifyConfig, verify
 
 #: the given camera stands unless the fitted one lowers the matched stars' chi-square
 #: by more than a 3-sigma chance would (the calibrate rule, startrack.solver._calibrate_sigma):
@@ -60,7 +60,7 @@ def given_stands(given: Camera, x: np.ndarray, y: np.ndarray, obs_index: np.ndar
     finite, a lens folding back inside the image: the refit then says). A nominal FOV
     that was right then needs no refit and no second verification. The fit and both
     cameras' residuals are one compiled call
-    (:func:`startrack._core.fov_fit.fit_against`)."""
+    (:func:`startrack._core.camera.fit.fit_against`)."""
     obs_index = np.ascontiguousarray(obs_index, dtype=np.int64)
     with_k1 = given.distortion is None and len(obs_index) >= LENS_MIN_STARS
     status, _, k1, given_sq, fit_sq = fit_against(

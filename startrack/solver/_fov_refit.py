@@ -9,12 +9,12 @@ import time
 import numpy as np
 
 from startrack.database import StarDatabase
+from startrack.match_records import Hypothesis
 from startrack.solver._deadline import NO_DEADLINE, Deadline
 from startrack.solver._fov_fit import verify_fitted
 from startrack.solver._fov_given import REFIT_HYPOTHESIS_STARS, given_stands, keep_given
 from startrack.solver._fov_search import FovResult, _result
-from startrack.types import Hypothesis
-from startrack.verify._verification import Verification, VerifyConfig
+from startrack.verify import Verification, VerifyConfig
 
 
 def refit_fov(result, database: StarDatabase, config: VerifyConfig,

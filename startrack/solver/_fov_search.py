@@ -11,7 +11,7 @@ magnitude rule of :func:`startrack.sky.resolve_sky`). A solution is kept only if
 camera fitted to its matched stars (least squares on the focal length with the attitude)
 passes the same verification (:func:`startrack.verify._verification.verify`, its binomial
 bound) again; the record reports that camera's ``fov_deg``, or the given camera's when
-the data do not reject it (:func:`startrack.solver._fov_fit.keep_given`). Every search
+the data do not reject it (:func:`startrack.solver._fov_given.keep_given`). Every search
 takes the input's one :class:`~startrack.solver._deadline.Deadline` (``--timeout-ms``),
 checked before each window and each verification: past it the input is not solved, with
 reason ``"timeout"``.
@@ -26,11 +26,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from startrack.camera._model import Camera
-from startrack.database import StarDatabase
-from startrack.database.cone import ConeIndex
+from startrack.camera import Camera
+from startrack.database import ConeIndex, StarDatabase
 from startrack.defaults import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
-from startrack.matchers.quad import QuadMatcher, ScaledHypothesis
+from startrack.match_records import MatchDiagnostics, Observation, Solution
+from startrack.matchers import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
 from startrack.solver._deadline import NO_DEADLINE, Deadline
 from startrack.solver._fov_fit import rounds_for, verify_fitted
@@ -40,8 +40,7 @@ from startrack.solver._fov_given import (
 )
 from startrack.solver._fov_windows import MARGIN, Pass, f_of_fov, focal_range, passes
 from startrack.solver._lost_in_space import residuals_arcsec
-from startrack.types import MatchDiagnostics, Observation, Solution
-from startrack.verify._verification import Verification, VerifyConfig
+from startrack.verify import Verification, VerifyConfig
 
 #: a blind search keeps the databases of this many magnitude cuts in memory
 KEEP_DATABASES = 2

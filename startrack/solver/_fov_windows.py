@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from startrack.camera._model import Camera
+from startrack.camera import Camera
 
 WINDOW_STEP = 2.0 ** 0.25  # ratio of the focal lengths at a search window's two ends
 MARGIN = 0.02  # searched beyond the tolerance, as a fraction
@@ -39,7 +39,7 @@ def f_of_fov(width: int, fov_deg: float) -> float:
 class Pass:
     """One look at one focal-length window: its ends, how many pattern levels below the
     nearest, and whether only its first strong candidate is tried
-    (:meth:`startrack.matchers.quad.QuadMatcher.strong`) or all of them, ranked."""
+    (:meth:`startrack.matchers._quad.QuadMatcher.strong`) or all of them, ranked."""
 
     f_lo: float
     f_hi: float

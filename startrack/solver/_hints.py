@@ -20,14 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.camera._model import Camera
+from startrack.camera import Camera
 from startrack.defaults import SCALE_UNITS
 from startrack.errors import InputError
-from startrack.io._images import FITS_SUFFIXES
-from startrack.simulate._config import load_config
-from startrack.sky.catalog import Catalog, radec_to_vectors
-from startrack.solver._aberration import fits_time
-from startrack.validate import (
+from startrack.input_checks import (
     DEC_DEG,
     EXPTIME_S,
     FOV_DEG,
@@ -37,6 +33,9 @@ from startrack.validate import (
     SCALE,
     check_number,
 )
+from startrack.io import FITS_SUFFIXES
+from startrack.sky import Catalog, radec_to_vectors
+from startrack.solver._aberration import fits_time
 
 #: a FITS header's pointing is trusted to within one field of view
 HEADER_RADIUS_FIELDS = 1.0
@@ -235,15 +234,3 @@ def user_hints(ra=None, dec=None, radius=None, scale_low=None, scale_high=None,
             raise InputError("give --fov/--camera or --scale-low/--scale-high, not both")
         scale = Scale(scale_low, scale_high, scale_units, pixel_size_um)
     return Hints(pointing, scale) or None
-
-
-def preset(config, camera, fov_deg, hints: Hints | None):
-    """(camera, sky) of a ``--config`` preset: its camera unless a camera, a field of view
-    or a scale range is given; its sky (which ``--sky`` and ``--mag-limit`` override).
-    (camera, None) without a preset."""
-    if config is None:
-        return camera, None
-    loaded = load_config(config)
-    if camera is None and fov_deg is None and (hints is None or hints.scale is None):
-        camera = loaded.camera
-    return camera, loaded.sky

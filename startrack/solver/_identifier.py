@@ -17,21 +17,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from startrack.attitude import from_radec_roll
-from startrack.camera._model import Camera
-from startrack.centroids._table import DEFAULT_SIGMA_PX, Centroids
+from startrack.camera import Camera, stars_in_view
+from startrack.centroids import DEFAULT_SIGMA_PX, Centroids
 from startrack.database import StarDatabase
 from startrack.defaults import DEFAULT_TIMEOUT_MS
 from startrack.errors import InputError
+from startrack.match_records import Observation, Solution, Timing
 from startrack.matchers import Matcher, MatcherConfig, get_matcher
-from startrack.simulate._scene import stars_in_view
 from startrack.sky import Catalog, check_pair_budget
 from startrack.solver._deadline import Deadline
 from startrack.solver._inputs import FrameInput
 from startrack.solver._lost_in_space import identify
-from startrack.types import Observation, Solution, Timing
-from startrack.verify._evidence import refuse_without_evidence
-from startrack.verify._quality import Quality, solution_quality
-from startrack.verify._verification import VerifyConfig
+from startrack.verify import Quality, VerifyConfig, refuse_without_evidence, solution_quality
 
 #: the brightest stars a nominal field of view's first look searches
 #: (:attr:`Identifier.first_look`): enough for its patterns when the FOV is right (20
@@ -157,7 +154,7 @@ class Identifier:
             _, x, y = stars_in_view(self.catalog, self.camera, pointing)
             self._warm_centroids = Centroids(x, y, np.ones(len(x)), photometric=False)
             # A matcher searching a known sky patch is told this frame's, then given back
-            # the caller's (startrack.bench.runner.point_patch sets it per frame).
+            # the caller's (startrack.bench._runner.point_patch sets it per frame).
             patch = getattr(self.matcher, "patch_center", None)
             if getattr(self.matcher, "patch_rad", None) is not None:
                 self.matcher.patch_center = pointing.apply([0.0, 0.0, 1.0])

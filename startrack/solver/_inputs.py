@@ -13,10 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from startrack.centroids._extract import extract_centroids
-from startrack.centroids._table import Centroids, read_centroid_csv
+from startrack.centroids import Centroids, extract_centroids, read_centroid_csv
 from startrack.errors import InputError, InputFileNotFoundError
-from startrack.io._images import FITS_SUFFIXES, read_image
+from startrack.io import FITS_SUFFIXES, read_image
 
 CSV_SUFFIXES = (".csv",)
 #: the side of the crop the extraction is warmed on (big enough for its threaded path)

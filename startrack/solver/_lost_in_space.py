@@ -7,12 +7,11 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from startrack._core.verify import residual_arcsec
-from startrack.matchers.base import Matcher
+from startrack._core.verify.entry_points import residual_arcsec
+from startrack.match_records import Hypothesis, MatchDiagnostics, Observation, Solution
+from startrack.matchers import Matcher
 from startrack.solver._deadline import Deadline
-from startrack.types import Hypothesis, MatchDiagnostics, Observation, Solution
-from startrack.verify._frame import FrameVerifier
-from startrack.verify._verification import Verification, VerifyConfig, verify
+from startrack.verify import FrameVerifier, Verification, VerifyConfig, verify
 
 
 def residuals_arcsec(rotation: Rotation | np.ndarray, obs: Observation, obs_index: np.ndarray,

@@ -1,7 +1,8 @@
 """A nominal field of view (``--fov`` within ``--fov-tolerance``): the configured method's
 first look and its FOV refit, then the quad search within the tolerance; and the frame
 with too few stars for any of it, answered before a sky is loaded. Functions of a
-:class:`~startrack.solver._pipeline.Pipeline`, as :mod:`startrack.solver._hinted`'s are."""
+:class:`~startrack.solver._pipeline.Pipeline`, as :mod:`startrack.solver._solve_with_hints`'s
+are."""
 
 from __future__ import annotations
 
@@ -9,19 +10,18 @@ import math
 
 import numpy as np
 
-from startrack.camera._model import Camera
+from startrack.camera import Camera
 from startrack.defaults import BLIND_FOV_RANGE
 from startrack.errors import InputError
+from startrack.match_records import Observation, Solution
 from startrack.matchers import get_matcher
-from startrack.sky import Catalog, SkySpec, check_pair_budget
-from startrack.sky.default import search_sky_kind
+from startrack.sky import Catalog, SkySpec, check_pair_budget, search_sky_kind
 from startrack.solver._deadline import Deadline
 from startrack.solver._fov_refit import refit_fov
 from startrack.solver._fov_search import solve_approximate
 from startrack.solver._identifier import FrameResult, Identifier, frame_timing
 from startrack.solver._inputs import FrameInput
-from startrack.types import Observation, Solution
-from startrack.verify._verification import VerifyConfig
+from startrack.verify import VerifyConfig
 
 
 def too_few_stars(pipeline, frame: FrameInput, camera: Camera | None,
@@ -98,7 +98,7 @@ def _whole_method(frame: FrameInput, nominal: Identifier, deadline: Deadline, fa
 def _search(pipeline, x, y, camera: Camera, sky: SkySpec, deadline: Deadline):
     """The quad search within the tolerance: on the chosen sky; with the default sky,
     also (or, when that is the same, only) over the whole of the search sky
-    (:func:`startrack.sky.default.search_sky_kind`: Tycho-2 where the field needs it,
+    (:func:`startrack.sky._default.search_sky_kind`: Tycho-2 where the field needs it,
     else Gaia) cut per window, its brightest stars ordered by its own magnitudes."""
     tol, opt = pipeline.options.fov_tolerance, pipeline.options
     default = opt.sky is None and opt.mag_limit is None

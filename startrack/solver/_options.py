@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from startrack.camera._model import Camera
+from startrack.camera import Camera
 from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD, DEFAULT_TIMEOUT_MS
 from startrack.sky import SkySpec
 from startrack.solver._hints import Hints

@@ -18,33 +18,32 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from startrack.camera._model import Camera
-from startrack.centroids import frame_sigma_px
-from startrack.centroids._table import DEFAULT_SIGMA_PX
+from startrack.camera import Camera
+from startrack.centroids import DEFAULT_SIGMA_PX, frame_sigma_px
 from startrack.database import StarDatabase
 from startrack.defaults import BLIND_FOV_RANGE
 from startrack.errors import InputError
+from startrack.io import find_sidecar, read_sidecar
+from startrack.match_records import Timing
 from startrack.matchers import get_matcher
-from startrack.simulate._sidecar import find_sidecar, read_sidecar
 from startrack.sky import (
     Catalog,
     SkySpec,
+    gaia_min_fov,
     load_sky,
 )
-from startrack.sky.default import gaia_min_fov
 from startrack.solver._aberration import correct_result
 from startrack.solver._deadline import Deadline
 from startrack.solver._fov_search import BlindSolver
-from startrack.solver._hinted import frame_hints, solve_hinted
 from startrack.solver._hints import cut_to_cone, header_time
 from startrack.solver._identifier import FrameResult, Identifier, SetupClock, frame_timing
 from startrack.solver._inputs import FrameInput, read_input
 from startrack.solver._nominal import approximate, too_few_stars
 from startrack.solver._options import Options
 from startrack.solver._setup import decide_setup
+from startrack.solver._solve_with_hints import frame_hints, solve_hinted
 from startrack.solver._trail import Trail, request_record
-from startrack.types import Timing
-from startrack.verify._evidence import require_evidence
+from startrack.verify import require_evidence
 
 #: fewer stars than this make no pattern of any matcher: not solved, with nothing loaded
 MIN_STARS = 3
@@ -66,7 +65,8 @@ class Pipeline:
         self.sigma_px = DEFAULT_SIGMA_PX if options.sigma_px is None else options.sigma_px
         self._identifiers: dict[tuple[Camera, SkySpec, str, float], Identifier] = {}
         self.catalogs: dict[SkySpec, Catalog] = {} if catalogs is None else catalogs
-        #: (Pointing, radius_deg): the catalogs are cut to this cone (startrack.solver._hinted)
+        #: (Pointing, radius_deg): the catalogs are cut to this cone
+        # (startrack.solver._solve_with_hints)
         self.cone = None
         self._cut: dict[SkySpec, Catalog] = {}
         self._blind: dict[tuple[SkySpec, tuple[float, float], float], BlindSolver] = {}
@@ -132,7 +132,8 @@ class Pipeline:
     def identify_frame(self, frame: FrameInput) -> FrameResult:
         """:meth:`solve` without the aberration correction: the attitude in the catalog's
         frame (what a tracker predicts from), through the fitted camera when the field
-        of view was nominal or unknown; with hints, through :mod:`startrack.solver._hinted`."""
+        of view was nominal or unknown; with hints, through
+        :mod:`startrack.solver._solve_with_hints`."""
         self.trail.take()  # an input that failed midway leaves no stage to the next one
         hints = self._hints_used = frame_hints(self, frame)
         return (self.identify_unhinted(frame) if hints is None
@@ -225,7 +226,7 @@ class Pipeline:
 
     def _blind_search(self, x, y, size: tuple[int, int], sky: SkySpec, deadline: Deadline):
         """No FOV: the blind search on ``sky``; on the default Tycho-2 sky, Gaia's for the
-        fields it fills (:func:`startrack.sky.default.gaia_min_fov` and wider: its G band
+        fields it fills (:func:`startrack.sky._default.gaia_min_fov` and wider: its G band
         orders stars as a camera does) and then Tycho-2's for the narrower ones."""
         lo, hi = BLIND_FOV_RANGE
         split = gaia_min_fov(size)
@@ -242,6 +243,12 @@ class Pipeline:
         narrow = self.blind_solver(sky, (lo, split)).solve(x, y, size, deadline)
         self.trail.add("blind search", "quad", sky, (lo, split), narrow.solution)
         return narrow.plus_ms(wide.solution.identify_ms)
+
+    def skip(self) -> None:
+        """Nothing carries from one frame to the next (:class:`FrameSolver`)."""
+
+    def reset(self) -> None:
+        """Nothing carries from one frame to the next (:class:`FrameSolver`)."""
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` (image or centroid CSV) once and identify its stars."""

@@ -6,7 +6,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 
-from startrack.camera._model import Camera
+from startrack.camera import Camera
 from startrack.errors import InputError
 from startrack.sky import SkySpec, deeper_sky_note, default_sky_kind, resolve_sky, sky_spec
 from startrack.solver._inputs import FrameInput

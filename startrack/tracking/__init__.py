@@ -5,13 +5,14 @@ the tracker's state, and sequences through the pipeline.
 from startrack._lazy import lazy_exports
 
 __all__ = [
-    "Prior", "SequenceSolver", "TrackConfig", "Tracker", "track",
+    "Prior", "prior_from_radec_roll", "SequenceSolver", "track", "TrackConfig", "Tracker",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, {
-    "Prior": "_track",
+    "Prior": "_tracked_solve",
+    "prior_from_radec_roll": "_sequence",
     "SequenceSolver": "_sequence",
-    "TrackConfig": "_track",
-    "Tracker": "_tracker",
-    "track": "_track",
+    "track": "_tracked_solve",
+    "TrackConfig": "_tracked_solve",
+    "Tracker": "_lock_state",
 })

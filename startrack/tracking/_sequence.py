@@ -2,9 +2,10 @@
 tracking :class:`~startrack.api.Solver`.
 
 :class:`SequenceSolver` solves inputs in order as one sequence with one
-:class:`~startrack.tracking._track.Tracker`; a change of camera or sky starts a new sequence.
+:class:`~startrack.tracking._lock_state.Tracker`; a change of camera or sky starts a new
+sequence.
 :func:`prior_from_radec_roll` turns ``--prior RA,DEC,ROLL`` and its sigma into the
-tracking stage's :class:`~startrack.tracking._track.Prior`, which seeds the first frame.
+tracking stage's :class:`~startrack.tracking._tracked_solve.Prior`, which seeds the first frame.
 """
 
 from __future__ import annotations
@@ -15,17 +16,24 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from startrack.attitude import from_radec_roll
-from startrack.camera._model import Camera
+from startrack.camera import Camera
 from startrack.database import StarDatabase
 from startrack.defaults import DEFAULT_PRIOR_SIGMA_DEG
 from startrack.errors import InputError
+from startrack.match_records import Solution
 from startrack.sky import Catalog, SkySpec
-from startrack.solver._identifier import FrameResult, frame_timing, observation
-from startrack.solver._pipeline import FrameInput, Pipeline, read_input
-from startrack.tracking._track import Prior, TrackConfig
-from startrack.tracking._tracker import Tracker
-from startrack.types import Solution
-from startrack.verify._verification import VerifyConfig
+from startrack.solver import (
+    FrameInput,
+    FrameResult,
+    Options,
+    Pipeline,
+    frame_timing,
+    observation,
+    read_input,
+)
+from startrack.tracking._lock_state import Tracker
+from startrack.tracking._tracked_solve import Prior, TrackConfig
+from startrack.verify import VerifyConfig
 
 
 def prior_from_radec_roll(ra_deg: float, dec_deg: float, roll_deg: float,
@@ -73,6 +81,11 @@ class SequenceSolver:
         self._setup = None
         self._held: _Held | None = None
 
+    @property
+    def options(self) -> Options:
+        """The pipeline's options (:class:`startrack.solver.FrameSolver`)."""
+        return self.pipeline.options
+
     def reset(self) -> None:
         """Start a new sequence: the next input is solved lost-in-space (or near prior)."""
         self.tracker.reset()
@@ -116,7 +129,7 @@ class SequenceSolver:
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` and solve it as the next input of the sequence."""
-        return self.solve(read_input(path))
+        return self.solve(read_input(path, downsample=self.pipeline.options.downsample))
 
     def _lock(self, solution: Solution) -> Solution:
         return solution if self.track else dataclasses.replace(solution, lock=None)

@@ -5,17 +5,31 @@ final labelling, the evidence gate and the solution's quality.
 from startrack._lazy import lazy_exports
 
 __all__ = [
-    "Labelling", "Quality", "Verification", "VerifyConfig", "label_stars",
-    "refuse_without_evidence", "solution_quality", "verify",
+    "CAPTURE", "CONE_LOOKUP_MARGIN", "CONE_MARGIN", "cone_radius", "CONE_REUSE_FRACTION",
+    "FrameVerifier", "label_params", "label_stars", "LabelConfig", "Labelling",
+    "MAX_REFINEMENTS", "Quality", "refuse_without_evidence", "require_evidence", "rotation_of",
+    "solution_quality", "Verification", "verify", "VerifyConfig", "wrapped_hypothesis",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, {
-    "Labelling": "_labelling",
-    "Quality": "_quality",
-    "Verification": "_verification",
-    "VerifyConfig": "_verification",
+    "CAPTURE": "_frame",
+    "CONE_LOOKUP_MARGIN": "_frame",
+    "CONE_MARGIN": "_frame",
+    "cone_radius": "_frame",
+    "CONE_REUSE_FRACTION": "_frame",
+    "FrameVerifier": "_frame",
+    "label_params": "_labelling",
     "label_stars": "_labelling",
+    "LabelConfig": "_labelling",
+    "Labelling": "_labelling",
+    "MAX_REFINEMENTS": "_frame",
+    "Quality": "_quality",
     "refuse_without_evidence": "_evidence",
+    "require_evidence": "_evidence",
+    "rotation_of": "_verification",
     "solution_quality": "_quality",
+    "Verification": "_verification",
     "verify": "_verification",
+    "VerifyConfig": "_verification",
+    "wrapped_hypothesis": "_verification",
 })

@@ -22,8 +22,8 @@ import math
 
 import numpy as np
 
-from startrack._core.track import HYPOTHESIS_STARS
-from startrack.types import Solution
+from startrack._core.tracking.tracked_frame import HYPOTHESIS_STARS
+from startrack.match_records import Solution
 from startrack.verify._verification import VerifyConfig
 
 #: a hypothesis's own stars plus the stars verification must confirm outside it
@@ -58,7 +58,7 @@ def evidence_problem(solution: Solution, f_px: float, match_radius_px: float) ->
 #: that :func:`camera_problem` counts; a frame with fewer spots is not judged
 BRIGHT_STARS = 20
 #: an answer explaining less than this fraction of both is refused: the harsh set's right
-#: answers (1 px, 5 false stars, 20% missing; scripts/harsh_frames.py) explain at least
+#: answers (1 px, 5 false stars, 20% missing; scripts/validation/harsh_frames.py) explain at least
 #: half of the bright spots, a centred camera for a (100, 900) principal point at most 35%
 MIN_EXPLAINED = 0.4
 

@@ -1,5 +1,6 @@
 """A frame as the compiled verification takes it: its observed stars, its camera and the
-thresholds as named structures (:mod:`startrack._core.verify`), built once per frame and
+thresholds as named structures (:mod:`startrack._core.verify.entry_points`), built once per
+frame and
 asked once per hypothesis (:class:`FrameVerifier`)."""
 
 from __future__ import annotations
@@ -9,9 +10,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from startrack._core.verify import Frame, Stars, Verdict, Verifier
+from startrack._core.verify.entry_points import Frame, Stars, Verdict, Verifier
 from startrack.camera import Camera
-from startrack.types import Observation
+from startrack.match_records import Observation
 from startrack.verify._labelling import label_params
 
 if TYPE_CHECKING:

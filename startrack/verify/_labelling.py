@@ -26,7 +26,8 @@ pair is reported only when all of these hold:
   credited as the star). This is what keeps out a residual
   far beyond the other matches' scatter.
 
-The arithmetic is one compiled call, :func:`startrack._core.verify.label_stars` (the same
+The arithmetic is one compiled call, :func:`startrack._core.verify.entry_points.label_stars`
+(the same
 labelling verification runs inside its own compiled call).
 """
 
@@ -37,8 +38,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from startrack._core.verify import label_stars as _label_stars
-from startrack.types import Observation
+from startrack._core.verify.entry_points import label_stars as _label_stars
+from startrack.match_records import Observation
 
 #: Catalog stars closer than this many pixels are one spot (as startrack.sky merges them).
 RESOLVE_PX = 2.0
@@ -54,7 +55,7 @@ class LabelConfig:
     false_odds: float = 1e-3
     # With fluxes a false star of the right brightness by chance gets the true star's
     # brightness credit; 1e-3 let one 3.3 px from an unobserved star be labelled
-    # (scripts/harsh_frames.py, seed 3), so the odds asked are stricter there
+    # (scripts/validation/harsh_frames.py, seed 3), so the odds asked are stricter there
     false_odds_flux: float = 1e-4
     resolve_px: float = RESOLVE_PX
     # A catalog star with another within this many times the frame's stated centroid noise

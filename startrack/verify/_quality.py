@@ -18,8 +18,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from startrack.match_records import Observation, Solution
 from startrack.sky import Catalog
-from startrack.types import Observation, Solution
 
 ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
 

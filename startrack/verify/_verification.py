@@ -20,14 +20,14 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from startrack._core import shared
-from startrack._core.verify import (
+from startrack._core.verify.entry_points import (
     ACCEPTED,
     BAD_INDEX,
     NOT_ACCEPTED,
     UNLABELLED,
     binomial_tail,
 )
-from startrack.types import Hypothesis, Observation
+from startrack.match_records import Hypothesis, Observation
 from startrack.verify._frame import FrameVerifier
 
 if TYPE_CHECKING:
@@ -113,7 +113,7 @@ def false_match_probability(n_other: int, n_confirmed: int, n_catalog_in_image: 
                             radius_px: float, width: int, height: int) -> float:
     """Chance that ``n_confirmed`` or more of ``n_other`` stars land on a catalog star by
     coincidence under a wrong attitude (the compiled tail verification itself uses,
-    :func:`startrack._core.verify.binomial_tail`: scipy's ``bdtrc`` to 1e-12)."""
+    :func:`startrack._core.verify.entry_points.binomial_tail`: scipy's ``bdtrc`` to 1e-12)."""
     if n_confirmed <= 0:
         return 1.0
     p = min(1.0, n_catalog_in_image * math.pi * radius_px**2 / (width * height))
