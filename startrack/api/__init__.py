@@ -5,7 +5,7 @@ from startrack._lazy import lazy_exports
 
 __all__ = [
     "STAR_COLUMNS", "SequenceChoice", "SolveResult", "Solver", "SolverRequest", "as_frame_input",
-    "build_solver", "solve",
+    "build_solver", "preset", "solve",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, {
@@ -13,6 +13,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "SequenceChoice": "_build",
     "SolverRequest": "_build",
     "build_solver": "_build",
+    "preset": "_build",
     "SolveResult": "_result",
     "Solver": "_solver",
     "as_frame_input": "_solver",

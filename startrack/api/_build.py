@@ -34,17 +34,25 @@ class SolverRequest:
     sequence: SequenceChoice = SequenceChoice()
 
 
+def preset(config: str | Path | None, camera, fov_deg: float | None, hints):
+    """(camera, sky) of a ``--config`` preset: its camera unless a camera, a field of view
+    or a scale range is given; its sky (which ``--sky`` and ``--mag-limit`` override).
+    (camera, None) without a preset."""
+    if config is None:
+        return camera, None
+    loaded = load_config(config)
+    own_scale = hints is not None and hints.scale is not None
+    if camera is None and fov_deg is None and not own_scale:
+        camera = loaded.camera
+    return camera, loaded.sky
+
+
 def with_preset(options: Options, config: str | Path | None) -> Options:
-    """``options`` with a preset's camera (unless a camera, a field of view or a scale range
-    is given) and its sky (which ``sky`` and ``mag_limit`` still override)."""
+    """``options`` with a preset's camera and sky (:func:`preset`)."""
     if config is None:
         return options
-    preset = load_config(config)
-    own_scale = options.hints is not None and options.hints.scale is not None
-    camera = options.camera
-    if camera is None and options.fov_deg is None and not own_scale:
-        camera = preset.camera
-    return dataclasses.replace(options, camera=camera, sky_spec=preset.sky)
+    camera, sky = preset(config, options.camera, options.fov_deg, options.hints)
+    return dataclasses.replace(options, camera=camera, sky_spec=sky)
 
 
 def build_solver(request: SolverRequest) -> FrameSolver:
@@ -59,4 +67,4 @@ def build_solver(request: SolverRequest) -> FrameSolver:
     return SequenceSolver(pipeline, track=seq.track, prior=prior)
 
 
-__all__ = ["SequenceChoice", "SolverRequest", "build_solver", "with_preset"]
+__all__ = ["SequenceChoice", "SolverRequest", "build_solver", "preset", "with_preset"]

@@ -65,11 +65,11 @@ def calibrate(inputs, fov_deg, camera_path, size, output, overwrite, terms, fix_
     principal point and radial distortion by least squares over all matched stars (with
     outlier rejection), write the camera file and print the residual RMS before and after.
     Exit 1 when no input solves (nothing is written)."""
+    from startrack.api import preset
     from startrack.io import with_sidecars
     from startrack.matchers import get_matcher
     from startrack.sky import sky_spec
     from startrack.solver import calibrate as run  # the compiled core: only when run
-    from startrack.solver import preset
 
     hints = hints_from(hint_values, fov_given=fov_deg is not None or camera_path is not None)
     if fov_deg is not None and camera_path is not None:

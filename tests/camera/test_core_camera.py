@@ -95,9 +95,10 @@ def test_a_fits_halvings_cost_is_its_normal_equations_cost_to_the_bit():
     (startrack._core.camera.fit): it must be the number the full normal equations sum, to the
     bit, or a fit would step differently; and both are the squared pixel residuals
     (tests/solver/fov_fit_reference.py) to rounding."""
-    from fov_fit_reference import pixel_residuals
     from scipy.spatial.transform import Rotation
     from startrack._core.camera.fit import lsq_costs
+
+    from tests.solver.fov_fit_reference import pixel_residuals
 
     rng = np.random.default_rng(17)
     for t, lens in enumerate([None, *LENSES[:3]] * 3):
@@ -126,11 +127,11 @@ def test_the_focal_lengths_standard_error_is_numpys_least_squares_covariance():
     is sqrt((J^T J)^-1) of the joint least squares of the attitude and the focal length,
     J by central differences of the reference residuals, per pixel of noise; stars in a
     patch fix it far worse than stars across the frame, and a single star not at all."""
-    from fov_fit_reference import pixel_residuals
     from scipy.spatial.transform import Rotation
     from startrack._core.camera.fit import focal_error
 
     from startrack.attitude import wahba_matrices
+    from tests.solver.fov_fit_reference import pixel_residuals
 
     rng = np.random.default_rng(23)
     errors = {}

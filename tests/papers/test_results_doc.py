@@ -41,7 +41,7 @@ def test_a_section_without_its_record_or_tables_is_unstamped(tmp_path):
 def test_render_keeps_a_section_whose_tables_are_missing(tmp_path, monkeypatch):
     """A section not run renders as a note under its title; the others stay."""
     missing = _results_doc.Section("nowhere", "A paper never run", "scripts/x.py",
-                                   "_doc_triangle_base")
+                                   "scripts.papers._doc_triangle_base")
     monkeypatch.setattr(_results_doc, "DATA", tmp_path)
     monkeypatch.setattr(_results_doc, "SECTIONS", (missing,))
     doc = _results_doc.render(tmp_path / "results.md")
