@@ -140,6 +140,8 @@ def _colour_levels(text: str | None, effects, source: str) -> tuple:
         return (REFERENCE_BV,)
     low, high = COLOUR_INDEX_RANGE
     values = parse_values(text, "--colour-index", low=low, high=high)
+    if all(v == REFERENCE_BV for v in values):
+        return values
     if source != "images":
         raise InputError("--colour-index acts on rendered frames: give --from images")
     if effects.band.is_off:

@@ -88,3 +88,16 @@ def test_an_attitude_reported_at_the_tag_is_off_by_rate_times_error(tmp_path):
         assert expected_deg > 0.02  # well above the solver's own error
         assert np.degrees((solved.inv() * truth).magnitude()) < 0.01
         assert error_deg == pytest.approx(expected_deg, rel=0.05, abs=0.005)
+
+
+def test_bad_time_tag_settings_are_one_line_errors(tmp_path):
+    from startrack.simulate import config_from_dict
+
+    with pytest.raises(InputError, match=r"cfg \[frames\]: time_tag_error_s"):
+        config_from_dict({"frames": {"time_tag_error_s": -0.1}}, "cfg")
+    cfg = tmp_path / "tag.toml"
+    cfg.write_text("[frames]\ntime_tag_error_s = 0.01\n")
+    out = tmp_path / "o"
+    result = CliRunner().invoke(main, ["simulate", "--config", str(cfg), "--out", str(out)])
+    assert result.exit_code == 2 and "time_tag_error_s needs a sequence (--fps)" in result.output
+    assert not out.exists()
