@@ -46,7 +46,7 @@ def _lookup(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray) -> np.ndar
 def catalog_bv(catalog: Catalog) -> np.ndarray:
     """B-V of every catalog row: the Hipparcos-2 value for a HIP star of a Hipparcos or
     Tycho-2 sky (whose ids are HIP numbers for HIP stars); for a Gaia sky, the B-V
-    equivalent of the star's BP-RP (:func:`startrack.simulate.bv_from_bp_rp`), or the
+    equivalent of the star's BP-RP (:func:`startrack.simulate._colour.bv_from_bp_rp`), or the
     Hipparcos-2 B-V of its Hipparcos entries (id -HIP); NaN otherwise."""
     sky = catalog.source.get("sky", catalog.source.get("kind"))
     kind = sky.get("kind") if isinstance(sky, dict) else sky
