@@ -80,6 +80,7 @@ FRACTION = Bounds(0.0, 1.0)
 MAG_NOISE = Bounds(0.0, 10.0)
 RATE_DPS = Bounds(-3600.0, 3600.0)  # per axis: ten turns a second
 FPS = Bounds(1e-3, 1e5)
+TIME_TAG_ERROR_S = Bounds(0.0, 10.0)  # a frame's time-tag error, 1 sigma: at most 10 s
 THRESHOLD_ARCSEC = Bounds(0.0, 648_000.0, low_open=True)
 JOBS = Bounds(1, 4096, integer=True)
 CACHE_MAX_MB = Bounds(0.0, 1e9)  # a petabyte
@@ -186,6 +187,7 @@ __all__ = [
     "FOV_DEG", "FOV_TOLERANCE", "FPS", "FRACTION", "FRAMES", "IMAGE_PIXELS", "IMAGE_SIDE_PX",
     "JOBS", "MAG_LIMIT", "MAG_NOISE", "MAX_STARS", "NumberError", "NumberTypeError", "PAIRS",
     "PIXEL_SIZE_UM", "PRIOR_SIGMA_DEG", "RADIUS_DEG", "RATE_DPS", "RA_DEG", "ROLL_DEG", "SCALE",
-    "SEED", "SIGMA_PX", "SOLVER_BOUNDS", "THRESHOLD_ARCSEC", "TIMEOUT_MS", "check_attitude",
+    "SEED", "SIGMA_PX", "SOLVER_BOUNDS", "THRESHOLD_ARCSEC", "TIME_TAG_ERROR_S", "TIMEOUT_MS",
+    "check_attitude",
     "check_keys", "check_keywords", "check_number", "check_table", "env_number", "parse_number",
 ]

@@ -13,19 +13,20 @@ import math
 from dataclasses import asdict, dataclass
 
 from startrack.errors import InputError
-from startrack.simulate import REFERENCE_C
+from startrack.simulate import REFERENCE_BV, REFERENCE_C
 
 #: where a frame's centroids come from: the scene's, or extracted from its rendered image
 SOURCES = ("centroids", "images")
 
 # The swept variables, in column order; each is a field of Condition.
 VARIABLES = ("noise_px", "false_stars", "missing", "mag_noise", "fov_error", "distortion_k1",
-             "modelled_k1", "cosmic_rays", "stray_light", "temperature_c")
+             "modelled_k1", "cosmic_rays", "stray_light", "temperature_c", "colour_index")
 #: the effect variables: they act on rendered pixels (``--from images``) only
-EFFECT_VARIABLES = ("cosmic_rays", "stray_light", "temperature_c")
+EFFECT_VARIABLES = ("cosmic_rays", "stray_light", "temperature_c", "colour_index")
 #: variables a caller may leave out of ``levels`` (the camera is then exact, the effects off)
 OPTIONAL = {"fov_error": (0.0,), "distortion_k1": (0.0,), "modelled_k1": (0.0,),
-            "cosmic_rays": (0.0,), "stray_light": (0.0,), "temperature_c": (REFERENCE_C,)}
+            "cosmic_rays": (0.0,), "stray_light": (0.0,), "temperature_c": (REFERENCE_C,),
+            "colour_index": (REFERENCE_BV,)}
 GRIDS = ("oat", "full")
 
 
@@ -39,7 +40,9 @@ class Condition:
     only ``modelled_k1`` (so ``distortion_k1`` is the part it does not know about).
     The effects (rendered frames only): cosmic-ray hits per cm^2 per s, stray light at
     the field's centre in e-/px/s, and the detector temperature in C (the sensor's dark
-    current holds at 20 C and doubles every [detector] ``dark_doubling_c``)."""
+    current holds at 20 C and doubles every [detector] ``dark_doubling_c``), and the B-V
+    colour every star of the frame is given, seen through the config's [band] (at the
+    Sun-like ``REFERENCE_BV``, the base, colour changes nothing)."""
 
     noise_px: float = 0.0
     false_stars: int = 0
@@ -51,6 +54,7 @@ class Condition:
     cosmic_rays: float = 0.0
     stray_light: float = 0.0
     temperature_c: float = REFERENCE_C
+    colour_index: float = REFERENCE_BV
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -64,7 +68,8 @@ def is_default(variable: str, value: float) -> bool:
 #: the variables past the first four that tables show when a run sets them, with their
 #: short column names
 EXTRA_COLUMNS = {"fov_error": "fov_err", "distortion_k1": "k1", "modelled_k1": "k1_mod",
-                 "cosmic_rays": "cosmic", "stray_light": "stray", "temperature_c": "temp_c"}
+                 "cosmic_rays": "cosmic", "stray_light": "stray", "temperature_c": "temp_c",
+                 "colour_index": "b_v"}
 
 
 def set_extras(table) -> list[tuple[str, str]]:

@@ -28,7 +28,14 @@ from startrack.bench._conditions import SOURCES, Condition
 from startrack.camera import Camera, RadialDistortion, stars_in_view
 from startrack.centroids import DEFAULT_SIGMA_PX
 from startrack.match_records import Observation
-from startrack.simulate import Effects, Scene, SensorModel, add_false_stars, observe
+from startrack.simulate import (
+    REFERENCE_BV,
+    Effects,
+    Scene,
+    SensorModel,
+    add_false_stars,
+    observe,
+)
 from startrack.sky import Catalog
 
 # Stream purposes: changing one never changes another's draws.
@@ -120,6 +127,15 @@ def frame_effects(effects: Effects | None, condition: Condition) -> Effects:
         temperature_c=condition.temperature_c)
 
 
+def frame_colours(scene: Scene, condition: Condition) -> np.ndarray | None:
+    """The B-V of each scene star under ``condition``: its colour level for every real star
+    (NaN, a Sun-like star, for false stars), or None at the base level (as before the
+    axis existed: no colour)."""
+    if condition.colour_index == REFERENCE_BV:
+        return None
+    return np.where(scene.is_false, np.nan, float(condition.colour_index))
+
+
 def make_frame(catalog: Catalog, camera: Camera, condition: Condition, seed: int,
                index: int, *, source: str = "centroids", sensor: SensorModel | None = None,
                hot_pixel_fraction: float = 0.5, effects: Effects | None = None,
@@ -130,8 +146,9 @@ def make_frame(catalog: Catalog, camera: Camera, condition: Condition, seed: int
     ``source="images"``: the frame is rendered with ``sensor`` and the centroids are
     extracted from the pixels (the noise then comes from the sensor; ``noise_px`` is
     ignored), with ``effects`` at the condition's levels (:func:`frame_effects`; their
-    randomness has its own stream, so the pixel noise is the same at every level). The
-    observation carries :func:`matcher_camera`.
+    randomness has its own stream, so the pixel noise is the same at every level) and
+    every star of the condition's colour (:func:`frame_colours`). The observation carries
+    :func:`matcher_camera`.
     """
     seen = true_camera(camera, condition)
     scene, rows_in_view = frame_scene(catalog, seen, condition, seed, index,
@@ -141,7 +158,8 @@ def make_frame(catalog: Catalog, camera: Camera, condition: Condition, seed: int
         return _from_centroids(scene, rows_in_view, told, condition, seed, index)
     if source == "images":
         return _from_image(scene, rows_in_view, seen, told, sensor or SensorModel(), seed,
-                           index, frame_effects(effects, condition))
+                           index, frame_effects(effects, condition),
+                           frame_colours(scene, condition))
     raise ValueError(f"source must be one of {SOURCES}, got {source!r}")
 
 
@@ -164,12 +182,12 @@ def _from_centroids(scene: Scene, rows_in_view: np.ndarray, camera: Camera,
 
 def _from_image(scene: Scene, rows_in_view: np.ndarray, camera: Camera, told: Camera,
                 sensor: SensorModel, seed: int, index: int,
-                effects: Effects | None = None) -> BenchFrame:
+                effects: Effects | None = None, bv: np.ndarray | None = None) -> BenchFrame:
     from startrack.centroids import extract_centroids
     from startrack.simulate import render_frame
 
     image = render_frame(scene, camera, sensor, _rng(seed, index, _PIXELS), effects=effects,
-                         effects_rng=_rng(seed, index, _EFFECTS))
+                         effects_rng=_rng(seed, index, _EFFECTS), bv=bv)
     t0 = time.perf_counter()
     found = extract_centroids(image)
     centroid_ms = (time.perf_counter() - t0) * 1000.0
@@ -193,6 +211,6 @@ def label_spots(x: np.ndarray, y: np.ndarray, star_x: np.ndarray, star_y: np.nda
 
 __all__ = [
     "BenchFrame", "FALSE_MAGS", "SIGMA_FLOOR_PX", "TRUTH_RADIUS_PX", "frame_attitude",
-    "frame_effects", "frame_scene", "label_spots", "make_frame", "matcher_camera",
+    "frame_colours", "frame_effects", "frame_scene", "label_spots", "make_frame", "matcher_camera",
     "true_camera",
 ]

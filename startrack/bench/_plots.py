@@ -29,11 +29,12 @@ LABELS = {
     "cosmic_rays": "cosmic rays (hits / cm^2 / s)",
     "stray_light": "stray light at the centre (e- / px / s)",
     "temperature_c": "detector temperature (C)",
+    "colour_index": "star colour B-V (every star, through the band)",
 }
 SHORT = {"noise_px": "noise px", "false_stars": "false stars", "missing": "missing",
          "mag_noise": "mag noise", "fov_error": "FOV error", "distortion_k1": "k1 unmodelled",
          "modelled_k1": "k1 modelled", "cosmic_rays": "cosmic rays", "stray_light": "stray light",
-         "temperature_c": "temperature C"}
+         "temperature_c": "temperature C", "colour_index": "B-V"}
 #: variables a plot names as held even at zero
 ALWAYS_SHOWN = ("noise_px", "false_stars", "missing")
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")

@@ -30,7 +30,7 @@ from startrack.cli._compare_request import (
     CompareRun,
     condition_levels,
 )
-from startrack.cli._effect_options import effect_levels_options
+from startrack.cli._effect_options import colour_levels_option, effect_levels_options
 from startrack.cli._shared_options import (
     SKY_HELP,
     SKY_NAME,
@@ -174,6 +174,7 @@ def _config(config_path):
               "instead of generated ones, scored against its truth.csv, stars.csv and "
               "sidecars (the format simulate writes); the levels options do not apply.")
 @effect_levels_options
+@colour_levels_option
 @verbosity
 def compare(**given) -> None:
     """Compare identification methods on the same frames (random ones, or --frames-dir)

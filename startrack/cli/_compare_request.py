@@ -31,6 +31,7 @@ class LevelTexts:
     cosmic_rays: str | None = None
     stray_light: str | None = None
     temperature_c: str | None = None
+    colour_index: str | None = None
 
 
 @dataclass(frozen=True)
@@ -128,6 +129,27 @@ def _effect_levels(given: tuple, effects, source: str) -> dict[str, tuple]:
     return levels
 
 
+def _colour_levels(text: str | None, effects, source: str) -> tuple:
+    """The star-colour axis's levels (B-V; none given: the Sun-like base, no colour). A
+    colour acts through the band's curves and on rendered frames only."""
+    from startrack.bench import parse_values
+    from startrack.cli._effect_options import COLOUR_INDEX_RANGE
+    from startrack.simulate import REFERENCE_BV
+
+    if text is None:
+        return (REFERENCE_BV,)
+    low, high = COLOUR_INDEX_RANGE
+    values = parse_values(text, "--colour-index", low=low, high=high)
+    if all(v == REFERENCE_BV for v in values):
+        return values
+    if source != "images":
+        raise InputError("--colour-index acts on rendered frames: give --from images")
+    if effects.band.is_off:
+        raise InputError("--colour-index acts through the band: give a --config with a "
+                         "[band] table (filter and QE curves, docs/simulation.md)")
+    return values
+
+
 def _levels(noise_px, false_stars, missing, mag_noise, source: str,
             camera_levels: dict | None = None) -> dict[str, tuple]:
     from startrack.bench import parse_values
@@ -163,7 +185,8 @@ def condition_levels(levels: LevelTexts, source: str, effects) -> dict[str, tupl
                                 distortion_k1=levels.distortion_k1,
                                 modelled_k1=levels.modelled_k1)) | \
         _effect_levels((levels.cosmic_rays, levels.stray_light, levels.temperature_c),
-                       effects, source)
+                       effects, source) | \
+        {"colour_index": _colour_levels(levels.colour_index, effects, source)}
 
 
 __all__ = ["DEFAULT_LEVELS", "MODES", "CompareRequest", "CompareRun", "FolderChoice",

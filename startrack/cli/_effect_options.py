@@ -1,6 +1,7 @@
 """The effect options of `startrack simulate` (one level each) and `startrack compare`
 (a comma-separated list of levels, each a condition): cosmic rays, stray light and the
-detector's temperature. Their ranges are the effect tables' (startrack.simulate)."""
+detector's temperature; compare also takes the stars' colour (``--colour-index``). Their
+ranges are the effect tables' (startrack.simulate)."""
 
 from __future__ import annotations
 
@@ -44,9 +45,24 @@ def effect_levels_options(command):
     return command
 
 
+#: the B-V range of the band model's colour table (startrack.simulate's Band)
+COLOUR_INDEX_RANGE = (-0.4, 2.5)
+
+
+def colour_levels_option(command):
+    """Compare's star-colour axis: each level a B-V given to every star of the frames."""
+    low, high = COLOUR_INDEX_RANGE
+    return click.option(
+        "--colour-index", "colour_index",
+        help=f"B-V of every star in the frames ({low:g} to {high:g}: blue to red), seen "
+             "through the config's [band] filter and QE curves; levels, first = base; needs "
+             "--from images and a [band] [default: none, i.e. Sun-like stars].")(command)
+
+
 def effect_bounds(param: str):
     """The documented range of an effect option's values."""
     cls, name = next((c, n) for _o, p, c, n, _t in EFFECT_OPTIONS if p == param)
     return _bounds(cls, name)
 
-__all__ = ["EFFECT_OPTIONS", "effect_bounds", "effect_levels_options", "effect_options"]
+__all__ = ["COLOUR_INDEX_RANGE", "EFFECT_OPTIONS", "colour_levels_option", "effect_bounds",
+           "effect_levels_options", "effect_options"]

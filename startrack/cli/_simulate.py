@@ -195,7 +195,8 @@ def _trajectory(attitude, opts: FrameOptions, fps, profile_path, count):
 
     start = (from_radec_roll(*attitude) if attitude is not None
              else random_rotation(np.random.default_rng([opts.seed, 1 << 20])))
-    return simulation_trajectory(start, opts.rate_dps, fps, profile_path, count)
+    return simulation_trajectory(start, opts.rate_dps, fps, profile_path, count,
+                                 opts.time_tag_error_s, opts.seed)
 
 
 def _apparent(catalog, obs_time):

@@ -56,11 +56,25 @@ class FrameWriter:
         if self.trajectory is None:
             return (self.fixed if self.fixed is not None else random_rotation(rng),
                     self.opts.rate_dps)
+        block = self._sequence_block(i)
+        k = i - self._block[0]
+        return block.rotations[k], tuple(float(w) for w in block.rates_dps[k])
+
+    def _sequence_block(self, i: int):
         if self._block is None or not 0 <= i - self._block[0] < BLOCK:
             self._block = (i, self.trajectory.block(i, BLOCK))
+        return self._block[1]
+
+    def times(self, i: int) -> dict:
+        """Frame i's sidecar times: ``time_s`` is the frame's tag; with a time-tag error
+        the truth beside it (``true_time_s``, the time it was rendered at, and the error)."""
+        block = self._sequence_block(i)
         k = i - self._block[0]
-        block = self._block[1]
-        return block.rotations[k], tuple(float(w) for w in block.rates_dps[k])
+        true = float(block.times[k])
+        if block.tag_times is None:
+            return {"time_s": true}
+        tag = float(block.tag_times[k])
+        return {"time_s": tag, "true_time_s": true, "time_tag_error_s": tag - true}
 
     def write(self, i: int) -> tuple[list, list[list]]:
         from startrack.attitude import to_quaternion, to_radec_roll
@@ -105,7 +119,7 @@ class FrameWriter:
         if self.effects is not None and not self.effects.is_off:
             sidecar["effects"] = self.effects.to_dict()
         if self.trajectory is not None:
-            sidecar["time_s"] = float(i / self.trajectory.fps)
+            sidecar.update(self.times(i))
         with atomic_text(sidecar_path) as fh:
             json.dump(sidecar, fh, indent=2)
             fh.write("\n")

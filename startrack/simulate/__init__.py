@@ -9,8 +9,8 @@ __all__ = [
     "add_false_stars", "Band", "catalog_bv", "config_from_dict", "constant_rate",
     "DEFAULT_CONFIG", "deposit_gaussians", "Detector", "digitise", "documented", "Effects",
     "Environment", "FrameOptions", "LEO_FLUX", "load_config", "observe", "Optics",
-    "REFERENCE_C", "render_expected", "render_frame", "render_stars", "SAA_FLUX", "Scene",
-    "SensorModel", "SimConfig", "simulation_trajectory", "TABLES",
+    "REFERENCE_BV", "REFERENCE_C", "render_expected", "render_frame", "render_stars",
+    "SAA_FLUX", "Scene", "SensorModel", "SimConfig", "simulation_trajectory", "TABLES",
     "Trajectory",
 ]
 
@@ -32,6 +32,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "load_config": "_config",
     "observe": "_scene",
     "Optics": "_optics",
+    "REFERENCE_BV": "_colour",
     "REFERENCE_C": "_detector",
     "render_expected": "_render",
     "render_frame": "_render",

@@ -1,15 +1,15 @@
 """Star colour through the tracker's band: red and blue stars of one magnitude give
 different signals.
 
-A star's catalog colour (Hipparcos B-V) gives its effective temperature (Ballesteros
-2012, EPL 97 34008: ``T = 4600 K (1 / (0.92 (B-V) + 1.7) + 1 / (0.92 (B-V) + 0.62))``);
-its photon spectrum is taken as a black body at that temperature, normalised to the
-catalog magnitude in the V band (Bessell's V as a Gaussian at 551 nm, 88 nm FWHM), and
-counted through the tracker's filter transmission and detector QE curves. The sensor's
-``quantum_efficiency`` stays the band average for a star of :data:`REFERENCE_BV` (a
-Sun-like star): the colour factor is the ratio of a star's electrons to such a star's of
-the same magnitude. Stars without a colour (random skies, catalogs without one) take
-:data:`REFERENCE_BV`, i.e. a factor of 1.
+A star's catalog colour (Hipparcos B-V, or Gaia BP-RP through :func:`bv_from_bp_rp`) gives
+its effective temperature (Ballesteros 2012, EPL 97 34008:
+``T = 4600 K (1 / (0.92 (B-V) + 1.7) + 1 / (0.92 (B-V) + 0.62))``); its photon spectrum is
+taken as a black body at that temperature, normalised to the catalog magnitude in the V
+band (Bessell's V as a Gaussian at 551 nm, 88 nm FWHM), and counted through the tracker's
+filter transmission and detector QE curves. The sensor's ``quantum_efficiency`` stays the
+band average for a star of :data:`REFERENCE_BV` (a Sun-like star): the colour factor is the
+ratio of a star's electrons to such a star's of the same magnitude. Stars without a colour
+(random skies, catalogs without one) take :data:`REFERENCE_BV`, i.e. a factor of 1.
 """
 
 from __future__ import annotations
@@ -77,6 +77,27 @@ def temperature_from_bv(bv) -> np.ndarray:
     return 4600.0 * (1.0 / (0.92 * bv + 1.7) + 1.0 / (0.92 * bv + 0.62))
 
 
+def temperature_from_bp_rp(bp_rp) -> np.ndarray:
+    """Effective temperature (K) of a star of Gaia colour BP-RP: Mucciarelli, Bellazzini &
+    Massari 2021 (A&A 653, A90), Table 1, dwarfs at solar metallicity:
+    ``5040 K / T = 0.4929 + 0.5092 C - 0.0353 C^2``. Calibrated for 0.39 <= C <= 1.50; the
+    quadratic is carried on (monotonic) over -0.5..4.5, past which the colour is clipped."""
+    c = np.clip(np.asarray(bp_rp, dtype=np.float64), -0.5, 4.5)
+    return 5040.0 / (0.4929 + 0.5092 * c - 0.0353 * c * c)
+
+
+_BV_GRID = np.linspace(-0.4, 2.5, 2901)
+
+
+def bv_from_bp_rp(bp_rp) -> np.ndarray:
+    """The B-V whose temperature (:func:`temperature_from_bv`) is that of Gaia colour
+    ``bp_rp`` (:func:`temperature_from_bp_rp`), so both catalogs' stars take one black
+    body per temperature; NaN stays NaN. Clipped to the band model's -0.4..2.5."""
+    t = temperature_from_bp_rp(bp_rp)
+    grid_t = temperature_from_bv(_BV_GRID)  # falls as B-V grows: interp needs it rising
+    return np.where(np.isfinite(t), np.interp(t, grid_t[::-1], _BV_GRID[::-1]), np.nan)
+
+
 def _photons(temperature: np.ndarray) -> np.ndarray:
     """Black-body photon spectra (arbitrary scale), one row per temperature."""
     lam = _WAVELENGTH_NM[None, :]
@@ -95,4 +116,5 @@ def _factors(band: Band, grid: tuple[float, ...]) -> np.ndarray:
     ratio = (spectra @ band.response()) / (spectra @ _v_band())
     return ratio[:-1] / ratio[-1]
 
-__all__ = ["Band", "REFERENCE_BV", "temperature_from_bv"]
+__all__ = ["Band", "REFERENCE_BV", "bv_from_bp_rp", "temperature_from_bp_rp",
+           "temperature_from_bv"]

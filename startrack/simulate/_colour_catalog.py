@@ -1,4 +1,5 @@
-"""Catalog colours for the band model: Hipparcos-2 B-V by catalog row (NaN where unknown)."""
+"""Catalog colours for the band model: Hipparcos-2 B-V, or Gaia DR3 BP-RP as its B-V
+equivalent, by catalog row (NaN where unknown)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,8 @@ import numpy as np
 
 from startrack._core.sky import parse
 from startrack.io import cached_parse
-from startrack.sky import Catalog, catalog_file, fixed_width_column
+from startrack.simulate._colour import bv_from_bp_rp
+from startrack.sky import Catalog, catalog_file, fixed_width_column, gaia_bp_rp
 
 _BV_COLUMNS = {"hip": (1, 6), "bv": (153, 158)}  # I/311 ReadMe: B-V, bytes 153-158 (F6.3)
 FORMAT_VERSION = 1
@@ -30,18 +32,32 @@ def hipparcos_bv() -> tuple[np.ndarray, np.ndarray]:
     return arrays["hip"][order], arrays["bv"][order]
 
 
+def _lookup(keys: np.ndarray, values: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """``values`` at ``wanted`` in the ascending ``keys`` (NaN where absent)."""
+    out = np.full(len(wanted), np.nan)
+    if len(keys) == 0 or len(wanted) == 0:
+        return out
+    where = np.clip(np.searchsorted(keys, wanted), 0, len(keys) - 1)
+    found = keys[where] == wanted
+    out[found] = values[where[found]]
+    return out
+
+
 def catalog_bv(catalog: Catalog) -> np.ndarray:
     """B-V of every catalog row: the Hipparcos-2 value for a HIP star of a Hipparcos or
-    Tycho-2 sky (whose ids are HIP numbers for HIP stars), NaN otherwise."""
-    out = np.full(len(catalog), np.nan)
+    Tycho-2 sky (whose ids are HIP numbers for HIP stars); for a Gaia sky, the B-V
+    equivalent of the star's BP-RP (:func:`startrack.simulate._colour.bv_from_bp_rp`), or the
+    Hipparcos-2 B-V of its Hipparcos entries (id -HIP); NaN otherwise."""
     sky = catalog.source.get("sky", catalog.source.get("kind"))
     kind = sky.get("kind") if isinstance(sky, dict) else sky
-    if kind not in ("hipparcos", "tycho2"):
-        return out
-    hip, bv = hipparcos_bv()
-    where = np.clip(np.searchsorted(hip, catalog.ids), 0, len(hip) - 1)
-    found = hip[where] == catalog.ids
-    out[found] = bv[where[found]]
+    ids = np.asarray(catalog.ids, dtype=np.int64)
+    if kind in ("hipparcos", "tycho2"):
+        return _lookup(*hipparcos_bv(), ids)
+    out = np.full(len(catalog), np.nan)
+    if kind == "gaia":
+        gaia = ids >= 0
+        out[gaia] = bv_from_bp_rp(_lookup(*gaia_bp_rp(), ids[gaia]))
+        out[~gaia] = _lookup(*hipparcos_bv(), -ids[~gaia])
     return out
 
 __all__ = ["catalog_bv", "hipparcos_bv"]

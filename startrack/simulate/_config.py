@@ -17,6 +17,7 @@ from startrack.input_checks import (
     MAG_NOISE,
     RATE_DPS,
     SEED,
+    TIME_TAG_ERROR_S,
     check_keys,
     check_number,
 )
@@ -40,6 +41,8 @@ class FrameOptions:
     mag_noise: float = 0.0
     hot_pixel_fraction: float = 0.5
     rate_dps: tuple[float, float, float] | None = None
+    #: 1 sigma of a sequence frame's time-tag error, s (0: tagged at its true time)
+    time_tag_error_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -61,7 +64,8 @@ DEFAULT_CONFIG = {
 def _frames_from_dict(data: dict, where: str) -> FrameOptions:
     check_keys(data, (f.name for f in dataclasses.fields(FrameOptions)), where)
     checks = {"count": FRAMES, "seed": SEED, "missing": FRACTION, "false_stars": FALSE_STARS,
-              "mag_noise": MAG_NOISE, "hot_pixel_fraction": FRACTION}
+              "mag_noise": MAG_NOISE, "hot_pixel_fraction": FRACTION,
+              "time_tag_error_s": TIME_TAG_ERROR_S}
     for key, bounds in checks.items():
         if key in data:
             check_number(data[key], f"{where}: {key}", bounds)

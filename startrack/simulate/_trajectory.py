@@ -7,11 +7,18 @@ lists times and attitudes (CSV with columns ``t``, ``qw``, ``qx``, ``qy``, ``qz`
 seconds and the scalar-first camera-to-ICRS quaternion of docs/conventions.md); attitudes in
 between are interpolated by SLERP. Each frame also carries its body rate, which the
 renderer needs for motion blur.
+
+A frame's time tag may be off (``[frames] time_tag_error_s``, the StarTrackerModel error
+budget's timestamping term): frame k is rendered at its true time t_k but tagged
+t_k + e_k, e_k ~ N(0, sigma) drawn from (seed, k) alone. A tracker that reports the attitude
+it solves as the attitude at the tag is then off by the rotation over e_k: |w| |e_k| at a
+constant rate w.
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,11 +33,13 @@ PROFILE_COLUMNS = ("t", "qw", "qx", "qy", "qz")
 
 @dataclass(frozen=True)
 class Trajectory:
-    """Frame times (s), attitudes (one Rotation of N) and body rates (N x 3, deg/s)."""
+    """Frame times (s), attitudes (one Rotation of N) and body rates (N x 3, deg/s);
+    ``tag_times``: the time each frame is tagged with (None: its true time)."""
 
     times: np.ndarray
     rotations: Rotation
     rates_dps: np.ndarray
+    tag_times: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.times)
@@ -153,6 +162,9 @@ class SequencePlan:
     r0: Rotation
     rate_dps: tuple[float, float, float]
     profile: Profile | None = None
+    #: 1 sigma of each frame's time-tag error (s), and the seed it is drawn from
+    time_tag_error_s: float = 0.0
+    seed: int = 0
 
     def __len__(self) -> int:
         return self.count
@@ -161,24 +173,47 @@ class SequencePlan:
         """Frames ``first`` to ``first + count - 1`` (fewer at the end)."""
         count = max(0, min(count, self.count - first))
         if self.profile is not None:
-            return profile_trajectory(self.profile, self.fps, count, first=first)
-        return constant_rate(self.r0, self.rate_dps, self.fps, count, first=first)
+            block = profile_trajectory(self.profile, self.fps, count, first=first)
+        else:
+            block = constant_rate(self.r0, self.rate_dps, self.fps, count, first=first)
+        if not self.time_tag_error_s:
+            return block
+        errors = time_tag_errors(self.seed, first, len(block), self.time_tag_error_s)
+        return dataclasses.replace(block, tag_times=block.times + errors)
+
+
+#: the purpose of the time-tag stream, beside a frame's scene (0) and effects (1) streams
+_TIME_TAG_STREAM = 2
+
+
+def time_tag_errors(seed: int, first: int, count: int, sigma_s: float) -> np.ndarray:
+    """The time-tag errors (s) of frames ``first`` .. ``first + count - 1``: one normal
+    per frame from its own stream (seed, frame, 2), so a frame's error never depends on
+    the block it is computed in."""
+    return np.array([np.random.default_rng([seed, first + k, _TIME_TAG_STREAM])
+                     .standard_normal() for k in range(count)]) * float(sigma_s)
 
 
 def simulation_trajectory(r0: Rotation, rate_dps, fps: float | None, profile_path,
-                          count: int | None) -> SequencePlan | None:
+                          count: int | None, time_tag_error_s: float = 0.0,
+                          seed: int = 0) -> SequencePlan | None:
     """The frames of ``startrack simulate``: a profile file (``--profile``) at ``fps``, a
     constant rate from ``r0`` (``--fps`` with ``--rate``, or none: a stare), or None when
-    there is no ``--fps`` (independent frames, as before)."""
+    there is no ``--fps`` (independent frames, as before). ``time_tag_error_s``: 1 sigma of
+    the frames' time-tag errors, drawn from ``seed`` (a sequence's frames only)."""
     if fps is None:
         if profile_path is not None:
             raise InputError("--profile needs --fps (the frame rate to sample it at)")
+        if time_tag_error_s:
+            raise InputError("[frames] time_tag_error_s needs a sequence (--fps): "
+                             "independent frames have no time")
         return None
+    tag = {"time_tag_error_s": float(time_tag_error_s), "seed": int(seed)}
     if profile_path is not None:
         if rate_dps is not None:
             raise InputError("--rate and --profile exclude each other")
         profile = read_profile(profile_path)
         return SequencePlan(profile_frames(profile, fps, count), fps, r0, (0.0, 0.0, 0.0),
-                            profile)
+                            profile, **tag)
     return SequencePlan(3 if count is None else count, fps, r0,
-                        tuple(rate_dps or (0.0, 0.0, 0.0)))
+                        tuple(rate_dps or (0.0, 0.0, 0.0)), **tag)

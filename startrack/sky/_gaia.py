@@ -10,6 +10,11 @@ Hipparcos-2 wherever a star is a Hipparcos star (matched within 1 arcsec at J201
 by its HIP number); the fainter Gaia stars keep their J2016.0 place (their motion is
 mostly a few mas/yr: well under an arcsecond over a decade).
 ``catalog_id`` is the Gaia DR3 source id, or -HIP for the Hipparcos entries.
+
+The first f4 column after the magnitude is not a motion either: it is the star's BP
+magnitude and the second its RP magnitude (G - RP lies between 0 and 1.5 and BP - RP tracks
+Hipparcos B-V, tests/sky/test_gaia_colours.py), both 0 for the Hipparcos entries and a few
+hundred Gaia stars without BP/RP photometry. :func:`gaia_bp_rp` gives BP - RP.
 """
 
 from __future__ import annotations
@@ -103,6 +108,25 @@ def load_gaia(epoch: float | None = None) -> Catalog:
     given, moved by the proper motions described in the module docstring."""
     return catalog_at_epoch(gaia_arrays(), GAIA_EPOCH, epoch, "gaia")
 
+def _parse_bp_rp(path: Path) -> dict[str, np.ndarray]:
+    rec = read_gaia_bin(path)
+    rec = rec[rec["id"] >= 0]
+    colour = np.where((rec["c1"] > 0) & (rec["c2"] > 0),
+                      rec["c1"].astype(np.float64) - rec["c2"], np.nan)
+    order = np.argsort(rec["id"], kind="stable")
+    return {"ids": rec["id"][order].astype(np.int64), "bp_rp": colour[order]}
+
+
+def gaia_bp_rp(path: Path | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(Gaia DR3 source ids ascending, their BP - RP colour, NaN where the file has no
+    BP/RP) of the Gaia stars of the merged catalog, cached."""
+    source = catalog_file() if path is None else Path(path)
+    if not source.is_file():
+        raise InputError(f"{source}: Gaia catalog file not found")
+    arrays = cached_parse("gaia_bp_rp", source, FORMAT_VERSION, _parse_bp_rp)
+    return arrays["ids"], arrays["bp_rp"]
+
 __all__ = [
-    "FORMAT_VERSION", "GAIA_EPOCH", "catalog_file", "gaia_arrays", "load_gaia", "read_gaia_bin",
+    "FORMAT_VERSION", "GAIA_EPOCH", "catalog_file", "gaia_arrays", "gaia_bp_rp", "load_gaia",
+    "read_gaia_bin",
 ]
