@@ -50,22 +50,24 @@ class Refit:
 
 
 def _rotation(w: np.ndarray) -> np.ndarray:
-    """The rotation matrix of rotation vector ``w`` (Rodrigues)."""
-    angle = float(np.linalg.norm(w))
-    if angle < 1e-15:
-        return np.eye(3)
-    k = w / angle
-    cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * cross + (1.0 - math.cos(angle)) * (cross @ cross)
+    """Rotation matrices (K x 3 x 3) of rotation vectors ``w`` (K x 3), by Rodrigues."""
+    angle = np.linalg.norm(w, axis=1)
+    k = w / np.where(angle > 0, angle, 1.0)[:, None]
+    cross = np.zeros((len(w), 3, 3))
+    cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -k[:, 2], k[:, 1], -k[:, 0]
+    cross -= cross.transpose(0, 2, 1)
+    return (np.eye(3) + np.sin(angle)[:, None, None] * cross
+            + (1.0 - np.cos(angle))[:, None, None] * (cross @ cross))
 
 
 def _pixels(p: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pixels of camera-frame vectors ``v`` through parameters ``p``: rotation vector
-    (3), focal length, principal point (2), k1 (the camera's lens model's first term)."""
-    w = v @ _rotation(p[:3]).T
-    u, t = w[:, 0] / w[:, 2], w[:, 1] / w[:, 2]
-    scale = p[3] * (1.0 + p[6] * (u * u + t * t))
-    return p[4] + u * scale, p[5] + t * scale
+    """Pixels (K x N) of camera-frame vectors ``v`` (N x 3) through each row of
+    parameters ``p`` (K x 7): rotation vector (3), focal length, principal point (2), k1
+    (the camera's lens model's first term)."""
+    w = v @ _rotation(p[:, :3]).transpose(0, 2, 1)
+    u, t = w[..., 0] / w[..., 2], w[..., 1] / w[..., 2]
+    scale = p[:, 3:4] * (1.0 + p[:, 6:7] * (u * u + t * t))
+    return p[:, 4:5] + u * scale, p[:, 5:6] + t * scale
 
 
 def _centre(p: np.ndarray, x: float, y: float) -> np.ndarray:
@@ -76,13 +78,13 @@ def _centre(p: np.ndarray, x: float, y: float) -> np.ndarray:
     for _ in range(8):
         s = 1.0 + p[6] * (u * u + t * t)
         u, t = du / s, dv / s
-    w = _rotation(p[:3]).T @ np.array([u, t, 1.0])
+    w = _rotation(p[None, :3])[0].T @ np.array([u, t, 1.0])
     return w[:2] / w[2]
 
 
 def _pairs(p, v, x, y, limit):
     """Mutually nearest (spot, catalog star) pairs within ``limit`` px."""
-    px, py = _pixels(p, v)
+    px, py = (a[0] for a in _pixels(p[None], v))
     d = np.hypot(x[:, None] - px[None, :], y[:, None] - py[None, :])
     star = d.argmin(axis=1)
     ok = (d[np.arange(len(x)), star] <= limit) & (d.argmin(axis=0)[star] == np.arange(len(x)))
@@ -90,16 +92,12 @@ def _pairs(p, v, x, y, limit):
 
 
 def _jacobian(p, v, x, y):
-    def residuals(q):
-        px, py = _pixels(q, v)
-        return np.concatenate([px - x, py - y])
-    r = residuals(p)
-    cols = []
-    for k, h in enumerate(_STEPS * np.where(np.arange(7) == 3, p[3], 1.0)):
-        q = p.copy()
-        q[k] += h
-        cols.append((residuals(q) - r) / h)
-    return r, np.column_stack(cols)
+    """Residuals (x then y, px) at ``p`` and their forward-difference Jacobian, every
+    parameter set in one batch."""
+    steps = _STEPS * np.where(np.arange(7) == 3, p[3], 1.0)
+    px, py = _pixels(p + np.vstack([np.zeros(7), np.diag(steps)]), v)
+    res = np.concatenate([px - x, py - y], axis=1)
+    return res[0], ((res[1:] - res[0]) / steps[:, None]).T
 
 
 def _fit(p, v, x, y, free_k1: bool):
@@ -118,7 +116,7 @@ def _fit(p, v, x, y, free_k1: bool):
         trial, trial_jac = _jacobian(p + step, v, x, y)
         if trial @ trial < r @ r:
             p, r, jac, damping = p + step, trial, trial_jac, damping / 10.0
-            if np.all(np.abs(step) <= 1e-9 * (1.0 + np.abs(p))):
+            if np.all(np.abs(step) <= 1e-7 * (1.0 + np.abs(p))):
                 break
         else:
             damping *= 10.0
