@@ -26,8 +26,10 @@ class PairIndex:
         self.pj = np.ascontiguousarray(table.j, dtype=np.int32)
         self.angle = np.ascontiguousarray(table.angle, dtype=np.float64)
         #: the table and its neighbour lists, as the compiled searches take them
+        stored = table.lists[1] if table.lists and table.lists[0] == self.n_catalog else None
         self.neighbours = core.PairNeighbours(self.pi, self.pj, self.angle, self.n_catalog,
-                                              threaded=build_threads(len(self.pi)) > 1)
+                                              threaded=build_threads(len(self.pi)) > 1,
+                                              lists=stored)
         #: (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi): the lists as arrays
         self.lists = self.neighbours.lists
 
