@@ -15,6 +15,7 @@ every stage of its identification (the configured method, the FOV refit, the FOV
 from __future__ import annotations
 
 import dataclasses
+import gc
 import sys
 import time
 from pathlib import Path
@@ -187,6 +188,11 @@ class Pipeline:
         if left is not None and left <= 0:
             return found
         look = dataclasses.replace(frame, centroids=without_brightest(frame.centroids))
+        # the first look's searches let go: their mapped pattern tables leave memory, so
+        # the second look's pages come in their place, not on top (a 1 deg frame's blind
+        # second look held 2.7 GB with them)
+        self._blind.clear()
+        gc.collect()
         # the rest of the time limit; the centroid error of the spots it looks at (the
         # left-out ones, nebula knots or blooming, widened it)
         self.options = dataclasses.replace(options, timeout_ms=left)
