@@ -7,8 +7,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from startrack._core._threads import usable_cores
+from startrack._core.database import pair_tables as core_pairs
 from startrack._core.sky import close_pairs
 from startrack.database._kvector import KVector
+
+#: the neighbour lists of :class:`startrack._core.database.pair_tables.PairNeighbours`, by name
+LIST_KEYS = ("start_lo", "nbr_lo", "ang_lo", "start_hi", "nbr_hi", "ang_hi")
 
 
 @dataclass(frozen=True)
@@ -19,6 +23,9 @@ class PairTable:
     j: np.ndarray  # int32 catalog rows
     angle: np.ndarray  # float64 radians, ascending
     kvector: KVector
+    #: (n_catalog, the six neighbour lists) stored with the table
+    #: (:func:`pair_index_arrays`), or None: built when first asked for
+    lists: tuple | None = None
 
     def __len__(self) -> int:
         return len(self.angle)
@@ -52,8 +59,29 @@ def build_pair_arrays(vectors: np.ndarray, max_angle_rad: float) -> dict[str, np
     return {"i": i, "j": j, "angle": angle}
 
 
-def pair_table_from_arrays(arrays: dict[str, np.ndarray]) -> PairTable:
-    return PairTable(arrays["i"], arrays["j"], arrays["angle"], KVector.build(arrays["angle"]))
+def pair_table_from_arrays(arrays: dict[str, np.ndarray],
+                           index: dict[str, np.ndarray] | None = None) -> PairTable:
+    """The table of ``arrays``; with ``index`` (:func:`pair_index_arrays` of them, as
+    stored on disk) its k-vector and neighbour lists are read, not rebuilt."""
+    if index is None:
+        return PairTable(arrays["i"], arrays["j"], arrays["angle"],
+                         KVector.build(arrays["angle"]))
+    m, q = (float(v) for v in index["kvector_mq"])
+    kvector = KVector(np.ascontiguousarray(arrays["angle"], np.float64), index["kvector_k"],
+                      m, q)
+    lists = (int(index["n_catalog"]), tuple(index[k] for k in LIST_KEYS))
+    return PairTable(arrays["i"], arrays["j"], arrays["angle"], kvector, lists)
+
+
+def pair_index_arrays(arrays: dict[str, np.ndarray], n_catalog: int) -> dict[str, np.ndarray]:
+    """What a process would build from a pair table before its first search, to store
+    beside it: the k-vector and the neighbour lists over ``n_catalog`` stars (0.3 to
+    0.4 s a run for an 11 deg Hipparcos table; read from a mapped entry in milliseconds)."""
+    kvector = KVector.build(arrays["angle"])
+    built = core_pairs.PairNeighbours(arrays["i"], arrays["j"], arrays["angle"], n_catalog,
+                                      threaded=build_threads(len(arrays["angle"])) > 1)
+    return {"kvector_k": kvector.k, "kvector_mq": np.array([kvector.m, kvector.q]),
+            "n_catalog": np.array(n_catalog), **dict(zip(LIST_KEYS, built.lists, strict=True))}
 
 
 def select_pair_arrays(arrays: dict[str, np.ndarray], keep: np.ndarray) -> dict[str, np.ndarray]:
@@ -62,5 +90,5 @@ def select_pair_arrays(arrays: dict[str, np.ndarray], keep: np.ndarray) -> dict[
     sel = keep[arrays["i"]] & keep[arrays["j"]]
     return {"i": arrays["i"][sel], "j": arrays["j"][sel], "angle": arrays["angle"][sel]}
 
-__all__ = ["PairTable", "build_pair_arrays", "build_threads", "pair_table_from_arrays",
-           "select_pair_arrays"]
+__all__ = ["LIST_KEYS", "PairTable", "build_pair_arrays", "build_threads",
+           "pair_index_arrays", "pair_table_from_arrays", "select_pair_arrays"]

@@ -68,7 +68,7 @@ def get_matcher(name: str) -> type[Matcher]:
 
 __all__ = [
     "angle_table", "attitude_from_tetra3", "attitude_from_tetra3rs", "available_methods",
-    "ENTRY_POINT_GROUP", "get_matcher", "INSTALL", "Matcher", "MatcherConfig",
+    "ENTRY_POINT_GROUP", "get_matcher", "IMAGE_STARS", "INSTALL", "Matcher", "MatcherConfig",
     "positions_to_indices", "QuadMatcher", "register", "ScaledHypothesis", "solve_field",
     "solve_field_available", "tetra3_centroids", "tetra3rs_centroids", "write_gaia_binary",
     "write_hip_main",
@@ -79,6 +79,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "angle_table": "_shared.geometry",
     "attitude_from_tetra3": "_tetra3",
     "attitude_from_tetra3rs": "_tetra3rs",
+    "IMAGE_STARS": "_quad",
     "INSTALL": "_astrometry",
     "positions_to_indices": "_shared.peer",
     "QuadMatcher": "_quad",

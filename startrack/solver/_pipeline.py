@@ -15,7 +15,9 @@ every stage of its identification (the configured method, the FOV refit, the FOV
 from __future__ import annotations
 
 import dataclasses
+import gc
 import sys
+import time
 from pathlib import Path
 
 from startrack.camera import Camera
@@ -34,6 +36,13 @@ from startrack.sky import (
 )
 from startrack.solver._aberration import correct_result
 from startrack.solver._deadline import Deadline
+from startrack.solver._deeper import (
+    SKIP,
+    remaining_ms,
+    renumbered,
+    wants_second_look,
+    without_brightest,
+)
 from startrack.solver._fov_search import BlindSolver
 from startrack.solver._hints import cut_to_cone, header_time
 from startrack.solver._identifier import FrameResult, Identifier, SetupClock, frame_timing
@@ -142,16 +151,12 @@ class Pipeline:
     def identify_unhinted(self, frame: FrameInput) -> FrameResult:
         """:meth:`identify_frame` with no hint (a hinted child pipeline's own solve)."""
         camera, sky = self.setup_for(frame)
-        x, y = frame.centroids.x, frame.centroids.y
-        if len(x) < MIN_STARS:
+        if len(frame.centroids) < MIN_STARS:
             return too_few_stars(self, frame, camera, sky)
         # One deadline for every stage below; it starts with the configured stage loaded
         # (tables loaded later, for the FOV search, count against it).
-        if camera is None:
-            found = self._blind_search(x, y, self._blind_size(frame), sky,
-                                       Deadline.after_ms(self.options.timeout_ms))
-        elif self.options.fov_tolerance > 0:
-            found = approximate(self, frame, camera, sky)
+        if camera is None or self.options.fov_tolerance > 0:
+            found = self._search(frame, camera, sky)
             if isinstance(found, FrameResult):
                 return found
         else:
@@ -163,6 +168,48 @@ class Pipeline:
                            frame_timing(frame, sol.identify_ms), found.camera,
                            found.catalog, self.sigma_px, found.match_radius_px,
                            frame.image)
+
+    def _search(self, frame: FrameInput, camera: Camera | None, sky: SkySpec):
+        """The search for a nominal FOV (``camera``) or none: its ``FovResult`` (or the
+        configured method's ``FrameResult`` where that stands); where it matched nothing,
+        a second look past the brightest spots (:mod:`startrack.solver._deeper`), within
+        the input's time limit."""
+        t0, deadline = time.perf_counter(), Deadline.after_ms(self.options.timeout_ms)
+
+        def search(look: FrameInput):
+            if camera is None:
+                c = look.centroids
+                return self._blind_search(c.x, c.y, self._blind_size(frame), sky, deadline)
+            return approximate(self, look, camera, sky)
+
+        found = search(frame)
+        if isinstance(found, FrameResult) or not wants_second_look(found, len(frame.centroids)):
+            return found
+        options, left = self.options, remaining_ms(self.options.timeout_ms, t0)
+        if left is not None and left <= 0:
+            return found
+        look = dataclasses.replace(frame, centroids=without_brightest(frame.centroids))
+        # the first look's searches let go: their mapped pattern tables leave memory, so
+        # the second look's pages come in their place, not on top (a 1 deg frame's blind
+        # second look held 2.7 GB with them)
+        self._blind.clear()
+        gc.collect()
+        # the rest of the time limit; the centroid error of the spots it looks at (the
+        # left-out ones, nebula knots or blooming, widened it)
+        self.options = dataclasses.replace(options, timeout_ms=left)
+        sigma, self.sigma_px = self.sigma_px, self.frame_sigma(look)
+        try:
+            again = search(look)
+        finally:
+            self.options = options
+        self.trail.add(f"second look, past the {SKIP} brightest spots", "quad", sky,
+                       None if camera is None else camera.fov_deg,
+                       None if isinstance(again, FrameResult) else again.solution)
+        if isinstance(again, FrameResult) or not again.solution.solved:
+            self.sigma_px = sigma
+            return found if isinstance(again, FrameResult) else found.plus_ms(
+                again.solution.identify_ms)
+        return renumbered(found, again, frame.centroids, self.sigma_px)
 
     def database_of(self, catalog: Catalog) -> StarDatabase | None:
         """The database an identifier already holds for ``catalog``, if any."""

@@ -11,8 +11,10 @@ reported as right is the worst outcome, "not solved" is honest.
 An answer must also explain the frame's bright stars (:func:`camera_problem`): through a
 camera that does not fit (a principal point at (100, 900) declared centred) a hypothesis
 can be confirmed by a dozen stars near where the two models agree, hundreds of arcsec
-off, while most bright spots and most bright catalog stars in view stay unexplained. Such
-an answer is refused, and its record says why (``diagnostics.refused``).
+off, while most bright spots and most bright catalog stars in view stay unexplained; its
+image centre then moves by about its error when the camera is refitted to the brightest
+stars (:mod:`startrack.verify._refit`). Such an answer is refused, and its record says
+why (``diagnostics.refused``).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import numpy as np
 
 from startrack._core.tracking.tracked_frame import HYPOTHESIS_STARS
 from startrack.match_records import Solution
+from startrack.verify._refit import refit_camera
 from startrack.verify._verification import VerifyConfig
 
 #: a hypothesis's own stars plus the stars verification must confirm outside it
@@ -61,14 +64,50 @@ BRIGHT_STARS = 20
 #: answers (1 px, 5 false stars, 20% missing; scripts/validation/harsh_frames.py) explain at least
 #: half of the bright spots, a centred camera for a (100, 900) principal point at most 35%
 MIN_EXPLAINED = 0.4
+#: an answer whose image centre moves more than the larger of these when its camera is
+#: refitted (startrack.verify._refit) is refused, however many stars it labels: the move
+#: is its error (offset principal points: within 0.1 px), and real frames' right answers
+#: move at most 2 px, within 3.4 sigma
+MAX_SHIFT_PX, MAX_SHIFT_SIGMAS = 1.0, 4.0
+#: an answer that labels too few bright stars still stands when the refitted camera
+#: explains enough of them and its centre moved at most the larger of these, never past
+#: MAX_SHIFT_PX: the final labelling withholds stars of right answers on real frames
+#: (saturated spots, thousands of false spots), not only of wrong ones
+RESCUE_SHIFT_PX, RESCUE_SHIFT_SIGMAS = 0.5, 3.0
 
 
-def camera_problem(solution: Solution, obs, camera, catalog) -> str | None:
-    """Why a solved answer does not explain the frame (None when it does): it labels less
-    than :data:`MIN_EXPLAINED` of the :data:`BRIGHT_STARS` brightest spots and of the
-    brightest catalog stars it puts inside the image."""
+def camera_problem(solution: Solution, obs, camera, catalog, radius_px: float,
+                   sigma_px: float) -> str | None:
+    """Why a solved answer does not explain the frame (None when it does): its image
+    centre moves past :data:`MAX_SHIFT_PX` and :data:`MAX_SHIFT_SIGMAS` when its camera is
+    refitted to the brightest stars (:func:`startrack.verify._refit.refit_camera`), or it
+    labels less than :data:`MIN_EXPLAINED` of the :data:`BRIGHT_STARS` brightest spots and
+    of the brightest catalog stars it puts inside the image, and the refitted camera
+    neither explains that many spots nor leaves the centre within
+    :data:`RESCUE_SHIFT_PX` (or :data:`RESCUE_SHIFT_SIGMAS`)."""
     if not solution.solved or solution.rotation is None or len(obs.x) < BRIGHT_STARS:
         return None
+    refit = refit_camera(solution.rotation, obs.x, obs.y, camera, catalog, radius_px,
+                         sigma_px)
+    if refit is not None and refit.shift_px > max(MAX_SHIFT_PX,
+                                                   MAX_SHIFT_SIGMAS * refit.sigma_px):
+        return (f"its image centre moves {refit.shift_px:.1f} px (1-sigma "
+                f"{refit.sigma_px:.1f} px) when its camera is refitted to the brightest "
+                "stars: the camera does not fit the frame (its principal point or lens?)")
+    why = _labels_problem(solution, obs, camera, catalog)
+    if why is None or refit is None:
+        return why
+    explained = np.count_nonzero(refit.explained < BRIGHT_STARS)
+    if explained >= MIN_EXPLAINED * BRIGHT_STARS and refit.shift_px <= min(
+            MAX_SHIFT_PX, max(RESCUE_SHIFT_PX, RESCUE_SHIFT_SIGMAS * refit.sigma_px)):
+        return None
+    return why
+
+
+def _labels_problem(solution: Solution, obs, camera, catalog) -> str | None:
+    """Why the answer's labels explain too little (None when they explain enough): less
+    than :data:`MIN_EXPLAINED` of the :data:`BRIGHT_STARS` brightest spots and of the
+    brightest catalog stars it puts inside the image are labelled."""
     spots = int(np.count_nonzero(np.asarray(solution.obs_index) < BRIGHT_STARS))
     if spots >= MIN_EXPLAINED * BRIGHT_STARS:
         return None
@@ -110,6 +149,7 @@ def require_evidence(result):
     sol = refuse_without_evidence(result.solution, result.camera.f_px,
                                   result.match_radius_px)
     if sol is result.solution:
-        why = camera_problem(sol, result.obs, result.camera, result.catalog)
+        why = camera_problem(sol, result.obs, result.camera, result.catalog,
+                             result.match_radius_px, result.sigma_px)
         sol = sol if why is None else _refused(sol, why)
     return result if sol is result.solution else dataclasses.replace(result, solution=sol)

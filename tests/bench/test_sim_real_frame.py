@@ -16,7 +16,7 @@ from startrack.bench._real_frames import (
     check_frame,
 )
 from startrack.io import read_image
-from startrack.simulate._config import load_config
+from startrack.simulate import load_config
 from startrack.sky import load_sky
 
 FRAME = DATA / "realsky_azi45.png"

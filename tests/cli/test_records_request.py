@@ -34,8 +34,12 @@ def test_a_nominal_fov_30_percent_off_says_what_was_tried_and_what_to_try():
     assert request["method"] == "pyramid" and request["fov_deg"] == 14.85
     assert request["fov_tolerance"] == 0.1 and request["sky"]["kind"] == "hipparcos"
     steps = record["steps"]
-    assert [(s["method"], s["sky"]["kind"]) for s in steps] == [
-        ("pyramid", "hipparcos"), ("quad", "hipparcos"), ("quad", "gaia")]
+    first = [("pyramid", "hipparcos"), ("quad", "hipparcos"), ("quad", "gaia")]
+    # the same stages again past the 8 brightest spots, then that look's own line
+    # (issue 49, startrack.solver._deeper)
+    assert [(s["method"], s["sky"]["kind"]) for s in steps] == first + first + [
+        ("quad", "hipparcos")]
+    assert steps[-1]["stage"] == "second look, past the 8 brightest spots"
     assert all(s["result"] == "no_match" for s in steps)
     assert steps[1]["fov_deg"] == pytest.approx([13.365, 16.335])
     # diagnostics.sky is the last stage's (gaia); the request keeps the sky asked for

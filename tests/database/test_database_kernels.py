@@ -6,14 +6,14 @@ import math
 
 import numpy as np
 import pytest
-from startrack._core.database.pair_tables import PairNeighbours
+from startrack._core.database.builds.pair_tables import PairNeighbours
 
 from startrack._core.database import builds as kernels
 from startrack._core.sky import close_pairs, parse
 from startrack.database import _pairs as database_pairs
 from startrack.database._kvector import KVector
 from startrack.database._pairs import THREADED_PAIRS, build_pair_arrays, build_threads
-from startrack.sky import random_sky
+from startrack.sky import _random_sky as random_sky
 
 
 def test_merge_counts_are_searchsorted():
@@ -162,3 +162,29 @@ def test_records_need_one_line_length():
     assert parse.records(b"ab\ncd\n", 3) is None  # shorter than a record
     raw = parse.records(b"abcd\n    \nefgh\n", 3)
     assert parse.blank_rows(raw).tolist() == [False, True, False]
+
+
+def test_a_pair_table_read_back_from_the_cache_maps_its_stored_lists():
+    # Issue 49: the k-vector and neighbour lists took a third of a second of every
+    # identify; they are stored beside the table and read, equal to the ones built
+    from startrack.camera import Camera
+    from startrack.database import StarDatabase
+    from startrack.matchers._shared.pair_joins import pair_index
+
+    sky, camera = random_sky(600, seed=5), Camera.from_fov(1024, 1024, 15.0)
+    first = StarDatabase(sky, camera).pairs  # built and stored
+    table = StarDatabase(sky, camera).pairs  # read back
+    assert table.lists is not None and table.lists[0] == len(sky)
+    np.testing.assert_array_equal(table.angle, first.angle)
+    built = PairNeighbours(table.i, table.j, table.angle, len(sky))
+    index = pair_index(table, len(sky))
+    for stored, fresh in zip(index.lists, built.lists, strict=True):
+        np.testing.assert_array_equal(stored, fresh)
+    assert index.lists[1] is table.lists[1][1]  # taken as stored, not rebuilt
+    fresh_k = KVector.build(table.angle)
+    np.testing.assert_array_equal(table.kvector.k, fresh_k.k)
+    assert (table.kvector.m, table.kvector.q) == (fresh_k.m, fresh_k.q)
+    other = pair_index(table, len(sky) + 1)  # another catalog size: built for it
+    assert len(other.lists[0]) == len(sky) + 2
+    with pytest.raises(ValueError, match="another table"):
+        PairNeighbours(table.i, table.j, table.angle, len(sky) + 1, lists=index.lists)

@@ -14,7 +14,7 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from startrack.attitude import wahba_matrices
-from startrack.camera._model import Camera
+from startrack.camera import Camera
 from startrack.solver._fov_fit import LENS_K1_CHI2, LENS_MAX_K1, LENS_MIN_R2, LENS_MIN_STARS
 
 

@@ -153,7 +153,7 @@ def test_a_slow_build_says_what_it_builds_unless_quiet(monkeypatch, capsys):
 
 
 def test_a_cuts_cone_index_is_the_index_built_for_it():
-    from startrack.database._cone import ConeIndex
+    from startrack.database import ConeIndex
 
     sky = random_sky(4000, seed=8)
     whole = ConeIndex.build(sky.vectors)

@@ -11,8 +11,7 @@ from startrack._core.shared import wahba
 from synth import synthetic_frame
 
 from startrack.attitude import random_attitudes
-from startrack.camera._distortion import RadialDistortion
-from startrack.camera._model import Camera
+from startrack.camera import Camera, RadialDistortion
 from startrack.database import StarDatabase
 from startrack.match_records import Hypothesis, Observation
 from startrack.sky import random_sky

@@ -3,7 +3,8 @@
 A hypothesis table holds rows of catalog stars, one column per observed star. Joins grow
 it by a pair lookup that shares a star with it (:func:`join_extend`) or narrow it by a
 pair between two of its stars (:func:`join_close`); both run compiled over the table's
-neighbour lists (:mod:`startrack._core.database.pair_tables`), never materialising the lookup.
+neighbour lists (:mod:`startrack._core.database.pair_tables`), never materialising
+the lookup.
 """
 
 from __future__ import annotations
@@ -26,8 +27,10 @@ class PairIndex:
         self.pj = np.ascontiguousarray(table.j, dtype=np.int32)
         self.angle = np.ascontiguousarray(table.angle, dtype=np.float64)
         #: the table and its neighbour lists, as the compiled searches take them
+        stored = table.lists[1] if table.lists and table.lists[0] == self.n_catalog else None
         self.neighbours = core.PairNeighbours(self.pi, self.pj, self.angle, self.n_catalog,
-                                              threaded=build_threads(len(self.pi)) > 1)
+                                              threaded=build_threads(len(self.pi)) > 1,
+                                              lists=stored)
         #: (start_lo, nbr_lo, ang_lo, start_hi, nbr_hi, ang_hi): the lists as arrays
         self.lists = self.neighbours.lists
 
@@ -81,7 +84,7 @@ class PairLookup:
 
     def grouped(self, p: int, q: int) -> tuple[np.ndarray, ...] | None:
         """The pairs of (p, q) linked per catalog star of p (see
-        :func:`startrack._core.database.pair_tables.group_pairs`), built once per frame; None
+        :func:`startrack._core.database.builds.pair_tables.group_pairs`), built once per frame; None
         when there
         are none."""
         if (p, q) not in self._grouped:
