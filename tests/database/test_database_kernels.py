@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from startrack._core.database.builds.pair_tables import PairNeighbours
+from startrack._core.database.pair_tables import PairNeighbours
 
 from startrack._core.database import builds as kernels
 from startrack._core.sky import close_pairs, parse

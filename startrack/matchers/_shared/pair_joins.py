@@ -84,7 +84,7 @@ class PairLookup:
 
     def grouped(self, p: int, q: int) -> tuple[np.ndarray, ...] | None:
         """The pairs of (p, q) linked per catalog star of p (see
-        :func:`startrack._core.database.builds.pair_tables.group_pairs`), built once per frame; None
+        :func:`startrack._core.database.pair_tables.group_pairs`), built once per frame; None
         when there
         are none."""
         if (p, q) not in self._grouped:
