@@ -134,7 +134,7 @@ def _through_pipeline(camera: Camera, args: argparse.Namespace, method: str):
 
     solver = Solver(camera=camera, sky="hipparcos", mag_limit=args.mag_limit, method=method,
                     max_stars=args.max_stars, sigma_px=args.noise_px or 0.5)
-    pipeline: Pipeline = solver._pipeline
+    pipeline: Pipeline = solver._solver  # no track, no prior: the one-frame pipeline
 
     def solve(frame):
         obs = frame.obs

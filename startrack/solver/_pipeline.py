@@ -1,15 +1,13 @@
 """Input to solution: each input read once, its camera and sky decided, its stars identified.
 
 :func:`read_input` (:mod:`startrack.solver._inputs`) turns a path (image or centroid CSV)
-into a :class:`FrameInput`; :class:`~startrack.solver._identifier.Identifier` holds one loaded
-catalog, database and matcher and turns centroids into a
-:class:`~startrack.solver._identifier.FrameResult`, the one complete record of an input.
-:class:`Pipeline`
-decides each input's camera and sky (options, else the JSON sidecar beside the input,
-else defaults) and keeps one ``Identifier`` per (camera, sky), so a batch from one camera
-loads everything once; ``startrack identify``, the Python API and compare build on this.
-``Options.timeout_ms`` is one :class:`~startrack.solver._deadline.Deadline` per input, shared by
-every stage of its identification (the configured method, the FOV refit, the FOV search).
+into a :class:`FrameInput`; an ``Identifier`` (:mod:`startrack.solver._identifier`) holds
+one loaded catalog, database and matcher and turns centroids into a ``FrameResult``, the
+one complete record of an input. :class:`Pipeline` decides each input's camera and sky
+(options, else the JSON sidecar beside the input, else defaults) and keeps one
+``Identifier`` per (camera, sky), so a batch from one camera loads everything once.
+``Options.timeout_ms`` is one ``Deadline`` per input, shared by every stage of its
+identification (the configured method, the FOV refit, the FOV search).
 """
 
 from __future__ import annotations
@@ -28,12 +26,7 @@ from startrack.errors import InputError
 from startrack.io import find_sidecar, read_sidecar
 from startrack.match_records import Timing
 from startrack.matchers import get_matcher
-from startrack.sky import (
-    Catalog,
-    SkySpec,
-    gaia_min_fov,
-    load_sky,
-)
+from startrack.sky import Catalog, SkySpec, gaia_min_fov, load_sky
 from startrack.solver._aberration import correct_result
 from startrack.solver._deadline import Deadline
 from startrack.solver._deeper import (

@@ -13,7 +13,7 @@ from startrack._core.sky import close_pairs, parse
 from startrack.database import _pairs as database_pairs
 from startrack.database._kvector import KVector
 from startrack.database._pairs import THREADED_PAIRS, build_pair_arrays, build_threads
-from startrack.sky import _random_sky as random_sky
+from startrack.sky import random_sky
 
 
 def test_merge_counts_are_searchsorted():
