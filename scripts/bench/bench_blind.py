@@ -158,8 +158,8 @@ def write_between(doc: Path, start: str, end: str, body: str) -> None:
 def provenance_line(script: str, started: str, minutes: float, load) -> str:
     full = git_commit() or "?"
     commit = full[:10] + ("+dirty" if full.endswith("+dirty") else "")
-    return (f"<!-- written by scripts/{script}: do not edit by hand -->\n"
-            f"`{shlex.join(['scripts/' + script, *sys.argv[1:]])}` at commit `{commit}`, "
+    return (f"<!-- written by scripts/bench/{script}: do not edit by hand -->\n"
+            f"`{shlex.join(['scripts/bench/' + script, *sys.argv[1:]])}` at commit `{commit}`, "
             f"started {started} UTC, {minutes:.1f} min; load average {load[0]:.1f} at the "
             f"start, {load[1]:.1f} at the end (2 cores).")
 
