@@ -223,12 +223,13 @@ class Pipeline:
             self._cut[sky] = cut_to_cone(self.catalogs[sky], *self.cone)
         return self._cut[sky]
 
-    def correct_aberration(self, frame: FrameInput, result: FrameResult) -> FrameResult:
+    def correct_aberration(self, frame: FrameInput, result: FrameResult,
+                           camera_checked: bool = False) -> FrameResult:
         """``result`` corrected for annual aberration when the time of observation is known
         (``Options.time``, else a FITS input's DATE-OBS): startrack.solver._aberration. Every
         answer passes here: an answer without its evidence is refused (startrack.verify.
         _evidence), and each is given its setup time, request and stages tried."""
-        result = require_evidence(result)
+        result = require_evidence(result, camera_checked)
         when = self.options.time
         if when is None and frame.path is not None and self.options.header_hints:
             when = header_time(frame.path)

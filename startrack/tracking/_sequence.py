@@ -60,6 +60,9 @@ class _Held:
     catalog: Catalog
     database: StarDatabase
     method: str
+    #: the camera passed the evidence gate's camera check on the answer that set it (not
+    #: so for a camera a prior is first tracked through)
+    checked: bool = False
 
 
 class SequenceSolver:
@@ -114,7 +117,7 @@ class SequenceSolver:
                 return self.pipeline.correct_aberration(frame, FrameResult(
                     frame.name, solution, obs, frame.centroids, timing, held.camera,
                     held.catalog, sigma_px,
-                    self.verify_config.radius_px(obs), frame.image))
+                    self.verify_config.radius_px(obs), frame.image), held.checked)
             spent = 0.0 if tracked is None else tracked.identify_ms
             failed = None if tracked is None else (tracked.reason or "no_track")
         found = self.pipeline.identify_frame(frame)
@@ -122,10 +125,12 @@ class SequenceSolver:
                                        identify_ms=found.solution.identify_ms + spent,
                                        fallback=failed if found.solution.solved else None)
         solution = self._lock(self.tracker.record(solution, found.obs, "lost_in_space"))
-        if solution.solved:
-            self._held = self._holding(found.camera, found.catalog, solution.method)
-        return self.pipeline.correct_aberration(frame, dataclasses.replace(
+        result = self.pipeline.correct_aberration(frame, dataclasses.replace(
             found, solution=solution, timing=frame_timing(frame, solution.identify_ms)))
+        if result.solution.solved:  # held only once the evidence gate passed its camera
+            self._held = self._holding(found.camera, found.catalog, solution.method,
+                                       checked=True)
+        return result
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` and solve it as the next input of the sequence."""
@@ -141,8 +146,9 @@ class SequenceSolver:
         return self._holding(camera, self.pipeline.catalog(sky, camera),
                              self.pipeline.options.method)
 
-    def _holding(self, camera: Camera, catalog: Catalog, method: str) -> _Held:
+    def _holding(self, camera: Camera, catalog: Catalog, method: str,
+                 checked: bool = False) -> _Held:
         database = (self._held.database if self._held and self._held.catalog is catalog
                     else self.pipeline.database_of(catalog) or StarDatabase(catalog, camera))
-        return _Held(camera, catalog, database, method)
+        return _Held(camera, catalog, database, method, checked)
 
