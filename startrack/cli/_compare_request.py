@@ -12,9 +12,6 @@ import click
 from startrack.errors import InputError
 from startrack.input_checks import FALSE_STARS
 
-#: the modes of a comparison, in the order the options choose them
-MODES = ("frames_dir", "tracking", "replay", "lost_in_space")
-
 
 @dataclass(frozen=True)
 class LevelTexts:
@@ -78,8 +75,8 @@ class CompareRequest:
 
     @property
     def run_mode(self) -> str:
-        """Which of :data:`MODES` runs: a folder of frames, sequences, one replayed unit,
-        else the Monte Carlo run."""
+        """Which mode runs (a key of ``_compare.RUNNERS``): a folder of frames, sequences,
+        one replayed unit, else the Monte Carlo run."""
         if self.frames_dir is not None:
             return "frames_dir"
         if self.mode == "tracking":
@@ -189,5 +186,5 @@ def condition_levels(levels: LevelTexts, source: str, effects) -> dict[str, tupl
         {"colour_index": _colour_levels(levels.colour_index, effects, source)}
 
 
-__all__ = ["DEFAULT_LEVELS", "MODES", "CompareRequest", "CompareRun", "FolderChoice",
+__all__ = ["DEFAULT_LEVELS", "CompareRequest", "CompareRun", "FolderChoice",
            "LevelTexts", "condition_levels"]

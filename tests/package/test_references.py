@@ -49,9 +49,8 @@ def _names(path: Path) -> set[str]:
     names = set(DEFINED.findall(text)) | set(re.findall(r"\b(\w+)\s*=", text))
     if path.name == "__init__.py":  # a package's lazy re-exports and __all__
         names |= set(re.findall(r'"(\w+)"', text))
-    names |= set(re.findall(r"import\s+\(?([\w,\s]+)\)?", text.replace("\n", " ")) and
-                 re.findall(r"\b(\w+)\b", " ".join(re.findall(r"import\s+\(([^)]*)\)", text)
-                                                   + re.findall(r"import ([^\n(]+)", text))))
+    imported = re.findall(r"import\s+\(([^)]*)\)", text) + re.findall(r"import ([^\n(]+)", text)
+    names |= set(re.findall(r"\b(\w+)\b", " ".join(imported)))
     return names
 
 
