@@ -35,15 +35,20 @@ MAX_LISTED = 10
 NOT_REPLAYED = ("out_dir", "jobs", "scheduler", "resume", "replay")
 
 
+#: what makes a run's numbers: "+dirty" means one of these differs from the commit (a run
+#: that writes its own results under docs/ must not mark the next run of `make results` dirty)
+CODE_PATHS = ("startrack", "scripts", "configs", "data", "setup.py", "pyproject.toml")
+
+
 def git_commit() -> str | None:
-    """The checkout's commit (with "+dirty" when it has changes), None when installed."""
+    """The checkout's commit (with "+dirty" when its code has changes), None when installed."""
     root = Path(__file__).resolve().parents[2]
     if not (root / ".git").exists():
         return None
     try:
         commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"],
                                 capture_output=True, text=True, timeout=10, check=True)
-        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain"],
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--", *CODE_PATHS],
                                capture_output=True, text=True, timeout=10, check=True)
     except (OSError, subprocess.SubprocessError):
         return None
