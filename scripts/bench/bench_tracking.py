@@ -22,6 +22,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from scripts.profile.profile_tracking import report as profile_report  # noqa: E402
 from startrack.bench import _tracking_bench as tb
@@ -52,6 +53,15 @@ def _base(catalog, camera, idents, peer, frames, seed):
     summary = tb.summarise_tracking(df.assign(condition=0), ["condition", "method"])
     modes = df.groupby(["method", "mode"]).size().unstack(fill_value=0)
     return df, summary, modes
+
+
+def sequence_summary(frames: int, seed: int) -> pd.DataFrame:
+    """Section 1's sequence (Hipparcos 20 deg) through pyramid tracked and alone, and
+    tetra3rs hinted and alone where it is installed: one summary row per method."""
+    cfg = load_config(ROOT / "configs" / "hipparcos20.toml")
+    catalog = load_sky(resolve_sky(cfg.sky, cfg.camera), cfg.camera)
+    idents = {"pyramid": Identifier(cfg.camera, catalog, "pyramid")}
+    return _base(catalog, cfg.camera, idents, tb.peer_available(), frames, seed)[1]
 
 
 def _events(catalog, camera, idents, peer, seed):

@@ -1,0 +1,67 @@
+"""scripts/bench/bench_paths.py gives startrack and tetra3rs the same information on every
+path, and scores junk and truth frames as the rest of the benches do."""
+
+import math
+import types
+
+import numpy as np
+import pytest
+
+from scripts.bench.bench_paths import Solvers, junk_frames, paths, score, table
+from startrack.camera import Camera
+from startrack.input_checks import FOV_TOLERANCE
+
+
+def _solvers(fov: float, span: float) -> Solvers:
+    solvers = Solvers.__new__(Solvers)  # no frames or catalog: given() needs neither
+    solvers.fov, solvers.args = fov, types.SimpleNamespace(span=span)
+    return solvers
+
+
+@pytest.mark.parametrize("span", [1.2, 1.5, 1.7])
+def test_range_row_searches_the_peers_range(span):
+    (label, kind, tolerance, err), = [p for p in paths(span) if p[1] == "range"]
+    fov = 20.0
+    nominal, peer = _solvers(fov, span).given(kind, err, 0)
+    assert peer is None  # tetra3rs: its database's range, no estimate
+    assert tolerance in FOV_TOLERANCE
+    assert nominal * (1 - tolerance) == pytest.approx(fov / span)
+    assert nominal * (1 + tolerance) == pytest.approx(fov * span)
+
+
+def test_paths_cover_every_setting_once():
+    rows = paths(1.7)
+    labels = [r[0] for r in rows]
+    assert len(labels) == len(set(labels))
+    assert [r[3] for r in rows if r[1] == "fov" and r[2] == 0.025] == [0.0, 2.5, 4.0]
+    assert ("FOV exact", "fov", 0.0, 0.0) in rows
+    assert {r[1] for r in rows} == {"fov", "range", "blind", "junk"}
+
+
+def test_fov_rows_tell_both_solvers_the_same_estimate():
+    solvers = _solvers(20.0, 1.7)
+    for i in range(4):
+        ours, peer = solvers.given("fov", 4.0, i)
+        assert ours == peer
+        assert abs(ours - 20.0) == pytest.approx(0.8)
+    assert solvers.given("blind", None, 0) == (None, None)
+
+
+def test_any_answer_on_junk_is_wrong_and_no_answer_is_neither():
+    camera = Camera.from_fov(640, 480, 20.0)
+    junk = junk_frames(camera, 2, seed=1)
+    assert len(junk) == 2 and len(junk[0].obs) == 40
+    assert not np.allclose(junk[0].obs.x, junk[1].obs.x)
+    assert score(None, junk[0], None, camera) == (False, False)
+    assert score(("rotation", [], []), junk[0], None, camera) == (True, True)
+
+
+def test_table_gives_the_ratio_to_tetra3rs_and_dashes_for_a_missing_peer():
+    row = {"fov": "20", "path": "FOV exact", "frames": 10, "startrack_solved": 10,
+           "startrack_wrong": 0, "startrack_ms": 0.3, "tetra3rs_solved": 9,
+           "tetra3rs_wrong": 0, "tetra3rs_ms": 0.2}
+    alone = {k: v for k, v in row.items() if not k.startswith("tetra3rs")}
+    lines = table([row, alone]).splitlines()
+    assert lines[2].endswith("| 1.50x |")
+    assert lines[3].endswith("| - | - | - | - |")
+    assert math.isclose(float(lines[2].split("|")[6]), 0.3)
