@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import datetime as dt
 import os
-import sys
 import time
 import types
 from pathlib import Path
@@ -107,15 +106,18 @@ class Solvers:
                 self.args.span, self.args.timeout_ms)
         return self._peer[tolerance]
 
-    def given(self, kind: str, err: float | None, i: int) -> tuple[float | None, float | None]:
-        """What startrack and tetra3rs are told of frame ``i``'s FOV."""
-        if kind == "range":
-            span = self.args.span
-            return self.fov * (span + 1.0 / span) / 2.0, None
-        if kind == "blind":
-            return None, None
-        est = estimate(self.fov, err, i)
-        return est, est
+
+def told(fov: float, span: float, kind: str, err: float | None,
+         i: int) -> tuple[float | None, float | None]:
+    """What startrack and tetra3rs are told of frame ``i``'s FOV (true width ``fov``) on
+    a row of ``kind``: the range's centre for startrack and none for tetra3rs (its
+    database holds the range), nothing when blind, else the same estimate ``err``% off."""
+    if kind == "range":
+        return fov * (span + 1.0 / span) / 2.0, None
+    if kind == "blind":
+        return None, None
+    est = estimate(fov, err, i)
+    return est, est
 
 
 def score(answer, frame, catalog, camera) -> tuple[bool, bool]:
@@ -139,7 +141,7 @@ def lost_in_space_rows(fov: float, args) -> list[dict]:
         frames = junk if kind == "junk" else solvers.frames
         stats = {name: {"solved": 0, "wrong": 0, "ms": []} for name in SOLVERS}
         for i, frame in enumerate(frames):
-            est_ours, est_peer = solvers.given(kind, err, i)
+            est_ours, est_peer = told(fov, args.span, kind, err, i)
             for name, solver, est in (("startrack", ours, est_ours),
                                       ("tetra3rs", peer, est_peer)):
                 answer, ms = solver.solve(frame, est)
@@ -229,7 +231,6 @@ def main() -> None:
         write_between(args.doc, "<!-- bench_paths:start -->", "<!-- bench_paths:end -->",
                       f"{head} tetra3rs from the peers' venv; startrack --method {args.method}."
                       f"\n\n{text}")
-    sys.stdout.flush()
 
 
 if __name__ == "__main__":

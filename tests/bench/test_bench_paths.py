@@ -2,27 +2,20 @@
 path, and scores junk and truth frames as the rest of the benches do."""
 
 import math
-import types
 
 import numpy as np
 import pytest
 
-from scripts.bench.bench_paths import Solvers, junk_frames, paths, score, table
+from scripts.bench.bench_paths import junk_frames, paths, score, table, told
 from startrack.camera import Camera
 from startrack.input_checks import FOV_TOLERANCE
-
-
-def _solvers(fov: float, span: float) -> Solvers:
-    solvers = Solvers.__new__(Solvers)  # no frames or catalog: given() needs neither
-    solvers.fov, solvers.args = fov, types.SimpleNamespace(span=span)
-    return solvers
 
 
 @pytest.mark.parametrize("span", [1.2, 1.5, 1.7])
 def test_range_row_searches_the_peers_range(span):
     (label, kind, tolerance, err), = [p for p in paths(span) if p[1] == "range"]
     fov = 20.0
-    nominal, peer = _solvers(fov, span).given(kind, err, 0)
+    nominal, peer = told(fov, span, kind, err, 0)
     assert peer is None  # tetra3rs: its database's range, no estimate
     assert tolerance in FOV_TOLERANCE
     assert nominal * (1 - tolerance) == pytest.approx(fov / span)
@@ -39,12 +32,11 @@ def test_paths_cover_every_setting_once():
 
 
 def test_fov_rows_tell_both_solvers_the_same_estimate():
-    solvers = _solvers(20.0, 1.7)
     for i in range(4):
-        ours, peer = solvers.given("fov", 4.0, i)
+        ours, peer = told(20.0, 1.7, "fov", 4.0, i)
         assert ours == peer
         assert abs(ours - 20.0) == pytest.approx(0.8)
-    assert solvers.given("blind", None, 0) == (None, None)
+    assert told(20.0, 1.7, "blind", None, 0) == (None, None)
 
 
 def test_any_answer_on_junk_is_wrong_and_no_answer_is_neither():

@@ -10,12 +10,12 @@ import dataclasses
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from test_principal_point import FOV, SIZE, _solved
 
 from startrack.camera import Camera, RadialDistortion
 from startrack.sky import SkySpec, load_sky
 from startrack.verify._evidence import _labels_problem, camera_problem
 from startrack.verify._refit import CATALOG_STARS, refit_stars
+from tests.solver.test_principal_point import FOV, SIZE, _solved
 
 CAMERA = Camera.from_fov(SIZE, SIZE, FOV)
 
