@@ -81,6 +81,7 @@ def cpu_seconds() -> float:
 def timed(label: str, seconds: dict, fn, *args, **kwargs):
     """Run one stage; ``seconds[label]`` gets its wall time and ``seconds[label + " cpu"]``
     its CPU time (workers included), to size a full run on another machine."""
+    print(f"{label}: running", flush=True)
     t0, c0 = time.perf_counter(), cpu_seconds()
     out = fn(*args, **kwargs)
     seconds[label] = round(time.perf_counter() - t0, 1)
