@@ -4,6 +4,7 @@ behind every answer of :mod:`startrack.solver._fov_search`)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -37,6 +38,12 @@ LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1 = 6, 0.04, 0.3
 BRIGHTEST = 16
 #: ... only when the whole frame confirmed at least this many stars (fewer cannot pass)
 BRIGHTEST_MIN_CONFIRMED = 3
+#: ... against this many of the brightest catalog stars in the image: a frame's brightest
+#: spots are its brightest stars (give or take a band's colours, a saturated pair), and a
+#: deep catalog's faint stars, which they cannot confirm, would only raise the chance of a
+#: coincidence the bound allows for (a median-subtracted frame of 14,000 spots, its right
+#: answer refused against a sky cut for its field and passed against a shallower one)
+BRIGHTEST_CATALOG_STARS = 2 * BRIGHTEST
 #: a fitted k1 stands only where it lowers the squared pixel residuals by more than this
 #: many times their variance: the 1-degree-of-freedom chi-square of the 3-sigma rule
 #: (startrack.solver._calibrate_sigma). A pinhole's k1 fitted to noise would bend the
@@ -100,7 +107,8 @@ def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
     """Verify ``hyp`` with ``camera``, fit the camera to every matched star and verify
     again with the fitted camera: (verification, camera, observation of every star), None
     unless both pass. When the whole frame fails but confirms a few stars, the same test
-    runs on the ``BRIGHTEST`` stars alone (a prefix: the rows stay the same): a deep
+    runs on the ``BRIGHTEST`` stars alone (a prefix: the rows stay the same), against
+    the ``BRIGHTEST_CATALOG_STARS`` brightest catalog stars in the image: a deep
     camera's faint detections, mostly stars the catalog lacks, each add a chance of a
     coincidence, and the bound over the bright stars alone holds just as well. Trying
     that second set of stars is one more test per hypothesis, as one more hypothesis
@@ -112,7 +120,7 @@ def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
             or len(x) <= BRIGHTEST or np.max(hyp.obs_index) >= BRIGHTEST:
         return found if isinstance(found, tuple) else None
     bright = _verify_fitted(hyp, x[:BRIGHTEST], y[:BRIGHTEST], camera, sigma_px, database,
-                            config)
+                            dataclasses.replace(config, catalog_stars=BRIGHTEST_CATALOG_STARS))
     if not isinstance(bright, tuple):
         return None
     check, fitted, _ = bright
@@ -209,7 +217,8 @@ def _rounds(camera: Camera, sigma_px: float, database: StarDatabase,
     params = {"radius_px": 0.0, "cos_radius": 0.0, "cone_radius": 0.0, "margin_cos": 0.0,
               "capture": CAPTURE, "max_rounds": MAX_REFINEMENTS,
               "min_confirmed": config.min_confirmed,
-              "max_probability": config.max_false_probability, "label": label}
+              "max_probability": config.max_false_probability,
+              "max_stars": config.catalog_stars, "label": label}
     frame = {"cx": camera.cx, "cy": camera.cy, "width": camera.width,
              "height": camera.height, "corner_r": camera.corner_radius_px,
              "sigma_px": float(sigma_px), "fixed_radius": fixed,

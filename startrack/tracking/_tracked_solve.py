@@ -161,6 +161,7 @@ class CatalogCone:
                      "capture": CAPTURE, "max_rounds": MAX_REFINEMENTS,
                      "min_confirmed": vc.min_confirmed,
                      "max_probability": vc.max_false_probability,
+                     "max_stars": vc.catalog_stars,
                      "label": label_params(obs, radius_px)}
             # Off-axis, an angle spans more pixels: 1 + tan^2 at the farthest corner.
             stretch = 1.0 + math.tan(math.radians(cam.half_diagonal_deg)) ** 2

@@ -78,6 +78,7 @@ class FrameVerifier:
                   "capture": CAPTURE, "max_rounds": MAX_REFINEMENTS,
                   "min_confirmed": config.min_confirmed,
                   "max_probability": config.max_false_probability,
+                  "max_stars": config.catalog_stars,
                   "label": label_params(obs, radius)}
         frame = Frame(_as(obs.vectors), _as(obs.x), _as(obs.y), obs.kernel_flux(),
                       camera_geometry(camera))

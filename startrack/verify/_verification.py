@@ -39,7 +39,9 @@ class VerifyConfig:
     """``match_radius_px``: how far an observed star may lie from its catalog star (None:
     ``radius_sigma`` centroid sigmas, at least ``min_radius_px``). ``max_false_probability``:
     the bound on a coincidental match. ``min_confirmed``: stars outside the hypothesis that
-    must be confirmed whatever the probability says."""
+    must be confirmed whatever the probability says. ``catalog_stars``: the bound counts
+    only the brightest this many catalog stars in the image (0: all), for a check of a
+    frame's brightest spots alone."""
 
     match_radius_px: float | None = None
     radius_sigma: float = 4.0
@@ -47,6 +49,7 @@ class VerifyConfig:
     max_false_probability: float = 1e-9
     min_confirmed: int = 2
     max_hypotheses: int = 500
+    catalog_stars: int = 0
 
     def radius_px(self, obs: Observation) -> float:
         if self.match_radius_px is not None:

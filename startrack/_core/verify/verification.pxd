@@ -41,6 +41,8 @@ cdef struct CheckParams:
     Py_ssize_t max_rounds   # refinement rounds at most
     Py_ssize_t min_confirmed  # stars outside the hypothesis that must be confirmed
     double max_probability  # the bound on a coincidental match
+    Py_ssize_t max_stars    # the bound counts only the brightest this many catalog stars
+                            # in the image (0: all of them)
     LabelParams label       # the final labelling's thresholds
 
 

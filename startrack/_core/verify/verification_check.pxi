@@ -98,7 +98,10 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
     acceptance, then refinement, labelling, residuals and quaternion. ``cone``: where to
     look a fresh cone up when the refinement leaves this one's margin (None: fixed)."""
     cdef Verdict v = _verdict(NOT_ACCEPTED, _matrix_array(first), 0 if cone is None else 1)
-    cdef Matches m = match(frame, stars.vectors, first, params.radius_px)
+    cdef Matches m = (match(frame, stars.vectors, first, params.radius_px)
+                      if params.max_stars <= 0 else
+                      match_brightest(frame, stars.vectors, first, params.radius_px,
+                                      params.max_stars))
     cdef Py_ssize_t k, n = frame.n
     v.confirmed = _confirmed(m, hyp_obs)
     if v.confirmed > 0:

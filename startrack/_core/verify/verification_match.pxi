@@ -144,6 +144,23 @@ cdef Matches match(Frame frame, const double[:, ::1] vectors, const double[:, :]
                                                 frame.geometry), radius)
 
 
+cdef Matches match_brightest(Frame frame, const double[:, ::1] vectors,
+                             const double[:, :] matrix, double radius, Py_ssize_t max_stars):
+    """match() against only the first ``max_stars`` of ``vectors`` (brightest first, as a
+    cone's rows are) that fall in the image widened by ``radius``: a frame's brightest
+    spots checked against the brightest catalog stars, so that a deep catalog's faint
+    stars, which such spots cannot confirm, do not raise the chance of a coincidence."""
+    cdef Projection p = _project_into(frame.work.passing, vectors, matrix, frame.geometry)
+    cdef _Bounds b = _widened(frame.geometry, radius)
+    cdef Py_ssize_t i, inside = 0
+    for i in range(p.x.shape[0]):
+        if inside >= max_stars:
+            p.valid[i] = 0
+        elif _inside(&p.x[0], &p.y[0], &p.valid[0], i, b):
+            inside += 1
+    return match_projected(frame, p, radius)
+
+
 cdef Py_ssize_t _confirmed(Matches m, const long long[::1] hyp_obs):
     """How many of the matched observed stars are not among ``hyp_obs``."""
     # A hypothesis has a few distinct stars: scanning them beats allocating flags.
