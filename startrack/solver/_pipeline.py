@@ -30,11 +30,12 @@ from startrack.sky import Catalog, SkySpec, gaia_min_fov, load_sky
 from startrack.solver._aberration import correct_result
 from startrack.solver._deadline import Deadline
 from startrack.solver._deeper import (
-    SKIP,
     remaining_ms,
     renumbered,
+    reordered,
+    second_look_order,
+    tables_to_release,
     wants_second_look,
-    without_brightest,
 )
 from startrack.solver._fov_search import BlindSolver
 from startrack.solver._hints import cut_to_cone, header_time
@@ -181,12 +182,14 @@ class Pipeline:
         options, left = self.options, remaining_ms(self.options.timeout_ms, t0)
         if left is not None and left <= 0:
             return found
-        look = dataclasses.replace(frame, centroids=without_brightest(frame.centroids))
-        # the first look's searches let go: their mapped pattern tables leave memory, so
-        # the second look's pages come in their place, not on top (a 1 deg frame's blind
-        # second look held 2.7 GB with them)
-        self._blind.clear()
-        gc.collect()
+        order, stage = second_look_order(frame.centroids)
+        look = dataclasses.replace(frame, centroids=reordered(frame.centroids, order))
+        # where the process holds much (a narrow field's deep tables), the first look's
+        # searches let go, so that the second look's pages come in their place, not on top
+        # (startrack.solver._deeper.RELEASE_ABOVE_BYTES)
+        if tables_to_release():
+            self._blind.clear()
+            gc.collect()
         # the rest of the time limit; the centroid error of the spots it looks at (the
         # left-out ones, nebula knots or blooming, widened it)
         self.options = dataclasses.replace(options, timeout_ms=left)
@@ -195,14 +198,14 @@ class Pipeline:
             again = search(look)
         finally:
             self.options = options
-        self.trail.add(f"second look, past the {SKIP} brightest spots", "quad", sky,
+        self.trail.add(stage, "quad", sky,
                        None if camera is None else camera.fov_deg,
                        None if isinstance(again, FrameResult) else again.solution)
         if isinstance(again, FrameResult) or not again.solution.solved:
             self.sigma_px = sigma
             return found if isinstance(again, FrameResult) else found.plus_ms(
                 again.solution.identify_ms)
-        return renumbered(found, again, frame.centroids, self.sigma_px)
+        return renumbered(found, again, frame.centroids, order, self.sigma_px)
 
     def database_of(self, catalog: Catalog) -> StarDatabase | None:
         """The database an identifier already holds for ``catalog``, if any."""
