@@ -23,7 +23,8 @@ from collections.abc import Iterator
 import numpy as np
 from scipy.spatial import cKDTree
 
-from startrack._core.database.quad_table import enumerate_quads
+from startrack._core._threads import usable_cores
+from startrack._core.database.quad_table import enumerate_quads, pattern_keys
 from startrack.io import cached_arrays
 
 STARS_PER_FRAME = 25  # pattern stars in an average frame of a level's FOV
@@ -87,7 +88,8 @@ def pattern_radii(vectors: np.ndarray, min_rad: float, max_rad: float,
     if kk <= 0 or max_rad <= min_rad:
         return np.full(len(heads), float(min_rad)), np.full((len(heads), 0), n, np.int64)
     tree = cKDTree(vectors) if tree is None else tree
-    dist, near = tree.query(heads, k=kk + 1, distance_upper_bound=_chord(max_rad))
+    dist, near = tree.query(heads, k=kk + 1, distance_upper_bound=_chord(max_rad),
+                            workers=usable_cores())
     kth = dist[:, -1]
     angle = np.where(np.isfinite(kth), 2.0 * np.arcsin(np.clip(kth / 2.0, 0.0, 1.0)),
                      max_rad)
@@ -105,10 +107,13 @@ def _neighbour_lists(vectors: np.ndarray, min_rad: float, sparse_rows: np.ndarra
     n = len(vectors)
     first, stop, _ = rows.indices(n)
     tree = cKDTree(vectors) if tree is None else tree
-    near = cKDTree(vectors[first:stop]).sparse_distance_matrix(tree, _chord(min_rad),
-                                                                output_type="ndarray")
-    head_p = near["i"].astype(np.int64) + first
-    other_p = near["j"].astype(np.int64)
+    near = tree.query_ball_point(vectors[first:stop], _chord(min_rad), workers=usable_cores(),
+                                 return_sorted=False)
+    counts = np.fromiter(map(len, near), np.int64, len(near))
+    head_p = np.repeat(np.arange(first, stop, dtype=np.int64), counts)
+    other_p = np.concatenate([np.asarray(r, np.int64) for r in near]) if len(near) else \
+        np.zeros(0, np.int64)
+    del near
     higher = other_p > head_p
     head = np.repeat(np.arange(first, stop, dtype=np.int64), sparse_rows.shape[1])
     other = sparse_rows.ravel().astype(np.int64)
@@ -174,14 +179,16 @@ def build_level_arrays(vectors: np.ndarray, level_deg: float) -> dict[str, np.nd
     (a first test of a lookup's candidates that needs no star of the catalog)."""
     head = vectors[: min(len(vectors), level_stars(level_deg))]
     key_parts, quad_parts, ratio_parts = [], [], []
-    # Chunk by chunk: the edges of every pattern at once (six pairs of 3-vectors each)
-    # would hold ~300 bytes per pattern, GBs for a deep catalog's narrow level.
+    # Chunk by chunk, each pattern's key compiled (startrack._core.database.quad_table):
+    # the whole table's patterns at once would hold GBs for a deep catalog's narrow level.
+    v = np.ascontiguousarray(head, np.float64)
     for part in quad_chunks(head, PATTERN_SIZE * math.radians(level_deg),
                             MAX_PATTERN_SIZE * math.radians(level_deg)):
-        r, _ = ratios(edge_angles(head, part))
-        key_parts.append(keys_of(r).astype(np.int32))
+        keys, stored = pattern_keys(v, np.ascontiguousarray(part, np.int64), EDGES, BIN,
+                                    NBINS, float(RATIO_STEPS))
+        key_parts.append(keys)
         quad_parts.append(part.astype(np.int32))
-        ratio_parts.append(np.round(r * RATIO_STEPS).astype(np.uint8))
+        ratio_parts.append(stored)
     if not key_parts:
         return {"keys": np.zeros(0, np.int32), "quads": np.zeros((0, 4), np.int32),
                 "ratios": np.zeros((0, 5), np.uint8)}

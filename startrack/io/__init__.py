@@ -6,10 +6,11 @@ from startrack._lazy import lazy_exports
 
 __all__ = [
     "FILE_KIND", "SKY_KINDS", "SkySpec",
-    "announce_builds", "atomic_path", "atomic_text", "cache_dir", "cache_entries",
+    "announce_builds", "atomic_path", "atomic_text", "build_seconds", "cache_dir", "cache_entries",
     "cache_max_bytes", "cached_arrays", "cached_file", "cached_parse", "check_pixels",
     "clear_cache", "date_obs_of", "DEFAULT_CACHE_MAX_MB", "find_sidecar", "FITS_SUFFIXES",
     "guarded_stdout", "max_image_pixels", "OutputClosed", "read_image", "read_sidecar",
+    "release_mapped_pages", "resident_bytes", "shed_memory",
     "resource_path", "RunFolder", "sidecar_path_for", "STARS_COLUMNS", "TRUTH_COLUMNS",
     "with_sidecars", "write_fits", "write_png16", "Writer",
 ]
@@ -21,6 +22,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "announce_builds": "_cache",
     "atomic_path": "_writer",
     "atomic_text": "_writer",
+    "build_seconds": "_cache",
     "cache_dir": "_cache",
     "cache_entries": "_cache",
     "cache_max_bytes": "_cache",
@@ -38,6 +40,9 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "OutputClosed": "_writer",
     "read_image": "_images",
     "read_sidecar": "_sidecar",
+    "release_mapped_pages": "_npz",
+    "resident_bytes": "_memory",
+    "shed_memory": "_memory",
     "resource_path": "_resources",
     "RunFolder": "_run_folder",
     "sidecar_path_for": "_sidecar",

@@ -34,15 +34,17 @@ from platformdirs import user_cache_dir
 
 from startrack.errors import StartrackWarning
 from startrack.input_checks import CACHE_MAX_MB, env_number
+from startrack.io._memory import shed_memory, trim_heap
 from startrack.io._npz import CHECKSUM_KEY, ENTRY_KEY, arrays_checksum
 from startrack.io._npz import read_npz as _read_npz
 from startrack.io._npz import write_npz as _write_npz
 from startrack.io._writer import atomic_path
 
 CACHE_VERSION = 4  # 2: a checksum; 3: XXH3-128 instead of SHA-256; 4: the key inside
-# room for a blind search's Gaia pattern tables and a deep sky's (Tycho-2's narrow levels,
-# ~0.1 to 0.7 GB each, mapped) beside the rest: a cap below them rebuilds them every run
-DEFAULT_CACHE_MAX_MB = 4096
+# room for a blind search's pattern tables, Gaia's and Tycho-2's narrow levels (~1.4 GB,
+# ~0.1 to 0.4 GB each, mapped), beside a dozen cameras' pair tables (~150 MB each): the
+# real frames of 12 cameras filled 4 GB, and evicting a narrow level costs a 30 s rebuild
+DEFAULT_CACHE_MAX_MB = 8192
 #: an entry this large (a deep catalog, its pattern tables) is mapped, not read: a process
 #: touches only the pages its lookups need, and loading costs milliseconds. Its hash is
 #: checked when it is written; on load, the key, every member's size and the zip
@@ -61,7 +63,30 @@ def announce_builds(on: bool) -> None:
     _announce["on"] = bool(on)
 
 
+_build_seconds = [0.0]  # this process's seconds spent building cache entries
+
+
+def build_seconds() -> float:
+    """Seconds this process has spent building cache entries: a one-time cost that the
+    solver's time limit leaves out (startrack.solver._deadline.clock)."""
+    return _build_seconds[0]
+
+
 def _built(kind: str, build: Callable[[], dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """``build()``, timed into :func:`build_seconds`, with the mapped entries' pages
+    dropped from the process first and the heap trimmed after
+    (:mod:`startrack.io._memory`: a deep level's build holds a GB, the tables searched so
+    far need not sit under it, nor its freed arrays under the search that follows)."""
+    shed_memory()
+    t0 = time.perf_counter()
+    try:
+        return _announced(kind, build)
+    finally:
+        _build_seconds[0] += time.perf_counter() - t0
+        trim_heap()
+
+
+def _announced(kind: str, build: Callable[[], dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     """``build()``, announced on stderr when it runs past :data:`BUILD_NOTICE_S`."""
     if not _announce["on"]:
         return build()

@@ -5,8 +5,11 @@ checksum of the arrays and the entry's own key ride along as two more members.""
 from __future__ import annotations
 
 import concurrent.futures
+import contextlib
 import math
+import mmap
 import struct
+import weakref
 import zipfile
 from pathlib import Path
 
@@ -50,11 +53,34 @@ def read_member(fh, info: zipfile.ZipInfo, mapped: bool = False) -> np.ndarray |
     if fh.tell() - start + nbytes != info.file_size:
         raise ValueError("member size does not match its header")
     if mapped and nbytes:
-        return np.memmap(fh.name, dtype, "r", fh.tell(), shape, "F" if fortran else "C")
+        arr = np.memmap(fh.name, dtype, "r", fh.tell(), shape, "F" if fortran else "C")
+        _MAPS.append(weakref.ref(arr._mmap))
+        return arr
     raw = np.empty(nbytes, np.uint8)
     if fh.readinto(raw) != nbytes:
         raise ValueError("truncated member")
     return raw.view(dtype).reshape(shape, order="F" if fortran else "C")
+
+
+#: the maps of the members read mapped, while they live
+_MAPS: list[weakref.ref] = []
+
+
+def release_mapped_pages() -> None:
+    """Drop every mapped member's pages from this process's resident memory (madvise
+    MADV_DONTNEED): the file's pages stay in the page cache, where the kernel may reclaim
+    them, and a later read maps them back without a disk read while they remain. A
+    search that swept a deep table touched most of its pages; without this they count
+    against the process until it exits."""
+    alive = []
+    for ref in _MAPS:
+        mapping = ref()
+        if mapping is None or mapping.closed:
+            continue
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            mapping.madvise(mmap.MADV_DONTNEED)
+        alive.append(ref)
+    _MAPS[:] = alive
 
 
 def read_npz(path: Path, mapped: bool = False) -> dict[str, np.ndarray]:
@@ -101,4 +127,4 @@ def write_member(fh, arr: np.ndarray) -> None:
     fh.write(arr.reshape(-1).view(np.uint8))
 
 __all__ = ["CHECKSUM_KEY", "ENTRY_KEY", "arrays_checksum", "read_member", "read_npz",
-           "write_member", "write_npz"]
+           "release_mapped_pages", "write_member", "write_npz"]

@@ -15,14 +15,14 @@ same verification and evidence gate as any other.
 from __future__ import annotations
 
 import dataclasses
-import os
-import time
 
 import numpy as np
 
 from startrack.centroids import Centroids
+from startrack.io import resident_bytes
 from startrack.match_records import Observation
 from startrack.matchers import IMAGE_STARS
+from startrack.solver._deadline import clock
 
 #: the brightest spots a second look leaves out: half the pattern stars, so that it sees
 #: the next ones while the remaining true stars among the first still make patterns
@@ -86,17 +86,13 @@ def tables_to_release() -> bool:
     """Whether the first look's search tables should go before a second look: the
     process's resident memory (Linux's /proc/self/statm) is above
     :data:`RELEASE_ABOVE_BYTES`, or cannot be read."""
-    try:
-        with open("/proc/self/statm", "rb") as statm:
-            resident = int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-    except (OSError, ValueError, IndexError):
-        return True
-    return resident > RELEASE_ABOVE_BYTES
+    resident = resident_bytes()
+    return resident is None or resident > RELEASE_ABOVE_BYTES
 
 
 def remaining_ms(timeout_ms: float | None, t0: float) -> float | None:
-    """What is left of ``timeout_ms`` (None: no limit) since ``time.perf_counter()`` was
-    ``t0``."""
+    """What is left of ``timeout_ms`` (None: no limit) since the deadlines' clock
+    (:func:`startrack.solver._deadline.clock`) read ``t0``."""
     if timeout_ms is None:
         return None
-    return timeout_ms - (time.perf_counter() - t0) * 1000.0
+    return timeout_ms - (clock() - t0) * 1000.0

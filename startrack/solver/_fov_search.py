@@ -29,6 +29,7 @@ import numpy as np
 from startrack.camera import Camera
 from startrack.database import ConeIndex, StarDatabase
 from startrack.defaults import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
+from startrack.io import shed_memory
 from startrack.match_records import MatchDiagnostics, Observation, Solution
 from startrack.matchers import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
@@ -196,6 +197,12 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
     return unsolved("no_match")
 
 
+#: a search holding more than this after a window gives back the table pages it swept
+#: and its freed heap (startrack.io.shed_memory): a deep sky's narrow levels would all
+#: stay resident, GBs by the end of a search that finds nothing
+SHED_ABOVE_BYTES = 1 << 30
+
+
 class BlindSolver:
     """The blind search over :data:`BLIND_FOV_RANGE` for one (uncut) catalog."""
 
@@ -261,11 +268,13 @@ class BlindSolver:
                     base, f_px=math.sqrt(window.f_lo * window.f_hi)))
                 found = search_window(self.matcher, x, y, base, window, self.sigma_px, db,
                                       self.config, diag, seen, deadline, given=camera)
-                if found is not None:
-                    if camera is not None:
-                        found = keep_given(found, camera, self.sigma_px, db, self.config)
-                    return _result(found, self.catalog, self.matcher.name, diag, t0,
-                                   self.config, db)
+                if found is None:
+                    shed_memory(SHED_ABOVE_BYTES)
+                    continue
+                if camera is not None:
+                    found = keep_given(found, camera, self.sigma_px, db, self.config)
+                return _result(found, self.catalog, self.matcher.name, diag, t0,
+                               self.config, db)
         except SearchTimeout:
             reason = "timeout"
         obs = Observation.from_pixels(x, y, base, self.sigma_px)

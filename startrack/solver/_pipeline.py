@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import gc
 import sys
-import time
 from pathlib import Path
 
 from startrack.camera import Camera
@@ -28,7 +27,7 @@ from startrack.match_records import Timing
 from startrack.matchers import get_matcher
 from startrack.sky import Catalog, SkySpec, gaia_min_fov, load_sky
 from startrack.solver._aberration import correct_result
-from startrack.solver._deadline import Deadline
+from startrack.solver._deadline import Deadline, clock
 from startrack.solver._deeper import (
     remaining_ms,
     renumbered,
@@ -168,7 +167,7 @@ class Pipeline:
         configured method's ``FrameResult`` where that stands); where it matched nothing,
         a second look past the brightest spots (:mod:`startrack.solver._deeper`), within
         the input's time limit."""
-        t0, deadline = time.perf_counter(), Deadline.after_ms(self.options.timeout_ms)
+        t0, deadline = clock(), Deadline.after_ms(self.options.timeout_ms)
 
         def search(look: FrameInput):
             if camera is None:

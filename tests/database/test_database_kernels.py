@@ -188,3 +188,31 @@ def test_a_pair_table_read_back_from_the_cache_maps_its_stored_lists():
     assert len(other.lists[0]) == len(sky) + 2
     with pytest.raises(ValueError, match="another table"):
         PairNeighbours(table.i, table.j, table.angle, len(sky) + 1, lists=index.lists)
+
+
+def test_pattern_keys_are_numpys_keys_and_ratios():
+    """The compiled keys and stored ratios of a level's patterns are numpy's, bit for bit,
+    from patterns a few arcmin wide to a hemisphere's."""
+    from startrack._core.database.quad_table import pattern_keys
+
+    from startrack.database._quads import (
+        BIN,
+        EDGES,
+        NBINS,
+        RATIO_STEPS,
+        edge_angles,
+        keys_of,
+        ratios,
+    )
+
+    rng = np.random.default_rng(3)
+    for spread in (1e-3, 1e-2, 0.3, 2.0):
+        centre = rng.normal(size=3)
+        v = centre / np.linalg.norm(centre) + spread * rng.normal(size=(3000, 3))
+        v = np.ascontiguousarray(v / np.linalg.norm(v, axis=1)[:, None])
+        quads = np.array([rng.choice(len(v), 4, replace=False) for _ in range(4000)])
+        quads[:5, 1] = quads[:5, 0]  # a repeated star: a zero edge
+        r, _ = ratios(edge_angles(v, quads))
+        keys, stored = pattern_keys(v, quads, EDGES, BIN, NBINS, float(RATIO_STEPS))
+        np.testing.assert_array_equal(keys, keys_of(r).astype(np.int32))
+        np.testing.assert_array_equal(stored, np.round(r * RATIO_STEPS).astype(np.uint8))

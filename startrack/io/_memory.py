@@ -1,0 +1,59 @@
+"""What the process holds in memory, and giving back what it need not hold.
+
+A blind search sweeps deep pattern tables that are mapped from the disk cache: every
+page it reads stays resident until the process exits, and a first use's table build
+leaves its freed GB in the C heap. :func:`shed_memory` drops both (the mapped pages go
+back to the page cache, the heap's free tail to the system), so that a command's peak is
+what it uses at once, not everything it has touched.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import ctypes.util
+import os
+
+from startrack.io._npz import release_mapped_pages
+
+
+def resident_bytes() -> int | None:
+    """The process's resident memory (Linux's /proc/self/statm); None where unreadable."""
+    try:
+        with open("/proc/self/statm", "rb") as statm:
+            return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _libc():
+    name = ctypes.util.find_library("c")
+    with contextlib.suppress(OSError):
+        return ctypes.CDLL(name) if name else None
+    return None
+
+
+_LIBC = [None, False]  # the C library, and whether it was looked for
+
+
+def trim_heap() -> None:
+    """Give the C heap's free memory back to the system (glibc's malloc_trim; elsewhere
+    nothing): numpy's large arrays freed after a build otherwise stay counted."""
+    if not _LIBC[1]:
+        _LIBC[:] = [_libc(), True]
+    trim = getattr(_LIBC[0], "malloc_trim", None)
+    if trim is not None:
+        trim(0)
+
+
+def shed_memory(above_bytes: int = 0) -> bool:
+    """Drop the mapped tables' pages and trim the heap when the resident memory is above
+    ``above_bytes`` (or cannot be read); whether it did."""
+    resident = resident_bytes()
+    if resident is not None and resident <= above_bytes:
+        return False
+    release_mapped_pages()
+    trim_heap()
+    return True
+
+__all__ = ["resident_bytes", "shed_memory", "trim_heap"]
