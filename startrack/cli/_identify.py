@@ -106,8 +106,9 @@ def _time(ctx, param, value):
 @click.option("--timeout-ms", type=Number(SOLVER_BOUNDS["timeout_ms"]),
               default=DEFAULT_TIMEOUT_MS, show_default=True,
               help="Wall-clock limit per input, over all its stages (the method, the FOV "
-                   "refit and search); past it the input is not solved, with reason "
-                   "timeout in its record (docs/limits.md).")
+                   "refit and search; a first use's one-time table builds not counted); "
+                   "past it the input is not solved, with reason timeout in its record "
+                   "(docs/limits.md).")
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="json: one JSON line per input, in input order.")
 @click.option("--output", type=click.Path(dir_okay=False),
