@@ -58,10 +58,10 @@ def refit_camera(rotation, x, y, camera, catalog, radius_px: float,
     """:class:`Refit` of an answer (``rotation`` through ``camera``, the spots at ``x``,
     ``y`` brightest first, matched within ``radius_px``; ``sigma_px``: the least
     centroid error the residuals are taken to have); None when too few pairs fit."""
-    boresight = rotation.apply(np.array([0.0, 0.0, 1.0]))
-    near = np.flatnonzero(catalog.vectors @ boresight > math.cos(
+    matrix = rotation.as_matrix()  # camera to sky: its last column is the boresight
+    near = np.flatnonzero(catalog.vectors @ matrix[:, 2] > math.cos(
         math.radians(camera.half_diagonal_deg)))
-    v = rotation.inv().apply(catalog.vectors[near])
+    v = catalog.vectors[near] @ matrix  # sky to camera: the transpose, row by row
     cx, cy, front = camera.vector_to_pixel(v)
     inside = np.flatnonzero(front & camera.in_image(cx, cy))
     v = v[inside[np.argsort(catalog.mag[near[inside]], kind="stable")][:CATALOG_STARS]]
@@ -87,11 +87,8 @@ def refit_stars(v: np.ndarray, x: np.ndarray, y: np.ndarray, camera, radius_px: 
     cx0, cy0 = (camera.width - 1) / 2.0, (camera.height - 1) / 2.0
     given = camera.pixel_to_vector(np.array([cx0]), np.array([cy0]))[0]
     centre = np.array(camera_refit.centre(p, cx0, cy0))
-    grad = np.empty((2, 7))
-    for k in range(7):
-        q = p.copy()
-        q[k] += math.sqrt(max(cov[k, k], 0.0)) * 1e-3 + 1e-12
-        grad[:, k] = (np.array(camera_refit.centre(q, cx0, cy0)) - centre) / (q[k] - p[k])
+    steps = np.sqrt(np.maximum(np.diagonal(cov), 0.0)) * 1e-3 + 1e-12
+    grad = camera_refit.centre_gradient(p, cx0, cy0, steps)
     shift = float(np.hypot(*(centre - given[:2] / given[2]))) * camera.f_px
     sigma = math.sqrt(max(float(np.trace(grad @ cov @ grad.T)), 0.0)) * camera.f_px
     spots, _ = camera_refit.pairs(p, v, x, y, radius_px)

@@ -84,7 +84,7 @@ def _fit(p, v, x, y, free_k1: bool):
                 break
         else:
             damping *= 10.0
-            if damping > 1e8:
+            if damping > 1e8 or np.all(np.abs(step) <= 1e-7 * (1.0 + np.abs(p))):
                 break
     return p, r, jac
 

@@ -111,12 +111,14 @@ cdef bint _fit(double* p, const double[:, ::1] v, const double[::1] x, const dou
         for c in range(NP):
             g[c] /= norm[c]
             trial[c] = p[c] + g[c]
+            small = small and fabs(g[c]) <= 1e-7 * (1.0 + fabs(p[c]))
         _project(trial, v, star, n, fit.px, fit.py)
         for i in range(n):
             fit.trial_r[i] = fit.px[i] - x[spot[i]]
             fit.trial_r[n + i] = fit.py[i] - y[spot[i]]
         r2t = _sum_squares(fit.trial_r, rows)
         if r2t < fit.r2:
+            small = True
             for c in range(NP):
                 p[c] = trial[c]
                 small = small and fabs(g[c]) <= 1e-7 * (1.0 + fabs(p[c]))
@@ -125,8 +127,10 @@ cdef bint _fit(double* p, const double[:, ::1] v, const double[::1] x, const dou
             if small:
                 break
         else:
+            # a step this small that does not lower the residuals: at the minimum, to
+            # rounding (raising the damping a dozen times more found nothing)
             damping *= 10.0
-            if damping > 1e8:
+            if damping > 1e8 or small:
                 break
     return True
 
@@ -213,6 +217,32 @@ def fit_rounds(double[::1] p, const double[:, ::1] v, const double[::1] x,
 def centre(const double[::1] p, double x, double y):
     """Tangent-plane direction (u, v), in the answer's camera frame, of pixel (x, y)
     through ``p`` (k1 inverted by eight fixed-point steps: small near the centre)."""
+    cdef double u, t
+    _centre(&p[0], x, y, &u, &t)
+    return u, t
+
+
+def centre_gradient(const double[::1] p, double x, double y, const double[::1] steps):
+    """The 2 x 7 forward-difference gradient of :func:`centre` at ``p``, parameter k
+    moved by ``steps[k]``."""
+    grad = np.empty((2, NP))
+    cdef double[:, ::1] out = grad
+    cdef double q[NP]
+    cdef double u0, t0, u, t
+    cdef int k, c
+    _centre(&p[0], x, y, &u0, &t0)
+    for k in range(NP):
+        for c in range(NP):
+            q[c] = p[c]
+        q[k] += steps[k]
+        _centre(q, x, y, &u, &t)
+        out[0, k] = (u - u0) / (q[k] - p[k])
+        out[1, k] = (t - t0) / (q[k] - p[k])
+    return grad
+
+
+cdef void _centre(const double* p, double x, double y, double* cu,
+                  double* cv) noexcept nogil:
     cdef double du = (x - p[4]) / p[3], dv = (y - p[5]) / p[3], u = du, t = dv, s
     cdef Rotation r = _rotation(&p[0])
     cdef int i
@@ -223,4 +253,4 @@ def centre(const double[::1] p, double x, double y):
     cdef double w0 = r.m[0][0] * u + r.m[1][0] * t + r.m[2][0]
     cdef double w1 = r.m[0][1] * u + r.m[1][1] * t + r.m[2][1]
     cdef double w2 = r.m[0][2] * u + r.m[1][2] * t + r.m[2][2]
-    return w0 / w2, w1 / w2
+    cu[0], cv[0] = w0 / w2, w1 / w2
