@@ -29,7 +29,7 @@ import numpy as np
 from startrack.camera import Camera
 from startrack.database import ConeIndex, StarDatabase
 from startrack.defaults import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
-from startrack.io import shed_memory
+from startrack.io import resident_bytes, shed_memory
 from startrack.match_records import MatchDiagnostics, Observation, Solution
 from startrack.matchers import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
@@ -197,10 +197,12 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
     return unsolved("no_match")
 
 
-#: a search holding more than this after a window gives back the table pages it swept
-#: and its freed heap (startrack.io.shed_memory): a deep sky's narrow levels would all
-#: stay resident, GBs by the end of a search that finds nothing
-SHED_ABOVE_BYTES = 1 << 30
+#: a search whose process grew by more than this since it started gives back the table
+#: pages it swept and its freed heap after a window (startrack.io.shed_memory): a deep
+#: sky's narrow levels would all stay resident, GBs by the end of a search that finds
+#: nothing. Growth, not size: a process that holds much already (a bench, a compare) and
+#: searches small tables would otherwise read them back after every window.
+SHED_GROWTH_BYTES = 768 << 20
 
 
 class BlindSolver:
@@ -259,6 +261,7 @@ class BlindSolver:
             f_of_fov(size[0], max(self.fov_range) * (1.0 + MARGIN)),
             f_of_fov(size[0], min(self.fov_range) / (1.0 + MARGIN)))
         diag, seen = MatchDiagnostics(), set()
+        held = resident_bytes() or 0
         db = self.database_for(base)
         reason = "no_match" if len(x) >= 3 else "too_few_stars"
         try:
@@ -269,7 +272,7 @@ class BlindSolver:
                 found = search_window(self.matcher, x, y, base, window, self.sigma_px, db,
                                       self.config, diag, seen, deadline, given=camera)
                 if found is None:
-                    shed_memory(SHED_ABOVE_BYTES)
+                    shed_memory(held + SHED_GROWTH_BYTES)
                     continue
                 if camera is not None:
                     found = keep_given(found, camera, self.sigma_px, db, self.config)

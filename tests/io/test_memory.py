@@ -35,8 +35,10 @@ def test_shed_memory_acts_only_above_its_threshold(monkeypatch):
     assert calls == []
     assert _memory.shed_memory(above_bytes=0)
     assert calls == ["pages", "heap"]
-    monkeypatch.setattr(_memory, "resident_bytes", lambda: None)  # unreadable: shed
-    assert _memory.shed_memory(above_bytes=2**62)
+    monkeypatch.setattr(_memory, "resident_bytes", lambda: None)  # unreadable: only 0
+    assert not _memory.shed_memory(above_bytes=1)
+    assert _memory.shed_memory(above_bytes=0)
+    assert calls == ["pages", "heap"] * 2
 
 
 def test_builds_are_left_out_of_the_deadline_clock(tmp_path, monkeypatch):
@@ -53,3 +55,30 @@ def test_builds_are_left_out_of_the_deadline_clock(tmp_path, monkeypatch):
     built = _cache.build_seconds() - start_builds
     assert built >= 0.3
     assert _deadline.clock() - start_clock < built
+
+
+def test_a_search_sheds_on_its_own_growth_not_on_the_process_size(monkeypatch):
+    """A process already holding much (a bench, a compare) keeps the pages of the tables
+    it searches; one that the search itself grew past the bound gives them back."""
+    from startrack.sky import SkySpec, load_sky
+    from startrack.solver import _fov_search
+
+    rng = np.random.default_rng(4)
+    x, y = rng.uniform(0, 1024, 30), rng.uniform(0, 1024, 30)  # junk: every window fails
+    blind = _fov_search.BlindSolver(load_sky(SkySpec(kind="random")), SkySpec(kind="random"),
+                                    0.5, fov_range=(14.0, 34.0))
+    blind.solve(x, y, (1024, 1024))  # every table built (a build sheds, whatever the size)
+    for growth, sheds in ((0, False), (2 * _fov_search.SHED_GROWTH_BYTES, True)):
+        size = [40 * 2**30]  # a big process; each window adds ``growth`` at once
+        shed = []
+
+        def resident(size=size, growth=growth):
+            size[0] += growth
+            return size[0]
+
+        monkeypatch.setattr(_memory, "resident_bytes", resident)
+        monkeypatch.setattr(_fov_search, "resident_bytes", resident)
+        monkeypatch.setattr(_memory, "release_mapped_pages", lambda shed=shed: shed.append(1))
+        monkeypatch.setattr(_memory, "trim_heap", lambda: None)
+        assert not blind.solve(x, y, (1024, 1024)).solution.solved
+        assert bool(shed) == sheds
