@@ -31,12 +31,13 @@ SKIP = IMAGE_STARS // 2
 #: verification others to confirm it)
 MIN_LEFT = 8
 #: the second look lets the first look's search tables go (and collects them) only when
-#: the process holds more than this: on a narrow field's deep sky they are GBs, and the
-#: second look's must come in their place, not on top (a 1 deg frame's blind second look
-#: held 2.7 GB with both); on a wide field they are a few MB, and building them again for
-#: every unsolved frame cost more than the search (at 20 deg, junk frames paid 120 ms of
-#: cone index and 47 ms of collection each)
-RELEASE_ABOVE_BYTES = 512 * 2**20
+#: the first look grew the process by more than this: on a narrow field's deep sky they
+#: are GBs, and the second look's must come in their place, not on top (a 1 deg frame's
+#: blind second look held 2.7 GB with both); on a wide field they are a few MB, and
+#: building them again for every unsolved frame cost more than the search (at 20 deg, junk
+#: frames paid 120 ms of cone index and 47 ms of collection each). Growth, not size: a
+#: process that holds much already (a bench, a compare) paid that on every junk frame.
+RELEASE_GROWTH_BYTES = 512 * 2**20
 #: saturated spots among the pattern stars that make a second look put the unsaturated
 #: spots first: a quarter of them (a frame of bright stars saturates its few brightest)
 CROWDING = IMAGE_STARS // 4
@@ -82,12 +83,13 @@ def renumbered(found, again, centroids: Centroids, order: np.ndarray, sigma_px: 
     return dataclasses.replace(again, solution=sol, obs=obs).plus_ms(found.solution.identify_ms)
 
 
-def tables_to_release() -> bool:
+def tables_to_release(start_bytes: int | None) -> bool:
     """Whether the first look's search tables should go before a second look: the
-    process's resident memory (Linux's /proc/self/statm) is above
-    :data:`RELEASE_ABOVE_BYTES`, or cannot be read."""
+    process's resident memory (:func:`startrack.io.resident_bytes`) grew by more than
+    :data:`RELEASE_GROWTH_BYTES` since it was ``start_bytes``, or cannot be read."""
     resident = resident_bytes()
-    return resident is None or resident > RELEASE_ABOVE_BYTES
+    return resident is None or start_bytes is None or (
+        resident - start_bytes > RELEASE_GROWTH_BYTES)
 
 
 def remaining_ms(timeout_ms: float | None, t0: float) -> float | None:

@@ -22,7 +22,7 @@ from startrack.centroids import DEFAULT_SIGMA_PX, frame_sigma_px
 from startrack.database import StarDatabase
 from startrack.defaults import BLIND_FOV_RANGE
 from startrack.errors import InputError
-from startrack.io import find_sidecar, read_sidecar
+from startrack.io import find_sidecar, read_sidecar, resident_bytes
 from startrack.match_records import Timing
 from startrack.matchers import get_matcher
 from startrack.sky import Catalog, SkySpec, gaia_min_fov, load_sky
@@ -168,6 +168,7 @@ class Pipeline:
         a second look past the brightest spots (:mod:`startrack.solver._deeper`), within
         the input's time limit."""
         t0, deadline = clock(), Deadline.after_ms(self.options.timeout_ms)
+        held = resident_bytes()
 
         def search(look: FrameInput):
             if camera is None:
@@ -183,10 +184,10 @@ class Pipeline:
             return found
         order, stage = second_look_order(frame.centroids)
         look = dataclasses.replace(frame, centroids=reordered(frame.centroids, order))
-        # where the process holds much (a narrow field's deep tables), the first look's
+        # where the first look grew the process much (a narrow field's deep tables), its
         # searches let go, so that the second look's pages come in their place, not on top
-        # (startrack.solver._deeper.RELEASE_ABOVE_BYTES)
-        if tables_to_release():
+        # (startrack.solver._deeper.RELEASE_GROWTH_BYTES)
+        if tables_to_release(held):
             self._blind.clear()
             gc.collect()
         # the rest of the time limit; the centroid error of the spots it looks at (the

@@ -126,13 +126,16 @@ def test_a_frame_under_a_saturated_caption_is_solved_from_its_unsaturated_stars(
     assert boresight_error_arcsec(rotation, result.frame.solution.rotation) < WRONG_ARCSEC
 
 
-def test_the_first_looks_tables_go_only_when_the_process_holds_much(monkeypatch):
+def test_the_first_looks_tables_go_only_when_the_first_look_grew_the_process(monkeypatch):
     import startrack.solver._deeper as deeper
 
-    monkeypatch.setattr(deeper, "RELEASE_ABOVE_BYTES", 0)
-    assert deeper.tables_to_release()
-    monkeypatch.setattr(deeper, "RELEASE_ABOVE_BYTES", 2**62)
-    assert not deeper.tables_to_release()
+    big = 40 * 2**30  # a process holding much already (a bench, a compare)
+    monkeypatch.setattr(deeper, "resident_bytes", lambda: big)
+    assert not deeper.tables_to_release(big - deeper.RELEASE_GROWTH_BYTES)
+    assert deeper.tables_to_release(big - deeper.RELEASE_GROWTH_BYTES - 1)
+    assert deeper.tables_to_release(None)  # unreadable at the start: let go
+    monkeypatch.setattr(deeper, "resident_bytes", lambda: None)
+    assert deeper.tables_to_release(big)
 
 
 def test_a_second_look_keeps_a_wide_fields_search_when_memory_is_low(monkeypatch):
@@ -142,10 +145,10 @@ def test_a_second_look_keeps_a_wide_fields_search_when_memory_is_low(monkeypatch
     import startrack.solver._pipeline as flow
     from startrack.solver import FrameInput, Options, Pipeline
 
-    monkeypatch.setattr(deeper, "RELEASE_ABOVE_BYTES", 2**62)
+    monkeypatch.setattr(deeper, "RELEASE_GROWTH_BYTES", 2**62)
     asked = []
     monkeypatch.setattr(flow, "tables_to_release",
-                        lambda: asked.append(1) or deeper.tables_to_release())
+                        lambda held: asked.append(1) or deeper.tables_to_release(held))
     pipeline = Pipeline(Options(fov_deg=FOV * 1.04, size=(SIZE, SIZE)))
     rng = np.random.default_rng(5)
     kept = []
