@@ -248,11 +248,14 @@ class BlindSolver:
 
     def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int],
               deadline: Deadline = NO_DEADLINE, camera: Camera | None = None,
-              tolerance: float = DEFAULT_FOV_TOLERANCE) -> FovResult:
+              tolerance: float = DEFAULT_FOV_TOLERANCE,
+              held_bytes: int | None = None) -> FovResult:
         """Search every window, widest field first; the first verified find wins. Not
         solved, with reason "timeout", if ``deadline`` passes first. With ``camera`` (a
         nominal focal length) only the focal lengths within ``tolerance`` of it are
-        searched, through that camera (its centre and lens model)."""
+        searched, through that camera (its centre and lens model). ``held_bytes``: the
+        resident memory its growth is counted from (:data:`SHED_GROWTH_BYTES`; None: now),
+        one baseline for the searches of one frame."""
         t0 = time.perf_counter()
         base = camera or Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
         # widened by MARGIN, as a nominal range is: a camera at the very end of the range
@@ -261,7 +264,7 @@ class BlindSolver:
             f_of_fov(size[0], max(self.fov_range) * (1.0 + MARGIN)),
             f_of_fov(size[0], min(self.fov_range) / (1.0 + MARGIN)))
         diag, seen = MatchDiagnostics(), set()
-        held = resident_bytes() or 0
+        held = (resident_bytes() if held_bytes is None else held_bytes) or 0
         db = self.database_for(base)
         reason = "no_match" if len(x) >= 3 else "too_few_stars"
         try:

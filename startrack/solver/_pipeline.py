@@ -273,18 +273,19 @@ class Pipeline:
         fields it fills (:func:`startrack.sky._default.gaia_min_fov` and wider: its G band
         orders stars as a camera does) and then Tycho-2's for the narrower ones."""
         lo, hi = BLIND_FOV_RANGE
-        split = gaia_min_fov(size)
+        split, held = gaia_min_fov(size), resident_bytes()  # both skies' memory baseline
         if self.options.sky is not None or self.options.mag_limit is not None \
                 or sky.kind != "tycho2" or not lo < split < hi:
-            found = self.blind_solver(sky).solve(x, y, size, deadline)
+            found = self.blind_solver(sky).solve(x, y, size, deadline, held_bytes=held)
             self.trail.add("blind search", "quad", sky, (lo, hi), found.solution)
             return found
         gaia = dataclasses.replace(sky, kind="gaia")
-        wide = self.blind_solver(gaia, (split, hi)).solve(x, y, size, deadline)
+        wide = self.blind_solver(gaia, (split, hi)).solve(x, y, size, deadline, held_bytes=held)
         self.trail.add("blind search", "quad", gaia, (split, hi), wide.solution)
         if wide.solution.solved or wide.solution.reason != "no_match":
             return wide
-        narrow = self.blind_solver(sky, (lo, split)).solve(x, y, size, deadline)
+        narrow = self.blind_solver(sky, (lo, split)).solve(x, y, size, deadline,
+                                                          held_bytes=held)
         self.trail.add("blind search", "quad", sky, (lo, split), narrow.solution)
         return narrow.plus_ms(wide.solution.identify_ms)
 

@@ -82,3 +82,13 @@ def test_a_search_sheds_on_its_own_growth_not_on_the_process_size(monkeypatch):
         monkeypatch.setattr(_memory, "trim_heap", lambda: None)
         assert not blind.solve(x, y, (1024, 1024)).solution.solved
         assert bool(shed) == sheds
+    # one frame's searches (Gaia's, then Tycho-2's) share the baseline the pipeline read
+    # before the first: the second counts the first's growth too
+    monkeypatch.setattr(_fov_search, "resident_bytes", lambda: 40 * 2**30)
+    monkeypatch.setattr(_memory, "resident_bytes", lambda: 40 * 2**30)
+    shed = []
+    monkeypatch.setattr(_memory, "release_mapped_pages", lambda: shed.append(1))
+    blind.solve(x, y, (1024, 1024), held_bytes=40 * 2**30)
+    assert not shed
+    blind.solve(x, y, (1024, 1024), held_bytes=40 * 2**30 - 2 * _fov_search.SHED_GROWTH_BYTES)
+    assert shed
