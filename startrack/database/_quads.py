@@ -49,27 +49,6 @@ def level_for(fov_deg: float) -> float:
     return float(LEVEL_STEP ** round(math.log(fov_deg) / math.log(LEVEL_STEP)))
 
 
-def edge_angles(vectors: np.ndarray, quads: np.ndarray) -> np.ndarray:
-    """The six pair angles (M x 6, radians) of each pattern (M x 4 rows of ``vectors``)."""
-    a = vectors[quads[:, EDGES[:, 0]]]
-    b = vectors[quads[:, EDGES[:, 1]]]
-    chord = np.linalg.norm(a - b, axis=-1)
-    return 2.0 * np.arcsin(np.clip(chord / 2.0, 0.0, 1.0))
-
-
-def ratios(edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Sorted edges divided by the largest (M x 5) and the largest edge (M)."""
-    s = np.sort(edges, axis=1)
-    largest = s[:, 5]
-    return s[:, :5] / np.where(largest > 0, largest, 1.0)[:, None], largest
-
-
-def keys_of(r: np.ndarray) -> np.ndarray:
-    """The int64 key of each row of quantised ratios."""
-    q = np.clip((r / BIN).astype(np.int64), 0, NBINS - 1)
-    return (q * (NBINS ** np.arange(5))).sum(axis=1)
-
-
 def _chord(angle_rad: float) -> float:
     return 2.0 * math.sin(min(angle_rad, math.pi) / 2.0)
 
@@ -236,6 +215,6 @@ def quad_level(catalog, level_deg: float) -> QuadLevel:
 __all__ = [
     "BIN", "EDGES", "FORMAT_VERSION", "K_NEAREST", "LEVEL_STEP", "MAX_HIGHER",
     "MAX_PATTERN_SIZE", "NBINS", "PATTERN_SIZE", "QuadLevel", "RATIO_STEPS", "STARS_PER_FRAME",
-    "all_quads", "build_level_arrays", "edge_angles", "keys_of", "level_for", "level_stars",
-    "pattern_radii", "quad_level", "ratios",
+    "all_quads", "build_level_arrays", "level_for", "level_stars", "pattern_radii",
+    "quad_level",
 ]

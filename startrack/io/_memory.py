@@ -9,9 +9,9 @@ what it uses at once, not everything it has touched.
 
 from __future__ import annotations
 
-import contextlib
 import ctypes
 import ctypes.util
+import functools
 import os
 
 from startrack.io._npz import release_mapped_pages
@@ -32,35 +32,35 @@ def resident_bytes() -> int | None:
         return None
 
 
-def _libc():
+@functools.cache
+def _malloc_trim():
+    """glibc's malloc_trim, or None (another C library, or none found)."""
     name = ctypes.util.find_library("c")
-    with contextlib.suppress(OSError):
-        return ctypes.CDLL(name) if name else None
-    return None
-
-
-_LIBC = [None, False]  # the C library, and whether it was looked for
+    try:
+        return getattr(ctypes.CDLL(name), "malloc_trim", None) if name else None
+    except OSError:
+        return None
 
 
 def trim_heap() -> None:
     """Give the C heap's free memory back to the system (glibc's malloc_trim; elsewhere
     nothing): numpy's large arrays freed after a build otherwise stay counted."""
-    if not _LIBC[1]:
-        _LIBC[:] = [_libc(), True]
-    trim = getattr(_LIBC[0], "malloc_trim", None)
+    trim = _malloc_trim()
     if trim is not None:
         trim(0)
 
 
-def shed_memory(above_bytes: int = 0) -> bool:
-    """Drop the mapped tables' pages and trim the heap when the resident memory is above
-    ``above_bytes`` (always with 0; never where it cannot be read, as each shed costs the
-    next search its pages back); whether it did."""
-    resident = resident_bytes() if above_bytes > 0 else None
-    if above_bytes > 0 and (resident is None or resident <= above_bytes):
-        return False
+def shed_memory(above_bytes: int | None = None) -> bool:
+    """Drop the mapped tables' pages and trim the heap: always with no ``above_bytes``,
+    else only when the resident memory is above it (never where it cannot be read, as
+    each shed costs the next search its pages back); whether it did."""
+    if above_bytes is not None:
+        resident = resident_bytes()
+        if resident is None or resident <= above_bytes:
+            return False
     release_mapped_pages()
     trim_heap()
     return True
+
 
 __all__ = ["resident_bytes", "shed_memory", "trim_heap"]

@@ -255,7 +255,7 @@ class BlindSolver:
         nominal focal length) only the focal lengths within ``tolerance`` of it are
         searched, through that camera (its centre and lens model). ``held_bytes``: the
         resident memory its growth is counted from (:data:`SHED_GROWTH_BYTES`; None: now),
-        one baseline for the searches of one frame."""
+        one baseline for the skies one look searches in turn."""
         t0 = time.perf_counter()
         base = camera or Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
         # widened by MARGIN, as a nominal range is: a camera at the very end of the range

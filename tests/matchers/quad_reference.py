@@ -1,7 +1,8 @@
 """The numpy quad search of one window that the compiled ``_core.matchers.quad.match_window``
 replaced, kept to hold it to: the image's patterns by the table builder's k-d tree rule,
 the key lookup by searchsorted of the 32 neighbouring keys, the sorted-ratio first test,
-the best of the 24 star orders, the ranking by edge agreement."""
+the best of the 24 star orders, the ranking by edge agreement; and the numpy pattern key
+that the compiled ``_core.database.quad_table.pattern_keys`` replaced."""
 
 from __future__ import annotations
 
@@ -21,6 +22,27 @@ from startrack.matchers._quad import (
 )
 
 
+def edge_angles(vectors: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """The six pair angles (M x 6, radians) of each pattern (M x 4 rows of ``vectors``)."""
+    a = vectors[quads[:, Q.EDGES[:, 0]]]
+    b = vectors[quads[:, Q.EDGES[:, 1]]]
+    chord = np.linalg.norm(a - b, axis=-1)
+    return 2.0 * np.arcsin(np.clip(chord / 2.0, 0.0, 1.0))
+
+
+def ratios(edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sorted edges divided by the largest (M x 5) and the largest edge (M)."""
+    s = np.sort(edges, axis=1)
+    largest = s[:, 5]
+    return s[:, :5] / np.where(largest > 0, largest, 1.0)[:, None], largest
+
+
+def keys_of(r: np.ndarray) -> np.ndarray:
+    """The int64 key of each row of quantised ratios."""
+    q = np.clip((r / Q.BIN).astype(np.int64), 0, Q.NBINS - 1)
+    return (q * (Q.NBINS ** np.arange(5))).sum(axis=1)
+
+
 def image_patterns(vectors: np.ndarray, level_deg: float,
                    slack: float) -> tuple[np.ndarray, np.ndarray]:
     """Observed patterns (M x 4 rows) and their six edges, by the table builder's rule."""
@@ -28,7 +50,7 @@ def image_patterns(vectors: np.ndarray, level_deg: float,
     size = math.radians(level_deg) * slack
     quads = Q.all_quads(vectors[top], Q.PATTERN_SIZE * size, Q.MAX_PATTERN_SIZE * size,
                         max_higher=IMAGE_STARS, k=IMAGE_NEAREST)
-    return quads, Q.edge_angles(vectors, quads)
+    return quads, edge_angles(vectors, quads)
 
 
 def _query_keys(r: np.ndarray) -> np.ndarray:
@@ -56,7 +78,7 @@ def match_quads(quads: np.ndarray, edges: np.ndarray, table: Q.QuadLevel,
     empty = (np.zeros((0, 4), np.int64), np.zeros((0, 4), np.int64), np.zeros(0), np.zeros(0))
     if len(quads) == 0 or len(table) == 0:
         return empty
-    r, largest = Q.ratios(edges)
+    r, largest = ratios(edges)
     qi, rows = _lookup(table, _query_keys(r).ravel())
     qi //= 32
     step = 0.5 / Q.RATIO_STEPS
@@ -68,7 +90,7 @@ def match_quads(quads: np.ndarray, edges: np.ndarray, table: Q.QuadLevel,
     qi, rows = pair // len(table), pair % len(table)
     img = edges[qi] / largest[qi, None]
     cat_quads = table.quads[rows].astype(np.int64)
-    cat_edges = Q.edge_angles(cat_vectors, cat_quads)
+    cat_edges = edge_angles(cat_vectors, cat_quads)
     cat = cat_edges / cat_edges.max(axis=1, keepdims=True)
     err = np.abs(img[:, None, :] - cat[:, PERM_EDGES]).max(axis=2)
     best = np.argmin(err, axis=1)

@@ -1,5 +1,8 @@
-"""The 4-star pattern table's enumeration (startrack.database._quads): every pattern of a
-star and its higher neighbours whose edges all fit the star's size limit."""
+"""The 4-star pattern table's build kernels (startrack.database._quads): every pattern of a
+star and its higher neighbours whose edges all fit the star's size limit, and each
+pattern's key and stored ratios."""
+
+from libc.math cimport asin, nearbyint, sqrt
 
 import numpy as np
 
@@ -46,12 +49,6 @@ cdef Py_ssize_t _walk(const long long[::1] indptr, const long long[::1] indices,
                         out[m, 0], out[m, 1], out[m, 2], out[m, 3] = a, b, c, d
                     m += 1
     return m
-
-
-cdef extern from "math.h" nogil:
-    double sqrt(double)
-    double asin(double)
-    double nearbyint(double)
 
 
 def pattern_keys(const double[:, ::1] vectors, const long long[:, ::1] quads,

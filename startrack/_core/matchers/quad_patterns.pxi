@@ -6,9 +6,11 @@
 
 
 cdef object _edges(QuadRules rules, const double[:, ::1] vec, const long long[:, ::1] quads):
-    """The six edge angles (M x 6, radians) of each pattern (rows of ``vec``), as
-    :func:`startrack.database._quads.edge_angles` computes them (numpy's own arcsin, so
-    that they agree to the last bit)."""
+    """The six edge angles (M x 6, radians) of each pattern (rows of ``vec``), with
+    numpy's arcsin: the table builder (:func:`startrack._core.database.quad_table.
+    pattern_keys`) uses C's asin, which agrees with it to the last bit here
+    (tests/database/test_database_kernels.py); where a SIMD arcsin differed by an ulp, the
+    lookup's tolerance covers it."""
     out = np.empty((quads.shape[0], 6))
     cdef double[:, ::1] half = out
     cdef Py_ssize_t p, a, b
