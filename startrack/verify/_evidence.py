@@ -26,7 +26,7 @@ import numpy as np
 
 from startrack._core.tracking.tracked_frame import HYPOTHESIS_STARS
 from startrack.match_records import Solution
-from startrack.verify._refit import refit_camera
+from startrack.verify._refit import brightest_in_view, refit_camera
 from startrack.verify._verification import VerifyConfig
 
 #: a hypothesis's own stars plus the stars verification must confirm outside it
@@ -111,12 +111,8 @@ def _labels_problem(solution: Solution, obs, camera, catalog) -> str | None:
     spots = int(np.count_nonzero(np.asarray(solution.obs_index) < BRIGHT_STARS))
     if spots >= MIN_EXPLAINED * BRIGHT_STARS:
         return None
-    boresight = solution.rotation.apply(np.array([0.0, 0.0, 1.0]))
-    near = np.flatnonzero(catalog.vectors @ boresight > math.cos(
-        math.radians(camera.half_diagonal_deg)))
-    x, y, front = camera.vector_to_pixel(solution.rotation.inv().apply(catalog.vectors[near]))
-    seen = near[front & camera.in_image(x, y)]
-    seen = seen[np.argsort(catalog.mag[seen], kind="stable")][:BRIGHT_STARS]
+    seen, _ = brightest_in_view(catalog.vectors, solution.rotation.as_matrix(), camera,
+                                BRIGHT_STARS)
     stars = int(np.count_nonzero(np.isin(seen, solution.cat_index)))
     if len(seen) < BRIGHT_STARS / 2 or stars >= MIN_EXPLAINED * len(seen):
         return None

@@ -16,6 +16,7 @@ answer passes through them, and in numpy they were most of a solve.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -59,14 +60,28 @@ def refit_camera(rotation, x, y, camera, catalog, radius_px: float,
     ``y`` brightest first, matched within ``radius_px``; ``sigma_px``: the least
     centroid error the residuals are taken to have); None when too few pairs fit."""
     matrix = rotation.as_matrix()  # camera to sky: its last column is the boresight
-    near = np.flatnonzero(catalog.vectors @ matrix[:, 2] > math.cos(
-        math.radians(camera.half_diagonal_deg)))
-    v = catalog.vectors[near] @ matrix  # sky to camera: the transpose, row by row
-    cx, cy, front = camera.vector_to_pixel(v)
-    inside = np.flatnonzero(front & camera.in_image(cx, cy))
-    v = v[inside[np.argsort(catalog.mag[near[inside]], kind="stable")][:CATALOG_STARS]]
+    _, v = brightest_in_view(catalog.vectors, matrix, camera)
     return refit_stars(v, np.asarray(x[:SPOTS], np.float64), np.asarray(y[:SPOTS], np.float64),
                        camera, radius_px, sigma_px)
+
+
+def brightest_in_view(vectors: np.ndarray, matrix: np.ndarray, camera,
+                      n: int = CATALOG_STARS) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, camera-frame vectors) of the ``n`` brightest catalog stars (rows of the
+    brightest-first ``vectors``) that camera-to-sky ``matrix`` puts in the image
+    (compiled: a scan that stops at the ``n``-th)."""
+    return camera_refit.brightest_in_view(
+        camera.optics, np.ascontiguousarray(vectors, np.float64),
+        np.ascontiguousarray(matrix, np.float64),
+        math.cos(math.radians(camera.half_diagonal_deg)), n)
+
+
+@functools.lru_cache(maxsize=64)  # a batch's few cameras; a FOV search's many
+def _centre_direction(camera) -> tuple[float, float]:
+    """The tangent-plane direction of ``camera``'s image centre (its distortion inverted)."""
+    cx0, cy0 = (camera.width - 1) / 2.0, (camera.height - 1) / 2.0
+    given = camera.pixel_to_vector(np.array([cx0]), np.array([cy0]))[0]
+    return float(given[0] / given[2]), float(given[1] / given[2])
 
 
 def refit_stars(v: np.ndarray, x: np.ndarray, y: np.ndarray, camera, radius_px: float,
@@ -77,19 +92,7 @@ def refit_stars(v: np.ndarray, x: np.ndarray, y: np.ndarray, camera, radius_px: 
     p = np.array([0.0, 0.0, 0.0, camera.f_px, camera.cx, camera.cy, k1])
     v = np.ascontiguousarray(v, np.float64)
     x, y = np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64)
-    fitted = camera_refit.fit_rounds(p, v, x, y, radius_px, _FACTORS, _FREE_K1, MIN_PAIRS,
-                                     ITERATIONS, DAMPING)
-    if fitted is None:
-        return None
-    r2, residuals, jtj = fitted
-    variance = max(r2 / max(1, residuals - 7), sigma_px * sigma_px)
-    cov = variance * np.linalg.pinv(jtj)
-    cx0, cy0 = (camera.width - 1) / 2.0, (camera.height - 1) / 2.0
-    given = camera.pixel_to_vector(np.array([cx0]), np.array([cy0]))[0]
-    centre = np.array(camera_refit.centre(p, cx0, cy0))
-    steps = np.sqrt(np.maximum(np.diagonal(cov), 0.0)) * 1e-3 + 1e-12
-    grad = camera_refit.centre_gradient(p, cx0, cy0, steps)
-    shift = float(np.hypot(*(centre - given[:2] / given[2]))) * camera.f_px
-    sigma = math.sqrt(max(float(np.trace(grad @ cov @ grad.T)), 0.0)) * camera.f_px
-    spots, _ = camera_refit.pairs(p, v, x, y, radius_px)
-    return Refit(spots, shift, sigma)
+    fitted = camera_refit.refit(p, v, x, y, radius_px, _FACTORS, _FREE_K1, MIN_PAIRS,
+                                ITERATIONS, DAMPING, sigma_px, (camera.width - 1) / 2.0,
+                                (camera.height - 1) / 2.0, *_centre_direction(camera))
+    return None if fitted is None else Refit(*fitted)

@@ -1,11 +1,13 @@
 """The compiled camera refit (startrack/_core/verify/camera_refit.pyx) against its numpy
 reference (refit_reference.py): the same pairs, the same fitted camera to rounding, the
-same centre direction, on cameras that fit, that lack a lens term, that are off, and on
+same centre direction and its move (the pseudo-inverse held to numpy's), the same
+brightest stars in view, on cameras that fit, that lack a lens term, that are off, and on
 spots too few to fit."""
 
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -14,6 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from startrack._core.verify import camera_refit
 from startrack.camera import Camera, RadialDistortion
+from startrack.sky import SkySpec, load_sky
 from startrack.verify._refit import (
     _FACTORS,
     _FREE_K1,
@@ -22,6 +25,7 @@ from startrack.verify._refit import (
     ITERATIONS,
     MIN_PAIRS,
     SPOTS,
+    brightest_in_view,
 )
 
 CAMERA = Camera.from_fov(1024, 1024, 12.0)
@@ -99,3 +103,90 @@ def test_the_centre_direction_is_the_references(pixel):
     p = np.array([1e-3, -2e-3, 0.5, 4000.0, 520.0, 500.0, -0.1])
     np.testing.assert_allclose(camera_refit.centre(p, *pixel), reference.centre(p, *pixel),
                                rtol=0, atol=1e-14)
+
+
+def _move_in_numpy(p, fitted, sigma_px):
+    """The centre's move and its 1-sigma as startrack.verify._refit computed them in
+    numpy before the kernel did: numpy's pinv, forward differences of the centre."""
+    r2, residuals, jtj = fitted
+    cov = max(r2 / max(1, residuals - 7), sigma_px ** 2) * np.linalg.pinv(jtj)
+    cx0, cy0 = (CAMERA.width - 1) / 2.0, (CAMERA.height - 1) / 2.0
+    given = CAMERA.pixel_to_vector(np.array([cx0]), np.array([cy0]))[0]
+    centre = np.array(camera_refit.centre(p, cx0, cy0))
+    steps = np.sqrt(np.maximum(np.diagonal(cov), 0.0)) * 1e-3 + 1e-12
+    grad = np.empty((2, 7))
+    for k in range(7):
+        q = p.copy()
+        q[k] += steps[k]
+        grad[:, k] = (np.array(camera_refit.centre(q, cx0, cy0)) - centre) / (q[k] - p[k])
+    shift = float(np.hypot(*(centre - given[:2] / given[2]))) * CAMERA.f_px
+    return shift, math.sqrt(max(float(np.trace(grad @ cov @ grad.T)), 0.0)) * CAMERA.f_px
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_the_one_call_refit_moves_the_centre_as_numpy_did(seed):
+    v, x, y = _case(seed)
+    p, q = _start(), _start()
+    fitted = camera_refit.fit_rounds(p, v, x, y, 2.0, _FACTORS, _FREE_K1, MIN_PAIRS,
+                                     ITERATIONS, DAMPING)
+    cx0, cy0 = (CAMERA.width - 1) / 2.0, (CAMERA.height - 1) / 2.0
+    got = camera_refit.refit(q, v, x, y, 2.0, _FACTORS, _FREE_K1, MIN_PAIRS, ITERATIONS,
+                             DAMPING, 0.5, cx0, cy0, 0.0, 0.0)
+    assert (got is None) == (fitted is None)
+    if fitted is None:
+        return
+    np.testing.assert_array_equal(p, q)
+    spots, shift, sigma = got
+    want_shift, want_sigma = _move_in_numpy(p, fitted, 0.5)
+    assert shift == pytest.approx(want_shift, abs=1e-9)
+    assert sigma == pytest.approx(want_sigma, rel=1e-6)
+    np.testing.assert_array_equal(spots, camera_refit.pairs(p, v, x, y, 2.0)[0])
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_pseudo_inverse_is_numpys_where_the_rank_is_full(seed):
+    rng = np.random.default_rng(seed)
+    # a refit's units: radians x focal length, pixels, k1 x focal length
+    jac = rng.normal(size=(80, 7)) * np.array([1e4, 1e4, 1e4, 1.0, 1.0, 1.0, 1e3])
+    jac[:, 4] = jac[:, 0] * 2e-4 + rng.normal(size=80) * 1e-3  # nearly traded off
+    a = jac.T @ jac
+    want = np.linalg.pinv(a)
+    got = camera_refit.symmetric_pinv(a)
+    assert np.abs(got - want).max() <= 1e-7 * np.abs(want).max()
+
+
+@pytest.mark.parametrize("dependent", ["zero column", "equal columns"])
+def test_the_pseudo_inverse_of_a_singular_matrix_is_one(dependent):
+    rng = np.random.default_rng(5)
+    jac = rng.normal(size=(80, 7)) * np.array([1e4, 1e4, 1e4, 1.0, 1.0, 1.0, 1e3])
+    if dependent == "zero column":
+        jac[:, 6] = 0.0  # k1 held: nothing constrains it
+    else:
+        jac[:, 4] = jac[:, 0] * 2e-4
+    a = jac.T @ jac
+    x = camera_refit.symmetric_pinv(a)
+    # the Moore-Penrose conditions, to rounding
+    assert np.abs(a @ x @ a - a).max() <= 1e-12 * np.abs(a).max()
+    assert np.abs(x @ a @ x - x).max() <= 1e-12 * np.abs(x).max()
+    np.testing.assert_allclose(x, x.T, rtol=0, atol=1e-12 * np.abs(x).max())
+    if dependent == "zero column":
+        assert not x[6].any() and not x[:, 6].any()
+
+
+@pytest.mark.parametrize("distorted", [False, True])
+def test_the_brightest_in_view_are_numpys_selection(distorted):
+    camera = CAMERA if not distorted else dataclasses.replace(
+        CAMERA, distortion=RadialDistortion(k1=-0.2))
+    catalog = load_sky(SkySpec(kind="hipparcos", mag_limit=7.0), camera)
+    rng = np.random.default_rng(11)
+    for rotation in Rotation.random(20, random_state=rng):
+        matrix = rotation.as_matrix()
+        rows, v = brightest_in_view(catalog.vectors, matrix, camera)
+        # the selection as numpy made it: every star's product, a sort by magnitude
+        near = np.flatnonzero(catalog.vectors @ matrix[:, 2] > math.cos(
+            math.radians(camera.half_diagonal_deg)))
+        cx, cy, front = camera.vector_to_pixel(catalog.vectors[near] @ matrix)
+        seen = near[front & camera.in_image(cx, cy)]
+        want = seen[np.argsort(catalog.mag[seen], kind="stable")][:CATALOG_STARS]
+        np.testing.assert_array_equal(rows, want)
+        np.testing.assert_allclose(v, catalog.vectors[want] @ matrix, rtol=0, atol=1e-15)

@@ -16,48 +16,45 @@ import numpy as np
 from libc.math cimport cos, fabs, sin, sqrt
 from libc.stdlib cimport free, malloc
 
+from startrack._core.camera.lens cimport Geometry, Lens, lens_factor, lens_is_identity, lens_of
+from startrack._core.camera.optics cimport Optics
+
 cdef enum:
     NP = 7  # parameters: rotation vector (3), focal length, principal point (2), k1
 
 
 include "camera_refit_model.pxi"
-
-
-cdef Py_ssize_t _pairs(const double* p, const double[:, ::1] v, const double[::1] x,
-                       const double[::1] y, double limit, double* px, double* py,
-                       Py_ssize_t* spot, Py_ssize_t* star) noexcept nogil:
-    """Mutually nearest (spot, star) pairs within ``limit`` px, spots ascending; the
-    count. The first of equal distances is the nearest, as numpy's argmin takes it."""
-    cdef Py_ssize_t m = v.shape[0], n = x.shape[0], i, j, best, back, count = 0
-    cdef double d, nearest
-    _project(p, v, NULL, m, px, py)
-    for i in range(n):
-        best, nearest = -1, 0.0
-        for j in range(m):
-            d = sqrt((x[i] - px[j]) ** 2 + (y[i] - py[j]) ** 2)
-            if best < 0 or d < nearest:
-                best, nearest = j, d
-        if best < 0 or not nearest <= limit:
-            continue
-        back, nearest = -1, 0.0
-        for j in range(n):
-            d = sqrt((x[j] - px[best]) ** 2 + (y[j] - py[best]) ** 2)
-            if back < 0 or d < nearest:
-                back, nearest = j, d
-        if back == i:
-            spot[count], star[count] = i, best
-            count += 1
-    return count
+include "camera_refit_move.pxi"
 
 
 cdef struct Fit:
     double r2        # the residuals' sum of squares
     double* r        # residuals, x then y (2n)
     double* jac      # their Jacobian, 2n x NP, row-major
+    double jtj[NP * NP]  # J^T J
+    double jtr[NP]   # J^T r
     double* trial_r  # a trial step's residuals
-    double* a        # the Jacobian with its columns scaled, 2n x NP
     double* px       # projection scratch, NP + 1 parameter sets of n
     double* py
+
+
+cdef void _normal(Fit* fit, Py_ssize_t rows) noexcept nogil:
+    """The fit's J^T J (lower triangle mirrored) and J^T r, from its Jacobian."""
+    cdef Py_ssize_t i, c, j
+    cdef double a_i
+    for c in range(NP):
+        fit.jtr[c] = 0.0
+        for j in range(c + 1):
+            fit.jtj[c * NP + j] = 0.0
+    for i in range(rows):
+        for c in range(NP):
+            a_i = fit.jac[i * NP + c]
+            fit.jtr[c] += a_i * fit.r[i]
+            for j in range(c + 1):
+                fit.jtj[c * NP + j] += a_i * fit.jac[i * NP + j]
+    for c in range(NP):
+        for j in range(c + 1, NP):
+            fit.jtj[c * NP + j] = fit.jtj[j * NP + c]
 
 
 cdef bint _fit(double* p, const double[:, ::1] v, const double[::1] x, const double[::1] y,
@@ -65,44 +62,33 @@ cdef bint _fit(double* p, const double[:, ::1] v, const double[::1] x, const dou
                Py_ssize_t iterations, double damping,
                Fit* fit) noexcept nogil:
     """Levenberg-Marquardt from ``p`` (k1 held unless ``free_k1``): ``p``, ``fit.r`` and
-    ``fit.jac`` left at the best parameters found; False when a step cannot be solved."""
+    ``fit.jac`` left at the best parameters found; False when a step cannot be solved.
+    The scaled normal equations come from J^T J, formed once per accepted step (a
+    rejected step only raises the damping)."""
     cdef double norm[NP]
     cdef double h[NP * NP]
     cdef double g[NP]
     cdef double trial[NP]
-    cdef double a_i, r2t
+    cdef double r2t
     cdef Py_ssize_t i, j, c, rows = 2 * n
     cdef bint small
     _jacobian(p, v, x, y, spot, star, n, fit.r, fit.jac)
+    _normal(fit, rows)
     fit.r2 = _sum_squares(fit.r, rows)
     for _ in range(iterations):
+        # the Jacobian's columns scaled to unit length, the held k1's zeroed
         for c in range(NP):
-            norm[c] = 0.0
-            for i in range(rows):
-                norm[c] += fit.jac[i * NP + c] * fit.jac[i * NP + c]
-            norm[c] = sqrt(norm[c])
+            norm[c] = sqrt(fit.jtj[c * NP + c])
             if norm[c] == 0.0 or (c == NP - 1 and not free_k1):
                 norm[c] = 1.0
-        # the Jacobian's columns scaled to unit length (the held k1's zeroed), then the
-        # normal equations of the scaled problem, their lower triangle mirrored
-        for i in range(rows):
-            for c in range(NP):
-                fit.a[i * NP + c] = fit.jac[i * NP + c] / norm[c]
-            if not free_k1:
-                fit.a[i * NP + NP - 1] = 0.0
         for c in range(NP):
-            g[c] = 0.0
-            for j in range(c + 1):
-                h[c * NP + j] = 0.0
-        for i in range(rows):
+            g[c] = -fit.jtr[c] / norm[c]
+            for j in range(NP):
+                h[c * NP + j] = fit.jtj[c * NP + j] / (norm[c] * norm[j])
+        if not free_k1:
+            g[NP - 1] = 0.0
             for c in range(NP):
-                a_i = fit.a[i * NP + c]
-                g[c] -= a_i * fit.r[i]
-                for j in range(c + 1):
-                    h[c * NP + j] += a_i * fit.a[i * NP + j]
-        for c in range(NP):
-            for j in range(c + 1, NP):
-                h[c * NP + j] = h[j * NP + c]
+                h[c * NP + NP - 1], h[(NP - 1) * NP + c] = 0.0, 0.0
         for c in range(NP):
             h[c * NP + c] += damping * h[c * NP + c] + 1e-12
         if not _solve(h, g):
@@ -123,6 +109,7 @@ cdef bint _fit(double* p, const double[:, ::1] v, const double[::1] x, const dou
                 p[c] = trial[c]
                 small = small and fabs(g[c]) <= 1e-7 * (1.0 + fabs(p[c]))
             _jacobian(p, v, x, y, spot, star, n, fit.r, fit.jac)
+            _normal(fit, rows)
             fit.r2, damping = r2t, damping / 10.0
             if small:
                 break
@@ -146,13 +133,13 @@ cdef class _Work:
         self.fit.r = <double*>malloc(2 * max(n, 1) * sizeof(double))
         self.fit.trial_r = <double*>malloc(2 * max(n, 1) * sizeof(double))
         self.fit.jac = <double*>malloc(2 * max(n, 1) * NP * sizeof(double))
-        self.fit.a = <double*>malloc(2 * max(n, 1) * NP * sizeof(double))
         self.fit.px = <double*>malloc(width * sizeof(double))
         self.fit.py = <double*>malloc(width * sizeof(double))
-        self.spot = <Py_ssize_t*>malloc(max(n, 1) * sizeof(Py_ssize_t))
-        self.star = <Py_ssize_t*>malloc(max(n, 1) * sizeof(Py_ssize_t))
+        # pairs, then the last round's pairs
+        self.spot = <Py_ssize_t*>malloc(2 * max(n, 1) * sizeof(Py_ssize_t))
+        self.star = <Py_ssize_t*>malloc(2 * max(n, 1) * sizeof(Py_ssize_t))
         if (self.fit.r == NULL or self.fit.trial_r == NULL or self.fit.jac == NULL
-                or self.fit.a == NULL or self.fit.px == NULL or self.fit.py == NULL or self.spot == NULL
+                or self.fit.px == NULL or self.fit.py == NULL or self.spot == NULL
                 or self.star == NULL):
             raise MemoryError("camera refit: scratch arrays")
 
@@ -160,7 +147,6 @@ cdef class _Work:
         free(self.fit.r)
         free(self.fit.trial_r)
         free(self.fit.jac)
-        free(self.fit.a)
         free(self.fit.px)
         free(self.fit.py)
         free(self.spot)
@@ -182,6 +168,35 @@ def pairs(const double[::1] p, const double[:, ::1] v, const double[::1] x,
     return spots, stars
 
 
+cdef bint _fit_rounds(double* p, const double[:, ::1] v, const double[::1] x,
+                      const double[::1] y, double radius_px, const double[::1] factors,
+                      const unsigned char[::1] free_k1, Py_ssize_t min_pairs,
+                      Py_ssize_t iterations, double damping, _Work work,
+                      Py_ssize_t* count) noexcept nogil:
+    """:func:`fit_rounds`' rounds, the last round's pairs left in ``work``. A round
+    that pairs the same stars as the last, with k1 as free, is not fitted again: the
+    last fit ended at its minimum (fitting again took one step of 1e-7 relative)."""
+    cdef Py_ssize_t r, k, n = x.shape[0], last = -1
+    cdef bint same
+    for r in range(factors.shape[0]):
+        for k in range(max(last, 0)):
+            work.spot[n + k], work.star[n + k] = work.spot[k], work.star[k]
+        count[0] = _pairs(p, v, x, y, factors[r] * radius_px, work.fit.px, work.fit.py,
+                          work.spot, work.star)
+        if count[0] < min_pairs:
+            return False
+        same = count[0] == last and free_k1[r] == free_k1[r - 1]
+        k = 0
+        while same and k < count[0]:
+            same = work.spot[k] == work.spot[n + k] and work.star[k] == work.star[n + k]
+            k += 1
+        if not same and not _fit(p, v, x, y, work.spot, work.star, count[0], free_k1[r],
+                                 iterations, damping, &work.fit):
+            return False
+        last = count[0]
+    return True
+
+
 def fit_rounds(double[::1] p, const double[:, ::1] v, const double[::1] x,
                const double[::1] y, double radius_px, const double[::1] factors,
                const unsigned char[::1] free_k1, Py_ssize_t min_pairs,
@@ -190,67 +205,91 @@ def fit_rounds(double[::1] p, const double[:, ::1] v, const double[::1] x,
     free where ``free_k1``): (the last round's residual sum of squares, its residual
     count, J^T J of its Jacobian), or None when a round pairs fewer than ``min_pairs``."""
     cdef _Work work = _Work(x.shape[0], v.shape[0])
-    cdef Py_ssize_t r, count = 0, i, c, j
-    cdef bint ok = True
+    cdef Py_ssize_t count = 0, i
+    cdef bint ok
     with nogil:
-        for r in range(factors.shape[0]):
-            count = _pairs(&p[0], v, x, y, factors[r] * radius_px, work.fit.px,
-                           work.fit.py, work.spot, work.star)
-            if count < min_pairs:
-                ok = False
-                break
-            if not _fit(&p[0], v, x, y, work.spot, work.star, count, free_k1[r],
-                        iterations, damping, &work.fit):
-                ok = False
-                break
+        ok = _fit_rounds(&p[0], v, x, y, radius_px, factors, free_k1, min_pairs,
+                         iterations, damping, work, &count)
     if not ok:
         return None
-    jtj = np.zeros((NP, NP))
+    jtj = np.empty((NP, NP))
     cdef double[:, ::1] out = jtj
-    for i in range(2 * count):
-        for c in range(NP):
-            for j in range(NP):
-                out[c, j] += work.fit.jac[i * NP + c] * work.fit.jac[i * NP + j]
+    for i in range(NP * NP):
+        out[i // NP, i % NP] = work.fit.jtj[i]
     return work.fit.r2, 2 * count, jtj
 
 
-def centre(const double[::1] p, double x, double y):
-    """Tangent-plane direction (u, v), in the answer's camera frame, of pixel (x, y)
-    through ``p`` (k1 inverted by eight fixed-point steps: small near the centre)."""
-    cdef double u, t
-    _centre(&p[0], x, y, &u, &t)
-    return u, t
+def refit(double[::1] p, const double[:, ::1] v, const double[::1] x, const double[::1] y,
+          double radius_px, const double[::1] factors, const unsigned char[::1] free_k1,
+          Py_ssize_t min_pairs, Py_ssize_t iterations, double damping, double sigma_px,
+          double cx0, double cy0, double given_u, double given_v):
+    """The whole refit of startrack.verify._refit in one call: :func:`fit_rounds` from
+    ``p`` (fitted in place), then (spots explained by the refitted camera, ascending; the
+    move in px of pixel (``cx0``, ``cy0``)'s direction from (``given_u``, ``given_v``);
+    its 1-sigma, the residuals' variance at least ``sigma_px`` squared). None when a
+    round pairs fewer than ``min_pairs``."""
+    cdef _Work work = _Work(x.shape[0], v.shape[0])
+    cdef Py_ssize_t count = 0, i
+    cdef double f_px = p[3], variance, shift = 0.0, sigma = 0.0
+    cdef bint ok
+    with nogil:
+        ok = _fit_rounds(&p[0], v, x, y, radius_px, factors, free_k1, min_pairs,
+                         iterations, damping, work, &count)
+        if ok:
+            variance = max(work.fit.r2 / max(1, 2 * count - NP), sigma_px * sigma_px)
+            _centre_move(&p[0], work.fit.jtj, variance, cx0, cy0, given_u, given_v, f_px, &shift,
+                         &sigma)
+            count = _pairs(&p[0], v, x, y, radius_px, work.fit.px, work.fit.py, work.spot,
+                           work.star)
+    if not ok:
+        return None
+    spots = np.empty(count, np.int64)
+    cdef long long[::1] a = spots
+    for i in range(count):
+        a[i] = work.spot[i]
+    return spots, shift, sigma
 
 
-def centre_gradient(const double[::1] p, double x, double y, const double[::1] steps):
-    """The 2 x 7 forward-difference gradient of :func:`centre` at ``p``, parameter k
-    moved by ``steps[k]``."""
-    grad = np.empty((2, NP))
-    cdef double[:, ::1] out = grad
-    cdef double q[NP]
-    cdef double u0, t0, u, t
-    cdef int k, c
-    _centre(&p[0], x, y, &u0, &t0)
-    for k in range(NP):
-        for c in range(NP):
-            q[c] = p[c]
-        q[k] += steps[k]
-        _centre(q, x, y, &u, &t)
-        out[0, k] = (u - u0) / (q[k] - p[k])
-        out[1, k] = (t - t0) / (q[k] - p[k])
-    return grad
-
-
-cdef void _centre(const double* p, double x, double y, double* cu,
-                  double* cv) noexcept nogil:
-    cdef double du = (x - p[4]) / p[3], dv = (y - p[5]) / p[3], u = du, t = dv, s
-    cdef Rotation r = _rotation(&p[0])
-    cdef int i
-    for i in range(8):
-        s = 1.0 + p[6] * (u * u + t * t)
-        u, t = du / s, dv / s
-    # the inverse rotation: the transpose
-    cdef double w0 = r.m[0][0] * u + r.m[1][0] * t + r.m[2][0]
-    cdef double w1 = r.m[0][1] * u + r.m[1][1] * t + r.m[2][1]
-    cdef double w2 = r.m[0][2] * u + r.m[1][2] * t + r.m[2][2]
-    cu[0], cv[0] = w0 / w2, w1 / w2
+@cython.cdivision(True)
+def brightest_in_view(Optics optics, const double[:, ::1] vectors,
+                      const double[:, ::1] matrix, double cos_limit, Py_ssize_t n):
+    """(rows, camera-frame vectors) of the first ``n`` rows of ``vectors`` (a
+    brightest-first catalog) that camera-to-sky ``matrix`` puts in ``optics``' image:
+    within the angle of cosine ``cos_limit`` of the boresight, in front, inside the
+    lens's fold radius and the image (Optics.vector_to_pixel and Camera.in_image, star
+    by star, with no product over every star in numpy)."""
+    cdef Geometry g = optics.geometry
+    cdef Lens lens = lens_of(&g)
+    cdef bint distorted = not lens_is_identity(&lens)
+    rows, out = np.empty(max(n, 0), np.int64), np.empty((max(n, 0), 3))
+    cdef long long[::1] r = rows
+    cdef double[:, ::1] o = out
+    cdef Py_ssize_t i, j, found = 0, total = vectors.shape[0]
+    cdef double w[3]
+    cdef double z, u, t, r2, s, x, y
+    with nogil:
+        for i in range(total):
+            if found >= n:
+                break
+            if (vectors[i, 0] * matrix[0, 2] + vectors[i, 1] * matrix[1, 2]
+                    + vectors[i, 2] * matrix[2, 2]) <= cos_limit:
+                continue
+            for j in range(3):  # sky to camera: the matrix's transpose
+                w[j] = (vectors[i, 0] * matrix[0, j] + vectors[i, 1] * matrix[1, j]
+                        + vectors[i, 2] * matrix[2, j])
+            z = w[2]
+            if not z > 1e-12:
+                continue
+            u, t = w[0] / z, w[1] / z
+            if distorted:
+                r2 = u * u + t * t
+                if not r2 < g.max_r2:
+                    continue
+                s = lens_factor(&lens, r2)
+                u, t = u * s, t * s
+            x, y = g.cx + g.f_px * u, g.cy + g.f_px * t
+            if x >= -0.5 and x <= g.width - 0.5 and y >= -0.5 and y <= g.height - 0.5:
+                r[found] = i
+                o[found, 0], o[found, 1], o[found, 2] = w[0], w[1], w[2]
+                found += 1
+    return rows[:found], out[:found]

@@ -1,6 +1,7 @@
 # The camera model the refit fits (included in camera_refit.pyx): the rotation of a
 # rotation vector, the projection of catalog vectors through the seven parameters, the
-# residuals' analytic Jacobian, and the 7 x 7 solve of a Levenberg-Marquardt step.
+# mutually nearest pairs of spots and projected stars, the residuals' analytic Jacobian,
+# and the 7 x 7 solve of a Levenberg-Marquardt step.
 
 cdef struct Rotation:
     double m[3][3]
@@ -44,6 +45,34 @@ cdef void _project(const double* p, const double[:, ::1] v, const Py_ssize_t* ro
         u, t = w0 / w2, w1 / w2
         scale = p[3] * (1.0 + p[6] * (u * u + t * t))
         px[i], py[i] = p[4] + u * scale, p[5] + t * scale
+
+
+cdef Py_ssize_t _pairs(const double* p, const double[:, ::1] v, const double[::1] x,
+                       const double[::1] y, double limit, double* px, double* py,
+                       Py_ssize_t* spot, Py_ssize_t* star) noexcept nogil:
+    """Mutually nearest (spot, star) pairs within ``limit`` px, spots ascending; the
+    count. The first of equal distances is the nearest, as numpy's argmin takes it.
+    Squared distances are compared (a square root per candidate was most of a refit)."""
+    cdef Py_ssize_t m = v.shape[0], n = x.shape[0], i, j, best, back, count = 0
+    cdef double d, nearest, xi, yi
+    _project(p, v, NULL, m, px, py)
+    for i in range(n):
+        best, nearest, xi, yi = -1, 0.0, x[i], y[i]
+        for j in range(m):
+            d = (xi - px[j]) * (xi - px[j]) + (yi - py[j]) * (yi - py[j])
+            if best < 0 or d < nearest:
+                best, nearest = j, d
+        if best < 0 or not nearest <= limit * limit:
+            continue
+        back, nearest, xi, yi = -1, 0.0, px[best], py[best]
+        for j in range(n):
+            d = (x[j] - xi) * (x[j] - xi) + (y[j] - yi) * (y[j] - yi)
+            if back < 0 or d < nearest:
+                back, nearest = j, d
+        if back == i:
+            spot[count], star[count] = i, best
+            count += 1
+    return count
 
 
 cdef void _jacobian(const double* p, const double[:, ::1] v, const double[::1] x,
