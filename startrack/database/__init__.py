@@ -16,7 +16,7 @@ import numpy as np
 from startrack._lazy import lazy_exports
 from startrack.camera import Camera
 from startrack.database import _triangles as tri
-from startrack.database._cone import ConeIndex
+from startrack.database._cone import ConeIndex, CutCones
 from startrack.database._kvector import KVector
 from startrack.database._pairs import (
     PairTable,
@@ -136,8 +136,8 @@ class StarDatabase:
 
 
 __all__ = [
-    "BIN", "binary_search_range", "build_threads", "EDGES", "feature_sigmas", "K_NEAREST",
-    "KVector", "level_for", "level_stars", "LEVEL_STEP", "MAX_PATTERN_SIZE", "NBINS",
+    "BIN", "binary_search_range", "build_threads", "CutCones", "EDGES", "feature_sigmas",
+    "K_NEAREST", "KVector", "level_for", "level_stars", "LEVEL_STEP", "MAX_PATTERN_SIZE", "NBINS",
     "observed_masks", "PairTable", "PATTERN_SIZE", "quad_level", "QuadLevel", "RadialTable",
     "RATIO_STEPS", "StarDatabase", "triangle_features",
 ]

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from startrack.camera import Camera
-from startrack.database import ConeIndex, StarDatabase
+from startrack.database import CutCones, StarDatabase
 from startrack.defaults import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.io import resident_bytes, shed_memory
 from startrack.match_records import MatchDiagnostics, Observation, Solution
@@ -45,6 +45,9 @@ from startrack.verify import Verification, VerifyConfig
 
 #: a blind search keeps the databases of this many magnitude cuts in memory
 KEEP_DATABASES = 2
+#: ... and the cone indexes of its cuts up to this many bytes (every cut of Gaia's sky;
+#: a deep sky's narrowest cuts, tens of MB each, are cut again)
+KEEP_CONE_BYTES = 64 << 20
 #: a candidate is verified only when this many other bright stars already fall near
 #: catalog stars at its attitude (verification needs two, at a tighter radius)
 MIN_CONFIRMED = 2
@@ -236,15 +239,15 @@ class BlindSolver:
             cut = StarDatabase(self.catalog.head(n), camera)
             # the whole catalog's cone index, cut: sorting a deep catalog per window took
             # most of a blind search's time
-            cut.__dict__["cone_index"] = self._cone().prefix(n)
+            cut.__dict__["cone_index"] = self._cones().cut(n)
             self._databases[n] = cut
         return self._databases[n]
 
-    def _cone(self) -> ConeIndex:
-        """The cone index of the whole catalog (built once; every cut is a prefix)."""
-        if "_whole_cone" not in self.__dict__:
-            self.__dict__["_whole_cone"] = ConeIndex.build(self.catalog.vectors)
-        return self.__dict__["_whole_cone"]
+    def _cones(self) -> CutCones:
+        """The cone index of the whole catalog and its cuts (built once)."""
+        if "_cut_cones" not in self.__dict__:
+            self.__dict__["_cut_cones"] = CutCones(self.catalog.vectors, KEEP_CONE_BYTES)
+        return self.__dict__["_cut_cones"]
 
     def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int],
               deadline: Deadline = NO_DEADLINE, camera: Camera | None = None,

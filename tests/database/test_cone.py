@@ -1,4 +1,5 @@
-"""The catalog cone lookup: every row within the radius and no other, anywhere on the sky."""
+"""The catalog cone lookup: every row within the radius and no other, anywhere on the sky;
+the cuts of a brightest-first catalog (its first rows) kept within their byte budget."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from startrack.database._cone import ConeIndex
+from startrack.database._cone import ConeIndex, CutCones
 
 
 @pytest.mark.parametrize("radius_deg", [0.5, 14.4, 60.0, 89.9, 179.0, 200.0])
@@ -47,3 +48,36 @@ def test_cone_rows_on_band_and_ra_edges():
         want = np.flatnonzero(vectors @ d >= math.cos(math.radians(r)))
         np.testing.assert_array_equal(index.rows(d, math.radians(r)), want)
         assert len(want) > 0
+
+
+def _sphere(n: int, seed: int) -> np.ndarray:
+    vectors = np.random.default_rng(seed).normal(size=(n, 3))
+    return vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+
+
+def test_a_cut_is_the_index_of_the_first_rows():
+    vectors = _sphere(5000, 3)
+    cones = CutCones(vectors, max_bytes=1 << 20)
+    for n in (0, 1, 700, 4999, 5000):
+        cut, built = cones.cut(n), ConeIndex.build(vectors[:n])
+        np.testing.assert_array_equal(cut.order, built.order)
+        np.testing.assert_array_equal(cut.band_start, built.band_start)
+        d = vectors[0]
+        np.testing.assert_array_equal(cut.rows(d, 0.3), built.rows(d, 0.3))
+
+
+def test_cuts_are_kept_within_their_bytes_latest_first():
+    vectors = _sphere(5000, 4)
+    one = ConeIndex.build(vectors[:1000]).nbytes
+    cones = CutCones(vectors, max_bytes=2 * one + one // 2)  # room for two such cuts
+    first = cones.cut(1000)
+    assert cones.cut(1000) is first  # kept: not cut again
+    second = cones.cut(999)
+    assert cones.cut(1000) is first  # used last now
+    cones.cut(998)  # a third: the least recently used (999) goes
+    assert cones.cut(1000) is first
+    assert cones.cut(999) is not second
+    assert sum(c.nbytes for c in cones._cuts.values()) <= cones.max_bytes
+    # a cut larger than the budget is made, and not kept
+    whole = cones.cut(5000)
+    assert cones.cut(5000) is not whole and 5000 not in cones._cuts
