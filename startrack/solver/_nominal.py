@@ -23,6 +23,13 @@ from startrack.solver._identifier import FrameResult, Identifier, frame_timing
 from startrack.solver._inputs import FrameInput
 from startrack.verify import VerifyConfig
 
+#: a tolerance wider than this is a range (``--scale-low/--scale-high``, say), not a
+#: nominal FOV and its error: the range's centre is no better a guess than its ends, and
+#: the configured method's first look there, which matches only within a few tenths of a
+#: percent of the true FOV, would cost a search's time for nothing; the quad search over
+#: the range goes first (the configured method, all its stars, still follows a failed one)
+FIRST_LOOK_MAX_TOLERANCE = 0.2
+
 
 def too_few_stars(pipeline, frame: FrameInput, camera: Camera | None,
                    sky: SkySpec) -> FrameResult:
@@ -46,7 +53,7 @@ def approximate(pipeline, frame: FrameInput, camera: Camera, sky: SkySpec):
     """A nominal FOV: the configured method's first look (its brightest stars,
     :attr:`~startrack.solver._identifier.Identifier.first_look`), its FOV refitted and
     the pointing verified through the fitted camera; else (and at once for a
-    scale-free method) the quad search within the tolerance. A
+    scale-free method or a range) the quad search within the tolerance. A
     :class:`FrameResult` when the configured method's answer stands (too few stars, a
     timeout), else the search's ``FovResult``."""
     x, y = frame.centroids.x, frame.centroids.y
@@ -62,18 +69,10 @@ def approximate(pipeline, frame: FrameInput, camera: Camera, sky: SkySpec):
             with pipeline.setup.counting():
                 nominal.warm_refit(refit_fov)
         deadline = Deadline.after_ms(pipeline.options.timeout_ms)
-        first = nominal.solve(frame, identify=lambda obs: nominal.identify(
-            obs, deadline, first_look=True))
-        pipeline.trail.add("first look (brightest stars)", pipeline.options.method, sky,
-                       camera.fov_deg, first.solution)
-        if first.solution.reason in ("too_few_stars", "timeout"):
-            return first
-        found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
-                 if first.solution.solved else None)
-        if first.solution.solved and found is None:
-            pipeline.trail.add("FOV refit", pipeline.options.method, sky, camera.fov_deg,
-                           result="rejected")
-        spent = first.solution.identify_ms  # the first try is part of the answer
+        if pipeline.options.fov_tolerance <= FIRST_LOOK_MAX_TOLERANCE:
+            found, spent = _first_look(pipeline, frame, nominal, camera, sky, deadline)
+            if isinstance(found, FrameResult):
+                return found
     if found is None:
         found = _search(pipeline, x, y, camera, sky, deadline)
         if spent:  # the first look's time (none for a scale-free method)
@@ -82,6 +81,23 @@ def approximate(pipeline, frame: FrameInput, camera: Camera, sky: SkySpec):
                 and found.solution.reason != "timeout":
             found = _whole_method(frame, nominal, deadline, found)
     return found
+
+def _first_look(pipeline, frame: FrameInput, nominal: Identifier, camera: Camera,
+                sky: SkySpec, deadline: Deadline):
+    """(the first look's answer, its time): a ``FrameResult`` where it stands (too few
+    stars, a timeout), its refitted ``FovResult`` where it solved, else None."""
+    first = nominal.solve(frame, identify=lambda obs: nominal.identify(
+        obs, deadline, first_look=True))
+    pipeline.trail.add("first look (brightest stars)", pipeline.options.method, sky,
+                       camera.fov_deg, first.solution)
+    if first.solution.reason in ("too_few_stars", "timeout"):
+        return first, 0.0
+    found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
+             if first.solution.solved else None)
+    if first.solution.solved and found is None:
+        pipeline.trail.add("FOV refit", pipeline.options.method, sky, camera.fov_deg,
+                           result="rejected")
+    return found, first.solution.identify_ms  # the first try is part of the answer
 
 def _whole_method(frame: FrameInput, nominal: Identifier, deadline: Deadline, failed):
     """The configured method with all its stars at the nominal FOV, its FOV refitted:
