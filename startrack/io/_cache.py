@@ -64,6 +64,10 @@ def announce_builds(on: bool) -> None:
 
 
 _build_seconds = [0.0]  # this process's seconds spent building cache entries
+# builds under way and when the first of them started: a build within a build (a level
+# that needs its catalog's table), or one in another thread, is not counted twice
+_building = {"depth": 0, "since": 0.0}
+_building_lock = threading.Lock()
 
 
 def build_seconds() -> float:
@@ -78,11 +82,17 @@ def _built(kind: str, build: Callable[[], dict[str, np.ndarray]]) -> dict[str, n
     (:mod:`startrack.io._memory`: a deep level's build holds a GB, the tables searched so
     far need not sit under it, nor its freed arrays under the search that follows)."""
     shed_memory()
-    t0 = time.perf_counter()
+    with _building_lock:
+        if _building["depth"] == 0:
+            _building["since"] = time.perf_counter()
+        _building["depth"] += 1
     try:
         return _announced(kind, build)
     finally:
-        _build_seconds[0] += time.perf_counter() - t0
+        with _building_lock:
+            _building["depth"] -= 1
+            if _building["depth"] == 0:
+                _build_seconds[0] += time.perf_counter() - _building["since"]
         trim_heap()
 
 

@@ -57,6 +57,32 @@ def test_builds_are_left_out_of_the_deadline_clock(tmp_path, monkeypatch):
     assert _deadline.clock() - start_clock < built
 
 
+def test_a_build_within_a_build_is_left_out_once(tmp_path, monkeypatch):
+    """A table whose build needs another built first: the time left out of the limit is
+    the wall time of the outer build, not that plus the inner one (counted twice, the
+    solver's clock ran backwards and a 0 ms limit let a first-use search run on)."""
+    import time
+
+    from startrack.io import _cache
+    from startrack.io._cache import cached_arrays
+    from startrack.solver import _deadline
+
+    monkeypatch.setenv("STARTRACK_CACHE_DIR", str(tmp_path))
+
+    def outer():
+        cached_arrays("merged", {"t": 4}, lambda: (time.sleep(0.2), {"a": np.arange(2)})[1])
+        time.sleep(0.1)
+        return {"b": np.arange(3)}
+
+    start_clock, start_builds = _deadline.clock(), _cache.build_seconds()
+    t0 = time.perf_counter()
+    cached_arrays("merged", {"t": 5}, outer)
+    wall = time.perf_counter() - t0
+    built = _cache.build_seconds() - start_builds
+    assert 0.3 <= built <= wall
+    assert _deadline.clock() >= start_clock  # the solver's clock never runs backwards
+
+
 def test_a_search_sheds_on_its_own_growth_not_on_the_process_size(monkeypatch):
     """A process already holding much (a bench, a compare) keeps the pages of the tables
     it searches; one that the search itself grew past the bound gives them back."""
