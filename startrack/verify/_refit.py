@@ -16,7 +16,6 @@ answer passes through them, and in numpy they were most of a solve.
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
@@ -40,8 +39,9 @@ ROUNDS = ((3.0, False), (2.0, False), (1.0, False), (1.0, True), (1.0, True))
 #: overstates the move's uncertainty)
 ITERATIONS = 40
 DAMPING = 1e-3  # the first step's damping, relative to the curvature
-_FACTORS = np.array([factor for factor, _ in ROUNDS])
-_FREE_K1 = np.array([free for _, free in ROUNDS], np.uint8)
+#: the rules above as the compiled refit takes them
+RULES = camera_refit.RefitRules([factor for factor, _ in ROUNDS],
+                                [free for _, free in ROUNDS], MIN_PAIRS, ITERATIONS, DAMPING)
 
 
 @dataclass(frozen=True)
@@ -76,23 +76,11 @@ def brightest_in_view(vectors: np.ndarray, matrix: np.ndarray, camera,
         math.cos(math.radians(camera.half_diagonal_deg)), n)
 
 
-@functools.lru_cache(maxsize=64)  # a batch's few cameras; a FOV search's many
-def _centre_direction(camera) -> tuple[float, float]:
-    """The tangent-plane direction of ``camera``'s image centre (its distortion inverted)."""
-    cx0, cy0 = (camera.width - 1) / 2.0, (camera.height - 1) / 2.0
-    given = camera.pixel_to_vector(np.array([cx0]), np.array([cy0]))[0]
-    return float(given[0] / given[2]), float(given[1] / given[2])
-
-
 def refit_stars(v: np.ndarray, x: np.ndarray, y: np.ndarray, camera, radius_px: float,
                 sigma_px: float) -> Refit | None:
     """:func:`refit_camera` of catalog stars at camera-frame vectors ``v`` (brightest
     first) and spots at ``x``, ``y`` (brightest first)."""
-    k1 = camera.distortion.k1 if camera.distortion is not None else 0.0
-    p = np.array([0.0, 0.0, 0.0, camera.f_px, camera.cx, camera.cy, k1])
-    v = np.ascontiguousarray(v, np.float64)
-    x, y = np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64)
-    fitted = camera_refit.refit(p, v, x, y, radius_px, _FACTORS, _FREE_K1, MIN_PAIRS,
-                                ITERATIONS, DAMPING, sigma_px, (camera.width - 1) / 2.0,
-                                (camera.height - 1) / 2.0, *_centre_direction(camera))
+    fitted = camera_refit.refit(camera.optics, np.ascontiguousarray(v, np.float64),
+                                np.ascontiguousarray(x, np.float64),
+                                np.ascontiguousarray(y, np.float64), radius_px, sigma_px, RULES)
     return None if fitted is None else Refit(*fitted)

@@ -17,16 +17,7 @@ from scipy.spatial.transform import Rotation
 from startrack._core.verify import camera_refit
 from startrack.camera import Camera, RadialDistortion
 from startrack.sky import SkySpec, load_sky
-from startrack.verify._refit import (
-    _FACTORS,
-    _FREE_K1,
-    CATALOG_STARS,
-    DAMPING,
-    ITERATIONS,
-    MIN_PAIRS,
-    SPOTS,
-    brightest_in_view,
-)
+from startrack.verify._refit import CATALOG_STARS, RULES, SPOTS, brightest_in_view
 
 CAMERA = Camera.from_fov(1024, 1024, 12.0)
 
@@ -67,8 +58,7 @@ def test_the_kernel_pairs_as_the_reference(seed):
 def test_the_kernel_fits_the_camera_the_reference_fits(seed):
     v, x, y = _case(seed)
     p = _start()
-    fitted = camera_refit.fit_rounds(p, v, x, y, 2.0, _FACTORS, _FREE_K1, MIN_PAIRS,
-                                     ITERATIONS, DAMPING)
+    fitted = camera_refit.fit_rounds(p, v, x, y, 2.0, RULES)
     want = reference.fit_rounds(_start(), v, x, y, 2.0)
     assert (fitted is None) == (want is None)
     if want is None:
@@ -92,8 +82,7 @@ def test_the_kernel_fits_the_camera_the_reference_fits(seed):
 def test_a_round_with_too_few_pairs_fits_nothing():
     v, x, y = _case(0)
     p = _start()
-    far = camera_refit.fit_rounds(p, v, x + 500.0, y, 2.0, _FACTORS, _FREE_K1, MIN_PAIRS,
-                                  ITERATIONS, DAMPING)
+    far = camera_refit.fit_rounds(p, v, x + 500.0, y, 2.0, RULES)
     assert far is None
     assert reference.fit_rounds(_start(), v, x + 500.0, y, 2.0) is None
 
@@ -126,21 +115,22 @@ def _move_in_numpy(p, fitted, sigma_px):
 @pytest.mark.parametrize("seed", range(12))
 def test_the_one_call_refit_moves_the_centre_as_numpy_did(seed):
     v, x, y = _case(seed)
-    p, q = _start(), _start()
-    fitted = camera_refit.fit_rounds(p, v, x, y, 2.0, _FACTORS, _FREE_K1, MIN_PAIRS,
-                                     ITERATIONS, DAMPING)
-    cx0, cy0 = (CAMERA.width - 1) / 2.0, (CAMERA.height - 1) / 2.0
-    got = camera_refit.refit(q, v, x, y, 2.0, _FACTORS, _FREE_K1, MIN_PAIRS, ITERATIONS,
-                             DAMPING, 0.5, cx0, cy0, 0.0, 0.0)
+    p = _start()
+    fitted = camera_refit.fit_rounds(p, v, x, y, 2.0, RULES)
+    got = camera_refit.refit(CAMERA.optics, v, x, y, 2.0, 0.5, RULES)
     assert (got is None) == (fitted is None)
     if fitted is None:
         return
-    np.testing.assert_array_equal(p, q)
     spots, shift, sigma = got
     want_shift, want_sigma = _move_in_numpy(p, fitted, 0.5)
     assert shift == pytest.approx(want_shift, abs=1e-9)
     assert sigma == pytest.approx(want_sigma, rel=1e-6)
     np.testing.assert_array_equal(spots, camera_refit.pairs(p, v, x, y, 2.0)[0])
+
+
+def test_the_rules_take_one_k1_flag_per_round():
+    with pytest.raises(ValueError, match="one k1 flag per round"):
+        camera_refit.RefitRules([3.0, 1.0], [0], 8, 40, 1e-3)
 
 
 @pytest.mark.parametrize("seed", range(8))

@@ -17,7 +17,7 @@ from libc.math cimport cos, fabs, sin, sqrt
 from libc.stdlib cimport free, malloc
 
 from startrack._core.camera.lens cimport Geometry, Lens, lens_factor, lens_is_identity, lens_of
-from startrack._core.camera.optics cimport Optics
+from startrack._core.camera.optics cimport Optics, unit_vectors
 
 cdef enum:
     NP = 7  # parameters: rotation vector (3), focal length, principal point (2), k1
@@ -25,6 +25,7 @@ cdef enum:
 
 include "camera_refit_model.pxi"
 include "camera_refit_move.pxi"
+include "camera_refit_view.pxi"
 
 
 cdef struct Fit:
@@ -168,49 +169,62 @@ def pairs(const double[::1] p, const double[:, ::1] v, const double[::1] x,
     return spots, stars
 
 
+cdef class RefitRules:
+    """The refit's rounds and stopping rules: each round's pairing radius in match radii
+    (``factors``) and whether k1 is free in it (``free_k1``, 0 or 1), the fewest pairs a
+    round fits (``min_pairs``), Levenberg-Marquardt steps per round at most
+    (``iterations``) and the first step's damping (``damping``)."""
+    cdef readonly object factors, free_k1
+    cdef const double[::1] _factors
+    cdef const unsigned char[::1] _free
+    cdef readonly Py_ssize_t min_pairs, iterations
+    cdef readonly double damping
+
+    def __init__(self, factors, free_k1, Py_ssize_t min_pairs, Py_ssize_t iterations,
+                 double damping):
+        self.factors = np.ascontiguousarray(factors, np.float64)
+        self.free_k1 = np.ascontiguousarray(free_k1, np.uint8)
+        if len(self.factors) != len(self.free_k1) or len(self.factors) == 0:
+            raise ValueError("RefitRules: one k1 flag per round, at least one round")
+        self._factors, self._free = self.factors, self.free_k1
+        self.min_pairs, self.iterations, self.damping = min_pairs, iterations, damping
+
+
 cdef bint _fit_rounds(double* p, const double[:, ::1] v, const double[::1] x,
-                      const double[::1] y, double radius_px, const double[::1] factors,
-                      const unsigned char[::1] free_k1, Py_ssize_t min_pairs,
-                      Py_ssize_t iterations, double damping, _Work work,
-                      Py_ssize_t* count) noexcept nogil:
+                      const double[::1] y, double radius_px, RefitRules rules, _Work work,
+                      Py_ssize_t* count) noexcept:
     """:func:`fit_rounds`' rounds, the last round's pairs left in ``work``. A round
     that pairs the same stars as the last, with k1 as free, is not fitted again: the
     last fit ended at its minimum (fitting again took one step of 1e-7 relative)."""
     cdef Py_ssize_t r, k, n = x.shape[0], last = -1
     cdef bint same
-    for r in range(factors.shape[0]):
+    for r in range(rules._factors.shape[0]):
         for k in range(max(last, 0)):
             work.spot[n + k], work.star[n + k] = work.spot[k], work.star[k]
-        count[0] = _pairs(p, v, x, y, factors[r] * radius_px, work.fit.px, work.fit.py,
+        count[0] = _pairs(p, v, x, y, rules._factors[r] * radius_px, work.fit.px, work.fit.py,
                           work.spot, work.star)
-        if count[0] < min_pairs:
+        if count[0] < rules.min_pairs:
             return False
-        same = count[0] == last and free_k1[r] == free_k1[r - 1]
+        same = count[0] == last and rules._free[r] == rules._free[r - 1]
         k = 0
         while same and k < count[0]:
             same = work.spot[k] == work.spot[n + k] and work.star[k] == work.star[n + k]
             k += 1
-        if not same and not _fit(p, v, x, y, work.spot, work.star, count[0], free_k1[r],
-                                 iterations, damping, &work.fit):
+        if not same and not _fit(p, v, x, y, work.spot, work.star, count[0], rules._free[r],
+                                 rules.iterations, rules.damping, &work.fit):
             return False
         last = count[0]
     return True
 
 
 def fit_rounds(double[::1] p, const double[:, ::1] v, const double[::1] x,
-               const double[::1] y, double radius_px, const double[::1] factors,
-               const unsigned char[::1] free_k1, Py_ssize_t min_pairs,
-               Py_ssize_t iterations, double damping):
-    """Fit ``p`` in place, one round per pairing radius (``factors`` x ``radius_px``; k1
-    free where ``free_k1``): (the last round's residual sum of squares, its residual
-    count, J^T J of its Jacobian), or None when a round pairs fewer than ``min_pairs``."""
+               const double[::1] y, double radius_px, RefitRules rules):
+    """Fit ``p`` in place, one round per pairing radius (``rules``, in match radii of
+    ``radius_px``): (the last round's residual sum of squares, its residual count, J^T J
+    of its Jacobian), or None when a round pairs fewer than ``rules.min_pairs``."""
     cdef _Work work = _Work(x.shape[0], v.shape[0])
     cdef Py_ssize_t count = 0, i
-    cdef bint ok
-    with nogil:
-        ok = _fit_rounds(&p[0], v, x, y, radius_px, factors, free_k1, min_pairs,
-                         iterations, damping, work, &count)
-    if not ok:
+    if not _fit_rounds(&p[0], v, x, y, radius_px, rules, work, &count):
         return None
     jtj = np.empty((NP, NP))
     cdef double[:, ::1] out = jtj
@@ -219,77 +233,29 @@ def fit_rounds(double[::1] p, const double[:, ::1] v, const double[::1] x,
     return work.fit.r2, 2 * count, jtj
 
 
-def refit(double[::1] p, const double[:, ::1] v, const double[::1] x, const double[::1] y,
-          double radius_px, const double[::1] factors, const unsigned char[::1] free_k1,
-          Py_ssize_t min_pairs, Py_ssize_t iterations, double damping, double sigma_px,
-          double cx0, double cy0, double given_u, double given_v):
+def refit(Optics optics, const double[:, ::1] v, const double[::1] x, const double[::1] y,
+          double radius_px, double sigma_px, RefitRules rules):
     """The whole refit of startrack.verify._refit in one call: :func:`fit_rounds` from
-    ``p`` (fitted in place), then (spots explained by the refitted camera, ascending; the
-    move in px of pixel (``cx0``, ``cy0``)'s direction from (``given_u``, ``given_v``);
-    its 1-sigma, the residuals' variance at least ``sigma_px`` squared). None when a
-    round pairs fewer than ``min_pairs``."""
+    the camera ``optics`` (its k1; its image centre's direction), then (the spots the
+    refitted camera explains, ascending; how far (px) the image centre's direction moved;
+    its 1-sigma, the residuals' variance taken as at least ``sigma_px`` squared). None
+    when a round pairs fewer than ``rules.min_pairs``."""
+    cdef Geometry g = optics.geometry
+    cdef double cx0 = (g.width - 1.0) / 2.0, cy0 = (g.height - 1.0) / 2.0
+    given = unit_vectors(&g, np.array([cx0]), np.array([cy0]))[0]
+    cdef double p[NP]
+    p[0], p[1], p[2], p[3], p[4], p[5], p[6] = 0.0, 0.0, 0.0, g.f_px, g.cx, g.cy, g.k1
     cdef _Work work = _Work(x.shape[0], v.shape[0])
     cdef Py_ssize_t count = 0, i
-    cdef double f_px = p[3], variance, shift = 0.0, sigma = 0.0
-    cdef bint ok
-    with nogil:
-        ok = _fit_rounds(&p[0], v, x, y, radius_px, factors, free_k1, min_pairs,
-                         iterations, damping, work, &count)
-        if ok:
-            variance = max(work.fit.r2 / max(1, 2 * count - NP), sigma_px * sigma_px)
-            _centre_move(&p[0], work.fit.jtj, variance, cx0, cy0, given_u, given_v, f_px, &shift,
-                         &sigma)
-            count = _pairs(&p[0], v, x, y, radius_px, work.fit.px, work.fit.py, work.spot,
-                           work.star)
-    if not ok:
+    cdef double variance, shift = 0.0, sigma = 0.0
+    if not _fit_rounds(p, v, x, y, radius_px, rules, work, &count):
         return None
+    variance = max(work.fit.r2 / max(1, 2 * count - NP), sigma_px * sigma_px)
+    _centre_move(p, work.fit.jtj, variance, cx0, cy0, given[0] / given[2], given[1] / given[2],
+                 g.f_px, &shift, &sigma)
+    count = _pairs(p, v, x, y, radius_px, work.fit.px, work.fit.py, work.spot, work.star)
     spots = np.empty(count, np.int64)
     cdef long long[::1] a = spots
     for i in range(count):
         a[i] = work.spot[i]
     return spots, shift, sigma
-
-
-@cython.cdivision(True)
-def brightest_in_view(Optics optics, const double[:, ::1] vectors,
-                      const double[:, ::1] matrix, double cos_limit, Py_ssize_t n):
-    """(rows, camera-frame vectors) of the first ``n`` rows of ``vectors`` (a
-    brightest-first catalog) that camera-to-sky ``matrix`` puts in ``optics``' image:
-    within the angle of cosine ``cos_limit`` of the boresight, in front, inside the
-    lens's fold radius and the image (Optics.vector_to_pixel and Camera.in_image, star
-    by star, with no product over every star in numpy)."""
-    cdef Geometry g = optics.geometry
-    cdef Lens lens = lens_of(&g)
-    cdef bint distorted = not lens_is_identity(&lens)
-    rows, out = np.empty(max(n, 0), np.int64), np.empty((max(n, 0), 3))
-    cdef long long[::1] r = rows
-    cdef double[:, ::1] o = out
-    cdef Py_ssize_t i, j, found = 0, total = vectors.shape[0]
-    cdef double w[3]
-    cdef double z, u, t, r2, s, x, y
-    with nogil:
-        for i in range(total):
-            if found >= n:
-                break
-            if (vectors[i, 0] * matrix[0, 2] + vectors[i, 1] * matrix[1, 2]
-                    + vectors[i, 2] * matrix[2, 2]) <= cos_limit:
-                continue
-            for j in range(3):  # sky to camera: the matrix's transpose
-                w[j] = (vectors[i, 0] * matrix[0, j] + vectors[i, 1] * matrix[1, j]
-                        + vectors[i, 2] * matrix[2, j])
-            z = w[2]
-            if not z > 1e-12:
-                continue
-            u, t = w[0] / z, w[1] / z
-            if distorted:
-                r2 = u * u + t * t
-                if not r2 < g.max_r2:
-                    continue
-                s = lens_factor(&lens, r2)
-                u, t = u * s, t * s
-            x, y = g.cx + g.f_px * u, g.cy + g.f_px * t
-            if x >= -0.5 and x <= g.width - 0.5 and y >= -0.5 and y <= g.height - 0.5:
-                r[found] = i
-                o[found, 0], o[found, 1], o[found, 2] = w[0], w[1], w[2]
-                found += 1
-    return rows[:found], out[:found]
