@@ -42,7 +42,7 @@ def refit_fov(result, database: StarDatabase, config: VerifyConfig,
     held = Verification(True, None, sol.obs_index, sol.cat_index, sol.false_probability,
                         len(sol.obs_index) - k)
     found = verify_fitted(hyp, result.obs.x, result.obs.y, result.camera, result.sigma_px,
-                          database, config, held, result.obs.flux)
+                          database, config, held)
     if found is None:
         return None
     found = keep_given(found, result.camera, result.sigma_px, database, config)
