@@ -83,6 +83,11 @@ class Centroids:
     def __len__(self) -> int:
         return len(self.x)
 
+    def measured_flux(self) -> np.ndarray | None:
+        """The fluxes where they were measured; None where they only rank the stars
+        (``photometric`` False): the final labelling then weighs no brightness."""
+        return self.flux if self.photometric else None
+
     def brightest(self, n: int) -> Centroids:
         return Centroids(self.x[:n], self.y[:n], self.flux[:n], self.saturated[:n],
                          self.area[:n], self.photometric, self.elongation[:n])

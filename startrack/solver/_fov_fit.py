@@ -102,7 +102,7 @@ def _fit(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
 
 def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
-                  accepted: Verification | None = None,
+                  accepted: Verification | None = None, flux: np.ndarray | None = None,
                   ) -> tuple[Verification, Camera, Observation] | None:
     """Verify ``hyp`` with ``camera``, fit the camera to every matched star and verify
     again with the fitted camera: (verification, camera, observation of every star), None
@@ -114,24 +114,26 @@ def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
     that second set of stars is one more test per hypothesis, as one more hypothesis
     would be; the bound of each test is unchanged. ``accepted``: ``hyp``'s verification
     with ``camera`` when the caller already holds it (a refit), which is then not run
-    again."""
-    found = _verify_fitted(hyp, x, y, camera, sigma_px, database, config, accepted)
+    again. ``flux``: the stars' measured fluxes (None: not measured), which the final
+    labelling weighs (a false star of the wrong brightness is not named)."""
+    found = _verify_fitted(hyp, x, y, camera, sigma_px, database, config, accepted, flux)
     if isinstance(found, tuple) or found < BRIGHTEST_MIN_CONFIRMED \
             or len(x) <= BRIGHTEST or np.max(hyp.obs_index) >= BRIGHTEST:
         return found if isinstance(found, tuple) else None
     bright = _verify_fitted(hyp, x[:BRIGHTEST], y[:BRIGHTEST], camera, sigma_px, database,
-                            dataclasses.replace(config, catalog_stars=BRIGHTEST_CATALOG_STARS))
+                            dataclasses.replace(config, catalog_stars=BRIGHTEST_CATALOG_STARS),
+                            flux=None if flux is None else flux[:BRIGHTEST])
     if not isinstance(bright, tuple):
         return None
     check, fitted, _ = bright
-    obs = Observation.from_pixels(x, y, fitted, sigma_px)
+    obs = Observation.from_pixels(x, y, fitted, sigma_px, flux)
     whole = verify(hyp, obs, database, config)  # every star labelled where it passes
     return (whole if whole.accepted else check), fitted, obs
 
 
 def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
                    sigma_px: float, database: StarDatabase, config: VerifyConfig,
-                   accepted: Verification | None = None,
+                   accepted: Verification | None = None, flux: np.ndarray | None = None,
                    ) -> tuple[Verification, Camera, Observation] | int:
     """:func:`verify_fitted` on the stars ``x``, ``y``; when it fails, how many stars the
     first verification confirmed (0 after a failed fit or a later round). Verify, fit
@@ -149,7 +151,7 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
     (negative from the end)."""
     if accepted is not None and not accepted.accepted:
         return accepted.confirmed
-    found = _compiled_rounds(hyp, x, y, camera, sigma_px, database, config, accepted)
+    found = _compiled_rounds(hyp, x, y, camera, sigma_px, database, config, accepted, flux)
     if found is not None:
         return found
     wrapped = wrapped_hypothesis(np.asarray(hyp.obs_index, np.int64),
@@ -158,20 +160,20 @@ def _verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera
     if wrapped is None:
         return 0  # verify refuses it: nothing confirmed
     found = _compiled_rounds(Hypothesis(*wrapped), x, y, camera, sigma_px, database, config,
-                             accepted)
+                             accepted, flux)
     return 0 if found is None else found
 
 
 def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,
                      sigma_px: float, database: StarDatabase, config: VerifyConfig,
-                     accepted: Verification | None,
+                     accepted: Verification | None, flux: np.ndarray | None = None,
                      ) -> tuple[Verification, Camera, Observation] | int | None:
     """:func:`_verify_fitted`'s answer from one compiled call
     (:class:`startrack._core.solver.fitted_rounds.FittedRounds`); None where the compiled check
     refuses a hypothesis index (to wrap, or refuse, as :func:`startrack.verify.verify`
     does)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)  # from_pixels's
-    rounds = rounds_for(x, y, camera, sigma_px, database, config)
+    rounds = rounds_for(x, y, camera, sigma_px, database, config, flux)
     held = (None, None, 0) if accepted is None else (
         _as(accepted.obs_index, np.int64), _as(accepted.cat_index, np.int64),
         accepted.confirmed)
@@ -183,7 +185,8 @@ def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
     # fit_camera's camera: the focal length replaced, and a k1 once one was fitted
     fitted = camera.with_focal(f) if not k1 else Camera(
         camera.width, camera.height, f, camera.cx, camera.cy, RadialDistortion(k1=k1))
-    obs = Observation(vectors, x, y, fitted, float(sigma_px) / fitted.f_px)
+    obs = Observation(vectors, x, y, fitted, float(sigma_px) / fitted.f_px,
+                      None if flux is None else _as(flux))
     check = Verification._of(True, verdict.final, verdict.obs, verdict.rows,
                              verdict.probability, verdict.confirmed, verdict.residuals,
                              verdict.quaternion, vectors)
@@ -191,29 +194,33 @@ def _compiled_rounds(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Came
 
 
 def rounds_for(x: np.ndarray, y: np.ndarray, camera: Camera, sigma_px: float,
-               database: StarDatabase, config: VerifyConfig) -> FittedRounds:
-    """The compiled rounds of the stars at pixels ``x``, ``y`` (float64) seen through
-    ``camera`` (its focal length is each run's), verified under ``config``: a copy of the
-    rounds made once for that camera, noise and settings, held by ``database`` (they
-    read its tables, and go with them: a blind search's evicted cut is not kept alive)."""
+               database: StarDatabase, config: VerifyConfig,
+               flux: np.ndarray | None = None) -> FittedRounds:
+    """The compiled rounds of the stars at pixels ``x``, ``y`` (float64), with fluxes
+    ``flux`` (None: not measured), seen through ``camera`` (its focal length is each
+    run's), verified under ``config``: a copy of the rounds made once for that camera,
+    noise, settings and whether fluxes are measured, held by ``database`` (they read its
+    tables, and go with them: a blind search's evicted cut is not kept alive)."""
     held = database.__dict__.setdefault("_fitted_rounds", {})
     key = (camera.width, camera.height, camera.cx, camera.cy, camera.distortion,
-           float(sigma_px), config)
+           float(sigma_px), config, flux is not None)
     rounds = held.get(key)
     if rounds is None:
         if len(held) >= ROUNDS_KEPT:
             held.clear()
-        rounds = held[key] = _rounds(camera, sigma_px, database, config)
-    return rounds.with_pixels(_as(x), _as(y))
+        rounds = held[key] = _rounds(camera, sigma_px, database, config, flux is not None)
+    return rounds.with_pixels(_as(x), _as(y), None if flux is None else _as(flux))
 
 
 def _rounds(camera: Camera, sigma_px: float, database: StarDatabase,
-            config: VerifyConfig) -> FittedRounds:
+            config: VerifyConfig, has_flux: bool = False) -> FittedRounds:
     """The rounds of ``camera``, ``database`` and ``config``, with no stars yet."""
     fixed = config.match_radius_px is not None
     no_pixels = np.zeros(0)
-    # the labelling's thresholds of this image size; the rounds set the scales
-    label = label_params(Observation(_NO_VECTORS, no_pixels, no_pixels, camera, 1.0), 1.0)
+    # the labelling's thresholds of this image size (and whether it weighs brightness);
+    # the rounds set the scales
+    label = label_params(Observation(_NO_VECTORS, no_pixels, no_pixels, camera, 1.0,
+                                     no_pixels if has_flux else None), 1.0)
     params = {"radius_px": 0.0, "cos_radius": 0.0, "cone_radius": 0.0, "margin_cos": 0.0,
               "capture": CAPTURE, "max_rounds": MAX_REFINEMENTS,
               "min_confirmed": config.min_confirmed,

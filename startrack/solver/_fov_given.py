@@ -103,7 +103,7 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
     n_params = 1 + int(fitted.distortion != given.distortion)
     if not _given_kept(n_params, len(check.obs_index), squared(given), fit_sq):
         return found
-    given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px)
+    given_obs = Observation.from_pixels(obs.x, obs.y, given, sigma_px, obs.flux)
     first = np.argsort(check.obs_index)[:REFIT_HYPOTHESIS_STARS]
     hyp = Hypothesis(check.obs_index[first], check.cat_index[first])
     again = verify(hyp, given_obs, database, config)
@@ -111,13 +111,13 @@ def keep_given(found: tuple[Verification, Camera, Observation], given: Camera,
 
 
 def through_given(hyp: Hypothesis, x, y, given: Camera, sigma_px: float,
-                   database: StarDatabase, config: VerifyConfig):
+                   database: StarDatabase, config: VerifyConfig, flux=None):
     """``hyp`` verified through the nominal camera ``given``: (verification, camera, obs)
     when accepted and the camera fitted to its stars does not fit them
     significantly better (:func:`given_stands`); else None. A nominal FOV that is right
     then costs one verification, not the fit-and-verify rounds and a second check of the
-    nominal camera (:func:`keep_given`)."""
-    obs = Observation.from_pixels(x, y, given, sigma_px)
+    nominal camera (:func:`keep_given`). ``flux``: the stars' measured fluxes, if any."""
+    obs = Observation.from_pixels(x, y, given, sigma_px, flux)
     check = verify(hyp, obs, database, config)
     if not check.accepted or not given_stands(
             given, x, y, check.obs_index, database.vectors[check.cat_index]):

@@ -14,7 +14,7 @@ from startrack.solver._deadline import NO_DEADLINE, Deadline
 from startrack.solver._fov_fit import verify_fitted
 from startrack.solver._fov_given import REFIT_HYPOTHESIS_STARS, given_stands, keep_given
 from startrack.solver._fov_search import FovResult, _result
-from startrack.verify import Verification, VerifyConfig
+from startrack.verify import Verification, VerifyConfig, explains_bright_spots
 
 
 def refit_fov(result, database: StarDatabase, config: VerifyConfig,
@@ -41,8 +41,13 @@ def refit_fov(result, database: StarDatabase, config: VerifyConfig,
     # the answer's own matches start the fit: that verification at the nominal camera ran
     held = Verification(True, None, sol.obs_index, sol.cat_index, sol.false_probability,
                         len(sol.obs_index) - k)
-    found = verify_fitted(hyp, result.obs.x, result.obs.y, result.camera, result.sigma_px,
-                          database, config, held)
+    obs = result.obs
+    found = verify_fitted(hyp, obs.x, obs.y, result.camera, result.sigma_px, database,
+                          config, held, obs.flux)
+    if obs.flux is not None and (found is None or not explains_bright_spots(
+            found[0].obs_index, len(obs.x))):  # as the search does (_fov_search)
+        found = verify_fitted(hyp, obs.x, obs.y, result.camera, result.sigma_px, database,
+                              config, held)
     if found is None:
         return None
     found = keep_given(found, result.camera, result.sigma_px, database, config)

@@ -41,12 +41,11 @@ from startrack.solver._fov_given import (
 )
 from startrack.solver._fov_windows import MARGIN, Pass, f_of_fov, focal_range, passes
 from startrack.solver._lost_in_space import residuals_arcsec
-from startrack.verify import Verification, VerifyConfig
+from startrack.verify import Verification, VerifyConfig, explains_bright_spots
 
 #: a blind search keeps the databases of this many magnitude cuts in memory
 KEEP_DATABASES = 2
-#: ... and the cone indexes of its cuts up to this many bytes (every cut of Gaia's sky;
-#: a deep sky's narrowest cuts, tens of MB each, are cut again)
+#: ... and its cuts' cone indexes up to this many bytes (Gaia's all; Tycho-2's narrowest recut)
 KEEP_CONE_BYTES = 64 << 20
 #: a candidate is verified only when this many other bright stars already fall near
 #: catalog stars at its attitude (verification needs two, at a tighter radius)
@@ -87,15 +86,16 @@ def _solution(check: Verification, obs: Observation, database: StarDatabase, met
 def search_window(matcher: QuadMatcher, x, y, camera: Camera, window: Pass,
                   sigma_px: float, database: StarDatabase, config: VerifyConfig,
                   diag: MatchDiagnostics, seen: set, deadline: Deadline = NO_DEADLINE,
-                  given: Camera | None = None):
+                  given: Camera | None = None, flux: np.ndarray | None = None):
     """The first quad hypothesis of ``window`` (a focal-length range, a pattern level, and
     either its one strong candidate or all of them ranked) that passes
     :func:`verify_fitted` against ``database``: (verification, camera, obs) or None.
     ``given``: the nominal camera, if any; a hypothesis whose own stars put the focal
     length within :data:`GIVEN_FIRST_WITHIN` of it is verified through it first, and that
     answer stands where the matched stars do not reject the camera
-    (:func:`~startrack.solver._fov_given.through_given`). Raises :class:`SearchTimeout`
-    when ``deadline`` passes first."""
+    (:func:`~startrack.solver._fov_given.through_given`). ``flux``: the stars' measured
+    fluxes (None: not measured), weighed by the final labelling. Raises
+    :class:`SearchTimeout` when ``deadline`` passes first."""
     n_cat = len(database.vectors)
     _check(deadline)
     tried = 0
@@ -117,25 +117,31 @@ def search_window(matcher: QuadMatcher, x, y, camera: Camera, window: Pass,
         seen.add(key)
         diag.hypotheses += 1
         tried += 1
-        guess = _fitted_guess(sh, x, y, camera, sigma_px, database, config)
-        found = None
-        if given is not None and abs(guess.f_px / given.f_px - 1.0) <= GIVEN_FIRST_WITHIN:
-            found = through_given(hyp, x, y, given, sigma_px, database, config)
-        if found is None:
-            found = verify_fitted(hyp, x, y, guess, sigma_px, database, config)
-        if found is not None:
-            return found
+        guess = _fitted_guess(sh, x, y, camera, sigma_px, database, config, flux)
+        # weighed on the stars' brightness first (a false star of the wrong brightness is
+        # not named); where that answer leaves the bright spots unexplained (fluxes that
+        # mislead: thousands of spots, a stretched 8-bit frame), on positions alone
+        for weighed in (flux, None) if flux is not None else (None,):
+            found = None
+            if given is not None and abs(guess.f_px / given.f_px - 1.0) <= GIVEN_FIRST_WITHIN:
+                found = through_given(hyp, x, y, given, sigma_px, database, config, weighed)
+            if found is None:
+                found = verify_fitted(hyp, x, y, guess, sigma_px, database, config,
+                                      flux=weighed)
+            if found is not None and (weighed is None
+                                      or explains_bright_spots(found[0].obs_index, len(x))):
+                return found
         if tried >= MAX_VERIFY:
             break
     return None
 
 
 def _fitted_guess(sh: ScaledHypothesis, x, y, camera: Camera, sigma_px: float,
-                  database: StarDatabase, config: VerifyConfig) -> Camera:
+                  database: StarDatabase, config: VerifyConfig, flux=None) -> Camera:
     """The camera with the focal length fitted to the hypothesis' own four stars (from
     the pattern's focal length; that one where the fit fails), in one compiled call."""
     h = sh.hypothesis
-    rounds = rounds_for(x, y, camera, sigma_px, database, config)
+    rounds = rounds_for(x, y, camera, sigma_px, database, config, flux)
     return camera.with_focal(rounds.pattern_focal(
         np.ascontiguousarray(h.obs_index, dtype=np.int64),
         np.ascontiguousarray(h.cat_index, dtype=np.int64), sh.f_px))
@@ -172,8 +178,9 @@ def _result(found, catalog: Catalog, method: str, diag: MatchDiagnostics, t0: fl
 
 
 def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
-                      deadline: Deadline = NO_DEADLINE) -> FovResult:
-    """Solve the stars at pixels ``x``, ``y`` with ``ident`` (an
+                      deadline: Deadline = NO_DEADLINE,
+                      flux: np.ndarray | None = None) -> FovResult:
+    """Solve the stars at pixels ``x``, ``y`` (measured fluxes ``flux``, if any) with ``ident`` (an
     :class:`startrack.solver._identifier.Identifier` of the quad matcher) whose camera's focal
     length is nominal: the true FOV may be ``tolerance`` off either way; not solved with
     reason "timeout" if ``deadline`` passes first."""
@@ -191,7 +198,7 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
     try:
         for window in passes(*focal_range(cam, tolerance)):
             found = search_window(quad, x, y, cam, window, ident.sigma_px, db, config, diag,
-                                  seen, deadline, given=cam)
+                                  seen, deadline, given=cam, flux=flux)
             if found is not None:
                 found = keep_given(found, cam, ident.sigma_px, db, config)
                 return _result(found, ident.catalog, quad.name, diag, t0, config, db)
@@ -252,13 +259,14 @@ class BlindSolver:
     def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int],
               deadline: Deadline = NO_DEADLINE, camera: Camera | None = None,
               tolerance: float = DEFAULT_FOV_TOLERANCE,
-              held_bytes: int | None = None) -> FovResult:
+              held_bytes: int | None = None, flux: np.ndarray | None = None) -> FovResult:
         """Search every window, widest field first; the first verified find wins. Not
         solved, with reason "timeout", if ``deadline`` passes first. With ``camera`` (a
         nominal focal length) only the focal lengths within ``tolerance`` of it are
         searched, through that camera (its centre and lens model). ``held_bytes``: the
         resident memory its growth is counted from (:data:`SHED_GROWTH_BYTES`; None: now),
-        one baseline for the skies one look searches in turn."""
+        one baseline for the skies one look searches in turn. ``flux``: the stars'
+        measured fluxes, if any."""
         t0 = time.perf_counter()
         base = camera or Camera.from_fov(size[0], size[1], math.sqrt(np.prod(self.fov_range)))
         # widened by MARGIN, as a nominal range is: a camera at the very end of the range
@@ -276,7 +284,8 @@ class BlindSolver:
                 db = self.database_for(dataclasses.replace(
                     base, f_px=math.sqrt(window.f_lo * window.f_hi)))
                 found = search_window(self.matcher, x, y, base, window, self.sigma_px, db,
-                                      self.config, diag, seen, deadline, given=camera)
+                                      self.config, diag, seen, deadline, given=camera,
+                                      flux=flux)
                 if found is None:
                     shed_memory(held + SHED_GROWTH_BYTES)
                     continue

@@ -79,8 +79,8 @@ def frame_timing(frame: FrameInput, identify_ms: float) -> Timing:
 
 def observation(centroids: Centroids, camera: Camera, sigma_px: float) -> Observation:
     """The centroids seen through ``camera`` (their flux with them when it is measured)."""
-    flux = centroids.flux if centroids.photometric else None
-    return Observation.from_pixels(centroids.x, centroids.y, camera, sigma_px, flux=flux)
+    return Observation.from_pixels(centroids.x, centroids.y, camera, sigma_px,
+                                   flux=centroids.measured_flux())
 
 
 class SetupClock:

@@ -1,11 +1,13 @@
-"""A nominal field of view (``--fov`` within ``--fov-tolerance``): the configured method's
-first look and its FOV refit, then the quad search within the tolerance; and the frame
-with too few stars for any of it, answered before a sky is loaded. Functions of a
+"""A nominal field of view (``--fov`` within ``--fov-tolerance``): the quad search within
+the tolerance, then the configured method's first look and its FOV refit, then the
+search on a deeper sky and the whole configured method; and the frame with too few stars
+for any of it, answered before a sky is loaded. Functions of a
 :class:`~startrack.solver._pipeline.Pipeline`, as :mod:`startrack.solver._solve_with_hints`'s
 are."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -26,8 +28,8 @@ from startrack.verify import VerifyConfig
 #: a tolerance wider than this is a range (``--scale-low/--scale-high``, say), not a
 #: nominal FOV and its error: the range's centre is no better a guess than its ends, and
 #: the configured method's first look there, which matches only within a few tenths of a
-#: percent of the true FOV, would cost a search's time for nothing; the quad search over
-#: the range goes first (the configured method, all its stars, still follows a failed one)
+#: percent of the true FOV, is not tried (the configured method, all its stars, still
+#: follows where nothing else answered)
 FIRST_LOOK_MAX_TOLERANCE = 0.2
 
 
@@ -50,54 +52,78 @@ def too_few_stars(pipeline, frame: FrameInput, camera: Camera | None,
                        frame.image)
 
 def approximate(pipeline, frame: FrameInput, camera: Camera, sky: SkySpec):
-    """A nominal FOV: the configured method's first look (its brightest stars,
-    :attr:`~startrack.solver._identifier.Identifier.first_look`), its FOV refitted and
-    the pointing verified through the fitted camera; else (and at once for a
-    scale-free method or a range) the quad search within the tolerance. A
-    :class:`FrameResult` when the configured method's answer stands (too few stars, a
-    timeout), else the search's ``FovResult``."""
-    x, y = frame.centroids.x, frame.centroids.y
-    deadline, spent, found = Deadline.after_ms(pipeline.options.timeout_ms), 0.0, None
-    nominal = None
-    # the search alone for a scale-free method (its first window holds the nominal FOV)
-    # or where the tables do not fit (a deep narrow-field sky)
-    if not get_matcher(pipeline.options.method).scale_free and _tables_fit(pipeline, camera, sky):
-        key = (camera, sky, pipeline.options.method, pipeline.sigma_px)
-        fresh = key not in pipeline._identifiers
-        nominal = pipeline.identifier(camera, sky)
-        if fresh:  # the refit's first use too, before this input's deadline starts
-            with pipeline.setup.counting():
-                nominal.warm_refit(refit_fov)
-        deadline = Deadline.after_ms(pipeline.options.timeout_ms)
-        if pipeline.options.fov_tolerance <= FIRST_LOOK_MAX_TOLERANCE:
-            found, spent = _first_look(pipeline, frame, nominal, camera, sky, deadline)
-            if isinstance(found, FrameResult):
-                return found
-    if found is None:
-        found = _search(pipeline, x, y, camera, sky, deadline)
-        if spent:  # the first look's time (none for a scale-free method)
-            found = found.plus_ms(spent)
-        if nominal is not None and not found.solution.solved \
-                and found.solution.reason != "timeout":
-            found = _whole_method(frame, nominal, deadline, found)
-    return found
+    """A nominal FOV, each stage where the ones before it found nothing: the quad search
+    within the tolerance on the chosen sky (scale-free: the nominal FOV's error costs it
+    nothing, and it answers through the nominal camera where that fits); the configured
+    method's first look (its brightest stars,
+    :attr:`~startrack.solver._identifier.Identifier.first_look`) at the nominal FOV, its
+    FOV refitted; the search on the deeper default sky; the configured method with all
+    its stars. A :class:`FrameResult` when the configured method's answer stands (too few
+    stars, a timeout), else the search's ``FovResult``; its time counts every stage's."""
+    stars = (frame.centroids.x, frame.centroids.y, frame.centroids.measured_flux())
+    nominal = _nominal_identifier(pipeline, camera, sky)
+    deadline = Deadline.after_ms(pipeline.options.timeout_ms)  # with every table loaded
+    found = _search(pipeline, stars, camera, sky, deadline, deeper=False)
+    if _answered(found):
+        return found
+    spent = 0.0 if found is None else found.solution.identify_ms
+    if nominal is not None and pipeline.options.fov_tolerance <= FIRST_LOOK_MAX_TOLERANCE:
+        first = _first_look(pipeline, frame, nominal, camera, sky, deadline)
+        if isinstance(first, FrameResult):
+            return _plus_ms(first, frame, spent)
+        if not isinstance(first, float):
+            return first.plus_ms(spent)
+        spent += first
+    deeper = _search(pipeline, stars, camera, sky, deadline, deeper=True)
+    if deeper is not None:
+        found, spent = deeper.plus_ms(spent), 0.0
+        if _answered(found):
+            return found
+    found = found.plus_ms(spent)
+    return found if nominal is None else _whole_method(frame, nominal, deadline, found)
+
+def _answered(found) -> bool:
+    return found is not None and (found.solution.solved or found.solution.reason == "timeout")
+
+def _plus_ms(result: FrameResult, frame: FrameInput, ms: float) -> FrameResult:
+    """``result`` with ``ms`` more spent on it (stages before it that gave no answer)."""
+    sol = dataclasses.replace(result.solution, identify_ms=result.solution.identify_ms + ms)
+    return dataclasses.replace(result, solution=sol,
+                               timing=frame_timing(frame, sol.identify_ms))
+
+def _nominal_identifier(pipeline, camera: Camera, sky: SkySpec) -> Identifier | None:
+    """The configured method's identifier at the nominal FOV, loaded (its refit warmed)
+    before the input's time limit starts; None for a scale-free method (the search is
+    its own) or where its tables do not fit (a deep narrow-field sky)."""
+    method = pipeline.options.method
+    if get_matcher(method).scale_free or not _tables_fit(pipeline, camera, sky):
+        return None
+    fresh = (camera, sky, method, pipeline.sigma_px) not in pipeline._identifiers
+    nominal = pipeline.identifier(camera, sky)
+    if fresh:  # the refit's first use too
+        with pipeline.setup.counting():
+            nominal.warm_refit(refit_fov)
+    return nominal
 
 def _first_look(pipeline, frame: FrameInput, nominal: Identifier, camera: Camera,
                 sky: SkySpec, deadline: Deadline):
-    """(the first look's answer, its time): a ``FrameResult`` where it stands (too few
-    stars, a timeout), its refitted ``FovResult`` where it solved, else None."""
+    """The first look's answer: a ``FrameResult`` where it stands (too few stars, a
+    timeout), its refitted ``FovResult`` where it solved (its time counted), else the
+    ms it spent."""
     first = nominal.solve(frame, identify=lambda obs: nominal.identify(
         obs, deadline, first_look=True))
     pipeline.trail.add("first look (brightest stars)", pipeline.options.method, sky,
                        camera.fov_deg, first.solution)
     if first.solution.reason in ("too_few_stars", "timeout"):
-        return first, 0.0
+        return first
     found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
              if first.solution.solved else None)
     if first.solution.solved and found is None:
         pipeline.trail.add("FOV refit", pipeline.options.method, sky, camera.fov_deg,
                            result="rejected")
-    return found, first.solution.identify_ms  # the first try is part of the answer
+    if found is None:
+        return float(first.solution.identify_ms)
+    return found.plus_ms(first.solution.identify_ms)
 
 def _whole_method(frame: FrameInput, nominal: Identifier, deadline: Deadline, failed):
     """The configured method with all its stars at the nominal FOV, its FOV refitted:
@@ -111,28 +137,34 @@ def _whole_method(frame: FrameInput, nominal: Identifier, deadline: Deadline, fa
         return failed.plus_ms(whole.solution.identify_ms)
     return found.plus_ms(failed.solution.identify_ms)
 
-def _search(pipeline, x, y, camera: Camera, sky: SkySpec, deadline: Deadline):
-    """The quad search within the tolerance: on the chosen sky; with the default sky,
-    also (or, when that is the same, only) over the whole of the search sky
+def _search(pipeline, stars, camera: Camera, sky: SkySpec, deadline: Deadline,
+            deeper: bool):
+    """The quad search within the tolerance for ``stars`` (x, y, measured flux or
+    None): on the chosen sky (``deeper`` False); with
+    the default sky, also (``deeper``) over the whole of the search sky
     (:func:`startrack.sky._default.search_sky_kind`: Tycho-2 where the field needs it,
-    else Gaia) cut per window, its brightest stars ordered by its own magnitudes."""
+    else Gaia) cut per window, its brightest stars ordered by its own magnitudes. None
+    where that search is not made (the chosen sky is the search sky, or not the
+    default)."""
     tol, opt = pipeline.options.fov_tolerance, pipeline.options
+    x, y, flux = stars
     default = opt.sky is None and opt.mag_limit is None
-    found = None
     deep = search_sky_kind(camera)
     window = (camera.fov_deg * (1 - tol), camera.fov_deg * (1 + tol))
-    if not default or sky.kind != deep:
-        found = solve_approximate(pipeline.identifier(camera, sky, "quad"), x, y, tol, deadline)
+    if not deeper:
+        if default and sky.kind == deep:
+            return None
+        found = solve_approximate(pipeline.identifier(camera, sky, "quad"), x, y, tol, deadline,
+                                  flux)
         pipeline.trail.add("FOV search", "quad", sky, window, found.solution)
-        if not default or found.solution.solved or found.solution.reason == "timeout":
-            return found
+        return found
+    if not default:
+        return None
     deep_sky = SkySpec(kind=deep, epoch=opt.epoch)
-    again = pipeline.blind_solver(deep_sky).solve(x, y, (camera.width, camera.height),
-                                              deadline, camera, tol)
-    pipeline.trail.add("FOV search, deeper sky", "quad", deep_sky, window, again.solution)
-    if found is None:
-        return again
-    return again.plus_ms(found.solution.identify_ms)
+    found = pipeline.blind_solver(deep_sky).solve(x, y, (camera.width, camera.height),
+                                              deadline, camera, tol, flux=flux)
+    pipeline.trail.add("FOV search, deeper sky", "quad", deep_sky, window, found.solution)
+    return found
 
 def _tables_fit(pipeline, camera: Camera, sky: SkySpec) -> bool:
     """Whether the configured method's pair table for ``camera`` fits the pair budget

@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from startrack.camera import Camera
-from startrack.centroids import DEFAULT_SIGMA_PX, frame_sigma_px
+from startrack.centroids import DEFAULT_SIGMA_PX, Centroids, frame_sigma_px
 from startrack.database import StarDatabase
 from startrack.defaults import BLIND_FOV_RANGE
 from startrack.errors import InputError
@@ -172,8 +172,8 @@ class Pipeline:
 
         def search(look: FrameInput):
             if camera is None:
-                c = look.centroids
-                return self._blind_search(c.x, c.y, self._blind_size(frame), sky, deadline)
+                return self._blind_search(look.centroids, self._blind_size(frame), sky,
+                                          deadline)
             return approximate(self, look, camera, sky)
 
         found = search(frame)
@@ -268,24 +268,24 @@ class Pipeline:
                                                fov_range=fov_range)
         return self._blind[key]
 
-    def _blind_search(self, x, y, size: tuple[int, int], sky: SkySpec, deadline: Deadline):
-        """No FOV: the blind search on ``sky``; on the default Tycho-2 sky, Gaia's for the
-        fields it fills (:func:`startrack.sky._default.gaia_min_fov` and wider: its G band
-        orders stars as a camera does) and then Tycho-2's for the narrower ones."""
-        lo, hi = BLIND_FOV_RANGE
-        split, held = gaia_min_fov(size), resident_bytes()  # both skies' memory baseline
+    def _blind_search(self, c: Centroids, size: tuple[int, int], sky: SkySpec, deadline: Deadline):
+        """No FOV: the blind search of ``c`` on ``sky``; on the default Tycho-2 sky, Gaia's
+        for the fields it fills (:func:`startrack.sky._default.gaia_min_fov` and wider: its
+        G band orders stars as a camera does) and then Tycho-2's for the narrower ones."""
+        x, y, lo, hi, split = c.x, c.y, *BLIND_FOV_RANGE, gaia_min_fov(size)
+        # one memory baseline for both skies' searches; fluxes where they were measured
+        seen = {"held_bytes": resident_bytes(), "flux": c.measured_flux()}
         if self.options.sky is not None or self.options.mag_limit is not None \
                 or sky.kind != "tycho2" or not lo < split < hi:
-            found = self.blind_solver(sky).solve(x, y, size, deadline, held_bytes=held)
+            found = self.blind_solver(sky).solve(x, y, size, deadline, **seen)
             self.trail.add("blind search", "quad", sky, (lo, hi), found.solution)
             return found
         gaia = dataclasses.replace(sky, kind="gaia")
-        wide = self.blind_solver(gaia, (split, hi)).solve(x, y, size, deadline, held_bytes=held)
+        wide = self.blind_solver(gaia, (split, hi)).solve(x, y, size, deadline, **seen)
         self.trail.add("blind search", "quad", gaia, (split, hi), wide.solution)
         if wide.solution.solved or wide.solution.reason != "no_match":
             return wide
-        narrow = self.blind_solver(sky, (lo, split)).solve(x, y, size, deadline,
-                                                          held_bytes=held)
+        narrow = self.blind_solver(sky, (lo, split)).solve(x, y, size, deadline, **seen)
         self.trail.add("blind search", "quad", sky, (lo, split), narrow.solution)
         return narrow.plus_ms(wide.solution.identify_ms)
 

@@ -6,7 +6,8 @@ from startrack._lazy import lazy_exports
 
 __all__ = [
     "CAPTURE", "CONE_LOOKUP_MARGIN", "CONE_MARGIN", "cone_radius", "CONE_REUSE_FRACTION",
-    "FrameVerifier", "label_params", "label_stars", "LabelConfig", "Labelling",
+    "explains_bright_spots", "FrameVerifier", "label_params", "label_stars", "LabelConfig",
+    "Labelling",
     "MAX_REFINEMENTS", "Quality", "refuse_without_evidence", "require_evidence", "rotation_of",
     "solution_quality", "Verification", "verify", "VerifyConfig", "wrapped_hypothesis",
 ]
@@ -17,6 +18,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "CONE_MARGIN": "_frame",
     "cone_radius": "_frame",
     "CONE_REUSE_FRACTION": "_frame",
+    "explains_bright_spots": "_evidence",
     "FrameVerifier": "_frame",
     "label_params": "_labelling",
     "label_stars": "_labelling",

@@ -76,6 +76,14 @@ MAX_SHIFT_PX, MAX_SHIFT_SIGMAS = 1.0, 4.0
 RESCUE_SHIFT_PX, RESCUE_SHIFT_SIGMAS = 0.5, 3.0
 
 
+def explains_bright_spots(obs_index: np.ndarray, n_spots: int) -> bool:
+    """Whether labels of the observed stars ``obs_index`` (of ``n_spots``, brightest
+    first) name at least :data:`MIN_EXPLAINED` of the :data:`BRIGHT_STARS` brightest
+    (a frame with fewer spots is not judged): the first test of :func:`camera_problem`."""
+    return n_spots < BRIGHT_STARS or int(np.count_nonzero(
+        np.asarray(obs_index) < BRIGHT_STARS)) >= MIN_EXPLAINED * BRIGHT_STARS
+
+
 def camera_problem(solution: Solution, obs, camera, catalog, radius_px: float,
                    sigma_px: float) -> str | None:
     """Why a solved answer does not explain the frame (None when it does): its image

@@ -34,14 +34,15 @@ def test_a_nominal_fov_30_percent_off_says_what_was_tried_and_what_to_try():
     assert request["method"] == "pyramid" and request["fov_deg"] == 14.85
     assert request["fov_tolerance"] == 0.1 and request["sky"]["kind"] == "hipparcos"
     steps = record["steps"]
-    first = [("pyramid", "hipparcos"), ("quad", "hipparcos"), ("quad", "gaia")]
+    # the search first, then the configured method's first look (issue 43)
+    first = [("quad", "hipparcos"), ("pyramid", "hipparcos"), ("quad", "gaia")]
     # the same stages again past the 8 brightest spots, then that look's own line
     # (issue 49, startrack.solver._deeper)
     assert [(s["method"], s["sky"]["kind"]) for s in steps] == first + first + [
         ("quad", "hipparcos")]
     assert steps[-1]["stage"] == "second look, past the 8 brightest spots"
     assert all(s["result"] == "no_match" for s in steps)
-    assert steps[1]["fov_deg"] == pytest.approx([13.365, 16.335])
+    assert steps[0]["fov_deg"] == pytest.approx([13.365, 16.335])
     # diagnostics.sky is the last stage's (gaia); the request keeps the sky asked for
     assert record["diagnostics"]["sky"]["kind"] == "gaia"
     note = [line for line in result.stderr.splitlines() if "--fov-tolerance" in line]
@@ -95,7 +96,7 @@ def test_the_sidecar_sky_is_the_requested_one(tmp_path):
     assert asked["kind"] == sidecar["sky"]["kind"] == "hipparcos"
     assert asked["mag_limit"] == sidecar["sky"]["mag_limit"]
     assert record["requested"]["fov_deg"] == pytest.approx(sidecar["camera"]["fov_deg"])
-    assert [s["method"] for s in record["steps"]][0] == "pyramid"
+    assert [s["method"] for s in record["steps"]][0] == "quad"  # the search first
 
 
 def test_api_errors_name_keywords_not_options():

@@ -138,9 +138,10 @@ def test_an_exact_camera_is_reported_as_given_unless_the_data_reject_it(error):
 @pytest.mark.parametrize("method", ["pyramid", "quad"])
 def test_a_right_nominal_fov_answers_through_the_nominal_camera(method, monkeypatch):
     """A nominal FOV that is right: the answer is made through the nominal camera and
-    stands as it is (no fit-and-verify rounds, no second verification). Where the
-    configured method's first look answers, it is the exact FOV's own answer, to the
-    bit."""
+    stands as it is (no fit-and-verify rounds, no second verification). The quad search
+    answers first whatever the configured method (issue 43: scale-free, it pays nothing
+    for the nominal FOV's error, and its answer stands through the nominal camera);
+    its stars are the true ones, its attitude the exact FOV's own to arcseconds."""
     from startrack.solver import _fov_given, _fov_search
 
     nominal = Pipeline(Options(fov_deg=CAMERA.fov_deg, size=(1024, 1024), sky="random",
@@ -153,19 +154,15 @@ def test_a_right_nominal_fov_answers_through_the_nominal_camera(method, monkeypa
     verify_fitted = _fov_search.verify_fitted
     monkeypatch.setattr(_fov_search, "verify_fitted",
                         lambda *a, **k: rounds.append(1) or verify_fitted(*a, **k))
-    same = 0
     for frame, rows, rot in _frames(CAMERA, 6, seed=21):
         got, want = nominal.solve(frame), exact.solve(frame)
         sol = got.solution
         assert sol.solved and got.camera == exact.setup_for(frame)[0]
+        assert sol.method == "quad" and [s["stage"] for s in got.steps] == ["FOV search"]
         assert _boresight_error_arcsec(sol.rotation, rot) < 60.0
+        # the same frame's two verified answers: their labelled stars may differ by one
+        assert _boresight_error_arcsec(sol.rotation, want.solution.rotation) < 5.0
         assert np.array_equal(truth_ids[rows[sol.obs_index]], got.catalog.ids[sol.cat_index])
-        if sol.method == method == "pyramid":
-            for name in ("obs_index", "cat_index", "residual_arcsec"):
-                assert np.array_equal(getattr(sol, name), getattr(want.solution, name))
-            assert np.array_equal(sol.rotation.as_quat(), want.solution.rotation.as_quat())
-            same += 1
-    assert same >= 3 or method == "quad"
     assert not rounds  # every answer stood through the nominal camera
     # the rule: the right camera stands on its stars, one 1% off does not
     frame, rows, _ = _frames(CAMERA, 1, seed=22)[0]
@@ -256,9 +253,10 @@ def test_real_frame_solves_with_no_fov():
 
 
 @pytest.mark.parametrize("method", ["quad", "pyramid"])
-def test_a_scale_free_method_searches_at_once(monkeypatch, method):
-    """With a nominal FOV (2% off), a method that finds the scale itself goes straight to
-    the focal-length search; any other method is tried at the nominal FOV first."""
+def test_the_focal_length_search_goes_first_whatever_the_method(monkeypatch, method):
+    """With a nominal FOV (2% off), the scale-free search answers first, whatever the
+    configured method (issue 43: the nominal FOV's error costs it nothing); the
+    configured method is not tried where it answers."""
     from startrack.solver._identifier import Identifier
 
     tries = []
@@ -269,37 +267,45 @@ def test_a_scale_free_method_searches_at_once(monkeypatch, method):
                                 sky="random", method=method, fov_tolerance=0.1))
     for frame, _, rot in _frames(CAMERA, 3, seed=12):
         result = pipeline.solve(frame)
-        assert result.solution.solved and result.solution.method in (method, "quad")
+        assert result.solution.solved and result.solution.method == "quad"
         assert _boresight_error_arcsec(result.solution.rotation, rot) < 60.0
         assert result.camera.fov_deg == pytest.approx(CAMERA.fov_deg, abs=0.02)
-    assert (len(tries) == 0) if method == "quad" else (len(tries) >= 3)  # pyramid: per frame
+    # pyramid's identifier is loaded and warmed once (a throwaway frame), never tried
+    assert len(tries) == (1 if method == "pyramid" else 0)
 
 
-def test_a_nominal_fov_is_first_looked_at_on_the_brightest_stars(monkeypatch):
-    """A nominal FOV's first try is the configured method on its FIRST_LOOK_STARS
-    brightest stars, no fainter ones: where the FOV is right it answers (as pyramid);
-    where it is 5% off it tries at most that many stars' triples, and the focal-length
-    search answers."""
+def test_where_the_search_finds_nothing_the_first_look_takes_the_brightest_stars(monkeypatch):
+    """Where the focal-length search finds nothing (forced here), the configured method
+    is tried on its FIRST_LOOK_STARS brightest stars, no fainter ones: where the FOV is
+    right it answers (as pyramid); where it is 5% off it tries at most that many stars'
+    triples and answers nothing."""
+    from startrack.match_records import Solution
     from startrack.matchers._pyramid import PyramidMatcher
+    from startrack.solver import _nominal
     from startrack.solver._identifier import FIRST_LOOK_STARS, Identifier
 
+    search = _nominal.solve_approximate
+    monkeypatch.setattr(_nominal, "solve_approximate", lambda *a, **k: dataclasses.replace(
+        search(*a, **k), solution=Solution(False, "quad", reason="no_match")))
     looks = []
     identify = Identifier.identify
     monkeypatch.setattr(Identifier, "identify", lambda self, obs, deadline=None,
                         first_look=False: looks.append(
                             (first_look, identify(self, obs, deadline, first_look)))
                         or looks[-1][1])
-    for error, method in ((0.0, "pyramid"), (0.05, "quad")):
+    for error, solved in ((0.0, True), (0.05, False)):
         pipeline = Pipeline(Options(fov_deg=CAMERA.fov_deg * (1 + error), size=(1024, 1024),
                                     sky="random", fov_tolerance=0.1))
         looks.clear()
         for frame, _, rot in _frames(CAMERA, 3, seed=13):
             result = pipeline.solve(frame)
-            assert result.solution.solved and result.solution.method == method
-            assert _boresight_error_arcsec(result.solution.rotation, rot) < 60.0
+            assert result.solution.solved == solved
+            if solved:
+                assert result.solution.method == "pyramid"
+                assert _boresight_error_arcsec(result.solution.rotation, rot) < 60.0
         firsts = [sol for first, sol in looks if first]  # the others: the warm-up's
         n = FIRST_LOOK_STARS
-        assert len(firsts) == 3 and all(
+        assert len(firsts) >= 3 and all(
             sol.diagnostics.extra["triples"] <= n * (n - 1) * (n - 2) // 6 for sol in firsts)
         (nominal,) = [i for i in pipeline._identifiers.values() if i.matcher.name == "pyramid"]
         look = nominal.first_look

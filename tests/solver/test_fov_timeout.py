@@ -7,6 +7,7 @@ the CLI, which refuses 0), a deadline already passed, or a clock that the test m
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import subprocess
 import sys
@@ -103,27 +104,40 @@ def test_each_fov_stage_stops_at_a_passed_deadline():
     assert refit_fov(first, ident.database, ident.verify_config, PASSED) is None
 
 
-def test_the_deadline_is_shared_by_the_nominal_method_and_the_fov_search(monkeypatch):
-    """The nominal method uses up the limit (the test's clock jumps 2 s while it runs): the
-    FOV search after it must not start afresh, so the frame is a timeout; with no limit the
-    same frame is solved by that search (its nominal FOV is 8 % off)."""
+def test_the_deadline_is_shared_by_the_fov_search_and_the_nominal_method(monkeypatch):
+    """The FOV search uses up the limit (the test's clock jumps 2 s while it runs) and
+    finds nothing: the configured method's first look after it must not start afresh, so
+    the frame is a timeout; with no limit the same frame is solved by that search (its
+    nominal FOV is 8 % off)."""
+    from startrack.match_records import Solution
+    from startrack.solver import _nominal
+
     xy = _centroids()
     options = dict(fov_deg=20.0 * 1.08, size=(1024, 1024), sky="random",
-                   method="pyramid", fov_tolerance=0.1)  # not scale-free: tried first
+                   method="pyramid", fov_tolerance=0.1)  # not scale-free: tried after
     free = Pipeline(Options(**options)).solve(_frame(xy))
     assert free.solution.solved and free.camera.fov_deg == pytest.approx(20.0, abs=0.02)
 
     now = [100.0]
     monkeypatch.setattr(deadline_module, "clock", lambda: now[0])
-    original = Identifier.identify
+    original, looked = _nominal.solve_approximate, []
 
-    def slow_identify(self, obs, deadline=None, first_look=False):
-        solution = original(self, obs, deadline, first_look)
+    def slow_search(*args, **kwargs):
+        found = original(*args, **kwargs)
         now[0] += 2.0
-        return solution
+        return dataclasses.replace(found, solution=Solution(False, "quad", reason="no_match"))
 
-    monkeypatch.setattr(Identifier, "identify", slow_identify)
+    identify_as_ever = Identifier.identify
+
+    def identify(self, obs, deadline=None, first_look=False):
+        if first_look:
+            looked.append(deadline.passed())
+        return identify_as_ever(self, obs, deadline, first_look)
+
+    monkeypatch.setattr(_nominal, "solve_approximate", slow_search)
+    monkeypatch.setattr(Identifier, "identify", identify)
     limited = Pipeline(Options(**options, timeout_ms=1000.0)).solve(_frame(xy))
+    assert looked and all(looked)  # the first look ran with the limit already spent
     assert not limited.solution.solved and limited.solution.reason == "timeout"
     assert frame_record(limited)["reason"] == "timeout"
 

@@ -4,8 +4,7 @@ verify, fit the camera to the matched stars, turn the pixels into directions thr
 fitted camera, verify again, until a round matches the stars of the one before (or, past
 REFIT_ROUNDS, its fit barely moved the camera); rounds that never settle give no answer.
 
-In Python each round made an Observation, a FrameVerifier, a verification and a Camera,
-costing more than its compiled work. Every number a round derives from the focal length
+Every number a round derives from the focal length
 (match radius, the labelling's scales, the catalog cone) is computed here by the same
 operations, in the same order, as VerifyConfig.radius_px, label_params, FrameVerifier and
 the Camera compute it, so every answer is theirs to the last bit; a change to one of
@@ -32,10 +31,9 @@ cnp.import_array()  # the C API the _arrays helpers call
 
 
 cdef struct FitFrame:
-    # One frame's values: the camera's principal point and image size (px), the
-    # distance from the principal point to the farthest corner (math.hypot's), the stated
-    # centroid noise (px) and VerifyConfig's match radius rule (a fixed radius, else
-    # radius_sigma sigmas, at least min_radius).
+    # One frame's values: principal point and image size (px), the distance to the
+    # farthest corner (math.hypot's), the stated centroid noise (px) and VerifyConfig's
+    # match radius rule (a fixed radius, else radius_sigma sigmas, at least min_radius).
     double cx
     double cy
     double width
@@ -50,10 +48,9 @@ cdef struct FitFrame:
 
 cdef struct FitConstants:
     # The solver's constants: the labelling's resolve_px and resolve_sigmas; the cone's
-    # CONE_MARGIN, CONE_LOOKUP_MARGIN and CONE_REUSE_FRACTION; fit_camera's
-    # LENS_MIN_STARS, LENS_MIN_R2, LENS_MAX_K1, LENS_K1_CHI2 and FIT_ITERATIONS;
-    # REFIT_ROUNDS, SETTLE_ROUNDS and SETTLE_FRACTION; and
-    # math.radians(1.0) and math.degrees(1.0) (what those functions multiply by).
+    # CONE_MARGIN, CONE_LOOKUP_MARGIN, CONE_REUSE_FRACTION; fit_camera's LENS_MIN_STARS,
+    # LENS_MIN_R2, LENS_MAX_K1, LENS_K1_CHI2, FIT_ITERATIONS; REFIT_ROUNDS, SETTLE_ROUNDS,
+    # SETTLE_FRACTION; math.radians(1.0) and math.degrees(1.0) (what they multiply by).
     double resolve_px
     double resolve_sigmas
     double cone_margin
@@ -78,7 +75,7 @@ cdef class FittedRounds:
     ``constants`` (a FitConstants), ``params`` (a CheckParams whose per-camera fields
     are set here) and the catalog (``table``, every star's ``mags``, its ``catalog``
     vectors)."""
-    cdef object x_array, y_array
+    cdef object x_array, y_array, flux_array  # flux_array: None where there are none
     cdef const double[::1] x
     cdef const double[::1] y
     cdef Geometry base
@@ -95,7 +92,7 @@ cdef class FittedRounds:
 
     def __init__(self, x, y, RadialLens lens, FitFrame frame, FitConstants constants,
                  CheckParams params, ConeTable table, mags, const double[:, ::1] catalog):
-        self.x_array, self.y_array, self.x, self.y = x, y, x, y
+        self.x_array, self.y_array, self.flux_array, self.x, self.y = x, y, None, x, y
         if self.x.shape[0] != self.y.shape[0]:
             raise ValueError("FittedRounds: x and y of unequal lengths")
         # Optics.geometry of the camera (its focal length is each call's): the lens's
@@ -112,14 +109,16 @@ cdef class FittedRounds:
         if self.mags.shape[0] != table.vectors.shape[0]:
             raise ValueError("FittedRounds: one magnitude per catalog star")
 
-    def with_pixels(self, x, y):
-        """These rounds for another frame's pixels ``x``, ``y`` (float64, contiguous),
-        everything else shared: a camera, sky and settings make their rounds once, and
-        each frame takes a copy."""
+    def with_pixels(self, x, y, flux=None):
+        """These rounds for another frame's pixels ``x``, ``y`` and fluxes ``flux``
+        (float64, contiguous; None where the rounds' labelling weighs none), all else
+        shared: a camera, sky and settings make their rounds once, each frame a copy."""
         cdef FittedRounds copy = FittedRounds.__new__(FittedRounds)
-        copy.x_array, copy.y_array, copy.x, copy.y = x, y, x, y
-        if copy.x.shape[0] != copy.y.shape[0]:
-            raise ValueError("FittedRounds: x and y of unequal lengths")
+        copy.x_array, copy.y_array, copy.flux_array, copy.x, copy.y = x, y, flux, x, y
+        if copy.x.shape[0] != copy.y.shape[0] or (flux is not None) != self.params.label.has_flux \
+                or (flux is not None and len(flux) != copy.x.shape[0]):
+            raise ValueError("FittedRounds: x, y and fluxes of unequal lengths, or fluxes "
+                             "that the labelling does not weigh (or none where it does)")
         copy.base, copy.described, copy.values = self.base, self.described, self.values
         copy.c, copy.params = self.c, self.params
         copy.table, copy.mags_array, copy.mags = self.table, self.mags_array, self.mags
@@ -267,7 +266,8 @@ cdef class FittedRounds:
         """The Frame of ``vectors`` through camera ``g``: ``frame``'s bucketed pixels
         reused (they do not depend on the camera), a new Frame the first time."""
         if frame is None:
-            return Frame(vectors, self.x_array, self.y_array, self.x_array, g[0])
+            return Frame(vectors, self.x_array, self.y_array,
+                         self.x_array if self.flux_array is None else self.flux_array, g[0])
         frame.vectors, frame.geometry = vectors, g[0]
         return frame
 
