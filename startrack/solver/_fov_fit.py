@@ -25,6 +25,7 @@ from startrack.verify import (
     LabelConfig,
     Verification,
     VerifyConfig,
+    explains_bright_spots,
     label_params,
     verify,
     wrapped_hypothesis,
@@ -98,6 +99,20 @@ def _fit(camera: Camera, x: np.ndarray, y: np.ndarray, cat_vectors: np.ndarray,
                             np.ascontiguousarray(y, dtype=np.float64),
                             np.ascontiguousarray(cat_vectors, dtype=np.float64),
                             iterations, with_k1, LENS_MIN_R2, LENS_MAX_K1, LENS_K1_CHI2)
+
+
+def weighed_first(verify_with, flux: np.ndarray | None, n_stars: int):
+    """``verify_with(flux)``: an answer (verification, camera, obs) or None, weighed on
+    the stars' measured brightness (a false star of the wrong brightness near a catalog
+    star is not named); where that answer leaves the bright spots unexplained
+    (:func:`startrack.verify.explains_bright_spots`: fluxes that mislead, as on a
+    stretched 8-bit frame of thousands of spots), or there is none, ``verify_with(None)``:
+    the same test on the positions alone."""
+    found = verify_with(flux)
+    if flux is None or (found is not None and explains_bright_spots(found[0].obs_index,
+                                                                     n_stars)):
+        return found
+    return verify_with(None)
 
 
 def verify_fitted(hyp: Hypothesis, x: np.ndarray, y: np.ndarray, camera: Camera,

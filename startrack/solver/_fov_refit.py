@@ -11,10 +11,10 @@ import numpy as np
 from startrack.database import StarDatabase
 from startrack.match_records import Hypothesis
 from startrack.solver._deadline import NO_DEADLINE, Deadline
-from startrack.solver._fov_fit import verify_fitted
+from startrack.solver._fov_fit import verify_fitted, weighed_first
 from startrack.solver._fov_given import REFIT_HYPOTHESIS_STARS, given_stands, keep_given
 from startrack.solver._fov_search import FovResult, _result
-from startrack.verify import Verification, VerifyConfig, explains_bright_spots
+from startrack.verify import Verification, VerifyConfig
 
 
 def refit_fov(result, database: StarDatabase, config: VerifyConfig,
@@ -42,12 +42,9 @@ def refit_fov(result, database: StarDatabase, config: VerifyConfig,
     held = Verification(True, None, sol.obs_index, sol.cat_index, sol.false_probability,
                         len(sol.obs_index) - k)
     obs = result.obs
-    found = verify_fitted(hyp, obs.x, obs.y, result.camera, result.sigma_px, database,
-                          config, held, obs.flux)
-    if obs.flux is not None and (found is None or not explains_bright_spots(
-            found[0].obs_index, len(obs.x))):  # as the search does (_fov_search)
-        found = verify_fitted(hyp, obs.x, obs.y, result.camera, result.sigma_px, database,
-                              config, held)
+    found = weighed_first(lambda flux: verify_fitted(
+        hyp, obs.x, obs.y, result.camera, result.sigma_px, database, config, held, flux),
+        obs.flux, len(obs.x))
     if found is None:
         return None
     found = keep_given(found, result.camera, result.sigma_px, database, config)

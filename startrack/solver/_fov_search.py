@@ -34,14 +34,11 @@ from startrack.match_records import MatchDiagnostics, Observation, Solution
 from startrack.matchers import QuadMatcher, ScaledHypothesis
 from startrack.sky import Catalog, resolve_sky
 from startrack.solver._deadline import NO_DEADLINE, Deadline
-from startrack.solver._fov_fit import rounds_for, verify_fitted
-from startrack.solver._fov_given import (
-    keep_given,
-    through_given,
-)
+from startrack.solver._fov_fit import rounds_for, verify_fitted, weighed_first
+from startrack.solver._fov_given import keep_given, through_given
 from startrack.solver._fov_windows import MARGIN, Pass, f_of_fov, focal_range, passes
 from startrack.solver._lost_in_space import residuals_arcsec
-from startrack.verify import Verification, VerifyConfig, explains_bright_spots
+from startrack.verify import Verification, VerifyConfig
 
 #: a blind search keeps the databases of this many magnitude cuts in memory
 KEEP_DATABASES = 2
@@ -118,19 +115,17 @@ def search_window(matcher: QuadMatcher, x, y, camera: Camera, window: Pass,
         diag.hypotheses += 1
         tried += 1
         guess = _fitted_guess(sh, x, y, camera, sigma_px, database, config, flux)
-        # weighed on the stars' brightness first (a false star of the wrong brightness is
-        # not named); where that answer leaves the bright spots unexplained (fluxes that
-        # mislead: thousands of spots, a stretched 8-bit frame), on positions alone
-        for weighed in (flux, None) if flux is not None else (None,):
-            found = None
-            if given is not None and abs(guess.f_px / given.f_px - 1.0) <= GIVEN_FIRST_WITHIN:
-                found = through_given(hyp, x, y, given, sigma_px, database, config, weighed)
-            if found is None:
-                found = verify_fitted(hyp, x, y, guess, sigma_px, database, config,
-                                      flux=weighed)
-            if found is not None and (weighed is None
-                                      or explains_bright_spots(found[0].obs_index, len(x))):
-                return found
+        through = given is not None and abs(guess.f_px / given.f_px - 1.0) <= GIVEN_FIRST_WITHIN
+
+        def verified(weighed, hyp=hyp, guess=guess, through=through):
+            found = (through_given(hyp, x, y, given, sigma_px, database, config, weighed)
+                     if through else None)
+            return found or verify_fitted(hyp, x, y, guess, sigma_px, database, config,
+                                          flux=weighed)
+
+        found = weighed_first(verified, flux, len(x))
+        if found is not None:
+            return found
         if tried >= MAX_VERIFY:
             break
     return None
@@ -251,10 +246,14 @@ class BlindSolver:
         return self._databases[n]
 
     def _cones(self) -> CutCones:
-        """The cone index of the whole catalog and its cuts (built once)."""
-        if "_cut_cones" not in self.__dict__:
-            self.__dict__["_cut_cones"] = CutCones(self.catalog.vectors, KEEP_CONE_BYTES)
-        return self.__dict__["_cut_cones"]
+        """The cone index of the whole catalog and its cuts, built once per catalog: held
+        by the catalog, as every blind solver of it (one per centroid error) indexes the
+        same stars, and one set per solver grew a batch of frames by 64 MB a solver."""
+        cones = self.catalog.__dict__.get("_cut_cones")
+        if cones is None:
+            cones = self.catalog.__dict__["_cut_cones"] = CutCones(self.catalog.vectors,
+                                                                   KEEP_CONE_BYTES)
+        return cones
 
     def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int],
               deadline: Deadline = NO_DEADLINE, camera: Camera | None = None,

@@ -66,20 +66,23 @@ def approximate(pipeline, frame: FrameInput, camera: Camera, sky: SkySpec):
     found = _search(pipeline, stars, camera, sky, deadline, deeper=False)
     if _answered(found):
         return found
+    # the time of the stages that gave no answer, which the answer's time includes
     spent = 0.0 if found is None else found.solution.identify_ms
     if nominal is not None and pipeline.options.fov_tolerance <= FIRST_LOOK_MAX_TOLERANCE:
-        first = _first_look(pipeline, frame, nominal, camera, sky, deadline)
+        first, ms = _first_look(pipeline, frame, nominal, camera, sky, deadline)
         if isinstance(first, FrameResult):
             return _plus_ms(first, frame, spent)
-        if not isinstance(first, float):
+        if first is not None:
             return first.plus_ms(spent)
-        spent += first
+        spent += ms
     deeper = _search(pipeline, stars, camera, sky, deadline, deeper=True)
     if deeper is not None:
-        found, spent = deeper.plus_ms(spent), 0.0
+        found = deeper
         if _answered(found):
-            return found
-    found = found.plus_ms(spent)
+            return found.plus_ms(spent)
+        spent += found.solution.identify_ms
+    # ``found`` is the last search's (its own time is in ``spent`` already)
+    found = found.plus_ms(spent - found.solution.identify_ms)
     return found if nominal is None else _whole_method(frame, nominal, deadline, found)
 
 def _answered(found) -> bool:
@@ -107,23 +110,22 @@ def _nominal_identifier(pipeline, camera: Camera, sky: SkySpec) -> Identifier | 
 
 def _first_look(pipeline, frame: FrameInput, nominal: Identifier, camera: Camera,
                 sky: SkySpec, deadline: Deadline):
-    """The first look's answer: a ``FrameResult`` where it stands (too few stars, a
-    timeout), its refitted ``FovResult`` where it solved (its time counted), else the
-    ms it spent."""
+    """(the first look's answer, the ms it spent): a ``FrameResult`` where it stands (too
+    few stars, a timeout), its refitted ``FovResult`` where it solved (that time
+    counted in it), else None."""
     first = nominal.solve(frame, identify=lambda obs: nominal.identify(
         obs, deadline, first_look=True))
     pipeline.trail.add("first look (brightest stars)", pipeline.options.method, sky,
                        camera.fov_deg, first.solution)
+    ms = first.solution.identify_ms
     if first.solution.reason in ("too_few_stars", "timeout"):
-        return first
+        return first, ms
     found = (refit_fov(first, nominal.database, nominal.verify_config, deadline)
              if first.solution.solved else None)
     if first.solution.solved and found is None:
         pipeline.trail.add("FOV refit", pipeline.options.method, sky, camera.fov_deg,
                            result="rejected")
-    if found is None:
-        return float(first.solution.identify_ms)
-    return found.plus_ms(first.solution.identify_ms)
+    return (None if found is None else found.plus_ms(ms)), ms
 
 def _whole_method(frame: FrameInput, nominal: Identifier, deadline: Deadline, failed):
     """The configured method with all its stars at the nominal FOV, its FOV refitted:

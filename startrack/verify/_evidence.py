@@ -116,9 +116,9 @@ def _labels_problem(solution: Solution, obs, camera, catalog) -> str | None:
     """Why the answer's labels explain too little (None when they explain enough): less
     than :data:`MIN_EXPLAINED` of the :data:`BRIGHT_STARS` brightest spots and of the
     brightest catalog stars it puts inside the image are labelled."""
-    spots = int(np.count_nonzero(np.asarray(solution.obs_index) < BRIGHT_STARS))
-    if spots >= MIN_EXPLAINED * BRIGHT_STARS:
+    if explains_bright_spots(solution.obs_index, len(obs.x)):
         return None
+    spots = int(np.count_nonzero(np.asarray(solution.obs_index) < BRIGHT_STARS))
     seen, _ = brightest_in_view(catalog.vectors, solution.rotation.as_matrix(), camera,
                                 BRIGHT_STARS)
     stars = int(np.count_nonzero(np.isin(seen, solution.cat_index)))

@@ -118,3 +118,18 @@ def test_a_search_sheds_on_its_own_growth_not_on_the_process_size(monkeypatch):
     assert not shed
     blind.solve(x, y, (1024, 1024), held_bytes=40 * 2**30 - 2 * _fov_search.SHED_GROWTH_BYTES)
     assert shed
+
+
+def test_blind_solvers_of_one_catalog_share_its_cut_cone_indexes():
+    """A batch meets a blind solver per centroid error; each used to build the whole
+    catalog's cone index and keep up to 64 MB of its cuts. They index the same stars:
+    one set per catalog."""
+    from startrack.sky import SkySpec, load_sky
+    from startrack.solver._fov_search import BlindSolver
+
+    catalog = load_sky(SkySpec(kind="random"))
+    one = BlindSolver(catalog, SkySpec(kind="random"), 0.5, fov_range=(14.0, 34.0))
+    other = BlindSolver(catalog, SkySpec(kind="random"), 1.5, fov_range=(14.0, 34.0))
+    assert one._cones() is other._cones()
+    assert BlindSolver(load_sky(SkySpec(kind="random", seed=1)), SkySpec(kind="random"),
+                       0.5)._cones() is not one._cones()

@@ -154,3 +154,22 @@ def test_a_pair_table_over_budget_leaves_the_fov_search_to_answer(monkeypatch):
     assert result.camera.fov_deg == pytest.approx(20.0, abs=0.02)
     with pytest.raises(InputError, match="pairs"):
         Pipeline(Options(**options, fov_tolerance=0.0)).solve(_frame(xy))
+
+
+def test_an_unanswered_nominal_frame_counts_each_stage_once(monkeypatch):
+    """Junk at a nominal FOV: the answer's time is the search's and the first look's,
+    each once (the whole method's, last, left out here); it counted the search twice."""
+    from startrack.solver import _nominal
+
+    monkeypatch.setattr(_nominal, "_whole_method", lambda frame, nominal, deadline, failed:
+                        failed)
+    junk = _frame(np.random.default_rng(8).uniform(0, 1024, (40, 2)))
+    pipeline = Pipeline(Options(fov_deg=20.0, size=(1024, 1024), sky="random",
+                                method="pyramid", fov_tolerance=0.1))
+    pipeline.solve(junk)  # every table loaded
+    pipeline.trail.take()
+    found = _nominal.approximate(pipeline, junk, pipeline.setup_for(junk)[0], SKY)
+    steps = pipeline.trail.take()
+    assert not found.solution.solved
+    assert [s["stage"] for s in steps] == ["FOV search", "first look (brightest stars)"]
+    assert found.solution.identify_ms == pytest.approx(sum(s["ms"] for s in steps), abs=0.01)

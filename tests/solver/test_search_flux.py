@@ -63,7 +63,9 @@ def test_the_compiled_rounds_take_fluxes_only_where_their_labelling_weighs_them(
     x, y, flux = frame.obs.x, frame.obs.y, frame.obs.flux
     with_flux = rounds_for(x, y, CAMERA, 1.0, db, VerifyConfig(), flux)
     without = rounds_for(x, y, CAMERA, 1.0, db, VerifyConfig())
-    assert with_flux is not without
+    # one set of rounds each, their labelling weighing brightness or not
+    assert with_flux.params_at(CAMERA.f_px)["label"]["has_flux"]
+    assert not without.params_at(CAMERA.f_px)["label"]["has_flux"]
     with pytest.raises(ValueError, match="does not weigh"):
         without.with_pixels(np.ascontiguousarray(x), np.ascontiguousarray(y),
                             np.ascontiguousarray(flux))
@@ -77,13 +79,13 @@ def test_fluxes_that_mislead_leave_the_search_to_the_positions(hipparcos, monkey
     brightness test withheld true stars: real 14,000-spot frames), the same hypothesis is
     verified on the positions alone, and that answer stands (forced here: every weighed
     answer is taken as unexplained)."""
-    from startrack.solver import _fov_search
+    from startrack.solver import _fov_fit, _fov_search
 
     weighed = []
     verify_fitted = _fov_search.verify_fitted
     monkeypatch.setattr(_fov_search, "verify_fitted", lambda *a, flux=None, **k: (
         weighed.append(flux is not None) or verify_fitted(*a, flux=flux, **k)))
-    monkeypatch.setattr(_fov_search, "explains_bright_spots", lambda obs_index, n: False)
+    monkeypatch.setattr(_fov_fit, "explains_bright_spots", lambda obs_index, n: False)
     frame = make_frame(hipparcos, CAMERA, Condition(noise_px=0.5, false_stars=2), 3, 11)
     options = Options(fov_deg=20.0 * 1.03, size=(1024, 1024), sky="hipparcos", mag_limit=6.5,
                       sigma_px=0.5)
