@@ -128,6 +128,8 @@ cdef class _Work:
     cdef Fit fit
     cdef Py_ssize_t* spot
     cdef Py_ssize_t* star
+    cdef Py_ssize_t* back  # each catalog star's nearest spot, and its distance
+    cdef double* back_d
 
     def __cinit__(self, Py_ssize_t n, Py_ssize_t m):
         cdef Py_ssize_t width = max(m, 2 * n, 1)
@@ -139,9 +141,11 @@ cdef class _Work:
         # pairs, then the last round's pairs
         self.spot = <Py_ssize_t*>malloc(2 * max(n, 1) * sizeof(Py_ssize_t))
         self.star = <Py_ssize_t*>malloc(2 * max(n, 1) * sizeof(Py_ssize_t))
+        self.back = <Py_ssize_t*>malloc(max(m, 1) * sizeof(Py_ssize_t))
+        self.back_d = <double*>malloc(max(m, 1) * sizeof(double))
         if (self.fit.r == NULL or self.fit.trial_r == NULL or self.fit.jac == NULL
                 or self.fit.px == NULL or self.fit.py == NULL or self.spot == NULL
-                or self.star == NULL):
+                or self.star == NULL or self.back == NULL or self.back_d == NULL):
             raise MemoryError("camera refit: scratch arrays")
 
     def __dealloc__(self):
@@ -152,6 +156,8 @@ cdef class _Work:
         free(self.fit.py)
         free(self.spot)
         free(self.star)
+        free(self.back)
+        free(self.back_d)
 
 
 def pairs(const double[::1] p, const double[:, ::1] v, const double[::1] x,
@@ -161,7 +167,8 @@ def pairs(const double[::1] p, const double[:, ::1] v, const double[::1] x,
     cdef _Work work = _Work(x.shape[0], v.shape[0])
     cdef Py_ssize_t count, i
     with nogil:
-        count = _pairs(&p[0], v, x, y, limit, work.fit.px, work.fit.py, work.spot, work.star)
+        count = _pairs(&p[0], v, x, y, limit, work.fit.px, work.fit.py, work.spot, work.star,
+                       work.back, work.back_d)
     spots, stars = np.empty(count, np.int64), np.empty(count, np.int64)
     cdef long long[::1] a = spots, b = stars
     for i in range(count):
@@ -202,7 +209,7 @@ cdef bint _fit_rounds(double* p, const double[:, ::1] v, const double[::1] x,
         for k in range(max(last, 0)):
             work.spot[n + k], work.star[n + k] = work.spot[k], work.star[k]
         count[0] = _pairs(p, v, x, y, rules._factors[r] * radius_px, work.fit.px, work.fit.py,
-                          work.spot, work.star)
+                          work.spot, work.star, work.back, work.back_d)
         if count[0] < rules.min_pairs:
             return False
         same = count[0] == last and rules._free[r] == rules._free[r - 1]
@@ -253,7 +260,8 @@ def refit(Optics optics, const double[:, ::1] v, const double[::1] x, const doub
     variance = max(work.fit.r2 / max(1, 2 * count - NP), sigma_px * sigma_px)
     _centre_move(p, work.fit.jtj, variance, cx0, cy0, given[0] / given[2], given[1] / given[2],
                  g.f_px, &shift, &sigma)
-    count = _pairs(p, v, x, y, radius_px, work.fit.px, work.fit.py, work.spot, work.star)
+    count = _pairs(p, v, x, y, radius_px, work.fit.px, work.fit.py, work.spot, work.star,
+                       work.back, work.back_d)
     spots = np.empty(count, np.int64)
     cdef long long[::1] a = spots
     for i in range(count):

@@ -49,27 +49,31 @@ cdef void _project(const double* p, const double[:, ::1] v, const Py_ssize_t* ro
 
 cdef Py_ssize_t _pairs(const double* p, const double[:, ::1] v, const double[::1] x,
                        const double[::1] y, double limit, double* px, double* py,
-                       Py_ssize_t* spot, Py_ssize_t* star) noexcept nogil:
+                       Py_ssize_t* spot, Py_ssize_t* star, Py_ssize_t* back,
+                       double* back_d) noexcept nogil:
     """Mutually nearest (spot, star) pairs within ``limit`` px, spots ascending; the
     count. The first of equal distances is the nearest, as numpy's argmin takes it.
-    Squared distances are compared (a square root per candidate was most of a refit)."""
-    cdef Py_ssize_t m = v.shape[0], n = x.shape[0], i, j, best, back, count = 0
+    One pass over the spot-star distances finds both sides' nearest (``back``,
+    ``back_d``: each star's nearest spot and its distance, scratch of the stars' length);
+    squared distances are compared (a square root per candidate was most of a refit)."""
+    cdef Py_ssize_t m = v.shape[0], n = x.shape[0], i, j, best, count = 0
     cdef double d, nearest, xi, yi
     _project(p, v, NULL, m, px, py)
+    for j in range(m):
+        back[j] = -1
     for i in range(n):
         best, nearest, xi, yi = -1, 0.0, x[i], y[i]
         for j in range(m):
             d = (xi - px[j]) * (xi - px[j]) + (yi - py[j]) * (yi - py[j])
             if best < 0 or d < nearest:
                 best, nearest = j, d
-        if best < 0 or not nearest <= limit * limit:
-            continue
-        back, nearest, xi, yi = -1, 0.0, px[best], py[best]
-        for j in range(n):
-            d = (x[j] - xi) * (x[j] - xi) + (y[j] - yi) * (y[j] - yi)
-            if back < 0 or d < nearest:
-                back, nearest = j, d
-        if back == i:
+            if back[j] < 0 or d < back_d[j]:
+                back[j], back_d[j] = i, d
+        # star[i] holds spot i's star until the pairs are written (at or before i)
+        star[i] = best if best >= 0 and nearest <= limit * limit else -1
+    for i in range(n):
+        best = star[i]
+        if best >= 0 and back[best] == i:
             spot[count], star[count] = i, best
             count += 1
     return count
