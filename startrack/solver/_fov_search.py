@@ -211,7 +211,8 @@ SHED_GROWTH_BYTES = 768 << 20
 
 
 class BlindSolver:
-    """The blind search over :data:`BLIND_FOV_RANGE` for one (uncut) catalog."""
+    """The blind search over :data:`BLIND_FOV_RANGE` for one (uncut) catalog; ``sigma_px``
+    the centroid error of the stars it solves next (a pipeline sets it per input)."""
 
     def __init__(self, catalog: Catalog, sky, sigma_px: float,
                  verify_config: VerifyConfig | None = None,

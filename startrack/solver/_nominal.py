@@ -101,7 +101,7 @@ def _nominal_identifier(pipeline, camera: Camera, sky: SkySpec) -> Identifier | 
     method = pipeline.options.method
     if get_matcher(method).scale_free or not _tables_fit(pipeline, camera, sky):
         return None
-    fresh = (camera, sky, method, pipeline.sigma_px) not in pipeline._identifiers
+    fresh = (camera, sky, method) not in pipeline._identifiers
     nominal = pipeline.identifier(camera, sky)
     if fresh:  # the refit's first use too
         with pipeline.setup.counting():
@@ -173,7 +173,7 @@ def _tables_fit(pipeline, camera: Camera, sky: SkySpec) -> bool:
     (:func:`startrack.sky.check_pair_budget`); a Gaia sky for a 1.5 to 4 deg field
     does not, and the quad search, which tables no pairs, then answers alone."""
     if not get_matcher(pipeline.options.method).tables or (
-            camera, sky, pipeline.options.method, pipeline.sigma_px) in pipeline._identifiers:
+            camera, sky, pipeline.options.method) in pipeline._identifiers:
         return True
     try:
         check_pair_budget(pipeline.catalog(sky, camera), camera)

@@ -65,13 +65,12 @@ class Pipeline:
         get_matcher(options.method)  # an unknown method fails before any work
         #: the 1-sigma centroid error of the input being solved (:meth:`solve` sets it)
         self.sigma_px = DEFAULT_SIGMA_PX if options.sigma_px is None else options.sigma_px
-        self._identifiers: dict[tuple[Camera, SkySpec, str, float], Identifier] = {}
+        self._identifiers: dict[tuple[Camera, SkySpec, str], Identifier] = {}
         self.catalogs: dict[SkySpec, Catalog] = {} if catalogs is None else catalogs
-        #: (Pointing, radius_deg): the catalogs are cut to this cone
-        # (startrack.solver._solve_with_hints)
+        #: (Pointing, radius_deg): the catalogs' cut (startrack.solver._solve_with_hints)
         self.cone = None
         self._cut: dict[SkySpec, Catalog] = {}
-        self._blind: dict[tuple[SkySpec, tuple[float, float], float], BlindSolver] = {}
+        self._blind: dict[tuple[SkySpec, tuple[float, float]], BlindSolver] = {}
         self._notes: set[str] = set()
         #: :meth:`setup_for`'s decisions by image size for inputs without a sidecar, made
         #: under the options ``_setups_for`` (the bench sets new options on a pipeline)
@@ -99,21 +98,20 @@ class Pipeline:
         return self._setups[frame.size]
 
     def identifier(self, camera: Camera, sky: SkySpec, method: str | None = None) -> Identifier:
-        opt = self.options
-        method = method or opt.method
-        # the one of ``method`` asked for last: a batch asks for it again and again
-        held = self._held.get(method)
-        if held is not None and held[0] is camera and held[1] is sky \
-                and held[2].sigma_px == self.sigma_px:
-            return held[2]
-        key = (camera, sky, method, self.sigma_px)
-        if key not in self._identifiers:
-            with self.setup.counting():
-                self._identifiers[key] = Identifier(
-                    camera, self.catalog(sky, camera), method, max_stars=opt.max_stars,
-                    sigma_px=self.sigma_px, timeout_ms=opt.timeout_ms)
-        self._held[method] = (camera, sky, self._identifiers[key])
-        return self._identifiers[key]
+        """The identifier of (camera, sky, method), loaded once, the input's centroid error
+        set on it: an image's is continuous, and one per value reloaded every table."""
+        method = method or self.options.method
+        held = self._held.get(method)  # the one asked for last: a batch asks again and again
+        if held is None or held[0] is not camera or held[1] is not sky:
+            if (camera, sky, method) not in self._identifiers:
+                with self.setup.counting():
+                    self._identifiers[camera, sky, method] = Identifier(
+                        camera, self.catalog(sky, camera), method,
+                        max_stars=self.options.max_stars, sigma_px=self.sigma_px,
+                        timeout_ms=self.options.timeout_ms)
+            held = self._held[method] = (camera, sky, self._identifiers[camera, sky, method])
+        held[2].sigma_px = float(self.sigma_px)
+        return held[2]
 
     def solve(self, frame: FrameInput) -> FrameResult:
         """Identify one input that is already read (startrack.solver._fov_search: a nominal
@@ -261,11 +259,14 @@ class Pipeline:
 
     def blind_solver(self, sky: SkySpec,
                      fov_range: tuple[float, float] = BLIND_FOV_RANGE) -> BlindSolver:
-        key = (sky, fov_range, self.sigma_px)
+        """One per (sky, range), the input's centroid error set on it: that error is
+        continuous, and a solver per value (each with its cuts) grew a batch unbounded."""
+        key = (sky, fov_range)
         if key not in self._blind:
             with self.setup.counting():
                 self._blind[key] = BlindSolver(self.catalog(sky, None), sky, self.sigma_px,
                                                fov_range=fov_range)
+        self._blind[key].sigma_px = float(self.sigma_px)
         return self._blind[key]
 
     def _blind_search(self, c: Centroids, size: tuple[int, int], sky: SkySpec, deadline: Deadline):
@@ -292,8 +293,7 @@ class Pipeline:
     def skip(self) -> None:
         """Nothing carries from one frame to the next (:class:`FrameSolver`)."""
 
-    def reset(self) -> None:
-        """Nothing carries from one frame to the next (:class:`FrameSolver`)."""
+    reset = skip
 
     def run(self, path: str | Path) -> FrameResult:
         """Read ``path`` (image or centroid CSV) once and identify its stars."""
