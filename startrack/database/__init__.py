@@ -16,7 +16,7 @@ import numpy as np
 from startrack._lazy import lazy_exports
 from startrack.camera import Camera
 from startrack.database import _triangles as tri
-from startrack.database._cone import ConeIndex, CutCones
+from startrack.database._cone import ConeIndex, CutCones, held_cone_index
 from startrack.database._kvector import KVector
 from startrack.database._pairs import (
     PairTable,
@@ -114,8 +114,12 @@ class StarDatabase:
 
     @cached_property
     def cone_index(self) -> ConeIndex:
-        """The z-sorted index behind :meth:`cone` (its arrays feed compiled lookups)."""
-        return ConeIndex.build(self.vectors)
+        """The z-sorted index behind :meth:`cone` (its arrays feed compiled lookups), held
+        by the catalog: one per catalog, whatever the databases of it (held_cone_index)."""
+        held = self.catalog.__dict__.get("_cone_index")
+        if held is None:
+            held = self.catalog.__dict__["_cone_index"] = ConeIndex.build(self.vectors)
+        return held
 
     def cone(self, direction: np.ndarray, radius_rad: float) -> np.ndarray:
         """Catalog rows within ``radius_rad`` of a unit vector, brightest first."""
@@ -139,7 +143,7 @@ __all__ = [
     "BIN", "binary_search_range", "build_threads", "CutCones", "EDGES", "feature_sigmas",
     "K_NEAREST", "KVector", "level_for", "level_stars", "LEVEL_STEP", "MAX_PATTERN_SIZE", "NBINS",
     "observed_masks", "PairTable", "PATTERN_SIZE", "quad_level", "QuadLevel", "RadialTable",
-    "RATIO_STEPS", "StarDatabase", "triangle_features",
+    "RATIO_STEPS", "StarDatabase", "held_cone_index", "triangle_features",
 ]
 
 # Other stages' entry points, each imported on first use.

@@ -94,4 +94,13 @@ class CutCones:
         return cone
 
 
-__all__ = ["BAND_RAD", "ConeIndex", "CutCones", "EDGE", "cone_rows"]
+def held_cone_index(catalog) -> ConeIndex | None:
+    """The cone index of every row of ``catalog`` that something already built (a star
+    database's, or a blind search's whole-catalog index), None where none was: building
+    one sorts the whole catalog, which a caller wanting a few rows would not repay."""
+    held = catalog.__dict__.get("_cone_index")
+    cuts = catalog.__dict__.get("_cut_cones")
+    return held if held is not None else None if cuts is None else cuts.whole
+
+
+__all__ = ["BAND_RAD", "ConeIndex", "CutCones", "EDGE", "cone_rows", "held_cone_index"]

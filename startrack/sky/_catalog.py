@@ -108,6 +108,12 @@ class Catalog:
     def __len__(self) -> int:
         return len(self.ids)
 
+    def __getstate__(self) -> dict:
+        """Its fields alone when pickled: what later stages hold on it (``_``: its cone
+        indexes, fingerprints) is theirs to make again, and a compiled index has no
+        pickle."""
+        return {k: v for k, v in self.__dict__.items() if not k.startswith("_")}
+
     def subset(self, mask_or_index: np.ndarray) -> Catalog:
         """A catalog of the selected rows, keeping the source description (and the rows'
         unit vectors: converting a deep catalog's positions again costs a second)."""

@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 from startrack._core.tracking.tracked_frame import HYPOTHESIS_STARS
+from startrack.database import held_cone_index
 from startrack.match_records import Solution
 from startrack.verify._refit import brightest_in_view, refit_camera
 from startrack.verify._verification import VerifyConfig
@@ -120,7 +121,7 @@ def _labels_problem(solution: Solution, obs, camera, catalog) -> str | None:
         return None
     spots = int(np.count_nonzero(np.asarray(solution.obs_index) < BRIGHT_STARS))
     seen, _ = brightest_in_view(catalog.vectors, solution.rotation.as_matrix(), camera,
-                                BRIGHT_STARS)
+                                BRIGHT_STARS, held_cone_index(catalog))
     stars = int(np.count_nonzero(np.isin(seen, solution.cat_index)))
     if len(seen) < BRIGHT_STARS / 2 or stars >= MIN_EXPLAINED * len(seen):
         return None

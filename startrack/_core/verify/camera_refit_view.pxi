@@ -5,25 +5,33 @@
 
 @cython.cdivision(True)
 def brightest_in_view(Optics optics, const double[:, ::1] vectors,
-                      const double[:, ::1] matrix, double cos_limit, Py_ssize_t n):
+                      const double[:, ::1] matrix, double cos_limit, Py_ssize_t n,
+                      const long long[::1] candidates=None):
     """(rows, camera-frame vectors) of the first ``n`` rows of ``vectors`` (a
     brightest-first catalog) that camera-to-sky ``matrix`` puts in ``optics``' image:
     within the angle of cosine ``cos_limit`` of the boresight, in front, inside the
     lens's fold radius and the image (Optics.vector_to_pixel and Camera.in_image, star
-    by star, with no product over every star in numpy)."""
+    by star, with no product over every star in numpy). ``candidates``: ascending rows
+    holding every row within that angle (a cone lookup), scanned in place of them all."""
     cdef Geometry g = optics.geometry
     cdef Lens lens = lens_of(&g)
     cdef bint distorted = not lens_is_identity(&lens)
     rows, out = np.empty(max(n, 0), np.int64), np.empty((max(n, 0), 3))
     cdef long long[::1] r = rows
     cdef double[:, ::1] o = out
-    cdef Py_ssize_t i, j, found = 0, total = vectors.shape[0]
+    cdef bint some = candidates is not None
+    cdef Py_ssize_t i, j, k, found = 0
+    cdef Py_ssize_t total = candidates.shape[0] if some else vectors.shape[0]
     cdef double w[3]
     cdef double z, u, t, r2, s, x, y
+    for k in range(total if some else 0):
+        if not 0 <= candidates[k] < vectors.shape[0]:
+            raise IndexError(f"brightest_in_view: candidate row {candidates[k]} out of range")
     with nogil:
-        for i in range(total):
+        for k in range(total):
             if found >= n:
                 break
+            i = candidates[k] if some else k
             if (vectors[i, 0] * matrix[0, 2] + vectors[i, 1] * matrix[1, 2]
                     + vectors[i, 2] * matrix[2, 2]) <= cos_limit:
                 continue
