@@ -191,7 +191,7 @@ def solve_approximate(ident, x: np.ndarray, y: np.ndarray, tolerance: float,
     if len(x) < 3:
         return unsolved("too_few_stars")
     try:
-        for window in passes(*focal_range(cam, tolerance)):
+        for window in passes(*focal_range(cam, tolerance), cam.f_px):
             found = search_window(quad, x, y, cam, window, ident.sigma_px, db, config, diag,
                                   seen, deadline, given=cam, flux=flux)
             if found is not None:
@@ -279,7 +279,7 @@ class BlindSolver:
         db = self.database_for(base)
         reason = "no_match" if len(x) >= 3 else "too_few_stars"
         try:
-            for window in passes(f_lo, f_hi) if len(x) >= 3 else []:
+            for window in passes(f_lo, f_hi, camera and camera.f_px) if len(x) >= 3 else []:
                 _check(deadline)  # before the window's tables are built
                 db = self.database_for(dataclasses.replace(
                     base, f_px=math.sqrt(window.f_lo * window.f_hi)))
