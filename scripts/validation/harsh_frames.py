@@ -22,11 +22,13 @@ labelling checks against the catalog magnitudes.
 ``--pipeline`` solves each frame's centroids (x, y, flux) through :class:`startrack.Solver`
 instead, the path of ``startrack identify`` and the API: the camera's FOV taken as nominal
 (the default ``--fov-tolerance``), its first look at the brightest stars, the refit and
-the search, and the evidence gate on every answer.
+the search, and the evidence gate on every answer; with ``--scale LO,HI`` the FOV is given
+as a range instead, LO to HI times the true one (``--scale-low/--scale-high``).
 
     .venv/bin/python scripts/validation/harsh_frames.py --frames 200 --seed 0
     .venv/bin/python scripts/validation/harsh_frames.py --frames 200 --seed 0 --methods pyramid
     --pipeline
+    .venv/bin/python scripts/validation/harsh_frames.py --frames 200 --pipeline --scale 0.6,1.7
 """
 
 from __future__ import annotations
@@ -97,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
     print("-" * len(head))
     config = VerifyConfig()
     for name in [m.strip() for m in args.methods.split(",") if m.strip()]:
-        solve = (_through_pipeline(camera, args, name) if args.pipeline else
+        solve = (_through_pipeline(camera, catalog, args, name) if args.pipeline else
                  _through_matcher(Identifier(camera, catalog, name, max_stars=args.max_stars),
                                   config))
         total = dict.fromkeys(keys, 0)
@@ -126,22 +128,43 @@ def _through_matcher(ident: Identifier, config: VerifyConfig):
     return lambda frame: identify(frame.obs, ident.matcher, config)
 
 
-def _through_pipeline(camera: Camera, args: argparse.Namespace, method: str):
+def _through_pipeline(camera: Camera, catalog, args: argparse.Namespace, method: str):
     """Each frame's centroids solved by startrack.Solver (the identify command's path);
     its answer as the matcher's Solution, in the catalog rows load_sky gives."""
     from startrack import Solver
     from startrack.solver import Pipeline
 
-    solver = Solver(camera=camera, sky="hipparcos", mag_limit=args.mag_limit, method=method,
+    given = {"camera": camera}
+    if args.scale:  # the FOV as a range (--scale-low/--scale-high), no camera
+        low, high = (float(v) * args.fov for v in args.scale.split(","))
+        given = {"size": (args.size, args.size), "scale_low": low, "scale_high": high}
+    solver = Solver(**given, sky="hipparcos", mag_limit=args.mag_limit, method=method,
                     max_stars=args.max_stars, sigma_px=args.noise_px or 0.5)
     pipeline: Pipeline = solver._solver  # no track, no prior: the one-frame pipeline
 
     def solve(frame):
         obs = frame.obs
         spots = np.column_stack([obs.x, obs.y, obs.flux])
-        return pipeline.solve(as_frame_input(spots)).solution
+        result = pipeline.solve(as_frame_input(spots))
+        return in_rows_of(catalog, result.catalog, result.solution)
 
     return solve
+
+
+def in_rows_of(catalog, theirs, solution):
+    """``solution`` (rows of the catalog ``theirs``) in the rows of ``catalog``: the same
+    sky cut for another camera (a range's centre) merges other close pairs, so its rows
+    differ; each reported star is ``catalog``'s row nearest it (its own, or its twin's
+    where only one catalog merged them)."""
+    if theirs is catalog or not solution.solved or len(theirs) == len(catalog) and \
+            np.array_equal(theirs.ids, catalog.ids):
+        return solution
+    import dataclasses
+
+    from scipy.spatial import cKDTree
+
+    _, rows = cKDTree(catalog.vectors).query(theirs.vectors[solution.cat_index])
+    return dataclasses.replace(solution, cat_index=np.asarray(rows, np.int64))
 
 
 def as_frame_input(spots: np.ndarray):
@@ -163,6 +186,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-stars", type=int, default=8)
     ap.add_argument("--pipeline", action="store_true",
                     help="solve through startrack.Solver (identify's path), not the matcher")
+    ap.add_argument("--scale", default=None, metavar="LO,HI",
+                    help="with --pipeline: the FOV given as the range LO to HI times the "
+                         "true FOV (identify's --scale-low/--scale-high), not the camera")
     return run(ap.parse_args(argv))
 
 
