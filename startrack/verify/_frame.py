@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from startrack._core.verify.entry_points import Frame, Stars, Verdict, Verifier
+from startrack._core.verify.entry_points import Stars, Verdict, Verifier, frame_through
 from startrack.camera import Camera
 from startrack.match_records import Observation
 from startrack.verify._labelling import label_params
@@ -80,8 +80,8 @@ class FrameVerifier:
                   "max_probability": config.max_false_probability,
                   "max_stars": config.catalog_stars,
                   "label": label_params(obs, radius)}
-        frame = Frame(_as(obs.vectors), _as(obs.x), _as(obs.y), obs.kernel_flux(),
-                      camera_geometry(camera))
+        frame = frame_through(camera.optics, _as(obs.vectors), _as(obs.x), _as(obs.y),
+                              obs.kernel_flux())
         mags = _as(database.catalog.mag)
         stars = None
         if rows is not None:

@@ -23,7 +23,7 @@ from startrack._core._arrays cimport empty_f64, empty_rows
 from startrack._core.camera.lens cimport Geometry
 from startrack._core.database.cone cimport ConeTable
 from startrack._core.verify.verification cimport ACCEPTED, BAD_INDEX, UNLABELLED, CheckParams, Frame
-from startrack._core.verify.verification cimport Verdict, check_cone
+from startrack._core.verify.verification cimport Verdict, check_cone, new_frame
 from startrack._core.camera.optics cimport RadialLens, corner_cosines, unit_vectors
 from startrack._core.camera.fit cimport _BAD_FOCAL, _FOLDS, fit_geometry, fitted_lens, focal_spread
 
@@ -266,8 +266,8 @@ cdef class FittedRounds:
         """The Frame of ``vectors`` through camera ``g``: ``frame``'s bucketed pixels
         reused (they do not depend on the camera), a new Frame the first time."""
         if frame is None:
-            return Frame(vectors, self.x_array, self.y_array,
-                         self.x_array if self.flux_array is None else self.flux_array, g[0])
+            return new_frame(vectors, self.x_array, self.y_array,
+                             self.x_array if self.flux_array is None else self.flux_array, g)
         frame.vectors, frame.geometry = vectors, g[0]
         return frame
 

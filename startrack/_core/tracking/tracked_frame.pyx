@@ -16,13 +16,17 @@ from libc.math cimport M_PI, cos, isfinite
 
 import numpy as np
 
+cimport numpy as cnp
+
+from startrack._core._arrays cimport zeros_f64, zeros_i64
 from startrack._core.verify.nearest cimport Pairs, pairs_within  # the vote's (tracked_vote.pxi)
 from startrack._core.verify.verification cimport CheckParams, FirstTest, Frame, Geometry, Labelled
 from startrack._core.verify.verification cimport Matches, Projection, Stars, binomial_tail
 from startrack._core.verify.verification cimport first_match, match, project, refine_and_label
-from startrack._core.verify.verification cimport residual_arcsec, within
-from startrack._core._wahba cimport matrix_to_quaternion
+from startrack._core.verify.verification cimport Verdict, new_frame, report_labelled, within
 from startrack._core.camera.optics cimport Optics
+
+cnp.import_array()  # the C API the _arrays helpers call
 
 include "tracked_vote.pxi"
 
@@ -85,7 +89,7 @@ cdef class TrackSetup:
 
     def frame(self, vectors, x, y, flux):
         """The frame's observed stars as verification takes them (:class:`Frame`)."""
-        return Frame(vectors, x, y, flux, self.geometry)
+        return new_frame(vectors, x, y, flux, &self.geometry)
 
 
 cdef class HeldRows:
@@ -107,6 +111,10 @@ cdef class HeldRows:
         return np.asarray(self.stars.vectors)
 
 
+# An attempt's pairs and residuals before it has any: empty, so one array serves them all.
+cdef object _NO_ROWS = zeros_i64(0), _NO_RESIDUALS = zeros_f64(0)
+
+
 cdef class Attempt:
     """What an attempt found: ``status`` (NONE, ACCEPTED, TURNED: the refined attitude
     left the allowed turn, UNCOVERED: the held rows do not cover the allowed turn and
@@ -123,8 +131,8 @@ cdef class Attempt:
     def __init__(self, int status, prior):
         self.status, self.hypothesis, self.probability = status, -1, 1.0
         self.tried = self.pairs = self.confirmed = self.n_in = 0
-        self.obs_index = self.rows = np.zeros(0, np.int64)
-        self.residuals = np.zeros(0)
+        self.obs_index = self.rows = _NO_ROWS
+        self.residuals = _NO_RESIDUALS
         self.quaternion = None
         self.matrix = np.asarray(prior)
 
@@ -154,16 +162,12 @@ cdef bint covers(HeldRows held, const double[:, :] prior, double turn, double re
 
 cdef Attempt _labelled(int status, Attempt out, Labelled done, Stars stars, Frame frame):
     """``out`` with the labelled pairs, the rows and the final attitude; once ACCEPTED,
-    the residuals and the quaternion (as verification reports them)."""
-    out.status = status
-    out.obs_index = np.asarray(done.obs)
-    out.rows = np.asarray(stars.rows)[np.asarray(done.pos)]
-    out.matrix = np.asarray(done.final)
+    the residuals and the quaternion (verification's own report of them)."""
+    cdef Verdict v = Verdict.__new__(Verdict)
+    report_labelled(v, frame, stars, done, status == ACCEPTED)
+    out.status, out.obs_index, out.rows, out.matrix = status, v.obs, v.rows, v.final
     if status == ACCEPTED:
-        cat = np.asarray(stars.vectors)[np.asarray(done.pos)]
-        out.residuals = np.asarray(residual_arcsec(frame.vectors, done.obs, done.final, cat))
-        out.quaternion = np.empty(4)
-        matrix_to_quaternion(done.final, out.quaternion)
+        out.residuals, out.quaternion = v.residuals, v.quaternion
     return out
 
 

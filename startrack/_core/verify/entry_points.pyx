@@ -18,9 +18,10 @@ from startrack._core.verify.verification cimport CheckParams, Geometry, Projecti
 from startrack._core.verify.verification cimport Frame as _Frame, Stars as _Stars, Verdict as _Verdict
 from startrack._core.verify.verification cimport binomial_tail as _binomial_tail
 from startrack._core.verify.verification cimport check_cone, check_fixed, fits_within, within
-from startrack._core.verify.verification cimport match as _match, project as _project
+from startrack._core.verify.verification cimport match as _match, new_frame, project as _project
 from startrack._core.verify.verification cimport residual_arcsec as _residual_arcsec
 from startrack._core._wahba cimport wahba
+from startrack._core.camera.optics cimport Optics
 
 # The records Python builds and reads, under their own names.
 ConeTable, Frame, Stars, Verdict = _ConeTable, _Frame, _Stars, _Verdict
@@ -29,6 +30,13 @@ BAD_INDEX, REJECTED, NOT_ACCEPTED, ACCEPTED, UNLABELLED = (
     Status.BAD_INDEX, Status.REJECTED, Status.NOT_ACCEPTED, Status.ACCEPTED, Status.UNLABELLED)
 
 cnp.import_array()  # the C API the _arrays helpers call
+
+
+def frame_through(Optics optics, const double[:, ::1] vectors, const double[::1] x,
+                  const double[::1] y, const double[::1] flux):
+    """The :class:`Frame` of the observed stars seen through ``optics`` (its camera read
+    in C: ``Frame(..., geometry)`` takes it as a dict, converted both ways)."""
+    return new_frame(vectors, x, y, flux, &optics.geometry)
 
 
 cdef class Verifier:

@@ -171,6 +171,9 @@ cdef class Verdict:
     cdef readonly int cones
 
 
+cdef Frame new_frame(const double[:, ::1] vectors, const double[::1] x, const double[::1] y,
+                     const double[::1] flux, const Geometry* geometry)
+
 cdef double binomial_tail(long long k, long long n, double p) noexcept nogil
 
 cdef bint fits_within(const double[:, :] cam, const double[:, :] sky,
@@ -192,6 +195,9 @@ cdef FirstTest first_match(Frame frame, const long long[::1] hyp_obs,
 
 cdef Labelled refine_and_label(Frame frame, Stars stars, Matches start, CheckParams params,
                                Py_ssize_t max_rounds)
+
+cdef void report_labelled(Verdict v, Frame frame, Stars stars, Labelled done,
+                          bint accepted) except *
 
 cdef double[::1] residual_arcsec(const double[:, ::1] obs_vectors, const long long[::1] obs,
                                  const double[:, :] matrix, const double[:, :] cat_vectors)

@@ -125,8 +125,22 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
         v.status, v.final = UNLABELLED, _matrix_array(r.matrix)
         v.obs, v.rows = copy_i64(m.obs, m.obs.shape[0]), _take(stars.rows, m.pos)
         return v
-    v.status, v.final = ACCEPTED, _matrix_array(done.final)
+    v.status = ACCEPTED
+    report_labelled(v, frame, stars, done, True)
+    return v
+
+
+cdef void report_labelled(Verdict v, Frame frame, Stars stars, Labelled done,
+                          bint accepted) except *:
+    """``v``'s pairs (observed ascending, catalog rows) and final attitude from the
+    labelling ``done``; once ``accepted``, what an accepted attitude reports: each star's
+    residual (arcsec) and the final attitude's quaternion. New arrays, made through
+    numpy's C API (numpy's functions cost a microsecond each)."""
+    cdef Py_ssize_t k
+    v.final = _matrix_array(done.final)
     v.obs, v.rows = copy_i64(done.obs, done.obs.shape[0]), _take(stars.rows, done.pos)
+    if not accepted:
+        return
     cdef double[:, ::1] cat = _sky_rows(frame, done.pos.shape[0])
     for k in range(done.pos.shape[0]):
         cat[k, 0], cat[k, 1], cat[k, 2] = (stars.vectors[done.pos[k], 0],
@@ -137,7 +151,6 @@ cdef Verdict _judge(Frame frame, const long long[::1] hyp_obs, double[:, ::1] fi
                     <double*>cnp.PyArray_DATA(v.residuals))
     v.quaternion = empty_f64(4)
     matrix_to_quaternion(done.final, v.quaternion)
-    return v
 
 
 cdef inline double _drift(const double[:, ::1] a, const double[:, ::1] b) noexcept:

@@ -5,14 +5,29 @@
 cdef class Frame:
     def __init__(self, const double[:, ::1] vectors, const double[::1] x,
                  const double[::1] y, const double[::1] flux, Geometry geometry):
-        if not (vectors.shape[0] == x.shape[0] == y.shape[0] == flux.shape[0]):
-            raise ValueError("Frame: observed arrays of unequal lengths")
-        self.vectors, self.x, self.y, self.flux = vectors, x, y, flux
-        self.geometry = geometry
-        self.n = x.shape[0]
-        self.scratch = _thread_scratch()
-        self.work = _thread_work()
-        self.grid = point_grid(x, y)
+        _fill_frame(self, vectors, x, y, flux, &geometry)
+
+
+cdef Frame new_frame(const double[:, ::1] vectors, const double[::1] x, const double[::1] y,
+                     const double[::1] flux, const Geometry* geometry):
+    """A Frame made in C: its ``__init__`` takes the camera as a Python dict, and the
+    struct's conversion both ways cost a tracked frame more than its matching."""
+    cdef Frame frame = Frame.__new__(Frame)
+    _fill_frame(frame, vectors, x, y, flux, geometry)
+    return frame
+
+
+cdef void _fill_frame(Frame frame, const double[:, ::1] vectors, const double[::1] x,
+                      const double[::1] y, const double[::1] flux,
+                      const Geometry* geometry) except *:
+    if not (vectors.shape[0] == x.shape[0] == y.shape[0] == flux.shape[0]):
+        raise ValueError("Frame: observed arrays of unequal lengths")
+    frame.vectors, frame.x, frame.y, frame.flux = vectors, x, y, flux
+    frame.geometry = geometry[0]
+    frame.n = x.shape[0]
+    frame.scratch = _thread_scratch()
+    frame.work = _thread_work()
+    frame.grid = point_grid(x, y)
 
 
 # Each thread's matching buffers, shared by the frames it checks: a new frame (one per
