@@ -45,9 +45,11 @@ ITERATIONS = 40
 #: round)
 DAMPING = 1e-7
 #: a scan for the brightest in view that would pass more rows than this looks up the
-#: catalog's cone instead: the lookup costs about what 3,000 to 8,000 rows of the scan do
-#: in a solve (measured at 11.4, 20 and 30 deg)
-CONE_FROM_ROWS = 8000
+#: catalog's cone instead, where the cone's rows, each costing what this many rows of the
+#: scan do (gathered, tested, sorted), cost less: a lookup costs about what 3,000 to
+#: 8,000 rows of the scan do in a solve (measured at 11.4, 20 and 30 deg), and a deep
+#: blind catalog's cone at 11.4 deg (2,300 of Gaia's rows) more than its scan
+CONE_FROM_ROWS, CONE_ROW_COST = 8000, 16
 #: the rules above as the compiled refit takes them
 RULES = camera_refit.RefitRules([factor for factor, _ in ROUNDS],
                                 [free for _, free in ROUNDS], MIN_PAIRS, ITERATIONS, DAMPING)
@@ -80,9 +82,9 @@ def brightest_in_view(vectors: np.ndarray, matrix: np.ndarray, camera,
     brightest-first ``vectors``) that camera-to-sky ``matrix`` puts in the image
     (compiled: a scan that stops at the ``n``-th). ``cone``: a ConeIndex of ``vectors``,
     whose rows within the image's half-diagonal are scanned in place of every row where
-    the scan would pass more than :data:`CONE_FROM_ROWS` and the cone holds fewer (a
-    narrow field cut deep: the whole catalog passes before ``n`` fall in the image); the
-    same rows either way."""
+    the scan would pass more than :data:`CONE_FROM_ROWS` and the cone's rows cost less
+    (:data:`CONE_ROW_COST`; a narrow field cut deep: the whole catalog passes before ``n``
+    fall in the image); the same rows either way."""
     cos_limit = math.cos(math.radians(camera.half_diagonal_deg))
     vectors = np.ascontiguousarray(vectors, np.float64)
     matrix = np.ascontiguousarray(matrix, np.float64)
@@ -91,7 +93,8 @@ def brightest_in_view(vectors: np.ndarray, matrix: np.ndarray, camera,
     # the half-diagonal's cone)
     passed = min(len(vectors), n / (share * 2.0 / math.pi))
     rows = None
-    if cone is not None and passed > CONE_FROM_ROWS and len(vectors) * share < passed:
+    if cone is not None and passed > CONE_FROM_ROWS and \
+            len(vectors) * share * CONE_ROW_COST < passed:
         # widened a hair: the lookup's >= test at the cosine of the angle holds every row
         # the scan's own > test at cos_limit keeps
         rows = cone.rows(matrix[:, 2], math.acos(cos_limit) * (1.0 + 1e-9) + 1e-12)
