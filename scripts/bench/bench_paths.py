@@ -1,11 +1,15 @@
-"""Every solving path, startrack beside tetra3rs, in one table: each row a path a user
-takes, with both solvers' solved, wrong and median solve time on the same frames and the
-ratio of startrack's median to tetra3rs's, all from one run.
+"""Every solving path, startrack beside tetra3rs and cedar-solve, in one table: each row a
+path a user takes, with each solver's solved, wrong and median solve time on the same
+frames and the ratio of startrack's median to tetra3rs's and to cedar-solve's, all from one
+run (astrometry.net, seconds a frame, is beside startrack in docs/real.md and
+scripts/bench/bench_blind_peers.py).
 
 Paths (lost in space on bench_blind.py's frames, 0.3 px, 3 false stars, 5% missing):
 
-* FOV exact: startrack ``--fov-tolerance 0``; tetra3rs a half-width of
-  bench_blind_peers.EXACT_HALF_WIDTH (it solves nothing with none).
+* FOV exact: startrack ``--fov-tolerance 0``; the peers a half-width of
+  bench_blind_peers.EXACT_HALF_WIDTH (tetra3rs solves nothing with none). The peers are
+  given what tetra3rs is below: cedar-solve (its ``tetra3`` module, the Python tetra3) the
+  same database range, FOV estimate and error.
 * FOV 0 / 2.5 / 4% off (half the frames above, half below) at ``--fov-tolerance`` 0.025 and
   at the CLI's default: tetra3rs searches the same half-width (bench_blind_peers).
 * Blind with a range: both given the same FOV range, ``[FOV / span, FOV x span]``
@@ -20,7 +24,7 @@ Paths (lost in space on bench_blind.py's frames, 0.3 px, 3 false stars, 5% missi
   one's lost in space on the same frames.
 
 Loading (databases, tables, a warm-up solve) is outside the timed span; each frame is
-solved by both in turn, so the machine's load falls on both alike. Run with the peers'
+solved by each in turn, so the machine's load falls on all alike. Run with the peers'
 venv (``pip install -e '.[peers]'``), on a quiet machine:
 
     PYTHONPATH=. /work/peers-venv/bin/python scripts/bench/bench_paths.py \
@@ -47,7 +51,7 @@ from scripts.bench.bench_blind import (  # noqa: E402
     write_between,
     wrong_stars,
 )
-from scripts.bench.bench_blind_peer_solvers import Tetra3rs  # noqa: E402
+from scripts.bench.bench_blind_peer_solvers import Tetra3, Tetra3rs  # noqa: E402
 from scripts.bench.bench_blind_peers import (  # noqa: E402
     Ours,
     estimate,
@@ -57,7 +61,9 @@ from scripts.bench.bench_tracking import sequence_summary  # noqa: E402
 from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD  # noqa: E402
 from startrack.match_records import Observation  # noqa: E402
 
-SOLVERS = ("startrack", "tetra3rs")
+#: each peer: its solver class (scripts/bench/bench_blind_peer_solvers.py)
+PEERS = {"tetra3rs": Tetra3rs, "cedar-solve": Tetra3}
+SOLVERS = ("startrack", *PEERS)
 
 
 def paths(span: float) -> list[tuple[str, str, float, float | None]]:
@@ -84,14 +90,14 @@ def junk_frames(camera, n: int, seed: int) -> list:
 
 
 class Solvers:
-    """Both solvers for one FOV, one instance per tolerance (loaded once, untimed)."""
+    """Every solver for one FOV, one instance per tolerance (loaded once, untimed)."""
 
     def __init__(self, fov: float, args) -> None:
         self.fov, self.args = fov, args
         self.camera, self.frames, self.catalog = frames_for(fov, args.frames, args.seed,
                                                             with_catalog=True)
         self._ours: dict[float, Ours] = {}
-        self._peer: dict[float, Tetra3rs] = {}
+        self._peer: dict[tuple[str, float], object] = {}
 
     def ours(self, tolerance: float) -> Ours:
         if tolerance not in self._ours:
@@ -99,12 +105,12 @@ class Solvers:
                                          self.args.timeout_ms, tolerance, self.args.method)
         return self._ours[tolerance]
 
-    def peer(self, tolerance: float) -> Tetra3rs:
-        if tolerance not in self._peer:
-            self._peer[tolerance] = Tetra3rs(
+    def peer(self, name: str, tolerance: float):
+        if (name, tolerance) not in self._peer:
+            self._peer[name, tolerance] = PEERS[name](
                 self.catalog, self.camera, self.fov, search_half_width(tolerance), tolerance,
                 self.args.span, self.args.timeout_ms)
-        return self._peer[tolerance]
+        return self._peer[name, tolerance]
 
 
 def told(fov: float, span: float, kind: str, err: float | None,
@@ -137,14 +143,14 @@ def lost_in_space_rows(fov: float, args) -> list[dict]:
     junk = junk_frames(solvers.camera, args.frames, args.seed + 1)
     rows = []
     for label, kind, tolerance, err in paths(args.span):
-        ours, peer = solvers.ours(tolerance), solvers.peer(tolerance)
+        each = {"startrack": solvers.ours(tolerance),
+                **{name: solvers.peer(name, tolerance) for name in args.peers}}
         frames = junk if kind == "junk" else solvers.frames
-        stats = {name: {"solved": 0, "wrong": 0, "ms": []} for name in SOLVERS}
+        stats = {name: {"solved": 0, "wrong": 0, "ms": []} for name in each}
         for i, frame in enumerate(frames):
             est_ours, est_peer = told(fov, args.span, kind, err, i)
-            for name, solver, est in (("startrack", ours, est_ours),
-                                      ("tetra3rs", peer, est_peer)):
-                answer, ms = solver.solve(frame, est)
+            for name, solver in each.items():
+                answer, ms = solver.solve(frame, est_ours if name == "startrack" else est_peer)
                 solved, wrong = score(answer, frame, solvers.catalog, solvers.camera)
                 s = stats[name]
                 s["solved"] += solved
@@ -177,10 +183,10 @@ def tracking_rows(args) -> list[dict]:
     return rows
 
 
-def ratio(row: dict) -> str:
-    if "tetra3rs_ms" not in row or row["tetra3rs_ms"] <= 0:
+def ratio(row: dict, peer: str = "tetra3rs") -> str:
+    if f"{peer}_ms" not in row or row[f"{peer}_ms"] <= 0:
         return "-"
-    return f"{row['startrack_ms'] / row['tetra3rs_ms']:.2f}x"
+    return f"{row['startrack_ms'] / row[f'{peer}_ms']:.2f}x"
 
 
 def line(row: dict) -> str:
@@ -189,20 +195,21 @@ def line(row: dict) -> str:
         if f"{name}_ms" in row:
             parts.append(f"{name} {row[name + '_solved']}/{row['frames']} wrong "
                          f"{row[name + '_wrong']} {row[name + '_ms']:.3f} ms")
-    return "  ".join(parts + [f"ratio {ratio(row)}"])
+    return "  ".join(parts + [f"/ {peer} {ratio(row, peer)}" for peer in PEERS])
 
 
 def table(rows: list[dict]) -> str:
-    head = ["| FOV (deg) | path | frames | startrack solved | startrack wrong | startrack median "
-            "ms | tetra3rs solved | tetra3rs wrong | tetra3rs median ms | startrack / tetra3rs |",
-            "|---|---|---|---|---|---|---|---|---|---|"]
+    cols = [f"{name} {what}" for name in SOLVERS for what in ("solved", "wrong", "median ms")]
+    cols += [f"startrack / {peer}" for peer in PEERS]
+    head = ["| FOV (deg) | path | frames | " + " | ".join(cols) + " |",
+            "|" + "---|" * (3 + len(cols))]
     body = []
     for r in rows:
         cells = [r["fov"], r["path"], str(r["frames"])]
         for name in SOLVERS:
             cells += ([str(r[f"{name}_solved"]), str(r[f"{name}_wrong"]),
                        f"{r[f'{name}_ms']:.3f}"] if f"{name}_ms" in r else ["-"] * 3)
-        body.append("| " + " | ".join(cells + [ratio(r)]) + " |")
+        body.append("| " + " | ".join(cells + [ratio(r, peer) for peer in PEERS]) + " |")
     return "\n".join(head + body)
 
 
@@ -217,8 +224,14 @@ def main() -> None:
     ap.add_argument("--method", default=DEFAULT_METHOD, help="startrack's --method")
     ap.add_argument("--timeout-ms", type=float, default=5000.0,
                     help="wall-clock limit per frame, the same for both solvers")
+    ap.add_argument("--peers", default=",".join(PEERS),
+                    help="the peers run beside startrack (each an installed solver)")
     ap.add_argument("--doc", type=Path, help="write the table between this doc's markers")
     args = ap.parse_args()
+    args.peers = [name for name in args.peers.split(",") if name]
+    unknown = set(args.peers) - set(PEERS)
+    if unknown:
+        ap.error(f"--peers: unknown {sorted(unknown)} (known: {', '.join(PEERS)})")
     started = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M")
     load0, t0 = os.getloadavg()[0], time.perf_counter()
     rows = [r for fov in floats(args.fovs) for r in lost_in_space_rows(fov, args)]
@@ -229,7 +242,8 @@ def main() -> None:
         head = provenance_line("bench_paths.py", started, (time.perf_counter() - t0) / 60.0,
                                (load0, os.getloadavg()[0]))
         write_between(args.doc, "<!-- bench_paths:start -->", "<!-- bench_paths:end -->",
-                      f"{head} tetra3rs from the peers' venv; startrack --method {args.method}."
+                      f"{head} {', '.join(args.peers)} from the peers' venv; startrack "
+                      f"--method {args.method}."
                       f"\n\n{text}")
 
 

@@ -1,4 +1,4 @@
-"""scripts/bench/bench_paths.py gives startrack and tetra3rs the same information on every
+"""scripts/bench/bench_paths.py gives startrack and its peers the same information on every
 path, and scores junk and truth frames as the rest of the benches do."""
 
 import math
@@ -48,12 +48,16 @@ def test_any_answer_on_junk_is_wrong_and_no_answer_is_neither():
     assert score(("rotation", [], []), junk[0], None, camera) == (True, True)
 
 
-def test_table_gives_the_ratio_to_tetra3rs_and_dashes_for_a_missing_peer():
+def test_table_gives_the_ratio_to_each_peer_and_dashes_for_a_missing_one():
     row = {"fov": "20", "path": "FOV exact", "frames": 10, "startrack_solved": 10,
            "startrack_wrong": 0, "startrack_ms": 0.3, "tetra3rs_solved": 9,
-           "tetra3rs_wrong": 0, "tetra3rs_ms": 0.2}
-    alone = {k: v for k, v in row.items() if not k.startswith("tetra3rs")}
-    lines = table([row, alone]).splitlines()
-    assert lines[2].endswith("| 1.50x |")
-    assert lines[3].endswith("| - | - | - | - |")
+           "tetra3rs_wrong": 0, "tetra3rs_ms": 0.2, "cedar-solve_solved": 10,
+           "cedar-solve_wrong": 0, "cedar-solve_ms": 0.6}
+    no_cedar = {k: v for k, v in row.items() if not k.startswith("cedar-solve")}
+    alone = {k: v for k, v in no_cedar.items() if not k.startswith("tetra3rs")}
+    lines = table([row, no_cedar, alone]).splitlines()
+    assert "startrack / tetra3rs | startrack / cedar-solve |" in lines[0]
+    assert lines[2].endswith("| 0.600 | 1.50x | 0.50x |")
+    assert lines[3].endswith("| - | - | - | 1.50x | - |")
+    assert lines[4].endswith("| - | - | - | - | - | - | - | - |")
     assert math.isclose(float(lines[2].split("|")[6]), 0.3)
