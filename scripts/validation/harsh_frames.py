@@ -34,9 +34,11 @@ as a range instead, LO to HI times the true one (``--scale-low/--scale-high``).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from scripts._cli import add_camera, add_frames, script_parser
 from startrack.attitude import boresight_error_arcsec
@@ -159,10 +161,6 @@ def in_rows_of(catalog, theirs, solution):
     if theirs is catalog or not solution.solved or len(theirs) == len(catalog) and \
             np.array_equal(theirs.ids, catalog.ids):
         return solution
-    import dataclasses
-
-    from scipy.spatial import cKDTree
-
     _, rows = cKDTree(catalog.vectors).query(theirs.vectors[solution.cat_index])
     return dataclasses.replace(solution, cat_index=np.asarray(rows, np.int64))
 

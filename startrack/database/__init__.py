@@ -16,7 +16,7 @@ import numpy as np
 from startrack._lazy import lazy_exports
 from startrack.camera import Camera
 from startrack.database import _triangles as tri
-from startrack.database._cone import ConeIndex, CutCones, held_cone_index
+from startrack.database._cone import ConeIndex, CutCones, cone_index_of, held_cone_index
 from startrack.database._kvector import KVector
 from startrack.database._pairs import (
     PairTable,
@@ -114,12 +114,9 @@ class StarDatabase:
 
     @cached_property
     def cone_index(self) -> ConeIndex:
-        """The z-sorted index behind :meth:`cone` (its arrays feed compiled lookups), held
-        by the catalog: one per catalog, whatever the databases of it (held_cone_index)."""
-        held = self.catalog.__dict__.get("_cone_index")
-        if held is None:
-            held = self.catalog.__dict__["_cone_index"] = ConeIndex.build(self.vectors)
-        return held
+        """The z-sorted index behind :meth:`cone` (its arrays feed compiled lookups): the
+        catalog's own (:func:`cone_index_of`), one whatever the databases of it."""
+        return cone_index_of(self.catalog)
 
     def cone(self, direction: np.ndarray, radius_rad: float) -> np.ndarray:
         """Catalog rows within ``radius_rad`` of a unit vector, brightest first."""
@@ -140,7 +137,8 @@ class StarDatabase:
 
 
 __all__ = [
-    "BIN", "binary_search_range", "build_threads", "CutCones", "EDGES", "feature_sigmas",
+    "BIN", "binary_search_range", "build_threads", "cone_index_of", "CutCones", "EDGES",
+    "feature_sigmas",
     "K_NEAREST", "KVector", "level_for", "level_stars", "LEVEL_STEP", "MAX_PATTERN_SIZE", "NBINS",
     "observed_masks", "PairTable", "PATTERN_SIZE", "quad_level", "QuadLevel", "RadialTable",
     "RATIO_STEPS", "StarDatabase", "held_cone_index", "triangle_features",

@@ -78,8 +78,8 @@ class CutCones:
     few per frame, and each cut filters every star of the whole catalog (2 ms for
     Gaia's 480,000, most of a blind solve when the cuts were made again per frame)."""
 
-    def __init__(self, vectors: np.ndarray, max_bytes: int) -> None:
-        self.whole = ConeIndex.build(vectors)
+    def __init__(self, whole: ConeIndex, max_bytes: int) -> None:
+        self.whole = whole  # the index of every row, which each cut filters
         self.max_bytes = int(max_bytes)
         self._cuts: dict[int, ConeIndex] = {}
 
@@ -94,13 +94,20 @@ class CutCones:
         return cone
 
 
-def held_cone_index(catalog) -> ConeIndex | None:
-    """The cone index of every row of ``catalog`` that something already built (a star
-    database's, or a blind search's whole-catalog index), None where none was: building
-    one sorts the whole catalog, which a caller wanting a few rows would not repay."""
+def cone_index_of(catalog) -> ConeIndex:
+    """The cone index of every row of ``catalog``, built on first use and held by it: one
+    per catalog, whatever its databases, blind searches and refits."""
     held = catalog.__dict__.get("_cone_index")
-    cuts = catalog.__dict__.get("_cut_cones")
-    return held if held is not None else None if cuts is None else cuts.whole
+    if held is None:
+        held = catalog.__dict__["_cone_index"] = ConeIndex.build(catalog.vectors)
+    return held
 
 
-__all__ = ["BAND_RAD", "ConeIndex", "CutCones", "EDGE", "cone_rows", "held_cone_index"]
+def held_cone_index(catalog) -> ConeIndex | None:
+    """:func:`cone_index_of` where something already built it, else None: building one
+    sorts the whole catalog, which a caller wanting a few rows would not repay."""
+    return catalog.__dict__.get("_cone_index")
+
+
+__all__ = ["BAND_RAD", "ConeIndex", "CutCones", "EDGE", "cone_index_of", "cone_rows",
+           "held_cone_index"]

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from startrack.camera import Camera
-from startrack.database import CutCones, StarDatabase
+from startrack.database import CutCones, StarDatabase, cone_index_of
 from startrack.defaults import BLIND_FOV_RANGE, DEFAULT_FOV_TOLERANCE
 from startrack.io import resident_bytes, shed_memory
 from startrack.match_records import MatchDiagnostics, Observation, Solution
@@ -247,20 +247,20 @@ class BlindSolver:
         return self._databases[n]
 
     def _cones(self) -> CutCones:
-        """The cone index of the whole catalog and its cuts, built once per catalog: held
-        by the catalog, as every blind solver of it (one per centroid error) indexes the
-        same stars, and one set per solver grew a batch of frames by 64 MB a solver."""
+        """The cone indexes of the catalog's cuts, from its whole index (cone_index_of),
+        held by the catalog: every blind search of it indexes the same stars."""
         cones = self.catalog.__dict__.get("_cut_cones")
         if cones is None:
-            cones = self.catalog.__dict__["_cut_cones"] = CutCones(self.catalog.vectors,
-                                                                   KEEP_CONE_BYTES)
+            cones = self.catalog.__dict__["_cut_cones"] = CutCones(
+                cone_index_of(self.catalog), KEEP_CONE_BYTES)
         return cones
 
     def solve(self, x: np.ndarray, y: np.ndarray, size: tuple[int, int],
               deadline: Deadline = NO_DEADLINE, camera: Camera | None = None,
               tolerance: float = DEFAULT_FOV_TOLERANCE,
               held_bytes: int | None = None, flux: np.ndarray | None = None) -> FovResult:
-        """Search every window, widest field first; the first verified find wins. Not
+        """Search every window (from the nominal's outward with ``camera``, else widest
+        field first); the first verified find wins. Not
         solved, with reason "timeout", if ``deadline`` passes first. With ``camera`` (a
         nominal focal length) only the focal lengths within ``tolerance`` of it are
         searched, through that camera (its centre and lens model). ``held_bytes``: the

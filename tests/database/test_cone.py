@@ -57,7 +57,7 @@ def _sphere(n: int, seed: int) -> np.ndarray:
 
 def test_a_cut_is_the_index_of_the_first_rows():
     vectors = _sphere(5000, 3)
-    cones = CutCones(vectors, max_bytes=1 << 20)
+    cones = CutCones(ConeIndex.build(vectors), max_bytes=1 << 20)
     for n in (0, 1, 700, 4999, 5000):
         cut, built = cones.cut(n), ConeIndex.build(vectors[:n])
         np.testing.assert_array_equal(cut.order, built.order)
@@ -69,7 +69,8 @@ def test_a_cut_is_the_index_of_the_first_rows():
 def test_cuts_are_kept_within_their_bytes_latest_first():
     vectors = _sphere(5000, 4)
     one = ConeIndex.build(vectors[:1000]).nbytes
-    cones = CutCones(vectors, max_bytes=2 * one + one // 2)  # room for two such cuts
+    # room for two such cuts
+    cones = CutCones(ConeIndex.build(vectors), max_bytes=2 * one + one // 2)
     first = cones.cut(1000)
     assert cones.cut(1000) is first  # kept: not cut again
     second = cones.cut(999)

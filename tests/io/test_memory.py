@@ -121,9 +121,9 @@ def test_a_search_sheds_on_its_own_growth_not_on_the_process_size(monkeypatch):
 
 
 def test_blind_solvers_of_one_catalog_share_its_cut_cone_indexes():
-    """A batch meets a blind solver per centroid error; each used to build the whole
+    """Blind solvers of one catalog (one per sky and range) used each to build the whole
     catalog's cone index and keep up to 64 MB of its cuts. They index the same stars:
-    one set per catalog."""
+    one set per catalog, and one whole index, the one its databases use."""
     from startrack.sky import SkySpec, load_sky
     from startrack.solver._fov_search import BlindSolver
 
@@ -131,5 +131,11 @@ def test_blind_solvers_of_one_catalog_share_its_cut_cone_indexes():
     one = BlindSolver(catalog, SkySpec(kind="random"), 0.5, fov_range=(14.0, 34.0))
     other = BlindSolver(catalog, SkySpec(kind="random"), 1.5, fov_range=(14.0, 34.0))
     assert one._cones() is other._cones()
+    # one whole-catalog index, whatever built it first: the databases' and the cuts' own
+    from startrack.camera import Camera
+    from startrack.database import StarDatabase, held_cone_index
+
+    assert one._cones().whole is held_cone_index(catalog) is StarDatabase(
+        catalog, Camera.from_fov(640, 480, 20.0)).cone_index
     assert BlindSolver(load_sky(SkySpec(kind="random", seed=1)), SkySpec(kind="random"),
                        0.5)._cones() is not one._cones()
