@@ -7,6 +7,8 @@ up direction (camera -y), measured towards east, in [0, 360).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -49,6 +51,46 @@ def to_quaternion(rotation: Rotation) -> np.ndarray:
 
 def from_quaternion(q: np.ndarray) -> Rotation:
     return Rotation.from_quat(np.asarray(q, dtype=np.float64), scalar_first=True)
+
+
+def _one_rotation_maker():
+    """A maker of one Rotation from a scalar-last quaternion that skips what
+    ``Rotation.from_quat`` checks per call (its array namespace and shape: most of its
+    ~10 us, paid by every answer); None where this scipy's Rotation is not the Python
+    class this knows (scipy < 1.16: a compiled class), or where the maker does not give
+    from_quat's matrix exactly."""
+    probe = Rotation.from_quat(np.array([0.0, 0.0, 0.0, 1.0]))
+    state = getattr(probe, "__dict__", None)
+    if state is None or set(state) != {"_xp", "_single", "_backend", "_quat"} \
+            or not state["_single"]:
+        return None
+    shared, backend = {k: v for k, v in state.items() if k != "_quat"}, state["_backend"]
+
+    def make(quat: np.ndarray) -> Rotation:
+        made = object.__new__(Rotation)
+        made.__dict__.update(shared)
+        # from_quat's own normalisation and copy, by the backend it would choose
+        made._quat = backend.from_quat(quat.reshape(1, 4), normalize=True, copy=True,
+                                       scalar_first=False)
+        return made
+
+    test = np.array([0.1, -0.2, 0.3, 0.9]) / math.sqrt(0.95)
+    try:
+        same = np.array_equal(make(test).as_matrix(), Rotation.from_quat(test).as_matrix())
+    except Exception:  # noqa: BLE001 - any failure: scipy's own constructor serves
+        return None
+    return make if same else None
+
+
+_MAKE_ONE = _one_rotation_maker()
+
+
+def rotation_from_quat(quat: np.ndarray) -> Rotation:
+    """``Rotation.from_quat(quat)`` of one scalar-last quaternion ``[x, y, z, w]``
+    (float64, shape (4,)), built without the per-call checks where this scipy allows."""
+    if _MAKE_ONE is None or quat.shape != (4,) or quat.dtype != np.float64:
+        return Rotation.from_quat(quat)
+    return _MAKE_ONE(quat)
 
 
 def random_attitudes(n: int, rng: np.random.Generator) -> Rotation:

@@ -69,6 +69,13 @@ class FrameResult:
                            self.camera, self.catalog, self.sigma_px, self.match_radius_px,
                            self.image, self.time_utc, self.request, self.steps)
 
+    def with_record(self, timing: Timing, request: dict | None, steps: tuple) -> FrameResult:
+        """This result with its ``timing``, ``request`` and ``steps``, as
+        :meth:`with_timing` makes it (every answer passes here last)."""
+        return FrameResult(self.input, self.solution, self.obs, self.centroids, timing,
+                           self.camera, self.catalog, self.sigma_px, self.match_radius_px,
+                           self.image, self.time_utc, request, steps)
+
 
 def frame_timing(frame: FrameInput, identify_ms: float) -> Timing:
     """An input's stage times: its centroiding, ``identify_ms``, and the total with its

@@ -238,11 +238,9 @@ class Pipeline:
             result = correct_result(result, when)
         t = result.timing  # given what it waited for
         hints, self._hints_used = self._hints_used, None
-        return dataclasses.replace(
-            result, timing=Timing(t.centroid, t.identify, t.total,
-                                  self.setup.take() + frame.setup_ms),
-            request=request_record(self.options, self.setup_for, frame, hints),
-            steps=self.trail.take())
+        return result.with_record(
+            Timing(t.centroid, t.identify, t.total, self.setup.take() + frame.setup_ms),
+            request_record(self.options, self.setup_for, frame, hints), self.trail.take())
 
     def _blind_size(self, frame: FrameInput) -> tuple[int, int]:
         size = self.options.size or frame.size

@@ -5,6 +5,7 @@ each answered, so a fallback's answer is never mistaken for the method that was 
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass, field
 
@@ -30,11 +31,22 @@ def sky_text(sky: SkySpec | dict | None) -> str:
 
 def sky_record(source: SkySpec | dict) -> dict:
     """A sky's specification as a record holds it (``diagnostics.sky``, ``requested.sky``):
-    a real catalog's without the random sky's size and seed."""
-    spec = source.to_dict() if isinstance(source, SkySpec) else source
-    if spec.get("kind", "random") == "random":
-        return spec
-    return {k: v for k, v in spec.items() if k not in RANDOM_SKY_KEYS}
+    a real catalog's without the random sky's size and seed. A new dict each time."""
+    if isinstance(source, SkySpec):
+        return dict(_sky_items(source))
+    if source.get("kind", "random") == "random":
+        return source
+    return {k: v for k, v in source.items() if k not in RANDOM_SKY_KEYS}
+
+
+@functools.lru_cache(maxsize=64)
+def _sky_items(sky: SkySpec) -> tuple:
+    """:func:`sky_record`'s items for a SkySpec, made once per sky (every input's
+    request and stages name one)."""
+    spec = sky.to_dict()
+    if spec.get("kind", "random") != "random":
+        spec = {k: v for k, v in spec.items() if k not in RANDOM_SKY_KEYS}
+    return tuple(spec.items())
 
 
 def hints_dict(hints) -> dict | None:
@@ -57,10 +69,14 @@ def hints_dict(hints) -> dict | None:
 def request_record(options, decide, frame, hints=None) -> dict:
     """``requested`` of a record: the method asked for, the sky and field of view this
     input was given (``decide(frame)``: options, else its sidecar, else the defaults,
-    decided again quietly: its warnings were given when it was first decided), the hints."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    decided again quietly: its warnings were given when it was first decided; an input
+    with no path has no sidecar to warn of), the hints."""
+    if frame.path is None:
         camera, sky = decide(frame)
+    else:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            camera, sky = decide(frame)
     out: dict = {"method": options.method, "sky": sky_record(sky)}
     if camera is None:
         out["fov_deg"] = None  # unknown: a blind search

@@ -27,6 +27,7 @@ from startrack._core.verify.entry_points import (
     UNLABELLED,
     binomial_tail,
 )
+from startrack.attitude import rotation_from_quat
 from startrack.match_records import Hypothesis, Observation
 from startrack.verify._frame import FrameVerifier
 
@@ -109,7 +110,7 @@ def rotation_of(matrix: np.ndarray, quat: np.ndarray | None = None) -> Rotation:
     (:func:`startrack._core.shared.matrix_to_quaternion`; computed when None)."""
     if quat is None:
         quat = shared.matrix_to_quaternion(np.ascontiguousarray(matrix, dtype=np.float64))
-    return Rotation.from_quat(quat)
+    return rotation_from_quat(quat)
 
 
 def false_match_probability(n_other: int, n_confirmed: int, n_catalog_in_image: int,
