@@ -23,12 +23,16 @@ Paths (lost in space on bench_blind.py's frames, 0.3 px, 3 false stars, 5% missi
   20 deg): startrack's tracker (pyramid) beside tetra3rs's ``attitude_hint`` mode, and each
   one's lost in space on the same frames.
 
-Loading (databases, tables, a warm-up solve) is outside the timed span; each frame is
-solved by each in turn, so the machine's load falls on all alike. Run with the peers'
-venv (``pip install -e '.[peers]'``), on a quiet machine:
+Loading (databases, tables, a warm-up solve) is outside the timed span. ``--order batch``
+(the default): each solver solves a row's frames back to back, as a batch of inputs or a
+tracker in flight does, the solvers' turns rotating row by row; ``--order interleaved``:
+each frame by every solver in turn, so that each solve starts with the caches the other
+solvers left (a process doing other work between frames). Either way the machine's load
+falls on all alike. Run with the peers' venv (``pip install -e '.[peers]'``), on a quiet
+machine:
 
     PYTHONPATH=. /work/peers-venv/bin/python scripts/bench/bench_paths.py \
-        [--frames 20] [--fovs 11.4,20,30] [--doc docs/speed.md]
+        [--frames 20] [--fovs 11.4,20,30] [--order batch] [--doc docs/speed.md]
 """
 
 from __future__ import annotations
@@ -64,6 +68,8 @@ from startrack.match_records import Observation  # noqa: E402
 #: each peer: its solver class (scripts/bench/bench_blind_peer_solvers.py)
 PEERS = {"tetra3rs": Tetra3rs, "cedar-solve": Tetra3}
 SOLVERS = ("startrack", *PEERS)
+#: how a row's frames are dealt out to the solvers (solve_order)
+ORDERS = ("batch", "interleaved")
 
 
 def paths(span: float) -> list[tuple[str, str, float, float | None]]:
@@ -142,20 +148,20 @@ def lost_in_space_rows(fov: float, args) -> list[dict]:
     solvers = Solvers(fov, args)
     junk = junk_frames(solvers.camera, args.frames, args.seed + 1)
     rows = []
-    for label, kind, tolerance, err in paths(args.span):
+    for turn, (label, kind, tolerance, err) in enumerate(paths(args.span)):
         each = {"startrack": solvers.ours(tolerance),
                 **{name: solvers.peer(name, tolerance) for name in args.peers}}
         frames = junk if kind == "junk" else solvers.frames
         stats = {name: {"solved": 0, "wrong": 0, "ms": []} for name in each}
-        for i, frame in enumerate(frames):
+        for i, name in solve_order(len(frames), list(each), args.order, turn):
             est_ours, est_peer = told(fov, args.span, kind, err, i)
-            for name, solver in each.items():
-                answer, ms = solver.solve(frame, est_ours if name == "startrack" else est_peer)
-                solved, wrong = score(answer, frame, solvers.catalog, solvers.camera)
-                s = stats[name]
-                s["solved"] += solved
-                s["wrong"] += wrong
-                s["ms"].append(ms)
+            answer, ms = each[name].solve(frames[i],
+                                          est_ours if name == "startrack" else est_peer)
+            solved, wrong = score(answer, frames[i], solvers.catalog, solvers.camera)
+            s = stats[name]
+            s["solved"] += solved
+            s["wrong"] += wrong
+            s["ms"].append(ms)
         row = {"fov": f"{fov:g}", "path": label, "frames": len(frames)}
         for name, s in stats.items():
             row |= {f"{name}_solved": s["solved"], f"{name}_wrong": s["wrong"],
@@ -165,9 +171,23 @@ def lost_in_space_rows(fov: float, args) -> list[dict]:
     return rows
 
 
+def solve_order(n_frames: int, names: list[str], order: str,
+                turn: int = 0) -> list[tuple[int, str]]:
+    """(frame, solver) in the order they are solved: ``interleaved``, each frame by every
+    solver in turn (each solve starts with the caches the others left); ``batch``, every
+    frame by one solver, then by the next (its caches as a batch of inputs or a tracker
+    leaves them), starting with solver ``turn`` (rotated row by row, so that none always
+    goes first)."""
+    if order == "interleaved":
+        return [(i, name) for i in range(n_frames) for name in names]
+    first = turn % len(names)
+    return [(i, name) for name in names[first:] + names[:first] for i in range(n_frames)]
+
+
 def tracking_rows(args) -> list[dict]:
     """The tracking sequence: (tracked, lost in space) for each solver."""
-    summary = sequence_summary(args.track_frames, args.seed).set_index("method")
+    summary = sequence_summary(args.track_frames, args.seed,
+                               args.order == "interleaved").set_index("method")
     rows = []
     for label, ours, peer in (("tracking (tracked frames)", "pyramid+track", "tetra3rs+hint"),
                               ("tracking's lost in space", "pyramid", "tetra3rs")):
@@ -226,6 +246,10 @@ def main() -> None:
                     help="wall-clock limit per frame, the same for both solvers")
     ap.add_argument("--peers", default=",".join(PEERS),
                     help="the peers run beside startrack (each an installed solver)")
+    ap.add_argument("--order", choices=ORDERS, default="batch",
+                    help="batch: each solver solves a row's frames back to back (as a batch "
+                         "or a tracker runs); interleaved: each frame by every solver in "
+                         "turn (every solve starts with the caches the others left)")
     ap.add_argument("--doc", type=Path, help="write the table between this doc's markers")
     args = ap.parse_args()
     args.peers = [name for name in args.peers.split(",") if name]
@@ -241,9 +265,10 @@ def main() -> None:
     if args.doc:
         head = provenance_line("bench_paths.py", started, (time.perf_counter() - t0) / 60.0,
                                (load0, os.getloadavg()[0]))
-        write_between(args.doc, "<!-- bench_paths:start -->", "<!-- bench_paths:end -->",
+        mark = "bench_paths" if args.order == "batch" else f"bench_paths {args.order}"
+        write_between(args.doc, f"<!-- {mark}:start -->", f"<!-- {mark}:end -->",
                       f"{head} {', '.join(args.peers)} from the peers' venv; startrack "
-                      f"--method {args.method}."
+                      f"--method {args.method}; frames solved in {args.order} order."
                       f"\n\n{text}")
 
 

@@ -47,21 +47,23 @@ def _commit() -> str:
         return "unknown"
 
 
-def _base(catalog, camera, idents, peer, frames, seed):
+def _base(catalog, camera, idents, peer, frames, seed, interleaved=True):
     seq = tb.make_sequence(catalog, camera, tb.TrackCondition(), frames, 10.0, seed)
-    df = tb.run_sequence(seq, tb.runners_for(idents, peer))
+    df = tb.run_sequence(seq, tb.runners_for(idents, peer), interleaved=interleaved)
     summary = tb.summarise_tracking(df.assign(condition=0), ["condition", "method"])
     modes = df.groupby(["method", "mode"]).size().unstack(fill_value=0)
     return df, summary, modes
 
 
-def sequence_summary(frames: int, seed: int) -> pd.DataFrame:
+def sequence_summary(frames: int, seed: int, interleaved: bool = True) -> pd.DataFrame:
     """Section 1's sequence (Hipparcos 20 deg) through pyramid tracked and alone, and
-    tetra3rs hinted and alone where it is installed: one summary row per method."""
+    tetra3rs hinted and alone where it is installed: one summary row per method
+    (``interleaved``: :func:`startrack.bench._tracking_bench.run_sequence`'s)."""
     cfg = load_config(ROOT / "configs" / "hipparcos20.toml")
     catalog = load_sky(resolve_sky(cfg.sky, cfg.camera), cfg.camera)
     idents = {"pyramid": Identifier(cfg.camera, catalog, "pyramid")}
-    return _base(catalog, cfg.camera, idents, tb.peer_available(), frames, seed)[1]
+    return _base(catalog, cfg.camera, idents, tb.peer_available(), frames, seed,
+                 interleaved)[1]
 
 
 def _events(catalog, camera, idents, peer, seed):

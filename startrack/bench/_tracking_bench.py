@@ -172,19 +172,24 @@ def tetra3rs_hinted(identifier: Identifier, hinted: bool = True) -> Runner:
 
 
 def run_sequence(frames: list[SeqFrame], runners: dict[str, Callable[[], Runner]],
-                 threshold_arcsec: float = 60.0) -> pd.DataFrame:
-    """Every method on every frame of one sequence (fresh state each), one row each."""
+                 threshold_arcsec: float = 60.0, interleaved: bool = True) -> pd.DataFrame:
+    """Every method on every frame of one sequence (fresh state each), one row each:
+    each frame by every method in turn (``interleaved``: each solve starts with the
+    caches the other methods left), else the whole sequence by one method before the
+    next (as a tracker in flight runs, nothing else between its frames)."""
     started = {name: make() for name, make in runners.items()}
+    order = ([(k, name) for k in range(len(frames)) for name in started] if interleaved
+             else [(k, name) for name in started for k in range(len(frames))])
     rows = []
-    for k, frame in enumerate(frames):
-        sigma_arcsec = math.degrees(frame.obs.sigma_rad) * 3600.0
-        for name, run in started.items():
-            solution = run(frame.obs)
-            score = score_frame(solution, frame.truth_rows, frame.rotation, frame.n_in_view,
-                                threshold_arcsec=threshold_arcsec, sigma_arcsec=sigma_arcsec)
-            rows.append({"method": name, "frame": k, "n_centroids": len(frame.obs),
-                         "mode": solution.mode if solution.solved else "",
-                         "lock": solution.lock or "", **score.to_dict()})
+    for k, name in order:
+        frame = frames[k]
+        solution = started[name](frame.obs)
+        score = score_frame(solution, frame.truth_rows, frame.rotation, frame.n_in_view,
+                            threshold_arcsec=threshold_arcsec,
+                            sigma_arcsec=math.degrees(frame.obs.sigma_rad) * 3600.0)
+        rows.append({"method": name, "frame": k, "n_centroids": len(frame.obs),
+                     "mode": solution.mode if solution.solved else "",
+                     "lock": solution.lock or "", **score.to_dict()})
     return pd.DataFrame(rows)
 
 

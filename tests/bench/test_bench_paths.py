@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from scripts.bench.bench_paths import junk_frames, paths, score, table, told
+from scripts.bench.bench_paths import junk_frames, paths, score, solve_order, table, told
 from startrack.camera import Camera
 from startrack.input_checks import FOV_TOLERANCE
 
@@ -61,3 +61,22 @@ def test_table_gives_the_ratio_to_each_peer_and_dashes_for_a_missing_one():
     assert lines[3].endswith("| - | - | - | 1.50x | - |")
     assert lines[4].endswith("| - | - | - | - | - | - | - | - |")
     assert math.isclose(float(lines[2].split("|")[6]), 0.3)
+
+
+@pytest.mark.parametrize("order", ["batch", "interleaved"])
+def test_every_frame_is_solved_once_by_every_solver(order):
+    names = ["startrack", "tetra3rs", "cedar-solve"]
+    for turn in range(4):
+        got = solve_order(5, names, order, turn)
+        assert sorted(got) == sorted((i, n) for i in range(5) for n in names)
+
+
+def test_batch_order_runs_one_solver_through_the_row_and_rotates_who_goes_first():
+    names = ["startrack", "tetra3rs"]
+    first = solve_order(3, names, "batch", 0)
+    assert [n for _, n in first] == ["startrack"] * 3 + ["tetra3rs"] * 3
+    assert [i for i, _ in first][:3] == [0, 1, 2]
+    assert [n for _, n in solve_order(3, names, "batch", 1)][0] == "tetra3rs"
+    interleaved = solve_order(2, names, "interleaved")
+    assert interleaved == [(0, "startrack"), (0, "tetra3rs"), (1, "startrack"),
+                           (1, "tetra3rs")]
