@@ -130,7 +130,7 @@ class Camera:
         """The same camera without distortion."""
         return self._with(self.f_px, None)
 
-    @property
+    @cached_property  # every input's record and stages name it
     def fov_deg(self) -> float:
         return math.degrees(2.0 * math.atan((self.width / 2.0) / self.f_px))
 
