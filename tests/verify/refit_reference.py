@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from startrack.verify._refit import DAMPING, ITERATIONS, MIN_PAIRS, ROUNDS
+from startrack.verify._refit import DAMPING, ITERATIONS, K1_CHI2, MIN_PAIRS, ROUNDS
 
 #: finite-difference steps: rotation (rad), focal length (fraction of it), centre (px), k1
 _STEPS = np.array([1e-6, 1e-6, 1e-6, 1e-6, 1e-3, 1e-3, 1e-6])
@@ -89,11 +89,26 @@ def _fit(p, v, x, y, free_k1: bool):
     return p, r, jac
 
 
+def k1_statistic(r, jac) -> float:
+    """k1's score test at a fit that held it: the efficient score squared over the
+    residuals' variance times k1's information left after the other six parameters."""
+    others, k1 = jac[:, :6], jac[:, 6]
+    explained = np.linalg.lstsq(others, k1, rcond=None)[0]
+    info = k1 @ k1 - (others.T @ k1) @ explained
+    score = k1 @ r - (others.T @ r) @ explained
+    return score * score / ((r @ r) / (len(r) - 6) * info)
+
+
 def fit_rounds(p, v, x, y, radius_px):
     """The refit's rounds from ``p``: (parameters, residuals, Jacobian) of the last round,
-    or None when a round pairs fewer than MIN_PAIRS."""
+    or None when a round pairs fewer than MIN_PAIRS; the rounds that free k1 skipped
+    where its score at the last fit is within K1_CHI2."""
     r = jac = None
+    held_before = False
     for factor, free_k1 in ROUNDS:
+        if free_k1 and held_before and k1_statistic(r, jac) <= K1_CHI2:
+            return p, r, jac
+        held_before = not free_k1
         spots, stars = _pairs(p, v, x, y, factor * radius_px)
         if len(spots) < MIN_PAIRS:
             return None

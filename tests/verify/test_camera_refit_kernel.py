@@ -180,3 +180,43 @@ def test_the_brightest_in_view_are_numpys_selection(distorted):
         want = seen[np.argsort(catalog.mag[seen], kind="stable")][:CATALOG_STARS]
         np.testing.assert_array_equal(rows, want)
         np.testing.assert_allclose(v, catalog.vectors[want] @ matrix, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_the_k1_score_is_numpys(seed):
+    """The kernel's test of whether the pairs support k1 (the rounds that free it are
+    skipped where they do not) decides as the score statistic in numpy does."""
+    v, x, y = _case(seed)
+    p = _start()
+    held = camera_refit.RefitRules([3.0, 2.0, 1.0], [0, 0, 0], 8, 40, 1e-7)
+    if camera_refit.fit_rounds(p, v, x, y, 2.0, held) is None:
+        return
+    spots, stars = camera_refit.pairs(p, v, x, y, 2.0)
+    r, jac = reference._jacobian(p, v[stars], x[spots], y[spots])
+    statistic = reference.k1_statistic(r, jac)
+    assert statistic > 0.0
+    assert camera_refit.k1_score(p, v, x, y, spots, stars, statistic * 1.001)
+    assert not camera_refit.k1_score(p, v, x, y, spots, stars, statistic * 0.999)
+
+
+def test_a_lens_the_camera_lacks_keeps_the_k1_rounds_and_none_skips_them():
+    """Spots through a k1 of -0.15 the camera lacks: the score is far past K1_CHI2 and
+    the refit fits k1; through the camera's own lens the k1 rounds are skipped, the
+    answer that of the rounds that held k1."""
+    rng = np.random.default_rng(3)
+    x, y = rng.uniform(20, 1004, (2, 60))
+    v = np.ascontiguousarray(CAMERA.pixel_to_vector(x, y))
+    held = camera_refit.RefitRules([3.0, 2.0, 1.0], [0, 0, 0], 8, 40, 1e-7)
+    for k1, skipped in ((-0.15, False), (0.0, True)):
+        lens = dataclasses.replace(CAMERA, distortion=RadialDistortion(k1=k1) if k1 else None)
+        sx, sy, _ = lens.vector_to_pixel(v)
+        sx = np.ascontiguousarray(sx[:40] + rng.normal(0, 0.2, 40))
+        sy = np.ascontiguousarray(sy[:40] + rng.normal(0, 0.2, 40))
+        full, no_k1 = _start(), _start()
+        camera_refit.fit_rounds(full, v, sx, sy, 2.0, RULES)
+        camera_refit.fit_rounds(no_k1, v, sx, sy, 2.0, held)
+        assert (full[6] == 0.0) == skipped
+        if skipped:
+            np.testing.assert_array_equal(full, no_k1)
+        else:
+            assert full[6] == pytest.approx(-0.15, abs=0.02)

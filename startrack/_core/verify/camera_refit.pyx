@@ -160,6 +160,9 @@ cdef class _Work:
         free(self.back_d)
 
 
+include "camera_refit_k1.pxi"
+
+
 def pairs(const double[::1] p, const double[:, ::1] v, const double[::1] x,
           const double[::1] y, double limit):
     """(spots, stars): the mutually nearest pairs of spots (``x``, ``y``) and catalog
@@ -180,21 +183,24 @@ cdef class RefitRules:
     """The refit's rounds and stopping rules: each round's pairing radius in match radii
     (``factors``) and whether k1 is free in it (``free_k1``, 0 or 1), the fewest pairs a
     round fits (``min_pairs``), Levenberg-Marquardt steps per round at most
-    (``iterations``) and the first step's damping (``damping``)."""
+    (``iterations``), the first step's damping (``damping``) and ``k1_chi2``: the rounds
+    that free k1 are not run where k1's score at the fit that held it is within this
+    chi-square of one degree of freedom (:func:`_k1_unsupported`; 0: always run)."""
     cdef readonly object factors, free_k1
     cdef const double[::1] _factors
     cdef const unsigned char[::1] _free
     cdef readonly Py_ssize_t min_pairs, iterations
-    cdef readonly double damping
+    cdef readonly double damping, k1_chi2
 
     def __init__(self, factors, free_k1, Py_ssize_t min_pairs, Py_ssize_t iterations,
-                 double damping):
+                 double damping, double k1_chi2=0.0):
         self.factors = np.ascontiguousarray(factors, np.float64)
         self.free_k1 = np.ascontiguousarray(free_k1, np.uint8)
         if len(self.factors) != len(self.free_k1) or len(self.factors) == 0:
             raise ValueError("RefitRules: one k1 flag per round, at least one round")
         self._factors, self._free = self.factors, self.free_k1
         self.min_pairs, self.iterations, self.damping = min_pairs, iterations, damping
+        self.k1_chi2 = k1_chi2
 
 
 cdef bint _fit_rounds(double* p, const double[:, ::1] v, const double[::1] x,
@@ -206,6 +212,9 @@ cdef bint _fit_rounds(double* p, const double[:, ::1] v, const double[::1] x,
     cdef Py_ssize_t r, k, n = x.shape[0], last = -1
     cdef bint same
     for r in range(rules._factors.shape[0]):
+        if r > 0 and rules._free[r] and not rules._free[r - 1] and rules.k1_chi2 > 0.0 \
+                and _k1_unsupported(&work.fit, 2 * last, rules.k1_chi2):
+            return True  # freeing k1 would move the fit by less than the noise
         for k in range(max(last, 0)):
             work.spot[n + k], work.star[n + k] = work.spot[k], work.star[k]
         count[0] = _pairs(p, v, x, y, rules._factors[r] * radius_px, work.fit.px, work.fit.py,
