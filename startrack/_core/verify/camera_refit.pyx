@@ -130,6 +130,28 @@ cdef class _Work:
     cdef Py_ssize_t* star
     cdef Py_ssize_t* back  # each catalog star's nearest spot, and its distance
     cdef double* back_d
+    cdef double* d2  # the pairs' squared distances
+    cdef bint fresh  # the pairs in hand were made through the parameters as they are
+    cdef double limit  # ... within this many px
+
+    cdef Py_ssize_t pair_within(self, const double* p, const double[:, ::1] v,
+                                const double[::1] x, const double[::1] y, double limit,
+                                Py_ssize_t count) noexcept nogil:
+        """The mutually nearest pairs within ``limit`` px through ``p``: those of the
+        ``count`` in hand within ``limit`` where they were made through this ``p`` within a
+        wider one (which are mutually nearest does not depend on it), else :func:`_pairs`."""
+        cdef Py_ssize_t k, kept = 0
+        if self.fresh and limit <= self.limit:
+            for k in range(count):
+                if self.d2[k] <= limit * limit:
+                    self.spot[kept], self.star[kept] = self.spot[k], self.star[k]
+                    self.d2[kept] = self.d2[k]
+                    kept += 1
+        else:
+            kept = _pairs(p, v, x, y, limit, self.fit.px, self.fit.py, self.spot,
+                          self.star, self.back, self.back_d, self.d2)
+        self.fresh, self.limit = True, limit
+        return kept
 
     def __cinit__(self, Py_ssize_t n, Py_ssize_t m):
         cdef Py_ssize_t width = max(m, 2 * n, 1)
@@ -143,9 +165,11 @@ cdef class _Work:
         self.star = <Py_ssize_t*>malloc(2 * max(n, 1) * sizeof(Py_ssize_t))
         self.back = <Py_ssize_t*>malloc(max(m, 1) * sizeof(Py_ssize_t))
         self.back_d = <double*>malloc(max(m, 1) * sizeof(double))
+        self.d2 = <double*>malloc(max(n, 1) * sizeof(double))  # fresh: False, as allocated
         if (self.fit.r == NULL or self.fit.trial_r == NULL or self.fit.jac == NULL
                 or self.fit.px == NULL or self.fit.py == NULL or self.spot == NULL
-                or self.star == NULL or self.back == NULL or self.back_d == NULL):
+                or self.star == NULL or self.back == NULL or self.back_d == NULL
+                or self.d2 == NULL):
             raise MemoryError("camera refit: scratch arrays")
 
     def __dealloc__(self):
@@ -158,6 +182,7 @@ cdef class _Work:
         free(self.star)
         free(self.back)
         free(self.back_d)
+        free(self.d2)
 
 
 include "camera_refit_k1.pxi"
@@ -169,9 +194,7 @@ def pairs(const double[::1] p, const double[:, ::1] v, const double[::1] x,
     stars (camera-frame vectors ``v``) through parameters ``p``, within ``limit`` px."""
     cdef _Work work = _Work(x.shape[0], v.shape[0])
     cdef Py_ssize_t count, i
-    with nogil:
-        count = _pairs(&p[0], v, x, y, limit, work.fit.px, work.fit.py, work.spot, work.star,
-                       work.back, work.back_d)
+    count = work.pair_within(&p[0], v, x, y, limit, 0)
     spots, stars = np.empty(count, np.int64), np.empty(count, np.int64)
     cdef long long[::1] a = spots, b = stars
     for i in range(count):
@@ -217,8 +240,7 @@ cdef bint _fit_rounds(double* p, const double[:, ::1] v, const double[::1] x,
             return True  # freeing k1 would move the fit by less than the noise
         for k in range(max(last, 0)):
             work.spot[n + k], work.star[n + k] = work.spot[k], work.star[k]
-        count[0] = _pairs(p, v, x, y, rules._factors[r] * radius_px, work.fit.px, work.fit.py,
-                          work.spot, work.star, work.back, work.back_d)
+        count[0] = work.pair_within(p, v, x, y, rules._factors[r] * radius_px, max(last, 0))
         if count[0] < rules.min_pairs:
             return False
         same = count[0] == last and rules._free[r] == rules._free[r - 1]
@@ -226,6 +248,7 @@ cdef bint _fit_rounds(double* p, const double[:, ::1] v, const double[::1] x,
         while same and k < count[0]:
             same = work.spot[k] == work.spot[n + k] and work.star[k] == work.star[n + k]
             k += 1
+        work.fresh = work.fresh and same  # a fit moves what the pairs were made through
         if not same and not _fit(p, v, x, y, work.spot, work.star, count[0], rules._free[r],
                                  rules.iterations, rules.damping, &work.fit):
             return False
@@ -269,8 +292,7 @@ def refit(Optics optics, const double[:, ::1] v, const double[::1] x, const doub
     variance = max(work.fit.r2 / max(1, 2 * count - NP), sigma_px * sigma_px)
     _centre_move(p, work.fit.jtj, variance, cx0, cy0, given[0] / given[2], given[1] / given[2],
                  g.f_px, &shift, &sigma)
-    count = _pairs(p, v, x, y, radius_px, work.fit.px, work.fit.py, work.spot, work.star,
-                       work.back, work.back_d)
+    count = work.pair_within(p, v, x, y, radius_px, count)
     spots = np.empty(count, np.int64)
     cdef long long[::1] a = spots
     for i in range(count):

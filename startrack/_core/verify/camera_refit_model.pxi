@@ -50,12 +50,13 @@ cdef void _project(const double* p, const double[:, ::1] v, const Py_ssize_t* ro
 cdef Py_ssize_t _pairs(const double* p, const double[:, ::1] v, const double[::1] x,
                        const double[::1] y, double limit, double* px, double* py,
                        Py_ssize_t* spot, Py_ssize_t* star, Py_ssize_t* back,
-                       double* back_d) noexcept nogil:
-    """Mutually nearest (spot, star) pairs within ``limit`` px, spots ascending; the
-    count. The first of equal distances is the nearest, as numpy's argmin takes it.
-    One pass over the spot-star distances finds both sides' nearest (``back``,
-    ``back_d``: each star's nearest spot and its distance, scratch of the stars' length);
-    squared distances are compared (a square root per candidate was most of a refit)."""
+                       double* back_d, double* d2) noexcept nogil:
+    """Mutually nearest (spot, star) pairs within ``limit`` px, spots ascending, each
+    pair's squared distance in ``d2``; the count. The first of equal distances is the
+    nearest, as numpy's argmin takes it. One pass over the spot-star distances finds both
+    sides' nearest (``back``, ``back_d``: each star's nearest spot and its distance,
+    scratch of the stars' length); squared distances are compared (a square root per
+    candidate was most of a refit)."""
     cdef Py_ssize_t m = v.shape[0], n = x.shape[0], i, j, best, count = 0
     cdef double d, nearest, xi, yi
     _project(p, v, NULL, m, px, py)
@@ -69,12 +70,14 @@ cdef Py_ssize_t _pairs(const double* p, const double[:, ::1] v, const double[::1
                 best, nearest = j, d
             if back[j] < 0 or d < back_d[j]:
                 back[j], back_d[j] = i, d
-        # star[i] holds spot i's star until the pairs are written (at or before i)
+        # star[i] and d2[i] hold spot i's star and distance until the pairs are written
+        # (at or before i)
         star[i] = best if best >= 0 and nearest <= limit * limit else -1
+        d2[i] = nearest
     for i in range(n):
         best = star[i]
         if best >= 0 and back[best] == i:
-            spot[count], star[count] = i, best
+            spot[count], star[count], d2[count] = i, best, d2[i]
             count += 1
     return count
 
