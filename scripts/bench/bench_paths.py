@@ -1,8 +1,9 @@
-"""Every solving path, startrack beside tetra3rs and cedar-solve, in one table: each row a
-path a user takes, with each solver's solved, wrong and median solve time on the same
-frames and the ratio of startrack's median to tetra3rs's and to cedar-solve's, all from one
-run (astrometry.net, seconds a frame, is beside startrack in docs/real.md and
-scripts/bench/bench_blind_peers.py).
+"""Every solving path, startrack beside tetra3rs, cedar-solve and astrometry.net, in one
+table: each row a path a user takes, with each solver's solved, wrong and median solve time
+on the same frames and the ratio of startrack's median to each peer's, all from one run
+(``--peers`` picks them; astrometry.net is ``solve-field`` on the centroid list, a process
+a frame, as scripts/bench/bench_blind_peers.py runs it: told the same FOV range, none when
+blind, its own time limit the same).
 
 Paths (lost in space on bench_blind.py's frames, 0.3 px, 3 false stars, 5% missing):
 
@@ -55,7 +56,7 @@ from scripts.bench.bench_blind import (  # noqa: E402
     write_between,
     wrong_stars,
 )
-from scripts.bench.bench_blind_peer_solvers import Tetra3, Tetra3rs  # noqa: E402
+from scripts.bench.bench_blind_peer_solvers import Astrometry, Tetra3, Tetra3rs  # noqa: E402
 from scripts.bench.bench_blind_peers import (  # noqa: E402
     Ours,
     estimate,
@@ -66,8 +67,10 @@ from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD  # noqa: E4
 from startrack.match_records import Observation  # noqa: E402
 
 #: each peer: its solver class (scripts/bench/bench_blind_peer_solvers.py)
-PEERS = {"tetra3rs": Tetra3rs, "cedar-solve": Tetra3}
-SOLVERS = ("startrack", *PEERS)
+PEERS = {"tetra3rs": Tetra3rs, "cedar-solve": Tetra3, "astrometry.net": Astrometry}
+#: the peers run unless ``--peers`` says otherwise: all of them (astrometry.net's
+#: ``solve-field`` from ``make astrometry``)
+DEFAULT_PEERS = tuple(PEERS)
 #: how a row's frames are dealt out to the solvers (solve_order)
 ORDERS = ("batch", "interleaved")
 
@@ -167,7 +170,7 @@ def lost_in_space_rows(fov: float, args) -> list[dict]:
             row |= {f"{name}_solved": s["solved"], f"{name}_wrong": s["wrong"],
                     f"{name}_ms": float(np.median(s["ms"]))}
         rows.append(row)
-        print(line(row), flush=True)
+        print(line(row, args.peers), flush=True)
     return rows
 
 
@@ -199,7 +202,7 @@ def tracking_rows(args) -> list[dict]:
             row |= {f"{name}_solved": int(round(r["solved_rate"] * r["frames"])),
                     f"{name}_wrong": int(r["wrong"]), f"{name}_ms": float(r["time_median_ms"])}
         rows.append(row)
-        print(line(row), flush=True)
+        print(line(row, args.peers), flush=True)
     return rows
 
 
@@ -209,28 +212,38 @@ def ratio(row: dict, peer: str = "tetra3rs") -> str:
     return f"{row['startrack_ms'] / row[f'{peer}_ms']:.2f}x"
 
 
-def line(row: dict) -> str:
+def line(row: dict, peers=DEFAULT_PEERS) -> str:
     parts = [f"{row['fov']:>4} deg  {row['path']:38s}"]
-    for name in SOLVERS:
+    for name in ("startrack", *peers):
         if f"{name}_ms" in row:
             parts.append(f"{name} {row[name + '_solved']}/{row['frames']} wrong "
                          f"{row[name + '_wrong']} {row[name + '_ms']:.3f} ms")
-    return "  ".join(parts + [f"/ {peer} {ratio(row, peer)}" for peer in PEERS])
+    return "  ".join(parts + [f"/ {peer} {ratio(row, peer)}" for peer in peers])
 
 
-def table(rows: list[dict]) -> str:
-    cols = [f"{name} {what}" for name in SOLVERS for what in ("solved", "wrong", "median ms")]
-    cols += [f"startrack / {peer}" for peer in PEERS]
+def table(rows: list[dict], peers=DEFAULT_PEERS) -> str:
+    """The rows as markdown, a column group for startrack and each of ``peers``."""
+    solvers = ("startrack", *peers)
+    cols = [f"{name} {what}" for name in solvers for what in ("solved", "wrong", "median ms")]
+    cols += [f"startrack / {peer}" for peer in peers]
     head = ["| FOV (deg) | path | frames | " + " | ".join(cols) + " |",
             "|" + "---|" * (3 + len(cols))]
     body = []
     for r in rows:
         cells = [r["fov"], r["path"], str(r["frames"])]
-        for name in SOLVERS:
+        for name in solvers:
             cells += ([str(r[f"{name}_solved"]), str(r[f"{name}_wrong"]),
                        f"{r[f'{name}_ms']:.3f}"] if f"{name}_ms" in r else ["-"] * 3)
-        body.append("| " + " | ".join(cells + [ratio(r, peer) for peer in PEERS]) + " |")
+        body.append("| " + " | ".join(cells + [ratio(r, peer) for peer in peers]) + " |")
     return "\n".join(head + body)
+
+
+def doc_marker(order: str, peers) -> str:
+    """The name of the doc section a run writes: one per order, and one more for a run
+    with other peers than the default (``bench_paths interleaved``, ``bench_paths with
+    tetra3rs,astrometry.net``)."""
+    mark = "bench_paths" if order == "batch" else f"bench_paths {order}"
+    return mark if tuple(peers) == DEFAULT_PEERS else f"{mark} with {','.join(peers)}"
 
 
 def main() -> None:
@@ -244,7 +257,7 @@ def main() -> None:
     ap.add_argument("--method", default=DEFAULT_METHOD, help="startrack's --method")
     ap.add_argument("--timeout-ms", type=float, default=5000.0,
                     help="wall-clock limit per frame, the same for both solvers")
-    ap.add_argument("--peers", default=",".join(PEERS),
+    ap.add_argument("--peers", default=",".join(DEFAULT_PEERS),
                     help="the peers run beside startrack (each an installed solver)")
     ap.add_argument("--order", choices=ORDERS, default="batch",
                     help="batch: each solver solves a row's frames back to back (as a batch "
@@ -260,12 +273,12 @@ def main() -> None:
     load0, t0 = os.getloadavg()[0], time.perf_counter()
     rows = [r for fov in floats(args.fovs) for r in lost_in_space_rows(fov, args)]
     rows += tracking_rows(args)
-    text = table(rows)
+    text = table(rows, args.peers)
     print(text)
     if args.doc:
         head = provenance_line("bench_paths.py", started, (time.perf_counter() - t0) / 60.0,
                                (load0, os.getloadavg()[0]))
-        mark = "bench_paths" if args.order == "batch" else f"bench_paths {args.order}"
+        mark = doc_marker(args.order, args.peers)
         write_between(args.doc, f"<!-- {mark}:start -->", f"<!-- {mark}:end -->",
                       f"{head} {', '.join(args.peers)} from the peers' venv; startrack "
                       f"--method {args.method}; frames solved in {args.order} order."

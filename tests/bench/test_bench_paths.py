@@ -6,7 +6,16 @@ import math
 import numpy as np
 import pytest
 
-from scripts.bench.bench_paths import junk_frames, paths, score, solve_order, table, told
+from scripts.bench.bench_paths import (
+    DEFAULT_PEERS,
+    doc_marker,
+    junk_frames,
+    paths,
+    score,
+    solve_order,
+    table,
+    told,
+)
 from startrack.camera import Camera
 from startrack.input_checks import FOV_TOLERANCE
 
@@ -55,7 +64,7 @@ def test_table_gives_the_ratio_to_each_peer_and_dashes_for_a_missing_one():
            "cedar-solve_wrong": 0, "cedar-solve_ms": 0.6}
     no_cedar = {k: v for k, v in row.items() if not k.startswith("cedar-solve")}
     alone = {k: v for k, v in no_cedar.items() if not k.startswith("tetra3rs")}
-    lines = table([row, no_cedar, alone]).splitlines()
+    lines = table([row, no_cedar, alone], ["tetra3rs", "cedar-solve"]).splitlines()
     assert "startrack / tetra3rs | startrack / cedar-solve |" in lines[0]
     assert lines[2].endswith("| 0.600 | 1.50x | 0.50x |")
     assert lines[3].endswith("| - | - | - | 1.50x | - |")
@@ -80,3 +89,21 @@ def test_batch_order_runs_one_solver_through_the_row_and_rotates_who_goes_first(
     interleaved = solve_order(2, names, "interleaved")
     assert interleaved == [(0, "startrack"), (0, "tetra3rs"), (1, "startrack"),
                            (1, "tetra3rs")]
+
+
+def test_each_order_and_set_of_peers_writes_its_own_doc_section():
+    assert doc_marker("batch", DEFAULT_PEERS) == "bench_paths"
+    assert doc_marker("interleaved", list(DEFAULT_PEERS)) == "bench_paths interleaved"
+    assert doc_marker("interleaved", ["tetra3rs", "cedar-solve"]) == \
+        "bench_paths interleaved with tetra3rs,cedar-solve"
+    assert doc_marker("batch", ["tetra3rs", "astrometry.net"]) == \
+        "bench_paths with tetra3rs,astrometry.net"
+
+
+def test_a_table_has_a_column_group_for_each_peer_run():
+    row = {"fov": "20", "path": "FOV exact", "frames": 5, "startrack_solved": 5,
+           "startrack_wrong": 0, "startrack_ms": 0.3, "astrometry.net_solved": 5,
+           "astrometry.net_wrong": 0, "astrometry.net_ms": 600.0}
+    head, _, body = table([row], ["astrometry.net"]).splitlines()
+    assert "astrometry.net median ms" in head and "cedar-solve" not in head
+    assert body.endswith("| 600.000 | 0.00x |")
