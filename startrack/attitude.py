@@ -7,6 +7,7 @@ up direction (camera -y), measured towards east, in [0, 360).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -53,6 +54,7 @@ def from_quaternion(q: np.ndarray) -> Rotation:
     return Rotation.from_quat(np.asarray(q, dtype=np.float64), scalar_first=True)
 
 
+@functools.cache  # made on first use, not when the module is imported
 def _one_rotation_maker():
     """A maker of one Rotation from a scalar-last quaternion that skips what
     ``Rotation.from_quat`` checks per call (its array namespace and shape: most of its
@@ -82,15 +84,13 @@ def _one_rotation_maker():
     return make if same else None
 
 
-_MAKE_ONE = _one_rotation_maker()
-
-
 def rotation_from_quat(quat: np.ndarray) -> Rotation:
     """``Rotation.from_quat(quat)`` of one scalar-last quaternion ``[x, y, z, w]``
     (float64, shape (4,)), built without the per-call checks where this scipy allows."""
-    if _MAKE_ONE is None or quat.shape != (4,) or quat.dtype != np.float64:
+    make = _one_rotation_maker()
+    if make is None or quat.shape != (4,) or quat.dtype != np.float64:
         return Rotation.from_quat(quat)
-    return _MAKE_ONE(quat)
+    return make(quat)
 
 
 def random_attitudes(n: int, rng: np.random.Generator) -> Rotation:

@@ -182,21 +182,25 @@ def test_the_brightest_in_view_are_numpys_selection(distorted):
         np.testing.assert_allclose(v, catalog.vectors[want] @ matrix, rtol=0, atol=1e-15)
 
 
-@pytest.mark.parametrize("seed", range(12))
-def test_the_k1_score_is_numpys(seed):
+def test_the_k1_score_is_numpys():
     """The kernel's test of whether the pairs support k1 (the rounds that free it are
-    skipped where they do not) decides as the score statistic in numpy does."""
-    v, x, y = _case(seed)
-    p = _start()
+    skipped where they do not) decides as the score statistic in numpy does, on every
+    case whose rounds fit (10 of the 12 seeded ones)."""
     held = camera_refit.RefitRules([3.0, 2.0, 1.0], [0, 0, 0], 8, 40, 1e-7)
-    if camera_refit.fit_rounds(p, v, x, y, 2.0, held) is None:
-        return
-    spots, stars = camera_refit.pairs(p, v, x, y, 2.0)
-    r, jac = reference._jacobian(p, v[stars], x[spots], y[spots])
-    statistic = reference.k1_statistic(r, jac)
-    assert statistic > 0.0
-    assert camera_refit.k1_score(p, v, x, y, spots, stars, statistic * 1.001)
-    assert not camera_refit.k1_score(p, v, x, y, spots, stars, statistic * 0.999)
+    checked = 0
+    for seed in range(12):
+        v, x, y = _case(seed)
+        p = _start()
+        if camera_refit.fit_rounds(p, v, x, y, 2.0, held) is None:
+            continue
+        spots, stars = camera_refit.pairs(p, v, x, y, 2.0)
+        r, jac = reference._jacobian(p, v[stars], x[spots], y[spots])
+        statistic = reference.k1_statistic(r, jac)
+        assert statistic > 0.0
+        assert camera_refit.k1_score(p, v, x, y, spots, stars, statistic * 1.001)
+        assert not camera_refit.k1_score(p, v, x, y, spots, stars, statistic * 0.999)
+        checked += 1
+    assert checked >= 10
 
 
 def test_a_lens_the_camera_lacks_keeps_the_k1_rounds_and_none_skips_them():
