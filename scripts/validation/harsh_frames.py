@@ -23,12 +23,15 @@ labelling checks against the catalog magnitudes.
 instead, the path of ``startrack identify`` and the API: the camera's FOV taken as nominal
 (the default ``--fov-tolerance``), its first look at the brightest stars, the refit and
 the search, and the evidence gate on every answer; with ``--scale LO,HI`` the FOV is given
-as a range instead, LO to HI times the true one (``--scale-low/--scale-high``).
+as a range instead, LO to HI times the true one (``--scale-low/--scale-high``); with
+``--fov-off F`` the camera is given with F times the true FOV (a nominal FOV off by F - 1,
+the default tolerance searching it).
 
     .venv/bin/python scripts/validation/harsh_frames.py --frames 200 --seed 0
     .venv/bin/python scripts/validation/harsh_frames.py --frames 200 --seed 0 --methods pyramid
     --pipeline
     .venv/bin/python scripts/validation/harsh_frames.py --frames 200 --pipeline --scale 0.6,1.7
+    .venv/bin/python scripts/validation/harsh_frames.py --frames 200 --pipeline --fov-off 1.04
 """
 
 from __future__ import annotations
@@ -92,7 +95,9 @@ def run(args: argparse.Namespace) -> int:
           f"than {UNRESOLVED_PIXELS} px), {args.fov} deg {args.size} px, {args.frames} bench "
           f"frames (seed {args.seed}): {args.noise_px} px noise, {args.false_stars} false "
           f"stars, {args.missing:.0%} missing, {args.mag_noise} mag photometric noise, "
-          f"{args.max_stars} stars per matcher")
+          f"{args.max_stars} stars per matcher"
+          + ("" if args.fov_off is None or not args.pipeline else
+             f"; the camera given as {args.fov * args.fov_off:g} deg ({args.fov_off:g}x)"))
     keys = ["solved", "wrong_att", "ids", "wrong_id", "false_id", "unres", "withheld",
             "identifiable"]
     head = (f"{'method':<9} {'solved':>7} {'wrong att':>9} {'ids':>6} {'wrong id':>8} "
@@ -136,7 +141,8 @@ def _through_pipeline(camera: Camera, catalog, args: argparse.Namespace, method:
     from startrack import Solver
     from startrack.solver import Pipeline
 
-    given = {"camera": camera}
+    given = {"camera": camera if args.fov_off is None else Camera.from_fov(
+        camera.width, camera.height, args.fov * args.fov_off)}
     if args.scale:  # the FOV as a range (--scale-low/--scale-high), no camera
         low, high = (float(v) * args.fov for v in args.scale.split(","))
         given = {"size": (args.size, args.size), "scale_low": low, "scale_high": high}
@@ -187,7 +193,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scale", default=None, metavar="LO,HI",
                     help="with --pipeline: the FOV given as the range LO to HI times the "
                          "true FOV (identify's --scale-low/--scale-high), not the camera")
-    return run(ap.parse_args(argv))
+    ap.add_argument("--fov-off", type=float, default=None, metavar="F",
+                    help="with --pipeline: the camera given with F times the true FOV "
+                         "(a nominal FOV off by F - 1)")
+    args = ap.parse_args(argv)
+    if (args.scale or args.fov_off is not None) and not args.pipeline:
+        ap.error("--scale and --fov-off solve through the pipeline: add --pipeline")
+    if args.scale and args.fov_off is not None:
+        ap.error("--scale gives no camera for --fov-off to put off: give one of them")
+    return run(args)
 
 
 if __name__ == "__main__":

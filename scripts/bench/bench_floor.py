@@ -1,0 +1,269 @@
+"""The compiled floor of a solve: how much of startrack's time on a lost-in-space path is
+spent inside its compiled kernels, and that floor beside tetra3rs's whole solve of the same
+frames in the same run.
+
+bench_paths.py's frames and paths (FOV exact; the FOV 0, 2.5 and 4% off at the CLI's
+default tolerance; blind with the peers' range), each row solved as a batch (each solver a
+row's frames back to back, once untimed to warm, then timed). Inside startrack's timed
+solve (``Pipeline.solve``, as bench_paths.py times it) every call into a compiled kernel
+is timed where Python makes it: the functions of ``startrack._core`` modules as the Python
+stages call them (the pattern searches, the camera fits, the evidence refit and its
+catalog scan, the cone lookups, the optics), the frame's verification
+(``FrameVerifier.check``) and the fitted rounds (``FittedRounds.run`` and
+``pattern_focal``). What is left is the Python and numpy between them (and a few compiled
+calls made through other extension types, counted with it: an upper bound on the Python's
+share).
+
+* ``kernels ms``: the median over the frames of the time inside compiled kernels;
+* ``rest ms``: the median of the rest of each solve (its Python and numpy);
+* ``floor / tetra3rs``: the kernels' median over tetra3rs's median: what startrack's
+  solve would cost beside tetra3rs with no Python at all between its kernels.
+
+Each timer costs about a tenth of a microsecond, counted in the kernels. Run with the peers'
+venv (without tetra3rs only startrack's columns are filled), on a quiet machine:
+
+    PYTHONPATH=. /work/peers-venv/bin/python scripts/bench/bench_floor.py [--frames 20] \
+        [--doc docs/speed.md]
+
+With ``--doc`` the table, with the command, commit, date and load average, replaces what is
+between the doc's ``<!-- bench_floor:start -->`` and ``<!-- bench_floor:end -->`` markers.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+import sys
+import time
+import types
+from pathlib import Path
+
+import numpy as np
+
+from scripts._cli import add_frames, script_parser  # noqa: E402
+from scripts.bench.bench_blind import floats, provenance_line, write_between  # noqa: E402
+from scripts.bench.bench_paths import Solvers, paths, score, solve_order, told  # noqa: E402
+from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD  # noqa: E402
+
+#: the range's span of the ranged row (bench_paths.py's default)
+SPAN = 1.7
+
+
+def floor_paths() -> list[tuple[str, str, float, float | None]]:
+    """(path, kind, startrack's tolerance, FOV error in %) of the rows measured:
+    bench_paths.py's FOV exact, its rows at the default tolerance and its ranged row."""
+    return [row for row in paths(SPAN) if row[1] == "range"
+            or (row[1] == "fov" and row[2] in (0.0, DEFAULT_FOV_TOLERANCE))]
+
+
+class KernelClock:
+    """The time spent inside compiled kernels since the last :meth:`take`: every compiled
+    function a startrack Python module calls, wrapped where it is looked up."""
+
+    def __init__(self) -> None:
+        self.spent = 0.0
+        self.by_kernel: dict[str, list[float]] = {}  # name: [seconds, calls] while counted
+        self.counting = self.installed = False
+        self._wrapped: set[int] = set()
+        self._replaced: list[tuple[object, str, object]] = []  # (where, name, original)
+
+    def take(self) -> float:
+        spent, self.spent = self.spent, 0.0
+        return spent
+
+    def timed(self, fn, name: str | None = None):
+        clock, name = time.perf_counter, name or getattr(fn, "__qualname__", repr(fn))
+        held = self.by_kernel.setdefault(name, [0.0, 0])
+
+        def run(*args, **kwargs):
+            t0 = clock()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                dt = clock() - t0
+                self.spent += dt
+                if self.counting:
+                    held[0] += dt
+                    held[1] += 1
+        run.__wrapped__ = fn
+        return run
+
+    def breakdown(self, solves: int, top: int = 6) -> str:
+        """The kernels that took most while counting, their mean per solve over
+        ``solves`` (a slow frame weighs in: a median per kernel would not add up), and
+        the counts reset."""
+        ranked = sorted(self.by_kernel.items(), key=lambda kv: -kv[1][0])
+        text = ", ".join(f"{name.removeprefix('startrack._core.')} "
+                         f"{held[0] / solves * 1e6:.0f} us ({held[1] / solves:.1f} calls)"
+                         for name, held in ranked[:top] if held[1])
+        calls = sum(held[1] for held in self.by_kernel.values()) / solves
+        for held in self.by_kernel.values():
+            held[0], held[1] = 0.0, 0
+        return f"{calls:.0f} timed calls a solve; the most time: {text}"
+
+    def install(self) -> None:
+        """Wrap every compiled function the loaded startrack modules call, and the two
+        extension-type calls the solver makes most (the verification, the fitted
+        rounds)."""
+        for module in _startrack_modules():
+            for attr, value in list(vars(module).items()):
+                if _compiled(value):
+                    self._replace(module, attr, self.timed(value, f"{value.__module__}.{attr}"))
+                elif isinstance(value, types.ModuleType) and \
+                        value.__name__.startswith("startrack._core."):
+                    self._wrap_module(value)
+        from startrack.solver import _fov_fit
+        from startrack.verify._frame import FrameVerifier
+
+        self._replace(FrameVerifier, "check", self.timed(FrameVerifier.check, "Verifier.check"))
+        rounds_for = _fov_fit.rounds_for
+
+        def timed_rounds(*args, **kwargs):
+            return _TimedRounds(rounds_for(*args, **kwargs), self)
+
+        for module in _startrack_modules():  # wherever it was imported by name
+            if getattr(module, "rounds_for", None) is rounds_for:
+                self._replace(module, "rounds_for", timed_rounds)
+        self.installed = True
+
+    def uninstall(self) -> None:
+        """Every wrapped name back as it was."""
+        while self._replaced:
+            where, name, original = self._replaced.pop()
+            setattr(where, name, original)
+        self._wrapped.clear()
+        self.installed = False
+
+    def _replace(self, where, name: str, value) -> None:
+        self._replaced.append((where, name, getattr(where, name)))
+        setattr(where, name, value)
+
+    def _wrap_module(self, module: types.ModuleType) -> None:
+        if id(module) in self._wrapped:
+            return
+        self._wrapped.add(id(module))
+        for attr, value in list(vars(module).items()):
+            if _compiled(value):
+                self._replace(module, attr, self.timed(value, f"{module.__name__}.{attr}"))
+
+
+class _TimedRounds:
+    """A FittedRounds whose runs and pattern fits are timed."""
+
+    def __init__(self, rounds, clock: KernelClock) -> None:
+        self.run = clock.timed(rounds.run, "FittedRounds.run")
+        self.pattern_focal = clock.timed(rounds.pattern_focal, "FittedRounds.pattern_focal")
+
+
+def _startrack_modules() -> list[types.ModuleType]:
+    """The loaded Python modules of startrack (not its compiled core)."""
+    return [module for name, module in list(sys.modules.items())
+            if module is not None and name.startswith("startrack.")
+            and not name.startswith("startrack._core")]
+
+
+def _compiled(value) -> bool:
+    """A Cython function of a startrack._core module (not a class or a constant)."""
+    return (type(value).__name__ in ("cython_function_or_method", "builtin_function_or_method")
+            and str(getattr(value, "__module__", "")).startswith("startrack._core"))
+
+
+def floor_rows(solvers: Solvers, fov: float, args, clock: KernelClock) -> list[dict]:
+    """One row per path at FOV ``fov`` (``solvers``' frames)."""
+    rows = []
+    for turn, (label, kind, tolerance, err) in enumerate(floor_paths()):
+        each = {"startrack": solvers.ours(tolerance)}
+        if "tetra3rs" in args.peers:
+            each["tetra3rs"] = solvers.peer("tetra3rs", tolerance)
+        frames = solvers.frames
+        for name, solver in each.items():  # warm: every table and path touched untimed
+            for i in range(len(frames)):
+                solver.solve(frames[i], told(fov, SPAN, kind, err, i)[name != "startrack"])
+        times = {name: [] for name in each}
+        kernels, wrong = [], 0
+        for i, name in solve_order(len(frames), list(each), "batch", turn):
+            est_ours, est_peer = told(fov, SPAN, kind, err, i)
+            clock.take()
+            clock.counting = name == "startrack"
+            answer, ms = each[name].solve(frames[i], est_ours if name == "startrack" else est_peer)
+            clock.counting = False
+            inside = clock.take() * 1000.0
+            times[name].append(ms)
+            if name == "startrack":
+                kernels.append(inside)
+                wrong += score(answer, frames[i], solvers.catalog, solvers.camera)[1]
+        ours = np.asarray(times["startrack"])
+        row = {"fov": f"{fov:g}", "path": label, "frames": len(frames), "wrong": wrong,
+               "total_ms": float(np.median(ours)), "kernels_ms": float(np.median(kernels)),
+               "rest_ms": float(np.median(ours - np.asarray(kernels)))}
+        if "tetra3rs" in times:
+            row["tetra3rs_ms"] = float(np.median(times["tetra3rs"]))
+        row["kernels"] = clock.breakdown(len(frames))
+        rows.append(row)
+        print(line(row), flush=True)
+        print(f"    {row['kernels']}", flush=True)
+    return rows
+
+
+def line(row: dict) -> str:
+    peer = row.get("tetra3rs_ms")
+    cells = [row["fov"], row["path"], str(row["frames"]), str(row["wrong"]),
+             f"{row['total_ms']:.3f}", f"{row['kernels_ms']:.3f}", f"{row['rest_ms']:.3f}",
+             f"{row['kernels_ms'] / row['total_ms']:.0%}",
+             "-" if peer is None else f"{peer:.3f}",
+             "-" if peer is None else f"{row['total_ms'] / peer:.2f}x",
+             "-" if peer is None else f"{row['kernels_ms'] / peer:.2f}x"]
+    return "| " + " | ".join(cells) + " |"
+
+
+def table(rows: list[dict]) -> str:
+    head = ["| FOV (deg) | path | frames | startrack wrong | startrack median ms | "
+            "kernels ms | rest ms | kernels' share | tetra3rs median ms | "
+            "startrack / tetra3rs | floor / tetra3rs |", "|" + "---|" * 11]
+    return "\n".join(head + [line(r) for r in rows])
+
+
+def kernels_list(rows: list[dict]) -> str:
+    """Each row's kernels, the most time first (means per solve), as a markdown list."""
+    return "\n".join(f"* {r['fov']} deg, {r['path']}: {r['kernels']}" for r in rows)
+
+
+def main() -> None:
+    ap = script_parser(__doc__)
+    add_frames(ap, 20, seed=7)
+    ap.add_argument("--fovs", default="11.4,20,30", help="comma-separated true widths, deg")
+    ap.add_argument("--method", default=DEFAULT_METHOD, help="startrack's --method")
+    ap.add_argument("--timeout-ms", type=float, default=5000.0,
+                    help="wall-clock limit per frame, the same for both solvers")
+    ap.add_argument("--peers", default="tetra3rs",
+                    help="'tetra3rs' for its column, '' for startrack alone")
+    ap.add_argument("--doc", type=Path, help="write the table between this doc's markers")
+    args = ap.parse_args()
+    started = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M")
+    load0, t0 = os.getloadavg()[0], time.perf_counter()
+    args.peers = [name for name in args.peers.split(",") if name]
+    if set(args.peers) - {"tetra3rs"}:
+        ap.error("--peers: only tetra3rs (or none) is measured here")
+    args.span = SPAN  # the peers' databases span the ranged row's range (Solvers.peer)
+    clock, rows = KernelClock(), []
+    for fov in floats(args.fovs):
+        solvers = Solvers(fov, args)
+        if not clock.installed:  # the stages load on a first solve: wrap once all are in
+            for _, kind, tolerance, err in floor_paths():
+                solvers.ours(tolerance).pipeline(told(fov, SPAN, kind, err, 0)[0])
+            clock.install()
+            print(table([]).split("\n")[0], flush=True)
+        rows += floor_rows(solvers, fov, args, clock)
+    text = table(rows)
+    print(text)
+    if args.doc:
+        head = provenance_line("bench_floor.py", started, (time.perf_counter() - t0) / 60.0,
+                               (load0, os.getloadavg()[0]))
+        write_between(args.doc, "<!-- bench_floor:start -->", "<!-- bench_floor:end -->",
+                      f"{head} tetra3rs from the peers' venv; startrack --method "
+                      f"{args.method}; frames solved in batch order.\n\n{text}\n\n"
+                      f"The kernels of each row (means per solve):\n\n{kernels_list(rows)}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
