@@ -35,7 +35,6 @@ import datetime as dt
 import os
 import sys
 import time
-import types
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +42,7 @@ import numpy as np
 from scripts._cli import add_frames, script_parser  # noqa: E402
 from scripts.bench.bench_blind import floats, provenance_line, write_between  # noqa: E402
 from scripts.bench.bench_paths import Solvers, paths, score, solve_order, told  # noqa: E402
+from scripts.profile._kernel_clock import KernelClock  # noqa: E402
 from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD  # noqa: E402
 
 #: the range's span of the ranged row (bench_paths.py's default)
@@ -54,118 +54,6 @@ def floor_paths() -> list[tuple[str, str, float, float | None]]:
     bench_paths.py's FOV exact, its rows at the default tolerance and its ranged row."""
     return [row for row in paths(SPAN) if row[1] == "range"
             or (row[1] == "fov" and row[2] in (0.0, DEFAULT_FOV_TOLERANCE))]
-
-
-class KernelClock:
-    """The time spent inside compiled kernels since the last :meth:`take`: every compiled
-    function a startrack Python module calls, wrapped where it is looked up."""
-
-    def __init__(self) -> None:
-        self.spent = 0.0
-        self.by_kernel: dict[str, list[float]] = {}  # name: [seconds, calls] while counted
-        self.counting = self.installed = False
-        self._wrapped: set[int] = set()
-        self._replaced: list[tuple[object, str, object]] = []  # (where, name, original)
-
-    def take(self) -> float:
-        spent, self.spent = self.spent, 0.0
-        return spent
-
-    def timed(self, fn, name: str | None = None):
-        clock, name = time.perf_counter, name or getattr(fn, "__qualname__", repr(fn))
-        held = self.by_kernel.setdefault(name, [0.0, 0])
-
-        def run(*args, **kwargs):
-            t0 = clock()
-            try:
-                return fn(*args, **kwargs)
-            finally:
-                dt = clock() - t0
-                self.spent += dt
-                if self.counting:
-                    held[0] += dt
-                    held[1] += 1
-        run.__wrapped__ = fn
-        return run
-
-    def breakdown(self, solves: int, top: int = 6) -> str:
-        """The kernels that took most while counting, their mean per solve over
-        ``solves`` (a slow frame weighs in: a median per kernel would not add up), and
-        the counts reset."""
-        ranked = sorted(self.by_kernel.items(), key=lambda kv: -kv[1][0])
-        text = ", ".join(f"{name.removeprefix('startrack._core.')} "
-                         f"{held[0] / solves * 1e6:.0f} us ({held[1] / solves:.1f} calls)"
-                         for name, held in ranked[:top] if held[1])
-        calls = sum(held[1] for held in self.by_kernel.values()) / solves
-        for held in self.by_kernel.values():
-            held[0], held[1] = 0.0, 0
-        return f"{calls:.0f} timed calls a solve; the most time: {text}"
-
-    def install(self) -> None:
-        """Wrap every compiled function the loaded startrack modules call, and the two
-        extension-type calls the solver makes most (the verification, the fitted
-        rounds)."""
-        for module in _startrack_modules():
-            for attr, value in list(vars(module).items()):
-                if _compiled(value):
-                    self._replace(module, attr, self.timed(value, f"{value.__module__}.{attr}"))
-                elif isinstance(value, types.ModuleType) and \
-                        value.__name__.startswith("startrack._core."):
-                    self._wrap_module(value)
-        from startrack.solver import _fov_fit
-        from startrack.verify._frame import FrameVerifier
-
-        self._replace(FrameVerifier, "check", self.timed(FrameVerifier.check, "Verifier.check"))
-        rounds_for = _fov_fit.rounds_for
-
-        def timed_rounds(*args, **kwargs):
-            return _TimedRounds(rounds_for(*args, **kwargs), self)
-
-        for module in _startrack_modules():  # wherever it was imported by name
-            if getattr(module, "rounds_for", None) is rounds_for:
-                self._replace(module, "rounds_for", timed_rounds)
-        self.installed = True
-
-    def uninstall(self) -> None:
-        """Every wrapped name back as it was."""
-        while self._replaced:
-            where, name, original = self._replaced.pop()
-            setattr(where, name, original)
-        self._wrapped.clear()
-        self.installed = False
-
-    def _replace(self, where, name: str, value) -> None:
-        self._replaced.append((where, name, getattr(where, name)))
-        setattr(where, name, value)
-
-    def _wrap_module(self, module: types.ModuleType) -> None:
-        if id(module) in self._wrapped:
-            return
-        self._wrapped.add(id(module))
-        for attr, value in list(vars(module).items()):
-            if _compiled(value):
-                self._replace(module, attr, self.timed(value, f"{module.__name__}.{attr}"))
-
-
-class _TimedRounds:
-    """A FittedRounds whose runs and pattern fits are timed."""
-
-    def __init__(self, rounds, clock: KernelClock) -> None:
-        self.run = clock.timed(rounds.run, "FittedRounds.run")
-        self.pattern_focal = clock.timed(rounds.pattern_focal, "FittedRounds.pattern_focal")
-
-
-def _startrack_modules() -> list[types.ModuleType]:
-    """The loaded Python modules of startrack (not its compiled core)."""
-    return [module for name, module in list(sys.modules.items())
-            if module is not None and name.startswith("startrack.")
-            and not name.startswith("startrack._core")]
-
-
-def _compiled(value) -> bool:
-    """A Cython function of a startrack._core module (not a class or a constant)."""
-    return (type(value).__name__ in ("cython_function_or_method", "builtin_function_or_method")
-            and str(getattr(value, "__module__", "")).startswith("startrack._core"))
 
 
 def floor_rows(solvers: Solvers, fov: float, args, clock: KernelClock) -> list[dict]:

@@ -82,7 +82,6 @@ def main(argv: list[str] | None = None) -> int:
                     help="profile the 'no' on this many random centroid sets instead")
     args = ap.parse_args(argv)
     if args.kernels:
-        _kernel_clock.install()  # before the solver is made: it looks the names up
         args.no_profile = True
 
     camera = Camera.from_fov(1024, 1024, 20.0)
@@ -125,6 +124,8 @@ def main(argv: list[str] | None = None) -> int:
                     or bool(np.any(catalog.ids[truth[real]] != ids[real])))
 
     solve(frames[0])  # compiled kernels loaded before timing
+    if args.kernels:  # once every stage is loaded: the clocks wrap the names they call
+        _kernel_clock.install()
     _kernel_clock.reset()
     prof = cProfile.Profile()
     times, solved, wrong, hyps = [], 0, 0, []

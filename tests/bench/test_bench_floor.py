@@ -1,13 +1,15 @@
-"""scripts/bench/bench_floor.py: the time inside compiled kernels is counted where Python
-calls them, never more than the solve it is part of, on bench_paths.py's paths."""
+"""scripts/bench/bench_floor.py and its clock (scripts/profile/_kernel_clock.py): the time
+inside compiled kernels is counted where Python calls them, never more than the solve it is
+part of, on bench_paths.py's paths, and every wrapped name is put back."""
 
 import types
 
 import numpy as np
 import pytest
 
-from scripts.bench.bench_floor import KernelClock, floor_paths, floor_rows, line
+from scripts.bench.bench_floor import floor_paths, floor_rows, line
 from scripts.bench.bench_paths import Solvers
+from scripts.profile._kernel_clock import KernelClock
 from startrack.defaults import DEFAULT_FOV_TOLERANCE
 
 
