@@ -6,24 +6,27 @@ bench_paths.py's frames and paths (FOV exact; the FOV 0, 2.5 and 4% off at the C
 default tolerance; blind with the peers' range), each row solved as a batch (each solver a
 row's frames back to back, once untimed to warm, then timed). Inside startrack's timed
 solve (``Pipeline.solve``, as bench_paths.py times it) every call into a compiled kernel
-is timed where Python makes it: the functions of ``startrack._core`` modules as the Python
-stages call them (the pattern searches, the camera fits, the evidence refit and its
-catalog scan, the cone lookups, the optics), the frame's verification
-(``FrameVerifier.check``) and the fitted rounds (``FittedRounds.run`` and
+is timed where Python makes it (scripts/profile/_kernel_clock.py): the functions of
+``startrack._core`` modules as the Python stages call them (the pattern searches, the
+camera fits, the evidence refit and its catalog scan, the cone lookups), the frame's
+verification (``FrameVerifier.check``) and the fitted rounds (``FittedRounds.run`` and
 ``pattern_focal``). What is left is the Python and numpy between them (and a few compiled
-calls made through other extension types, counted with it: an upper bound on the Python's
-share).
+calls made through other compiled objects, counted with it: an upper bound on the
+Python's share).
 
 * ``kernels ms``: the median over the frames of the time inside compiled kernels;
 * ``rest ms``: the median of the rest of each solve (its Python and numpy);
 * ``floor / tetra3rs``: the kernels' median over tetra3rs's median: what startrack's
   solve would cost beside tetra3rs with no Python at all between its kernels.
 
-Each timer costs about a tenth of a microsecond, counted in the kernels. Run with the peers'
-venv (without tetra3rs only startrack's columns are filled), on a quiet machine:
+The tracking table: bench_tracking.py's sequence through startrack's tracker and its lost
+in space alone, each frame's reported time (bench_paths.py's tracking rows) and the
+kernels of the whole call; its last row, tracked over lost in space, with and without the
+Python. Each timer costs about 0.25 us, counted in the kernels. Run with the peers' venv
+(without tetra3rs only startrack's columns are filled), on a quiet machine:
 
     PYTHONPATH=. /work/peers-venv/bin/python scripts/bench/bench_floor.py [--frames 20] \
-        [--doc docs/speed.md]
+        [--track-frames 200] [--doc docs/speed.md]
 
 With ``--doc`` the table, with the command, commit, date and load average, replaces what is
 between the doc's ``<!-- bench_floor:start -->`` and ``<!-- bench_floor:end -->`` markers.
@@ -43,7 +46,13 @@ from scripts._cli import add_frames, script_parser  # noqa: E402
 from scripts.bench.bench_blind import floats, provenance_line, write_between  # noqa: E402
 from scripts.bench.bench_paths import Solvers, paths, score, solve_order, told  # noqa: E402
 from scripts.profile._kernel_clock import KernelClock  # noqa: E402
+from startrack.bench import _tracking_bench as tb  # noqa: E402
 from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD  # noqa: E402
+from startrack.simulate import load_config  # noqa: E402
+from startrack.sky import load_sky, resolve_sky  # noqa: E402
+from startrack.solver import Identifier  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
 
 #: the range's span of the ranged row (bench_paths.py's default)
 SPAN = 1.7
@@ -111,9 +120,57 @@ def table(rows: list[dict]) -> str:
     return "\n".join(head + [line(r) for r in rows])
 
 
+def tracking_rows(args, clock: KernelClock) -> list[dict]:
+    """bench_tracking.py's sequence (Hipparcos 20 deg, 10 fps) through startrack's tracker
+    and its lost in space alone (pyramid), each through the whole sequence once untimed
+    (a fresh tracker), then timed: each frame's reported time (its ``identify_ms``, as
+    bench_paths.py reports it; the tracked frames only for the tracker) and the kernels
+    inside the whole call (the tracker's prediction too)."""
+    cfg = load_config(ROOT / "configs" / "hipparcos20.toml")
+    catalog = load_sky(resolve_sky(cfg.sky, cfg.camera), cfg.camera)
+    ident = Identifier(cfg.camera, catalog, DEFAULT_METHOD)
+    seq = tb.make_sequence(catalog, cfg.camera, tb.TrackCondition(), args.track_frames,
+                           10.0, args.seed)
+    rows = []
+    for label, make in (("tracked frames", lambda: tb.ours(ident)),
+                        ("lost in space", lambda: tb.lost_in_space(ident))):
+        warm = make()
+        for frame in seq:
+            warm(frame.obs)
+        run, reported, kernels = make(), [], []
+        for frame in seq:
+            clock.take()
+            clock.counting = True
+            solution = run(frame.obs)
+            clock.counting = False
+            inside = clock.take() * 1000.0
+            if label == "tracked frames" and solution.mode != "tracking":
+                continue
+            reported.append(solution.identify_ms)
+            kernels.append(inside)
+        rows.append({"path": label, "frames": len(reported),
+                     "total_ms": float(np.median(reported)),
+                     "kernels_ms": float(np.median(kernels)),
+                     "kernels": clock.breakdown(max(len(reported), 1))})
+        print(f"tracking, {label}: {rows[-1]}", flush=True)
+    return rows
+
+
+def tracking_table(rows: list[dict]) -> str:
+    tracked, alone = rows
+    lines = ["| sequence | frames | startrack median ms | kernels ms |",
+             "|---|---|---|---|"]
+    lines += [f"| {r['path']} | {r['frames']} | {r['total_ms']:.4f} | {r['kernels_ms']:.4f} |"
+              for r in rows]
+    lines.append(f"| tracked / lost in space | | {tracked['total_ms'] / alone['total_ms']:.2f} "
+                 f"| {tracked['kernels_ms'] / alone['kernels_ms']:.2f} |")
+    return "\n".join(lines)
+
+
 def kernels_list(rows: list[dict]) -> str:
     """Each row's kernels, the most time first (means per solve), as a markdown list."""
-    return "\n".join(f"* {r['fov']} deg, {r['path']}: {r['kernels']}" for r in rows)
+    return "\n".join(f"* {r['fov'] + ' deg, ' if 'fov' in r else 'tracking, '}{r['path']}: "
+                     f"{r['kernels']}" for r in rows)
 
 
 def main() -> None:
@@ -125,6 +182,8 @@ def main() -> None:
                     help="wall-clock limit per frame, the same for both solvers")
     ap.add_argument("--peers", default="tetra3rs",
                     help="'tetra3rs' for its column, '' for startrack alone")
+    ap.add_argument("--track-frames", type=int, default=200,
+                    help="frames of the tracking sequence (0: no tracking rows)")
     ap.add_argument("--doc", type=Path, help="write the table between this doc's markers")
     args = ap.parse_args()
     started = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M")
@@ -142,7 +201,8 @@ def main() -> None:
             clock.install()
             print(table([]).split("\n")[0], flush=True)
         rows += floor_rows(solvers, fov, args, clock)
-    text = table(rows)
+    tracking = tracking_rows(args, clock) if args.track_frames else []
+    text = table(rows) + ("\n\n" + tracking_table(tracking) if tracking else "")
     print(text)
     if args.doc:
         head = provenance_line("bench_floor.py", started, (time.perf_counter() - t0) / 60.0,
@@ -150,7 +210,8 @@ def main() -> None:
         write_between(args.doc, "<!-- bench_floor:start -->", "<!-- bench_floor:end -->",
                       f"{head} tetra3rs from the peers' venv; startrack --method "
                       f"{args.method}; frames solved in batch order.\n\n{text}\n\n"
-                      f"The kernels of each row (means per solve):\n\n{kernels_list(rows)}")
+                      "The kernels of each row (means per solve):\n\n"
+                      f"{kernels_list(rows + tracking)}")
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@ import types
 import numpy as np
 import pytest
 
-from scripts.bench.bench_floor import floor_paths, floor_rows, line
+from scripts.bench.bench_floor import floor_paths, floor_rows, line, tracking_table
 from scripts.bench.bench_paths import Solvers
 from scripts.profile._kernel_clock import KernelClock
 from startrack.defaults import DEFAULT_FOV_TOLERANCE
@@ -73,3 +73,11 @@ def test_every_solve_is_split_into_its_kernels_and_the_rest():
         assert np.isclose(row["total_ms"], row["kernels_ms"] + row["rest_ms"], rtol=0.5)
         assert line(row).count("|") == 12 and line(row).endswith("| - | - | - |")
         assert "Verifier.check" in row["kernels"] or "FittedRounds.run" in row["kernels"]
+
+
+def test_the_tracking_table_gives_tracked_over_lost_in_space_with_and_without_python():
+    rows = [{"path": "tracked frames", "frames": 199, "total_ms": 0.03, "kernels_ms": 0.02},
+            {"path": "lost in space", "frames": 200, "total_ms": 0.12, "kernels_ms": 0.05}]
+    text = tracking_table(rows)
+    assert "| tracked frames | 199 | 0.0300 | 0.0200 |" in text
+    assert text.splitlines()[-1] == "| tracked / lost in space | | 0.25 | 0.40 |"
