@@ -44,15 +44,17 @@ import numpy as np
 
 from scripts._cli import add_frames, script_parser  # noqa: E402
 from scripts.bench.bench_blind import floats, provenance_line, write_between  # noqa: E402
-from scripts.bench.bench_paths import Solvers, paths, score, solve_order, told  # noqa: E402
+from scripts.bench.bench_paths import (  # noqa: E402
+    Solvers,
+    add_solver_options,
+    paths,
+    score,
+    solve_order,
+    told,
+)
+from scripts.bench.bench_tracking import base_runners  # noqa: E402
 from scripts.profile._kernel_clock import KernelClock  # noqa: E402
-from startrack.bench import _tracking_bench as tb  # noqa: E402
-from startrack.defaults import DEFAULT_FOV_TOLERANCE, DEFAULT_METHOD  # noqa: E402
-from startrack.simulate import load_config  # noqa: E402
-from startrack.sky import load_sky, resolve_sky  # noqa: E402
-from startrack.solver import Identifier  # noqa: E402
-
-ROOT = Path(__file__).resolve().parents[2]
+from startrack.defaults import DEFAULT_FOV_TOLERANCE  # noqa: E402
 
 #: the range's span of the ranged row (bench_paths.py's default)
 SPAN = 1.7
@@ -126,14 +128,9 @@ def tracking_rows(args, clock: KernelClock) -> list[dict]:
     (a fresh tracker), then timed: each frame's reported time (its ``identify_ms``, as
     bench_paths.py reports it; the tracked frames only for the tracker) and the kernels
     inside the whole call (the tracker's prediction too)."""
-    cfg = load_config(ROOT / "configs" / "hipparcos20.toml")
-    catalog = load_sky(resolve_sky(cfg.sky, cfg.camera), cfg.camera)
-    ident = Identifier(cfg.camera, catalog, DEFAULT_METHOD)
-    seq = tb.make_sequence(catalog, cfg.camera, tb.TrackCondition(), args.track_frames,
-                           10.0, args.seed)
+    seq, runners = base_runners(args.track_frames, args.seed)
     rows = []
-    for label, make in (("tracked frames", lambda: tb.ours(ident)),
-                        ("lost in space", lambda: tb.lost_in_space(ident))):
+    for label, make in runners.items():
         warm = make()
         for frame in seq:
             warm(frame.obs)
@@ -176,10 +173,7 @@ def kernels_list(rows: list[dict]) -> str:
 def main() -> None:
     ap = script_parser(__doc__)
     add_frames(ap, 20, seed=7)
-    ap.add_argument("--fovs", default="11.4,20,30", help="comma-separated true widths, deg")
-    ap.add_argument("--method", default=DEFAULT_METHOD, help="startrack's --method")
-    ap.add_argument("--timeout-ms", type=float, default=5000.0,
-                    help="wall-clock limit per frame, the same for both solvers")
+    add_solver_options(ap)
     ap.add_argument("--peers", default="tetra3rs",
                     help="'tetra3rs' for its column, '' for startrack alone")
     ap.add_argument("--track-frames", type=int, default=200,

@@ -246,17 +246,23 @@ def doc_marker(order: str, peers) -> str:
     return mark if tuple(peers) == DEFAULT_PEERS else f"{mark} with {','.join(peers)}"
 
 
+def add_solver_options(ap) -> None:
+    """The true widths of the frames, startrack's method and the per-frame limit, as
+    this bench and bench_floor.py take them."""
+    ap.add_argument("--fovs", default="11.4,20,30", help="comma-separated true widths, deg")
+    ap.add_argument("--method", default=DEFAULT_METHOD, help="startrack's --method")
+    ap.add_argument("--timeout-ms", type=float, default=5000.0,
+                    help="wall-clock limit per frame, the same for every solver")
+
+
 def main() -> None:
     ap = script_parser(__doc__)
     add_frames(ap, 10, seed=7)
-    ap.add_argument("--fovs", default="11.4,20,30", help="comma-separated true widths, deg")
+    add_solver_options(ap)
     ap.add_argument("--span", type=float, default=1.7,
                     help="the blind range is [FOV / span, FOV x span] (at most 1.73: "
                          "startrack's --fov-tolerance stops at 0.5)")
     ap.add_argument("--track-frames", type=int, default=200, help="frames of the sequence")
-    ap.add_argument("--method", default=DEFAULT_METHOD, help="startrack's --method")
-    ap.add_argument("--timeout-ms", type=float, default=5000.0,
-                    help="wall-clock limit per frame, the same for both solvers")
     ap.add_argument("--peers", default=",".join(DEFAULT_PEERS),
                     help="the peers run beside startrack (each an installed solver)")
     ap.add_argument("--order", choices=ORDERS, default="batch",

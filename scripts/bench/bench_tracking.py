@@ -55,6 +55,18 @@ def _base(catalog, camera, idents, peer, frames, seed, interleaved=True):
     return df, summary, modes
 
 
+def base_runners(frames: int, seed: int):
+    """Section 1's sequence (Hipparcos 20 deg, 10 fps) and, by name, the makers of
+    startrack's runners over it (pyramid): its tracker ("tracked frames") and its lost in
+    space alone, each a fresh one per call (as run_sequence starts them)."""
+    cfg = load_config(ROOT / "configs" / "hipparcos20.toml")
+    catalog = load_sky(resolve_sky(cfg.sky, cfg.camera), cfg.camera)
+    ident = Identifier(cfg.camera, catalog, "pyramid")
+    seq = tb.make_sequence(catalog, cfg.camera, tb.TrackCondition(), frames, 10.0, seed)
+    return seq, {"tracked frames": lambda: tb.ours(ident),
+                 "lost in space": lambda: tb.lost_in_space(ident)}
+
+
 def sequence_summary(frames: int, seed: int, interleaved: bool = True) -> pd.DataFrame:
     """Section 1's sequence (Hipparcos 20 deg) through pyramid tracked and alone, and
     tetra3rs hinted and alone where it is installed: one summary row per method

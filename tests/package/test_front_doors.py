@@ -22,8 +22,6 @@ SCRIPTS_INSIDE = {
     "scripts/bench/bench_blind_tables.py": "builds each quad table level alone, uncached",
     "scripts/bench/bench_centroid_sky.py": "times the centroider's sky model alone",
     "scripts/bench/bench_blind_diagnose.py": "runs the blind search's windows one by one",
-    "scripts/bench/bench_floor.py": "clocks the kernels of the tracking bench's sequence, "
-                                    "whose runners it takes",
 }
 
 
